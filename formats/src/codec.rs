@@ -1,0 +1,291 @@
+//! Section payloads <-> [`OperatorFile`] fields.
+//!
+//! Decoding checks every payload length against DIMS with overflow-checked arithmetic *before*
+//! decoding it, so no vector is larger than the bytes it comes from. Values are checked later, by
+//! [`validate`](crate::validate).
+
+use crate::bytes::{self, checked_product};
+use crate::container::Container;
+use crate::error::{ErrorKind, FormatError};
+use crate::kind;
+use crate::operator::{FkData, Geometry, Layout, OperatorFile, Precision};
+use crate::writer::ContainerWriter;
+
+/// Bytes in the DIMS payload: n, k, channels, precision, layout, 3 reserved, all u32.
+pub(crate) const DIMS_LEN: usize = 32;
+
+/// Value counts of every array, from `n`, `k` and `channels`, overflow-checked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Sizes {
+    /// `n`: order, weights, vertex counts.
+    pub n: usize,
+    /// `k + 1`: index.
+    pub index: usize,
+    /// `n * k`: F_k.
+    pub fk: usize,
+    /// `channels * k * k`: cores.
+    pub cores: usize,
+    /// `n * 3`: reflectance, emission, normals.
+    pub rgb: usize,
+    /// `n * 12`: vertices.
+    pub vertices: usize,
+}
+
+impl Sizes {
+    pub(crate) fn new(n: u32, k: u32, channels: u32) -> Result<Self, FormatError> {
+        let (n64, k64, c64) = (u64::from(n), u64::from(k), u64::from(channels));
+        Ok(Sizes {
+            n: checked_product("section ORDER (n)", &[n64])?,
+            index: checked_product("section INDEX (k + 1)", &[k64 + 1])?,
+            fk: checked_product("section FK (n * k)", &[n64, k64])?,
+            cores: checked_product("section CORES (channels * k * k)", &[c64, k64, k64])?,
+            rgb: checked_product("section REFLECTANCE (n * 3)", &[n64, 3])?,
+            vertices: checked_product("section GEOMETRY (n * 12)", &[n64, 12])?,
+        })
+    }
+}
+
+/// The checks on DIMS that do not need the other sections.
+pub(crate) fn check_dims(n: u32, k: u32, channels: u32) -> Result<(), FormatError> {
+    if channels != 1 && channels != 3 {
+        return Err(FormatError::invalid(format!(
+            "section DIMS: channels = {channels}, must be 1 (grey) or 3 (RGB)"
+        )));
+    }
+    if k == 0 || k > n {
+        return Err(FormatError::invalid(format!(
+            "section DIMS: k = {k} patches for n = {n} elements: need 1 <= k <= n"
+        )));
+    }
+    Ok(())
+}
+
+/// Builds the container; `file` has been validated.
+pub(crate) fn encode(file: &OperatorFile) -> Vec<u8> {
+    let mut w = ContainerWriter::new();
+    w.add(kind::METADATA, true, file.metadata_json.as_bytes().to_vec());
+    w.add(kind::DIMS, true, encode_dims(file));
+    w.add(kind::ORDER, true, u32_payload(&file.order));
+    w.add(kind::INDEX, true, u32_payload(&file.index));
+    w.add(kind::WEIGHTS, true, f32_payload(&file.weights));
+    let mut fk = Vec::new();
+    match &file.fk {
+        FkData::F32(v) => bytes::put_f32s(&mut fk, v),
+        FkData::F16(v) => bytes::put_u16s(&mut fk, v),
+    }
+    w.add(kind::FK, true, fk);
+    let mut cores = Vec::new();
+    bytes::put_f64s(&mut cores, &file.cores);
+    w.add(kind::CORES, true, cores);
+    w.add(kind::REFLECTANCE, true, f32_payload(&file.reflectance));
+    w.add(kind::EMISSION, true, f32_payload(&file.emission));
+    w.add(kind::GEOMETRY, true, encode_geometry(&file.geometry));
+    w.to_bytes()
+}
+
+fn encode_dims(file: &OperatorFile) -> Vec<u8> {
+    let words = [
+        file.n,
+        file.k,
+        file.channels,
+        file.precision.code(),
+        file.layout.code(),
+        0,
+        0,
+        0,
+    ];
+    u32_payload(&words)
+}
+
+fn encode_geometry(g: &Geometry) -> Vec<u8> {
+    let mut out = g.vertex_count.clone();
+    out.resize(g.vertex_count.len().next_multiple_of(4), 0);
+    bytes::put_f32s(&mut out, &g.vertices);
+    bytes::put_f32s(&mut out, &g.normals);
+    out
+}
+
+fn u32_payload(values: &[u32]) -> Vec<u8> {
+    let mut out = Vec::new();
+    bytes::put_u32s(&mut out, values);
+    out
+}
+
+fn f32_payload(values: &[f32]) -> Vec<u8> {
+    let mut out = Vec::new();
+    bytes::put_f32s(&mut out, values);
+    out
+}
+
+/// Decodes the sections of `c`; lengths are checked, values are not.
+pub(crate) fn decode(c: &Container<'_>) -> Result<OperatorFile, FormatError> {
+    let dims = require(c, kind::DIMS)?;
+    if dims.len() != DIMS_LEN {
+        return Err(length_error(
+            kind::DIMS,
+            DIMS_LEN,
+            dims.len(),
+            "8 u32 words",
+        ));
+    }
+    let word = |i: usize| bytes::u32_at(dims, 4 * i).unwrap_or_default();
+    let (n, k, channels) = (word(0), word(1), word(2));
+    let precision =
+        Precision::from_code(word(3)).ok_or_else(|| unknown_code("precision", word(3)))?;
+    let layout = Layout::from_code(word(4)).ok_or_else(|| unknown_code("layout", word(4)))?;
+    check_dims(n, k, channels)?;
+    let sizes = Sizes::new(n, k, channels)?;
+
+    let metadata = require(c, kind::METADATA)?;
+    let metadata_json = String::from_utf8(metadata.to_vec()).map_err(|e| {
+        FormatError::corrupt(format!(
+            "section METADATA: not valid UTF-8 (at byte {})",
+            e.utf8_error().valid_up_to()
+        ))
+    })?;
+    let fk = match precision {
+        Precision::F32 => FkData::F32(bytes::f32s(exact(c, kind::FK, sizes.fk, 4, "n * k")?)),
+        Precision::F16 => FkData::F16(bytes::u16s(exact(c, kind::FK, sizes.fk, 2, "n * k")?)),
+    };
+    Ok(OperatorFile {
+        metadata_json,
+        n,
+        k,
+        channels,
+        precision,
+        layout,
+        order: bytes::u32s(exact(c, kind::ORDER, sizes.n, 4, "n")?),
+        index: bytes::u32s(exact(c, kind::INDEX, sizes.index, 4, "k + 1")?),
+        weights: bytes::f32s(exact(c, kind::WEIGHTS, sizes.n, 4, "n")?),
+        fk,
+        cores: bytes::f64s(exact(c, kind::CORES, sizes.cores, 8, "channels * k * k")?),
+        reflectance: bytes::f32s(exact(c, kind::REFLECTANCE, sizes.rgb, 4, "n * 3")?),
+        emission: bytes::f32s(exact(c, kind::EMISSION, sizes.rgb, 4, "n * 3")?),
+        geometry: decode_geometry(require(c, kind::GEOMETRY)?, &sizes)?,
+    })
+}
+
+/// GEOMETRY: `n` u8 vertex counts padded to 4 bytes, `n * 12` f32 vertices, `n * 3` f32 normals.
+fn decode_geometry(payload: &[u8], sizes: &Sizes) -> Result<Geometry, FormatError> {
+    let counts_len = sizes.n.next_multiple_of(4);
+    let vertices_len =
+        checked_product("section GEOMETRY (n * 12 * 4)", &[sizes.vertices as u64, 4])?;
+    let normals_len = checked_product("section GEOMETRY (n * 3 * 4)", &[sizes.rgb as u64, 4])?;
+    let expected = counts_len
+        .checked_add(vertices_len)
+        .and_then(|x| x.checked_add(normals_len))
+        .ok_or_else(|| FormatError::limits("section GEOMETRY: size overflows"))?;
+    if payload.len() != expected {
+        let what = "n vertex counts padded to 4 bytes, n * 12 + n * 3 f32";
+        return Err(length_error(kind::GEOMETRY, expected, payload.len(), what));
+    }
+    let (counts, rest) = payload.split_at(counts_len);
+    let (vertices, normals) = rest.split_at(vertices_len);
+    Ok(Geometry {
+        vertex_count: counts.get(..sizes.n).unwrap_or_default().to_vec(),
+        vertices: bytes::f32s(vertices),
+        normals: bytes::f32s(normals),
+    })
+}
+
+fn require<'a>(c: &Container<'a>, kind: u32) -> Result<&'a [u8], FormatError> {
+    c.section(kind)
+        .ok_or_else(|| FormatError::corrupt(format!("section {} is missing", kind::describe(kind))))
+}
+
+/// The payload of `kind`, which must hold exactly `count` values of `size` bytes.
+fn exact<'a>(
+    c: &Container<'a>,
+    kind: u32,
+    count: usize,
+    size: u64,
+    formula: &str,
+) -> Result<&'a [u8], FormatError> {
+    let payload = require(c, kind)?;
+    let name = kind::name(kind).unwrap_or("?");
+    let expected = checked_product(
+        &format!("section {name} ({formula})"),
+        &[count as u64, size],
+    )?;
+    if payload.len() != expected {
+        let what = format!("{formula} = {count} values of {size} bytes");
+        return Err(length_error(kind, expected, payload.len(), &what));
+    }
+    Ok(payload)
+}
+
+fn length_error(kind: u32, expected: usize, found: usize, what: &str) -> FormatError {
+    FormatError::corrupt(format!(
+        "section {}: expected {expected} bytes ({what}), found {found}",
+        kind::describe(kind)
+    ))
+}
+
+fn unknown_code(field: &str, code: u32) -> FormatError {
+    FormatError::new(
+        ErrorKind::UnsupportedVersion,
+        format!(
+            "section DIMS: {field} code {code} is unknown to this reader: re-bake with this \
+             version of lrr or upgrade the runtime"
+        ),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testdata::sample;
+
+    #[test]
+    fn round_trip_is_exact() {
+        for file in [sample(Precision::F32, 3), sample(Precision::F16, 1)] {
+            let bytes = encode(&file);
+            let back = decode(&Container::parse(&bytes).unwrap()).unwrap();
+            assert_eq!(back, file);
+            assert_eq!(encode(&back), bytes);
+        }
+    }
+
+    #[test]
+    fn geometry_padding() {
+        let file = sample(Precision::F32, 3);
+        let payload = encode_geometry(&file.geometry);
+        // n = 6 counts padded to 8, then 72 + 18 f32.
+        assert_eq!(payload.len(), 8 + 4 * 72 + 4 * 18);
+        assert_eq!(&payload[6..8], &[0, 0]);
+    }
+
+    #[test]
+    fn length_mismatch_names_section_and_lengths() {
+        let file = sample(Precision::F32, 3);
+        let c_bytes = encode(&file);
+        let c = Container::parse(&c_bytes).unwrap();
+        let mut w = ContainerWriter::new();
+        for kind in c.kinds() {
+            let mut payload = c.section(kind).unwrap().to_vec();
+            if kind == kind::WEIGHTS {
+                payload.truncate(20);
+            }
+            w.add(kind, true, payload);
+        }
+        let bytes = w.to_bytes();
+        let err = decode(&Container::parse(&bytes).unwrap()).unwrap_err();
+        assert_eq!(err.kind, ErrorKind::Corrupt);
+        assert_eq!(
+            err.message,
+            "section WEIGHTS (kind 5): expected 24 bytes (n = 6 values of 4 bytes), found 20"
+        );
+    }
+
+    #[test]
+    #[cfg(target_pointer_width = "64")]
+    fn sizes_overflow_is_limits() {
+        // n * k fits in 64 bits, its byte size does not.
+        let sizes = Sizes::new(u32::MAX, u32::MAX, 1).unwrap();
+        let err = checked_product("section FK", &[sizes.fk as u64, 4]).unwrap_err();
+        assert_eq!(err.kind, ErrorKind::Limits);
+        let err = Sizes::new(u32::MAX, u32::MAX, 3).unwrap_err();
+        assert_eq!(err.kind, ErrorKind::Limits);
+        assert!(err.message.contains("CORES"), "{err}");
+    }
+}

@@ -1,0 +1,87 @@
+//! Section kinds: the `u32` codes in the section table.
+//!
+//! Every kind listed here is known to this reader. The writer marks all of them *required*; a
+//! reader that meets a required kind it does not know refuses the file, and skips unknown
+//! optional ones. New kinds take new codes; a code is never reused for another meaning.
+
+/// UTF-8 JSON text from the precompute (scene name, bake parameters, timings, error estimates).
+pub const METADATA: u32 = 1;
+/// `n, k, channels, precision, layout` and three reserved words, all `u32`.
+pub const DIMS: u32 = 2;
+/// `n` × `u32`: file position -> original element id.
+pub const ORDER: u32 = 3;
+/// `k + 1` × `u32`: patch `p` holds file positions `index[p]..index[p + 1]`.
+pub const INDEX: u32 = 4;
+/// `n` × `f32`: `w_e = A_e / A_P(e)`.
+pub const WEIGHTS: u32 = 5;
+/// `n * k` element-to-patch form factors `F_k`, row-major, `f32` or binary16 per DIMS.
+pub const FK: u32 = 6;
+/// `channels * k * k` × `f64`: the cores `M_c = (I - Vᵀ diag(rho_c) F_k)⁻¹`, row-major.
+pub const CORES: u32 = 7;
+/// `n * 3` × `f32`: RGB reflectance per element.
+pub const REFLECTANCE: u32 = 8;
+/// `n * 3` × `f32`: RGB emitted exitance per element.
+pub const EMISSION: u32 = 9;
+/// Display geometry: vertex counts, vertices, normals.
+pub const GEOMETRY: u32 = 10;
+
+/// Every kind this reader knows, in the order the writer stores them.
+pub const KNOWN: [u32; 10] = [
+    METADATA,
+    DIMS,
+    ORDER,
+    INDEX,
+    WEIGHTS,
+    FK,
+    CORES,
+    REFLECTANCE,
+    EMISSION,
+    GEOMETRY,
+];
+
+/// The name of a known kind (`"FK"`), `None` for unknown codes.
+pub fn name(kind: u32) -> Option<&'static str> {
+    Some(match kind {
+        METADATA => "METADATA",
+        DIMS => "DIMS",
+        ORDER => "ORDER",
+        INDEX => "INDEX",
+        WEIGHTS => "WEIGHTS",
+        FK => "FK",
+        CORES => "CORES",
+        REFLECTANCE => "REFLECTANCE",
+        EMISSION => "EMISSION",
+        GEOMETRY => "GEOMETRY",
+        _ => return None,
+    })
+}
+
+/// Whether this reader knows `kind`.
+pub fn is_known(kind: u32) -> bool {
+    name(kind).is_some()
+}
+
+/// `"FK (kind 6)"` or `"kind 99"`, for messages.
+pub(crate) fn describe(kind: u32) -> String {
+    match name(kind) {
+        Some(name) => format!("{name} (kind {kind})"),
+        None => format!("kind {kind}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_distinct_and_complete() {
+        for (i, &k) in KNOWN.iter().enumerate() {
+            assert!(is_known(k));
+            assert!(!KNOWN[..i].contains(&k));
+        }
+        assert_eq!(name(FK), Some("FK"));
+        assert_eq!(name(0), None);
+        assert_eq!(describe(99), "kind 99");
+        assert_eq!(describe(CORES), "CORES (kind 7)");
+    }
+}

@@ -1,0 +1,152 @@
+//! The lrr operator file: written by the precompute (`lrr bake`), read by the runtime.
+//!
+//! A versioned little-endian container of checksummed, 64-byte aligned sections (payloads can be
+//! used in place, e.g. uploaded to a GPU buffer as they lie). No third-party dependencies, no
+//! `unsafe`. The reader is built for hostile input: on any bytes it returns an error instead of
+//! panicking, reading out of bounds or allocating more than about the size of the input.
+//!
+//! Two levels:
+//! - [`Container`] / [`ContainerWriter`]: header, section table, payload bytes.
+//! - [`OperatorFile`]: the decoded, validated operator (see DESIGN.md §2 for the maths:
+//!   `B~_c = E_c + rho_c ⊙ F_k M_c (Vᵀ E_c)`).
+//!
+//! # Layout, version 1.0
+//!
+//! All integers little-endian. The header (64 bytes):
+//!
+//! | offset | size | field |
+//! |-------:|-----:|-------|
+//! | 0 | 8 | magic [`MAGIC`] = `89 4C 52 52 0D 0A 1A 0A` (`\x89LRR\r\n\x1a\n`) |
+//! | 8 | 2 | major version ([`VERSION_MAJOR`]) |
+//! | 10 | 2 | minor version ([`VERSION_MINOR`]) |
+//! | 12 | 4 | section count |
+//! | 16 | 4 | flags (0) |
+//! | 20 | 8 | header checksum: of bytes 0 up to the end of the padded table, this field read as 0 |
+//! | 28 | 36 | zeros |
+//!
+//! Like PNG's, the magic catches the usual transfer accidents: the high bit of `0x89` is lost by
+//! 7-bit channels, `\r\n` is mangled by newline conversion, `0x1a` stops a DOS `type`.
+//!
+//! The section table follows at byte 64: one 40-byte entry per section, zero-padded to a multiple
+//! of 64 bytes.
+//!
+//! | offset | size | field |
+//! |-------:|-----:|-------|
+//! | 0 | 4 | kind (see [`kind`]) |
+//! | 4 | 4 | flags: bit 0 = required ([`FLAG_REQUIRED`]) |
+//! | 8 | 8 | payload offset from the start of the file, a multiple of 64 |
+//! | 16 | 8 | payload length in bytes |
+//! | 24 | 8 | payload checksum ([`checksum()`]: XXH64, seed 0) |
+//! | 32 | 8 | reserved (0) |
+//!
+//! Then the payloads, in table order, each at the next multiple of 64 (gaps zero-filled); the file
+//! ends with the last payload. The checksums detect corruption (any single changed byte for
+//! certain), not tampering: anyone can recompute them.
+//!
+//! The sections of an operator file, all written as required:
+//!
+//! | kind | name | payload |
+//! |-----:|------|---------|
+//! | 1 | [`METADATA`](kind::METADATA) | UTF-8 JSON text |
+//! | 2 | [`DIMS`](kind::DIMS) | `n, k, channels, precision (0 f32, 1 f16), layout (0 factored)`, 3 reserved: 8 × u32 |
+//! | 3 | [`ORDER`](kind::ORDER) | `n` × u32: file position -> element id |
+//! | 4 | [`INDEX`](kind::INDEX) | `k + 1` × u32: patch offsets |
+//! | 5 | [`WEIGHTS`](kind::WEIGHTS) | `n` × f32 |
+//! | 6 | [`FK`](kind::FK) | `n * k` × f32 or u16 (binary16), row-major |
+//! | 7 | [`CORES`](kind::CORES) | `channels * k * k` × f64, row-major |
+//! | 8 | [`REFLECTANCE`](kind::REFLECTANCE) | `n * 3` × f32 |
+//! | 9 | [`EMISSION`](kind::EMISSION) | `n * 3` × f32 |
+//! | 10 | [`GEOMETRY`](kind::GEOMETRY) | `n` × u8 vertex counts, zero-padded to 4 bytes; `n * 12` × f32 vertices; `n * 3` × f32 normals |
+//!
+//! # Compatibility
+//!
+//! A reader refuses another major version, naming both versions. It reads any minor version of
+//! its major: a newer minor may add sections, which older readers skip when they are optional and
+//! refuse, with an error, when they are marked required.
+//!
+//! A reader also refuses ([`ErrorKind`] says which kind of fault): a wrong magic; a table or
+//! payload past the end of the file; a payload offset that is misaligned or inside the table;
+//! overlapping payloads; bytes after the last payload; a checksum mismatch (naming the section);
+//! a duplicate kind; a missing section or a payload length that disagrees with DIMS; sizes that
+//! overflow; values that break an invariant of [`OperatorFile`].
+//!
+//! # Example
+//!
+//! ```
+//! use lrr_formats::{FkData, Geometry, Layout, OperatorFile, Precision};
+//!
+//! // Two triangles forming one patch, the first one emitting.
+//! let file = OperatorFile {
+//!     metadata_json: r#"{"scene":"two triangles"}"#.to_string(),
+//!     n: 2,
+//!     k: 1,
+//!     channels: 1,
+//!     precision: Precision::F32,
+//!     layout: Layout::Factored,
+//!     order: vec![1, 0],
+//!     index: vec![0, 2],
+//!     weights: vec![0.5, 0.5],
+//!     fk: FkData::F32(vec![0.0, 0.0]),
+//!     cores: vec![1.0],
+//!     reflectance: vec![0.5; 6],
+//!     emission: vec![1.0, 1.0, 1.0, 0.0, 0.0, 0.0],
+//!     geometry: Geometry {
+//!         vertex_count: vec![3, 3],
+//!         vertices: vec![
+//!             0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, //
+//!             0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0,
+//!         ],
+//!         normals: vec![0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
+//!     },
+//! };
+//!
+//! let bytes = file.to_bytes()?;
+//! assert_eq!(&bytes[..8], &lrr_formats::MAGIC);
+//! assert_eq!(OperatorFile::from_bytes(&bytes)?, file);
+//!
+//! let path = std::env::temp_dir().join(format!("lrr-doc-{}.lrr", std::process::id()));
+//! file.write(&path)?; // atomic
+//! assert_eq!(OperatorFile::read(&path)?, file);
+//! std::fs::remove_file(&path).unwrap();
+//!
+//! // Damage is detected.
+//! let mut damaged = bytes.clone();
+//! let last = damaged.len() - 1;
+//! damaged[last] ^= 1;
+//! assert!(OperatorFile::from_bytes(&damaged).is_err());
+//! # Ok::<(), lrr_formats::FormatError>(())
+//! ```
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+mod atomic;
+mod bytes;
+mod checksum;
+mod codec;
+mod container;
+mod error;
+mod half;
+pub mod kind;
+mod operator;
+#[cfg(test)]
+mod testdata;
+mod validate;
+mod writer;
+
+pub use atomic::write_atomic;
+pub use checksum::checksum;
+pub use container::{
+    ALIGN, Container, FLAG_REQUIRED, HEADER_CHECKSUM_OFFSET, HEADER_LEN, SECTION_ENTRY_LEN, Section,
+};
+pub use error::{ErrorKind, FormatError};
+pub use half::{f16_to_f32, f32_to_f16};
+pub use operator::{FkData, Geometry, Layout, OperatorFile, Precision};
+pub use writer::ContainerWriter;
+
+/// The first 8 bytes of every operator file: `\x89LRR\r\n\x1a\n`.
+pub const MAGIC: [u8; 8] = *b"\x89LRR\r\n\x1a\n";
+/// The major format version this crate reads and writes; files of another major are refused.
+pub const VERSION_MAJOR: u16 = 1;
+/// The minor format version this crate writes; files of any minor version are read.
+pub const VERSION_MINOR: u16 = 0;

@@ -1,0 +1,359 @@
+//! The invariants of an [`OperatorFile`], checked by [`OperatorFile::validate`].
+//!
+//! Checked in the order of the sections, first failure wins; every message names the section,
+//! the position and the rule. The runtime relies on these (an index inside `0..n`, no NaN in a
+//! product), so [`OperatorFile::from_bytes`] runs them on every file it returns.
+
+use crate::codec::{Sizes, check_dims};
+use crate::error::FormatError;
+use crate::half::f16_to_f32;
+use crate::operator::{FkData, OperatorFile};
+
+/// How far a stored normal's length may be from 1.
+const NORMAL_TOLERANCE: f64 = 1e-3;
+
+const RGB: [&str; 3] = ["r", "g", "b"];
+
+pub(crate) fn check(f: &OperatorFile) -> Result<(), FormatError> {
+    check_dims(f.n, f.k, f.channels)?;
+    if f.fk.precision() != f.precision {
+        return Err(FormatError::invalid(format!(
+            "section FK: DIMS says precision {:?} but the data is {:?}",
+            f.precision,
+            f.fk.precision()
+        )));
+    }
+    let sizes = Sizes::new(f.n, f.k, f.channels)?;
+    check_lengths(f, &sizes)?;
+    check_order(&f.order)?;
+    check_index(&f.index, f.n)?;
+    check_weights(&f.weights)?;
+    check_fk(&f.fk, f.k as usize)?;
+    check_cores(&f.cores, f.k as usize)?;
+    check_rgb(
+        "REFLECTANCE",
+        &f.reflectance,
+        |v| (0.0..=1.0).contains(&v),
+        "in [0, 1]",
+    )?;
+    check_rgb("EMISSION", &f.emission, |v| v >= 0.0, ">= 0")?;
+    check_geometry(f)
+}
+
+fn check_lengths(f: &OperatorFile, s: &Sizes) -> Result<(), FormatError> {
+    let g = &f.geometry;
+    let arrays = [
+        ("ORDER", "n", s.n, f.order.len()),
+        ("INDEX", "k + 1", s.index, f.index.len()),
+        ("WEIGHTS", "n", s.n, f.weights.len()),
+        ("FK", "n * k", s.fk, f.fk.len()),
+        ("CORES", "channels * k * k", s.cores, f.cores.len()),
+        ("REFLECTANCE", "n * 3", s.rgb, f.reflectance.len()),
+        ("EMISSION", "n * 3", s.rgb, f.emission.len()),
+        ("GEOMETRY", "n vertex counts", s.n, g.vertex_count.len()),
+        (
+            "GEOMETRY",
+            "n * 12 vertex coordinates",
+            s.vertices,
+            g.vertices.len(),
+        ),
+        (
+            "GEOMETRY",
+            "n * 3 normal coordinates",
+            s.rgb,
+            g.normals.len(),
+        ),
+    ];
+    for (section, formula, expected, found) in arrays {
+        if expected != found {
+            return Err(FormatError::invalid(format!(
+                "section {section}: expected {formula} = {expected} values, found {found}"
+            )));
+        }
+    }
+    Ok(())
+}
+
+fn check_order(order: &[u32]) -> Result<(), FormatError> {
+    let n = order.len();
+    let mut seen = vec![false; n];
+    for (pos, &id) in order.iter().enumerate() {
+        let rule = "ids must be a permutation of 0..n";
+        match seen.get_mut(id as usize) {
+            None => {
+                return Err(FormatError::invalid(format!(
+                    "section ORDER: position {pos} holds element id {id} >= n = {n} ({rule})"
+                )));
+            }
+            Some(true) => {
+                return Err(FormatError::invalid(format!(
+                    "section ORDER: position {pos} repeats element id {id} ({rule})"
+                )));
+            }
+            Some(slot) => *slot = true,
+        }
+    }
+    Ok(())
+}
+
+/// `index` has `k + 1 >= 2` entries (checked before).
+fn check_index(index: &[u32], n: u32) -> Result<(), FormatError> {
+    if let Some(&first) = index.first().filter(|&&v| v != 0) {
+        return Err(FormatError::invalid(format!(
+            "section INDEX: index[0] = {first}, must be 0"
+        )));
+    }
+    for (p, pair) in index.windows(2).enumerate() {
+        if pair[1] <= pair[0] {
+            return Err(FormatError::invalid(format!(
+                "section INDEX: index[{p}] = {} and index[{}] = {}: offsets must increase \
+                 strictly (patch {p} would be empty or negative)",
+                pair[0],
+                p + 1,
+                pair[1]
+            )));
+        }
+    }
+    match index.last() {
+        Some(&last) if last != n => Err(FormatError::invalid(format!(
+            "section INDEX: index[{}] = {last}, must be n = {n}",
+            index.len() - 1
+        ))),
+        _ => Ok(()),
+    }
+}
+
+fn check_weights(weights: &[f32]) -> Result<(), FormatError> {
+    match weights.iter().position(|&w| !(w > 0.0 && w <= 1.0)) {
+        Some(e) => Err(FormatError::invalid(format!(
+            "section WEIGHTS: element {e}: weight {} must be finite and in (0, 1]",
+            weights[e]
+        ))),
+        None => Ok(()),
+    }
+}
+
+fn check_fk(fk: &FkData, k: usize) -> Result<(), FormatError> {
+    let ok = |v: f32| v.is_finite() && v >= 0.0;
+    let bad = match fk {
+        FkData::F32(v) => v.iter().position(|&x| !ok(x)),
+        FkData::F16(v) => v.iter().position(|&h| !ok(f16_to_f32(h))),
+    };
+    match (bad, fk) {
+        (Some(i), FkData::F32(v)) => Err(fk_error(i, k, &format!("{}", v[i]))),
+        (Some(i), FkData::F16(v)) => {
+            let value = format!("{} (f16 {:#06x})", f16_to_f32(v[i]), v[i]);
+            Err(fk_error(i, k, &value))
+        }
+        (None, _) => Ok(()),
+    }
+}
+
+fn fk_error(i: usize, k: usize, value: &str) -> FormatError {
+    FormatError::invalid(format!(
+        "section FK: element {}, patch {}: value {value} must be finite and >= 0",
+        i / k,
+        i % k
+    ))
+}
+
+fn check_cores(cores: &[f64], k: usize) -> Result<(), FormatError> {
+    match cores.iter().position(|v| !v.is_finite()) {
+        Some(i) => Err(FormatError::invalid(format!(
+            "section CORES: channel {}, row {}, column {}: value {} must be finite",
+            i / (k * k),
+            i / k % k,
+            i % k,
+            cores[i]
+        ))),
+        None => Ok(()),
+    }
+}
+
+fn check_rgb(
+    section: &str,
+    values: &[f32],
+    ok: impl Fn(f32) -> bool,
+    rule: &str,
+) -> Result<(), FormatError> {
+    match values.iter().position(|&v| !(v.is_finite() && ok(v))) {
+        Some(i) => Err(FormatError::invalid(format!(
+            "section {section}: element {}, channel {}: value {} must be finite and {rule}",
+            i / 3,
+            RGB[i % 3],
+            values[i]
+        ))),
+        None => Ok(()),
+    }
+}
+
+fn check_geometry(f: &OperatorFile) -> Result<(), FormatError> {
+    let g = &f.geometry;
+    let polygons = g.vertices.chunks_exact(12).zip(g.normals.chunks_exact(3));
+    for (e, (&count, (vertices, normal))) in g.vertex_count.iter().zip(polygons).enumerate() {
+        let fail = |problem: String| {
+            Err(FormatError::invalid(format!(
+                "section GEOMETRY: element {e}: {problem}"
+            )))
+        };
+        if count != 3 && count != 4 {
+            return fail(format!("{count} vertices, must be 3 or 4"));
+        }
+        if let Some(i) = vertices.iter().position(|v| !v.is_finite()) {
+            let value = vertices[i];
+            return fail(format!(
+                "vertex {}: coordinate {value} is not finite",
+                i / 3
+            ));
+        }
+        if count == 3 && vertices[9..].iter().any(|&v| v != 0.0) {
+            return fail("a triangle whose unused 4th vertex is not (0, 0, 0)".into());
+        }
+        let length = normal
+            .iter()
+            .map(|&v| f64::from(v) * f64::from(v))
+            .sum::<f64>()
+            .sqrt();
+        if length.is_nan() || (length - 1.0).abs() > NORMAL_TOLERANCE {
+            return fail(format!(
+                "normal {normal:?} has length {length}, must be unit (within {NORMAL_TOLERANCE})"
+            ));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::ErrorKind;
+    use crate::operator::Precision;
+    use crate::testdata::sample;
+
+    fn message(edit: impl FnOnce(&mut OperatorFile)) -> String {
+        let mut f = sample(Precision::F32, 3);
+        edit(&mut f);
+        let err = f.validate().unwrap_err();
+        assert_eq!(err.kind, ErrorKind::Invalid, "{err}");
+        assert!(f.to_bytes().is_err());
+        err.message
+    }
+
+    #[test]
+    fn samples_are_valid() {
+        sample(Precision::F32, 3).validate().unwrap();
+        sample(Precision::F16, 1).validate().unwrap();
+    }
+
+    #[test]
+    fn messages_name_section_index_and_problem() {
+        type Edit = Box<dyn FnOnce(&mut OperatorFile)>;
+        let cases: Vec<(Edit, &str)> = vec![
+            (Box::new(|f| f.channels = 2), "section DIMS: channels = 2"),
+            (
+                Box::new(|f| f.k = 7),
+                "section DIMS: k = 7 patches for n = 6",
+            ),
+            (
+                Box::new(|f| f.precision = Precision::F16),
+                "section FK: DIMS says precision F16",
+            ),
+            (
+                Box::new(|f| f.order[4] = 9),
+                "section ORDER: position 4 holds element id 9",
+            ),
+            (
+                Box::new(|f| f.order[4] = f.order[0]),
+                "section ORDER: position 4 repeats",
+            ),
+            (
+                Box::new(|f| f.index[1] = 0),
+                "section INDEX: index[0] = 0 and index[1] = 0",
+            ),
+            (
+                Box::new(|f| f.index[1] = 7),
+                "section INDEX: index[1] = 7 and index[2] = 6",
+            ),
+            (
+                Box::new(|f| f.index[0] = 1),
+                "section INDEX: index[0] = 1, must be 0",
+            ),
+            (
+                Box::new(|f| f.index[2] = 5),
+                "section INDEX: index[2] = 5, must be n = 6",
+            ),
+            (
+                Box::new(|f| f.weights[3] = 0.0),
+                "section WEIGHTS: element 3: weight 0",
+            ),
+            (
+                Box::new(|f| f.weights[2] = 1.5),
+                "section WEIGHTS: element 2: weight 1.5",
+            ),
+            (
+                Box::new(|f| f.weights[1] = f32::NAN),
+                "section WEIGHTS: element 1: weight NaN",
+            ),
+            (
+                Box::new(|f| {
+                    f.fk = FkData::F32(vec![
+                        0.1,
+                        0.2,
+                        0.0,
+                        0.0,
+                        0.1,
+                        0.2,
+                        0.3,
+                        f32::NAN,
+                        0.0,
+                        0.0,
+                        0.0,
+                        0.0,
+                    ])
+                }),
+                "section FK: element 3, patch 1: value NaN",
+            ),
+            (
+                Box::new(|f| f.cores[6] = f64::INFINITY),
+                "section CORES: channel 1, row 1, column 0: value inf",
+            ),
+            (
+                Box::new(|f| f.reflectance[4] = 1.01),
+                "section REFLECTANCE: element 1, channel g: value 1.01",
+            ),
+            (
+                Box::new(|f| f.emission[17] = -1.0),
+                "section EMISSION: element 5, channel b: value -1",
+            ),
+            (
+                Box::new(|f| {
+                    f.weights.pop();
+                }),
+                "section WEIGHTS: expected n = 6 values, found 5",
+            ),
+            (
+                Box::new(|f| f.geometry.vertex_count[2] = 5),
+                "section GEOMETRY: element 2: 5 vertices",
+            ),
+            (
+                Box::new(|f| f.geometry.vertices[13] = f32::NAN),
+                "section GEOMETRY: element 1: vertex 0: coordinate NaN",
+            ),
+            (
+                Box::new(|f| f.geometry.vertices[12 + 10] = 1.0),
+                "section GEOMETRY: element 1: a triangle",
+            ),
+            (
+                Box::new(|f| f.geometry.normals[3] = 0.5),
+                "section GEOMETRY: element 1: normal [0.5, 0.0, 1.0]",
+            ),
+        ];
+        for (edit, expected) in cases {
+            let got = message(edit);
+            assert!(
+                got.starts_with(expected),
+                "got {got:?}, expected {expected:?}"
+            );
+        }
+    }
+}

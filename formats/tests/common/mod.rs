@@ -1,0 +1,130 @@
+//! Shared by the integration tests: small valid operators and tools to damage their bytes.
+//!
+//! `src/testdata.rs` holds the unit tests' copy of `sample` (these tests see only the public API).
+
+#![allow(dead_code)] // each test binary uses a different part
+
+use lrr_formats::{
+    ALIGN, Container, ContainerWriter, FkData, Geometry, HEADER_CHECKSUM_OFFSET, HEADER_LEN,
+    Layout, OperatorFile, Precision, SECTION_ENTRY_LEN, checksum, f32_to_f16,
+};
+
+/// n = 6 elements in k = 2 patches; elements 1, 3, 5 are triangles, the others quads.
+pub fn sample(precision: Precision, channels: u32) -> OperatorFile {
+    let fk = [0.1, 0.2, 0.0, 0.0, 0.1, 0.2, 0.3, 0.25, 0.0, 0.0, 0.0, 0.05];
+    let mut vertices = Vec::new();
+    let mut vertex_count = Vec::new();
+    for e in 0..6u8 {
+        let x = f32::from(e);
+        let quad = e % 2 == 0;
+        vertex_count.push(if quad { 4 } else { 3 });
+        vertices.extend([x, 0.0, 0.0, x + 1.0, 0.0, 0.0, x + 1.0, 1.0, 0.0]);
+        vertices.extend(if quad { [x, 1.0, 0.0] } else { [0.0; 3] });
+    }
+    OperatorFile {
+        metadata_json: r#"{"scene":"corrupt test","bake":{"k":2}}"#.to_string(),
+        n: 6,
+        k: 2,
+        channels,
+        precision,
+        layout: Layout::Factored,
+        order: vec![3, 0, 5, 1, 4, 2],
+        index: vec![0, 3, 6],
+        weights: vec![0.5, 0.25, 0.25, 0.2, 0.3, 0.5],
+        fk: match precision {
+            Precision::F32 => FkData::F32(fk.to_vec()),
+            Precision::F16 => FkData::F16(fk.iter().map(|&v| f32_to_f16(v)).collect()),
+        },
+        cores: (0..channels * 4)
+            .map(|i| 1.0 + f64::from(i) / 8.0)
+            .collect(),
+        reflectance: (0..18).map(|i| i as f32 / 20.0).collect(),
+        emission: (0..18).map(|i| if i < 3 { 5.0 } else { 0.0 }).collect(),
+        geometry: Geometry {
+            vertex_count,
+            vertices,
+            normals: [0.0, 0.0, 1.0].repeat(6),
+        },
+    }
+}
+
+/// The two samples the brief asks for: f32 RGB and f16 grey.
+pub fn samples() -> [OperatorFile; 2] {
+    [sample(Precision::F32, 3), sample(Precision::F16, 1)]
+}
+
+pub fn u32_at(bytes: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap())
+}
+
+/// End of the padded section table.
+pub fn table_end(bytes: &[u8]) -> usize {
+    let count = u32_at(bytes, 12) as usize;
+    HEADER_LEN + (count * SECTION_ENTRY_LEN).next_multiple_of(ALIGN)
+}
+
+/// Recomputes the header checksum after a deliberate edit of the header or the table.
+pub fn reseal(bytes: &mut [u8]) {
+    let end = table_end(bytes).min(bytes.len());
+    let mut head = bytes[..end].to_vec();
+    head[HEADER_CHECKSUM_OFFSET..HEADER_CHECKSUM_OFFSET + 8].fill(0);
+    let sum = checksum(&head);
+    bytes[HEADER_CHECKSUM_OFFSET..HEADER_CHECKSUM_OFFSET + 8].copy_from_slice(&sum.to_le_bytes());
+}
+
+/// Byte position of field `field` (0 kind, 4 flags, 8 offset, 16 length, 24 checksum) of entry `i`.
+pub fn entry_at(i: usize, field: usize) -> usize {
+    HEADER_LEN + i * SECTION_ENTRY_LEN + field
+}
+
+/// Sets a u64 field of a table entry and reseals the header.
+pub fn set_entry_u64(bytes: &mut [u8], i: usize, field: usize, value: u64) {
+    let at = entry_at(i, field);
+    bytes[at..at + 8].copy_from_slice(&value.to_le_bytes());
+    reseal(bytes);
+}
+
+/// Index of the table entry of `kind`.
+pub fn entry_of(bytes: &[u8], kind: u32) -> usize {
+    (0..u32_at(bytes, 12) as usize)
+        .find(|&i| u32_at(bytes, entry_at(i, 0)) == kind)
+        .unwrap()
+}
+
+/// Rebuilds a valid container after `edit` changed payloads: checksums match again, so only the
+/// decoder and the validator stand between the damage and the caller.
+pub fn rebuild(bytes: &[u8], mut edit: impl FnMut(u32, &mut Vec<u8>)) -> Vec<u8> {
+    let c = Container::parse(bytes).unwrap();
+    let mut w = ContainerWriter::new();
+    for s in c.sections() {
+        let mut payload = c.section(s.kind).unwrap().to_vec();
+        edit(s.kind, &mut payload);
+        w.add(s.kind, s.required(), payload);
+    }
+    w.to_bytes()
+}
+
+/// Sets little-endian u32 word `i` of the payload of `kind`, checksums recomputed.
+pub fn with_word(bytes: &[u8], kind: u32, i: usize, value: u32) -> Vec<u8> {
+    rebuild(bytes, |k, p| {
+        if k == kind {
+            p[4 * i..4 * i + 4].copy_from_slice(&value.to_le_bytes());
+        }
+    })
+}
+
+/// A small deterministic generator (xorshift64*).
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+}

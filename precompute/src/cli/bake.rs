@@ -1,0 +1,116 @@
+//! `lrr bake`.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use serde::Serialize;
+
+use super::{MeshArgs, load_scene, summary};
+use crate::bake::bake;
+use crate::output;
+
+#[derive(Debug, Args)]
+pub struct BakeArgs {
+    /// Scene: an OBJ file or an lrr scene description (.toml).
+    pub scene: PathBuf,
+    /// Operator file to write (replaced atomically).
+    #[arg(short, long, value_name = "OUT.lrr")]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub mesh: MeshArgs,
+    /// Also write a JSON report (sizes, condition number, seconds per stage).
+    #[arg(long, value_name = "R.json")]
+    pub report: Option<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct Report<'a> {
+    scene: &'a str,
+    output: String,
+    n: usize,
+    k: usize,
+    channels: usize,
+    condition: f64,
+    conditions: &'a [f64],
+    element_size: f64,
+    patch_size: f64,
+    samples: u32,
+    visibility: &'a str,
+    rays: u64,
+    culled_pairs: u64,
+    file_bytes: u64,
+    stages: BTreeMap<String, f64>,
+    total_seconds: f64,
+}
+
+pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
+    let start = Instant::now();
+    let progress = a.mesh.progress();
+    let stage = progress.stage("import", 0);
+    let scene = load_scene(&a.scene)?;
+    stage.finish();
+    let baked = bake(&scene, &a.mesh.settings(), &progress)?;
+    let stage = progress.stage("write", 0);
+    let file = output::write(&baked, &a.output)
+        .with_context(|| format!("writing the operator file {}", a.output.display()))?;
+    stage.finish();
+    let file_bytes = std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0);
+    let stages: BTreeMap<String, f64> = progress.timings().into_iter().collect();
+    let report = Report {
+        scene: &baked.scene_name,
+        output: a.output.display().to_string(),
+        n: baked.n(),
+        k: baked.k(),
+        channels: baked.cores.channels,
+        condition: baked.condition(),
+        conditions: &baked.cores.condition,
+        element_size: baked.sizes.element_size,
+        patch_size: baked.sizes.patch_size,
+        samples: baked.samples,
+        visibility: baked.visibility,
+        rays: baked.rays,
+        culled_pairs: baked.culled_pairs,
+        file_bytes,
+        stages,
+        total_seconds: start.elapsed().as_secs_f64(),
+    };
+    if let Some(path) = &a.report {
+        let text = serde_json::to_string_pretty(&report)?;
+        lrr_formats::write_atomic(path, text.as_bytes())
+            .with_context(|| format!("writing the report {}", path.display()))?;
+    }
+    writeln!(
+        out,
+        "baked {} → {}: n = {} elements, k = {} patches, {} channel(s), condition {:.3e}, {:.1} MB",
+        report.scene,
+        report.output,
+        report.n,
+        report.k,
+        report.channels,
+        report.condition,
+        file_bytes as f64 / 1e6
+    )?;
+    writeln!(
+        out,
+        "element size {:.4}, patch size {:.4}, {} samples/pair, visibility: {}, {} rays",
+        report.element_size, report.patch_size, report.samples, report.visibility, report.rays
+    )?;
+    let times: Vec<String> = progress
+        .timings()
+        .iter()
+        .map(|(s, t)| format!("{s} {t:.2}s"))
+        .collect();
+    writeln!(
+        out,
+        "time: {} (total {:.2}s)",
+        times.join(", "),
+        report.total_seconds
+    )?;
+    let op = lrr_runtime::Operator::from_file(file)?;
+    summary::print_surfaces(&op, out)?;
+    Ok(())
+}

@@ -1,0 +1,122 @@
+//! The `lrr` command line (clap). [`run`] takes the arguments and an output stream so tests
+//! can call every command in-process; `main.rs` only prints the error chain and sets the exit code.
+
+mod bake;
+mod info;
+mod probe;
+mod scene;
+mod solve;
+mod summary;
+mod view_factors;
+
+use std::ffi::OsString;
+use std::io::Write;
+
+use anyhow::Result;
+use clap::{Args, Parser, Subcommand};
+
+use crate::bake::{BakeSettings, DEFAULT_SAMPLES};
+
+/// lrr: low-rank radiosity. Bake a lighting operator from a scene, inspect it, probe it.
+#[derive(Debug, Parser)]
+#[command(
+    name = "lrr",
+    version,
+    about = "lrr: low-rank radiosity. Bake a lighting operator from a scene, inspect it, probe it."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Bake a scene (OBJ or .toml scene description) into an operator file.
+    Bake(bake::BakeArgs),
+    /// Describe an operator file: sizes, bake settings, radiosity per surface.
+    Info(info::InfoArgs),
+    /// Radiosity at surface points, from an operator file.
+    Probe(probe::ProbeArgs),
+    /// Form factors between the scene's named surfaces (visibility included).
+    ViewFactors(view_factors::ViewFactorsArgs),
+    /// Solve the radiosity of a scene without writing a file (low-rank, or --exact).
+    Solve(solve::SolveArgs),
+    /// Write a generated scene description (furnace, analytic pairs).
+    Scene(scene::SceneArgs),
+}
+
+/// Settings that change the fine mesh or the form factors; shared by bake, solve, view-factors.
+#[derive(Debug, Clone, Args)]
+pub struct MeshArgs {
+    /// Longest edge of a fine element, in scene units [default: scene hint, else 1/20 of the
+    /// scene's bounding-box diagonal].
+    #[arg(long, value_name = "L")]
+    pub element_size: Option<f64>,
+    /// Longest edge of a coarse patch, in scene units [default: scene hint, else 1/6 of the
+    /// bounding-box diagonal].
+    #[arg(long, value_name = "L")]
+    pub patch_size: Option<f64>,
+    /// Quadrature points and visibility rays per element-patch pair (a square gives a midpoint rule).
+    #[arg(long, value_name = "S", default_value_t = DEFAULT_SAMPLES)]
+    pub samples: u32,
+    /// Worker threads [default: all cores]. Results do not depend on it.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// No progress bars.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+impl MeshArgs {
+    pub fn settings(&self) -> BakeSettings {
+        BakeSettings {
+            element_size: self.element_size,
+            patch_size: self.patch_size,
+            samples: self.samples,
+            threads: self.threads,
+        }
+    }
+
+    pub fn progress(&self) -> crate::progress::Progress {
+        use std::io::IsTerminal;
+        crate::progress::Progress::new(!self.quiet && std::io::stderr().is_terminal())
+    }
+}
+
+/// Runs the command line with `args` (the first is the program name), writing to `out`.
+pub fn run<I, T>(args: I, out: &mut dyn Write) -> Result<()>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e)
+            if matches!(
+                e.kind(),
+                clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion
+            ) =>
+        {
+            write!(out, "{e}")?;
+            return Ok(());
+        }
+        Err(e) => return Err(anyhow::anyhow!(e.render().to_string().trim().to_string())),
+    };
+    match cli.command {
+        Command::Bake(a) => bake::run(&a, out),
+        Command::Info(a) => info::run(&a, out),
+        Command::Probe(a) => probe::run(&a, out),
+        Command::ViewFactors(a) => view_factors::run(&a, out),
+        Command::Solve(a) => solve::run(&a, out),
+        Command::Scene(a) => scene::run(&a, out),
+    }
+}
+
+/// Loads a scene, printing its import warnings to stderr.
+pub fn load_scene(path: &std::path::Path) -> Result<crate::scene::Scene> {
+    let scene = crate::scene::load(path)?;
+    for w in &scene.warnings {
+        eprintln!("lrr: warning: {w}");
+    }
+    Ok(scene)
+}

@@ -1,0 +1,73 @@
+//! `lrr scene`: write generated scene descriptions.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::{Args, Subcommand};
+
+use crate::scene::procedural;
+
+#[derive(Debug, Args)]
+pub struct SceneArgs {
+    #[command(subcommand)]
+    pub kind: SceneKind,
+    /// File to write (.toml); standard output when absent.
+    #[arg(short, long, global = true, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum SceneKind {
+    /// A closed unit cube with uniform reflectance and emission: B = E / (1 - ρ) exactly.
+    Furnace {
+        #[arg(long, default_value_t = 0.5)]
+        reflectance: f64,
+        /// Emitted radiance Ke (exitance is π·Ke).
+        #[arg(long, default_value_t = 1.0)]
+        radiance: f64,
+    },
+    /// Two directly opposed parallel squares.
+    Parallel {
+        #[arg(long, default_value_t = 1.0)]
+        side: f64,
+        #[arg(long, default_value_t = 1.0)]
+        distance: f64,
+    },
+    /// Two perpendicular rectangles sharing an edge.
+    Perpendicular {
+        /// Length of the shared edge.
+        #[arg(long, default_value_t = 1.0)]
+        length: f64,
+        /// Width of the base rectangle.
+        #[arg(long, default_value_t = 1.0)]
+        width: f64,
+        /// Height of the wall rectangle.
+        #[arg(long, default_value_t = 1.0)]
+        height: f64,
+    },
+}
+
+pub fn run(a: &SceneArgs, out: &mut dyn Write) -> Result<()> {
+    let d = match a.kind {
+        SceneKind::Furnace {
+            reflectance,
+            radiance,
+        } => procedural::furnace(reflectance, radiance),
+        SceneKind::Parallel { side, distance } => procedural::parallel_squares(side, distance),
+        SceneKind::Perpendicular {
+            length,
+            width,
+            height,
+        } => procedural::perpendicular(length, width, height),
+    };
+    // Build once so a bad parameter is reported here, not at bake time.
+    d.build("generated scene", std::path::Path::new("."))?;
+    let text = d.to_toml();
+    match &a.output {
+        Some(path) => lrr_formats::write_atomic(path, text.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?,
+        None => write!(out, "{text}")?,
+    }
+    Ok(())
+}

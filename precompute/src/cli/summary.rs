@@ -1,0 +1,107 @@
+//! Radiosity per named surface, from an operator file (used by `bake` and `info`).
+
+use std::io::Write;
+
+use anyhow::Result;
+use serde::Serialize;
+
+use crate::bake::SurfaceRanges;
+use lrr_runtime::Operator;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct SurfaceSummary {
+    pub name: String,
+    pub elements: usize,
+    pub area: f64,
+    /// Area-weighted mean radiosity (exitance, RGB) with the baked emission.
+    pub mean_radiosity: [f64; 3],
+}
+
+/// Element areas from the file's geometry, by original id.
+pub fn element_areas(op: &Operator) -> Vec<f64> {
+    let g = &op.file().geometry;
+    let mut areas = vec![0.0; op.n()];
+    for (s, &id) in op.file().order.iter().enumerate() {
+        let count = usize::from(g.vertex_count[s]);
+        let v = |i: usize| -> [f64; 3] {
+            let b = 12 * s + 3 * i;
+            [
+                f64::from(g.vertices[b]),
+                f64::from(g.vertices[b + 1]),
+                f64::from(g.vertices[b + 2]),
+            ]
+        };
+        let mut sum = [0.0; 3];
+        for i in 0..count {
+            let (a, b) = (v(i), v((i + 1) % count));
+            sum[0] += a[1] * b[2] - a[2] * b[1];
+            sum[1] += a[2] * b[0] - a[0] * b[2];
+            sum[2] += a[0] * b[1] - a[1] * b[0];
+        }
+        areas[id as usize] = 0.5 * (sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]).sqrt();
+    }
+    areas
+}
+
+/// The surfaces recorded in the file's metadata.
+pub fn surfaces(op: &Operator) -> Vec<SurfaceRanges> {
+    serde_json::from_str::<serde_json::Value>(op.metadata_json())
+        .ok()
+        .and_then(|v| v.get("surfaces").cloned())
+        .and_then(|s| serde_json::from_value(s).ok())
+        .unwrap_or_default()
+}
+
+/// Per-surface summary of a radiosity vector (original ids).
+pub fn summarise(op: &Operator, radiosity: &[[f32; 3]]) -> Vec<SurfaceSummary> {
+    let areas = element_areas(op);
+    surfaces(op)
+        .into_iter()
+        .map(|s| {
+            let mut area = 0.0;
+            let mut sum = [0.0; 3];
+            let mut count = 0;
+            for r in &s.elements {
+                for id in r[0]..r[1].min(op.n() as u32) {
+                    let a = areas[id as usize];
+                    area += a;
+                    count += 1;
+                    for c in 0..3 {
+                        sum[c] += a * f64::from(radiosity[id as usize][c]);
+                    }
+                }
+            }
+            let mean = if area > 0.0 {
+                sum.map(|x| x / area)
+            } else {
+                [0.0; 3]
+            };
+            SurfaceSummary {
+                name: s.name,
+                elements: count,
+                area,
+                mean_radiosity: mean,
+            }
+        })
+        .collect()
+}
+
+/// Prints the per-surface table for the baked emission.
+pub fn print_surfaces(op: &Operator, out: &mut dyn Write) -> Result<()> {
+    let b = op.evaluate_baked();
+    let rows = summarise(op, &b);
+    writeln!(
+        out,
+        "{:<24} {:>8} {:>12}   mean radiosity (R, G, B)",
+        "surface", "elements", "area"
+    )?;
+    for r in rows {
+        let [red, green, blue] = r.mean_radiosity;
+        writeln!(
+            out,
+            "{:<24} {:>8} {:>12.4e}   {red:>10.4} {green:>10.4} {blue:>10.4}",
+            r.name, r.elements, r.area
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,66 @@
+//! The precompute's error type: each variant says who is at fault.
+
+use std::fmt;
+use std::path::PathBuf;
+
+#[derive(Debug)]
+pub enum Error {
+    /// Reading or writing a file failed.
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// The scene input is wrong: `location` is "file:line" (or "file" alone).
+    Scene { location: String, message: String },
+    /// A setting or argument is out of range.
+    Settings(String),
+    /// The system cannot be solved as asked (e.g. numerically singular).
+    Numerical(String),
+    /// The job would exceed a resource limit (memory); the message says what to change.
+    Limits(String),
+    /// The operator file could not be written or read.
+    Format(lrr_formats::FormatError),
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    pub fn scene(location: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Scene {
+            location: location.into(),
+            message: message.into(),
+        }
+    }
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
+            Error::Scene { location, message } => write!(f, "{location}: {message}"),
+            Error::Settings(m) | Error::Numerical(m) | Error::Limits(m) => f.write_str(m),
+            Error::Format(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for Error {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Error::Io { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+}
+
+impl From<lrr_formats::FormatError> for Error {
+    fn from(e: lrr_formats::FormatError) -> Self {
+        Error::Format(e)
+    }
+}

@@ -1,0 +1,45 @@
+//! # lrr-precompute: the bake
+//!
+//! Scene in, operator file out. The stages, one module each, in pipeline order:
+//!
+//! | stage | module | what |
+//! |---|---|---|
+//! | import | [`scene`] | OBJ/MTL (tobj) and lrr scene descriptions (TOML) → planar convex faces |
+//! | mesh | [`mesh`] | 2MF: fine elements and coarse patches from one subdivision hierarchy |
+//! | visibility | [`visibility`] | occlusion rays (obvhs), skipped when nothing occludes |
+//! | form factors | [`formfactor`] | element→patch `F_k`: closed-form kernel × visibility fraction |
+//! | operator | [`operator`] | per-channel cores `M_c = (I - Vᵀ diag(ρ_c) F_k)⁻¹` (faer) |
+//! | write | [`output`] | the lrr-formats file, atomically |
+//!
+//! [`reference`] solves the full fine-mesh system exactly for checking; [`bake`] strings the
+//! stages together; [`cli`] is the `lrr` command line.
+//!
+//! ```
+//! use lrr_precompute::{bake, progress::Progress, scene::procedural};
+//! // A furnace: a closed cube, uniform reflectance 0.5, uniform emission π.
+//! let scene = procedural::furnace(0.5, 1.0).build("furnace", std::path::Path::new(".")).unwrap();
+//! let baked = bake::bake(&scene, &bake::BakeSettings::default(), &Progress::hidden()).unwrap();
+//! let file = lrr_precompute::output::operator_file(&baked);
+//! let op = lrr_runtime::Operator::from_file(file).unwrap();
+//! let b = op.evaluate_baked();
+//! // B = E / (1 - ρ) = 2π everywhere.
+//! assert!(b.iter().all(|b| (b[0] - 2.0 * std::f32::consts::PI).abs() < 1e-3));
+//! ```
+
+// Indexed loops over RGB channels and matrix entries read like the maths they implement.
+#![allow(clippy::needless_range_loop)]
+
+pub mod bake;
+pub mod cli;
+pub mod error;
+pub mod formfactor;
+pub mod memory;
+pub mod mesh;
+pub mod operator;
+pub mod output;
+pub mod progress;
+pub mod reference;
+pub mod scene;
+pub mod visibility;
+
+pub use error::{Error, Result};

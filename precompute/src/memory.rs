@@ -1,0 +1,38 @@
+//! Refusing jobs that would not fit in memory, before allocating.
+
+use crate::error::{Error, Result};
+
+/// Bytes of memory available to this process: `MemAvailable` from /proc/meminfo, or 16 GiB
+/// where that cannot be read. `LRR_MEMORY_LIMIT` (bytes) overrides it (for tests and for
+/// sharing a machine).
+pub fn available() -> u128 {
+    if let Some(v) = std::env::var("LRR_MEMORY_LIMIT")
+        .ok()
+        .and_then(|v| v.parse::<u128>().ok())
+    {
+        return v;
+    }
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("MemAvailable:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<u128>().ok())
+                .map(|kb| kb * 1024)
+        })
+        .unwrap_or(16 << 30)
+}
+
+/// Refuses `bytes` of working memory for `what` when they exceed 80% of what is available.
+pub fn check(bytes: u128, what: &str, fix: &str) -> Result<()> {
+    let limit = available() * 8 / 10;
+    if bytes > limit {
+        return Err(Error::Limits(format!(
+            "{what} needs about {:.2} GiB but only {:.2} GiB can be used; {fix}",
+            bytes as f64 / (1u64 << 30) as f64,
+            limit as f64 / (1u64 << 30) as f64
+        )));
+    }
+    Ok(())
+}

@@ -1,0 +1,74 @@
+//! Visibility between sample points: ray casts against the scene's faces.
+//!
+//! The default backend is [`obvhs`] (pure Rust). A segment query asks whether anything blocks
+//! the open segment between two surface points; its parameter range excludes a relative
+//! 1e-4 of the segment at each end, so the faces the points lie on never count, at any scale.
+//!
+//! [`nothing_occludes`] detects scenes where no line of sight can be blocked (every face sees
+//! all others from its front: an empty convex room, two facing squares); those bakes cast no
+//! rays at all.
+
+pub mod obvhs;
+
+use glam::DVec3;
+
+use crate::scene::Scene;
+
+/// Fraction of a segment excluded at each end (relative, so scale-free).
+pub const SEGMENT_EPSILON: f32 = 1e-4;
+
+/// Answers "is the segment between two surface points blocked?".
+pub trait Occluder: Sync {
+    fn occluded(&self, from: DVec3, to: DVec3) -> bool;
+}
+
+/// Most faces for which the quadratic convexity test is run; larger scenes are assumed to
+/// have occluders.
+const MAX_FACES_FOR_CONVEXITY_TEST: usize = 4096;
+
+/// True when no face can block a line of sight between two others: every vertex of the scene
+/// lies on the closed front side of every face's plane (then a segment between two front-facing
+/// points never crosses a face).
+pub fn nothing_occludes(scene: &Scene) -> bool {
+    if scene.faces.len() > MAX_FACES_FOR_CONVEXITY_TEST {
+        return false;
+    }
+    let tol = 1e-9 * scene.extent();
+    scene.faces.iter().all(|f| {
+        scene
+            .faces
+            .iter()
+            .flat_map(|g| g.polygon.vertices())
+            .all(|v| f.polygon.height(*v) >= -tol)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::procedural;
+    use std::path::Path;
+
+    #[test]
+    fn convex_scenes_are_recognised() {
+        let furnace = procedural::furnace(0.5, 1.0)
+            .build("f", Path::new("."))
+            .unwrap();
+        assert!(nothing_occludes(&furnace));
+        let pair = procedural::parallel_squares(1.0, 1.0)
+            .build("p", Path::new("."))
+            .unwrap();
+        assert!(nothing_occludes(&pair));
+        let mut d = procedural::furnace(0.5, 1.0);
+        d.boxes.push(crate::scene::description::BoxDesc {
+            name: "block".into(),
+            material: "wall".into(),
+            min: [0.4; 3],
+            max: [0.6; 3],
+            inward: false,
+            omit: vec![],
+        });
+        let cluttered = d.build("c", Path::new(".")).unwrap();
+        assert!(!nothing_occludes(&cluttered));
+    }
+}

@@ -1,0 +1,102 @@
+//! Finding the element under a surface point (for probes).
+
+use crate::Operator;
+
+impl Operator {
+    /// The original id of the element whose surface holds `point`: the closest element among
+    /// those whose normal agrees with `normal` (dot > 0), or among all when none agrees.
+    /// Linear in n (a probe is not a per-frame operation).
+    pub fn locate(&self, point: [f32; 3], normal: [f32; 3]) -> Option<u32> {
+        let g = &self.file.geometry;
+        let mut best: Option<(bool, f64, usize)> = None;
+        for s in 0..self.n() {
+            let count = usize::from(g.vertex_count[s]);
+            let verts: Vec<[f64; 3]> = (0..count)
+                .map(|i| {
+                    let b = 12 * s + 3 * i;
+                    [
+                        f64::from(g.vertices[b]),
+                        f64::from(g.vertices[b + 1]),
+                        f64::from(g.vertices[b + 2]),
+                    ]
+                })
+                .collect();
+            let nrm = [
+                f64::from(g.normals[3 * s]),
+                f64::from(g.normals[3 * s + 1]),
+                f64::from(g.normals[3 * s + 2]),
+            ];
+            let agrees = dot(nrm, normal.map(f64::from)) > 0.0;
+            let d = distance_to_polygon(point.map(f64::from), &verts, nrm);
+            let better = match best {
+                None => true,
+                Some((ba, bd, _)) => (agrees && !ba) || (agrees == ba && d < bd),
+            };
+            if better {
+                best = Some((agrees, d, s));
+            }
+        }
+        best.map(|(_, _, s)| self.file.order[s])
+    }
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Distance from `p` to a planar convex polygon with unit normal `n`.
+fn distance_to_polygon(p: [f64; 3], v: &[[f64; 3]], n: [f64; 3]) -> f64 {
+    let height = dot(sub(p, v[0]), n);
+    let inside = (0..v.len()).all(|i| {
+        let a = v[i];
+        let b = v[(i + 1) % v.len()];
+        dot(cross(sub(b, a), sub(p, a)), n) >= 0.0
+    });
+    if inside {
+        return height.abs();
+    }
+    (0..v.len())
+        .map(|i| segment_distance(p, v[i], v[(i + 1) % v.len()]))
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn segment_distance(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
+    let ab = sub(b, a);
+    let len2 = dot(ab, ab);
+    let t = if len2 > 0.0 {
+        (dot(sub(p, a), ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let q = [a[0] + t * ab[0], a[1] + t * ab[1], a[2] + t * ab[2]];
+    let d = sub(p, q);
+    dot(d, d).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distances() {
+        let sq = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ];
+        let n = [0.0, 0.0, 1.0];
+        assert!((distance_to_polygon([0.5, 0.5, 0.25], &sq, n) - 0.25).abs() < 1e-12);
+        assert!((distance_to_polygon([2.0, 0.5, 0.0], &sq, n) - 1.0).abs() < 1e-12);
+    }
+}
