@@ -4,6 +4,14 @@
 fn main() {
     let mut stdout = std::io::stdout().lock();
     if let Err(e) = lrr_precompute::cli::run(std::env::args_os(), &mut stdout) {
+        // A closed pipe (`lrr info x.lrr | head`) is not a failure.
+        let broken_pipe = e.chain().any(|c| {
+            c.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+        });
+        if broken_pipe {
+            return;
+        }
         let chain: Vec<String> = e.chain().map(|c| c.to_string()).collect();
         eprintln!("lrr: error: {}", chain.join(": "));
         std::process::exit(1);

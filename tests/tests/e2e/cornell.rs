@@ -1,0 +1,214 @@
+//! The Cornell box: reciprocity, low-rank against exact, plausibility, determinism, OBJ import.
+
+use lrr_runtime::Operator;
+
+use crate::util::{cornell, lrr, lrr_json, shared_cornell_obj, temp_dir};
+
+#[test]
+fn reciprocity_between_cornell_surfaces() {
+    // Visibility is a ray-sampled fraction, so surface-level factors carry Monte Carlo noise
+    // from the pairs a shadow boundary crosses. 64 samples per pair (1024 rays on those pairs)
+    // bring it below the 1e-3 asked for; the default 16 measured a worst pair of 3.3e-3.
+    let vf = lrr_json(&[
+        "view-factors",
+        cornell().to_str().unwrap(),
+        "--json",
+        "--quiet",
+        "--samples",
+        "64",
+    ]);
+    let areas: Vec<f64> = vf["areas"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a.as_f64().unwrap())
+        .collect();
+    let names = vf["surfaces"].as_array().unwrap();
+    let f = |i: usize, j: usize| vf["matrix"][i][j].as_f64().unwrap();
+    let mut worst: f64 = 0.0;
+    for i in 0..areas.len() {
+        for j in i + 1..areas.len() {
+            let (a, b) = (areas[i] * f(i, j), areas[j] * f(j, i));
+            if a == 0.0 && b == 0.0 {
+                continue;
+            }
+            let rel = (a - b).abs() / a.max(b);
+            println!(
+                "{} ↔ {}: A F = {a:.6e} vs {b:.6e}, relative {rel:.1e}",
+                names[i], names[j]
+            );
+            worst = worst.max(rel);
+        }
+    }
+    assert!(worst < 1e-3, "worst reciprocity error {worst}");
+}
+
+/// Per-element radiosity from `lrr solve --json`.
+fn solve(extra: &[&str]) -> Vec<[f64; 3]> {
+    let scene = cornell();
+    let mut args = vec!["solve", scene.to_str().unwrap(), "--json", "--quiet"];
+    args.extend_from_slice(extra);
+    let v = lrr_json(&args);
+    v["elements"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            let r = e["radiosity"].as_array().unwrap();
+            [
+                r[0].as_f64().unwrap(),
+                r[1].as_f64().unwrap(),
+                r[2].as_f64().unwrap(),
+            ]
+        })
+        .collect()
+}
+
+#[test]
+fn low_rank_against_exact_on_the_same_fine_mesh() {
+    let exact = solve(&["--exact"]);
+    let low_rank = solve(&[]);
+    assert_eq!(exact.len(), low_rank.len());
+    assert!((1900..=4000).contains(&exact.len()), "n = {}", exact.len());
+    let error = lrr_precompute::reference::relative_l2(&low_rank, &exact);
+    println!(
+        "n = {}, relative L2 error of the low-rank solution: {error:.4}",
+        exact.len()
+    );
+    // Bound: the only approximation is F(e, e') ≈ F(e, P(e')) A_e'/A_P(e') (an element sees all of
+    // a patch alike). It errs most for elements next to a patch (patch size 160 mm at 48 mm
+    // elements), where the view of the patch changes fastest; those elements carry a small
+    // share of the energy. Measured: 0.0026 on this mesh. 1% leaves room for sampling noise and
+    // fails if the operator is wrong (a missing channel, a wrong weight or core gives > 10%).
+    assert!(error < 0.01, "relative L2 error {error}");
+}
+
+fn probe(file: &std::path::Path, points: &[([f64; 3], [f64; 3])]) -> Vec<[f64; 3]> {
+    let dir = temp_dir("probe");
+    let path = dir.join("points.json");
+    let json: Vec<serde_json::Value> = points
+        .iter()
+        .map(|(p, n)| serde_json::json!({"position": p, "normal": n}))
+        .collect();
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+    let v = lrr_json(&[
+        "probe",
+        file.to_str().unwrap(),
+        "--points",
+        path.to_str().unwrap(),
+        "--json",
+    ]);
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|p| {
+            let r = p["radiosity"].as_array().unwrap();
+            [
+                r[0].as_f64().unwrap(),
+                r[1].as_f64().unwrap(),
+                r[2].as_f64().unwrap(),
+            ]
+        })
+        .collect()
+}
+
+#[test]
+fn cornell_energy_is_plausible_and_bakes_are_deterministic() {
+    let dir = temp_dir("cornell");
+    let one = dir.join("t1.lrr");
+    let two = dir.join("t2.lrr");
+    let scene = cornell();
+    lrr(&[
+        "bake",
+        scene.to_str().unwrap(),
+        "-o",
+        one.to_str().unwrap(),
+        "--threads",
+        "1",
+        "-q",
+    ])
+    .unwrap();
+    lrr(&[
+        "bake",
+        scene.to_str().unwrap(),
+        "-o",
+        two.to_str().unwrap(),
+        "--threads",
+        "2",
+        "-q",
+    ])
+    .unwrap();
+    assert!(
+        std::fs::read(&one).unwrap() == std::fs::read(&two).unwrap(),
+        "1 and 2 threads differ"
+    );
+
+    let up = [0.0, 1.0, 0.0];
+    let b = probe(
+        &one,
+        &[
+            ([555.0, 274.0, 280.0], [-1.0, 0.0, 0.0]), // red wall, middle
+            ([278.0, 0.0, 140.0], up),                 // floor in the open, in front
+            ([368.0, 0.0, 351.0], up),                 // floor under the tall block
+            ([200.0, 0.0, 500.0], up),                 // floor behind the blocks, in the open
+        ],
+    );
+    let (red, floor, under, open) = (b[0], b[1], b[2], b[3]);
+    println!(
+        "red wall {red:?}, floor {floor:?}, under the tall block {under:?}, open floor {open:?}"
+    );
+    // Red wall: red dominates far more than on the white floor.
+    assert!(
+        red[0] / red[1] > 3.0 * (floor[0] / floor[1]),
+        "red {red:?} floor {floor:?}"
+    );
+    // Under the tall block the floor is enclosed: nothing reaches it.
+    for c in 0..3 {
+        assert!(under[c] < 1e-3 * open[c], "under {under:?} open {open:?}");
+        assert!(floor[c] > 0.0 && open[c] > 0.0);
+    }
+}
+
+#[test]
+fn the_public_obj_imports_with_warnings_for_its_quirks() {
+    // The archive OBJ repeats two faces (its "Bottom Face" lines); they are dropped.
+    let scene = lrr_precompute::scene::load(&shared_cornell_obj()).unwrap();
+    let dups: Vec<&String> = scene
+        .warnings
+        .iter()
+        .filter(|w| w.contains("duplicates"))
+        .collect();
+    assert_eq!(dups.len(), 2, "{:?}", scene.warnings);
+    assert!(
+        dups.iter().all(|w| w.contains("CornellBox-Original.obj:")),
+        "{dups:?}"
+    );
+    let vf = lrr_json(&[
+        "view-factors",
+        shared_cornell_obj().to_str().unwrap(),
+        "--json",
+        "--quiet",
+    ]);
+    // Closed except the front: every row of an inner wall sums to less than 1.
+    for row in vf["matrix"].as_array().unwrap() {
+        let sum: f64 = row
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f.as_f64().unwrap())
+            .sum();
+        assert!(sum > 0.0 && sum <= 1.0 + 1e-3, "{sum}");
+    }
+    let dir = temp_dir("obj");
+    let out = dir.join("obj.lrr");
+    lrr(&[
+        "bake",
+        shared_cornell_obj().to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+    ])
+    .unwrap();
+    let op = Operator::load(&out).unwrap();
+    assert_eq!(op.channels(), 3);
+}
