@@ -72,3 +72,67 @@ impl Operator {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use lrr_formats::{FkData, Geometry, Layout, OperatorFile, Precision};
+
+    use crate::Operator;
+
+    /// Two facing "infinite plates" (F = 1 each way), ρ = 0.5, stored with the file order
+    /// reversed (file position 0 holds element 1) to exercise the permutation.
+    fn plates() -> Operator {
+        let square = |z: f32| [0.0, 0.0, z, 1.0, 0.0, z, 1.0, 1.0, z, 0.0, 1.0, z];
+        let mut vertices = square(1.0).to_vec();
+        vertices.extend(square(0.0));
+        let file = OperatorFile {
+            metadata_json: "{}".into(),
+            n: 2,
+            k: 2,
+            channels: 1,
+            precision: Precision::F32,
+            layout: Layout::Factored,
+            order: vec![1, 0],
+            index: vec![0, 1, 2],
+            weights: vec![1.0, 1.0],
+            fk: FkData::F32(vec![0.0, 1.0, 1.0, 0.0]),
+            cores: vec![4.0 / 3.0, 2.0 / 3.0, 2.0 / 3.0, 4.0 / 3.0],
+            reflectance: vec![0.5; 6],
+            emission: vec![0.0; 6],
+            geometry: Geometry { vertex_count: vec![4, 4], vertices, normals: vec![0.0, 0.0, -1.0, 0.0, 0.0, 1.0] },
+        };
+        Operator::from_file(file).unwrap()
+    }
+
+    #[test]
+    fn two_plates_match_the_closed_form() {
+        // B0 = E0 + ρ B1, B1 = ρ B0 with E = (1, 0): B = (4/3, 2/3).
+        let op = plates();
+        let mut out = [[0.0; 3]; 2];
+        op.evaluate(&[[1.0, 2.0, 0.0], [0.0; 3]], &mut out).unwrap();
+        let expected = [[4.0 / 3.0, 8.0 / 3.0, 0.0], [2.0 / 3.0, 4.0 / 3.0, 0.0]];
+        for (b, e) in out.iter().zip(expected) {
+            for c in 0..3 {
+                assert!((b[c] - e[c]).abs() < 1e-6, "{out:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn bad_emission_is_an_error() {
+        let op = plates();
+        let mut out = [[0.0; 3]; 2];
+        assert!(op.evaluate(&[[f32::NAN, 0.0, 0.0], [0.0; 3]], &mut out).is_err());
+        assert!(op.evaluate(&[[-1.0, 0.0, 0.0], [0.0; 3]], &mut out).is_err());
+        assert!(op.evaluate(&[[1.0, 0.0, 0.0]], &mut out).is_err());
+        assert!(out.iter().flatten().all(|x| *x == 0.0), "nothing written on error");
+    }
+
+    #[test]
+    fn locate_tells_coincident_surfaces_apart_by_normal() {
+        let op = plates();
+        // File position 0 is element 1 (the top plate, facing down).
+        assert_eq!(op.locate([0.5, 0.5, 0.9], [0.0, 0.0, -1.0]), Some(1));
+        assert_eq!(op.locate([0.5, 0.5, 0.9], [0.0, 0.0, 1.0]), Some(0));
+    }
+}

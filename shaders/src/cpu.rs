@@ -33,8 +33,8 @@ pub fn segment_sums(
 }
 
 /// Mirror of `core_product` (`wgsl/core_product.wgsl`): `z[p][c] = Σ_q M_c[p][q] x[q][c]`,
-/// with `cores` holding `params.channels` (1 or 3) `k × k` row-major matrices; one core serves
-/// all three channels.
+/// with `cores` holding `params.channels` (1 or 3) `k × k` row-major matrices; a single core
+/// serves all three channels.
 pub fn core_product(params: &Params, cores: &[f32], x: &[[f32; 3]], z: &mut [[f32; 3]]) {
     assert!(
         matches!(params.channels, 1 | 3),

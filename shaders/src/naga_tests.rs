@@ -3,7 +3,9 @@
 //! against the parsed module.
 
 use naga::valid::{Capabilities, ModuleInfo, ValidationFlags, Validator};
-use naga::{AddressSpace, Expression, Literal, Module, ShaderStage, StorageAccess, TypeInner};
+use naga::{
+    AddressSpace, Expression, Literal, Module, ShaderStage, Statement, StorageAccess, TypeInner,
+};
 
 use crate::{Access, LANES, Params, Pass, source};
 
@@ -13,8 +15,8 @@ fn parse(pass: Pass) -> Module {
         .unwrap_or_else(|e| panic!("{pass:?} does not parse:\n{}", e.emit_to_string(&wgsl)))
 }
 
-/// Validation with every check (uniformity of barriers included) and no optional capability:
-/// stricter than `Capabilities::all()`, it shows the passes run on any WebGPU adapter.
+/// Validation with every check and no optional capability: stricter than
+/// `Capabilities::all()`, it shows the passes need nothing a WebGPU adapter may lack.
 fn validate(pass: Pass, module: &Module) -> ModuleInfo {
     Validator::new(ValidationFlags::all(), Capabilities::empty())
         .validate(module)
@@ -58,6 +60,28 @@ fn each_pass_has_its_one_compute_entry_point() {
         assert_eq!(entry.name, pass.entry_point(), "{pass:?}");
         assert_eq!(entry.stage, ShaderStage::Compute, "{pass:?}");
         assert_eq!(entry.workgroup_size, [LANES, 1, 1], "{pass:?}");
+    }
+}
+
+/// Barriers must be reached by the whole workgroup. naga 30 tracks that requirement but does not
+/// reject a violation (a `reduce_lanes` moved under `if lane < 3u` still validates), so this
+/// checks the one shape the passes use: `reduce_lanes` called once, from the entry point's
+/// top-level block, where only a workgroup-uniform early return can come before it.
+#[test]
+fn barriers_run_in_uniform_control_flow() {
+    for pass in Pass::ALL {
+        let module = parse(pass);
+        let entry = &module.entry_points[0];
+        let is_reduce = |s: &Statement| match *s {
+            Statement::Call { function, .. } => {
+                module.functions[function].name.as_deref() == Some("reduce_lanes")
+            }
+            _ => false,
+        };
+        let top_level = entry.function.body.iter().filter(|s| is_reduce(s)).count();
+        assert_eq!(top_level, 1, "{pass:?}: reduce_lanes at the top level");
+        let calls = source(pass).matches("reduce_lanes(").count();
+        assert_eq!(calls, 2, "{pass:?}: one definition and one call");
     }
 }
 

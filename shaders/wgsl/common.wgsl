@@ -7,13 +7,15 @@
 
 // The per-dispatch uniform, binding 0 of every pass.
 // Mirrored by the Rust struct `lrr_shaders::Params` (shaders/src/params.rs): same fields in the
-// same order, 32 bytes. A test there parses this struct with naga and compares names and offsets.
+// same order, 32 bytes. A test (shaders/src/naga_tests.rs) parses this struct with naga and
+// compares names, offsets and size.
 struct Params {
     // Elements (rows of F_k, entries of E, rho and B).
     n: u32,
     // Patches (columns of F_k, rows of the k x k cores, entries of X and Z).
     k: u32,
-    // Number of k x k cores: 1 (one core serves all three channels) or 3 (one per channel).
+    // Number of k x k cores: 1 (one core serves all three channels) or 3 (one per channel);
+    // core_product reads any other value as 1.
     channels: u32,
     // gather: first element (row of F_k) this dispatch computes.
     row_offset: u32,

@@ -140,8 +140,8 @@ impl Case {
         let mut x = vec![[0.0f64; 3]; k];
         for (p, xp) in x.iter_mut().enumerate() {
             for s in self.index[p] as usize..self.index[p + 1] as usize {
-                for c in 0..3 {
-                    xp[c] += v(self.weights[s]) * v(self.emission[s][c]);
+                for (xc, e) in xp.iter_mut().zip(self.emission[s]) {
+                    *xc += v(self.weights[s]) * v(e);
                 }
             }
         }

@@ -5,4 +5,5 @@ mod analytic;
 mod cornell;
 mod files;
 mod furnace;
+mod import;
 mod util;
