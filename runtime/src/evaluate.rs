@@ -99,7 +99,11 @@ mod tests {
             cores: vec![4.0 / 3.0, 2.0 / 3.0, 2.0 / 3.0, 4.0 / 3.0],
             reflectance: vec![0.5; 6],
             emission: vec![0.0; 6],
-            geometry: Geometry { vertex_count: vec![4, 4], vertices, normals: vec![0.0, 0.0, -1.0, 0.0, 0.0, 1.0] },
+            geometry: Geometry {
+                vertex_count: vec![4, 4],
+                vertices,
+                normals: vec![0.0, 0.0, -1.0, 0.0, 0.0, 1.0],
+            },
         };
         Operator::from_file(file).unwrap()
     }
@@ -122,10 +126,19 @@ mod tests {
     fn bad_emission_is_an_error() {
         let op = plates();
         let mut out = [[0.0; 3]; 2];
-        assert!(op.evaluate(&[[f32::NAN, 0.0, 0.0], [0.0; 3]], &mut out).is_err());
-        assert!(op.evaluate(&[[-1.0, 0.0, 0.0], [0.0; 3]], &mut out).is_err());
+        assert!(
+            op.evaluate(&[[f32::NAN, 0.0, 0.0], [0.0; 3]], &mut out)
+                .is_err()
+        );
+        assert!(
+            op.evaluate(&[[-1.0, 0.0, 0.0], [0.0; 3]], &mut out)
+                .is_err()
+        );
         assert!(op.evaluate(&[[1.0, 0.0, 0.0]], &mut out).is_err());
-        assert!(out.iter().flatten().all(|x| *x == 0.0), "nothing written on error");
+        assert!(
+            out.iter().flatten().all(|x| *x == 0.0),
+            "nothing written on error"
+        );
     }
 
     #[test]

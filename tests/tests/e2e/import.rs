@@ -25,10 +25,17 @@ fn degenerate_faces_are_dropped_with_file_and_line_and_non_planar_quads_split() 
     );
     let scene = lrr_precompute::scene::load(&obj).unwrap();
     assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
-    assert!(scene.warnings[0].contains("s.obj:15") && scene.warnings[0].contains("degenerate"), "{:?}", scene.warnings);
+    assert!(
+        scene.warnings[0].contains("s.obj:15") && scene.warnings[0].contains("degenerate"),
+        "{:?}",
+        scene.warnings
+    );
     // floor stays one quad; the non-planar lamp quad becomes two triangles.
     assert_eq!(scene.faces.len(), 3);
-    assert_eq!(scene.faces.iter().filter(|f| f.polygon.count == 3).count(), 2);
+    assert_eq!(
+        scene.faces.iter().filter(|f| f.polygon.count == 3).count(),
+        2
+    );
     // Ke is radiance: exitance is π·Ke.
     let lamp = scene.materials.iter().find(|m| m.name == "lamp").unwrap();
     assert!((lamp.emission[0] - std::f64::consts::PI).abs() < 1e-12);
@@ -39,22 +46,57 @@ fn bad_obj_input_gets_errors_naming_file_line_and_problem() {
     let dir = temp_dir("import-bad");
     write(&dir, "s.mtl", MTL);
     let cases = [
-        ("index.obj", "mtllib s.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", "index.obj:5", "out of range"),
+        (
+            "index.obj",
+            "mtllib s.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n",
+            "index.obj:5",
+            "out of range",
+        ),
         ("nan.obj", "v 0 0 0\nv nan 0 0\n", "nan.obj:2", "finite"),
-        ("missing-mtl.obj", "mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "missing-mtl.obj", "material library"),
+        (
+            "missing-mtl.obj",
+            "mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+            "missing-mtl.obj",
+            "material library",
+        ),
         ("empty.obj", "# nothing\n", "empty.obj", "no faces"),
-        ("rho.obj", "mtllib r.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl r\nf 1 2 3\n", "material 'r'", "reflectance"),
+        (
+            "rho.obj",
+            "mtllib r.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl r\nf 1 2 3\n",
+            "material 'r'",
+            "reflectance",
+        ),
     ];
     write(&dir, "r.mtl", "newmtl r\nKd 1.2 0.5 0.5\n");
     for (name, text, place, problem) in cases {
         let path = write(&dir, name, text);
-        let err = lrr(&["bake", path.to_str().unwrap(), "-o", dir.join("x.lrr").to_str().unwrap(), "-q"]).unwrap_err();
+        let err = lrr(&[
+            "bake",
+            path.to_str().unwrap(),
+            "-o",
+            dir.join("x.lrr").to_str().unwrap(),
+            "-q",
+        ])
+        .unwrap_err();
         println!("{name}: {err}");
-        assert!(err.contains(place) && err.contains(problem), "{name}: {err}");
+        assert!(
+            err.contains(place) && err.contains(problem),
+            "{name}: {err}"
+        );
     }
     // Non-UTF-8 bytes in a name.
     let path = dir.join("latin1.obj");
     std::fs::write(&path, b"v 0 0 0\ng caf\xe9\n").unwrap();
-    let err = lrr(&["bake", path.to_str().unwrap(), "-o", dir.join("x.lrr").to_str().unwrap(), "-q"]).unwrap_err();
-    assert!(err.contains("latin1.obj:2") && err.contains("UTF-8"), "{err}");
+    let err = lrr(&[
+        "bake",
+        path.to_str().unwrap(),
+        "-o",
+        dir.join("x.lrr").to_str().unwrap(),
+        "-q",
+    ])
+    .unwrap_err();
+    assert!(
+        err.contains("latin1.obj:2") && err.contains("UTF-8"),
+        "{err}"
+    );
 }
