@@ -8,7 +8,8 @@ use crate::bytes::{self, checked_product};
 use crate::container::Container;
 use crate::error::{ErrorKind, FormatError};
 use crate::kind;
-use crate::operator::{FkData, Geometry, Layout, OperatorFile, Precision};
+use crate::lights;
+use crate::operator::{FkData, Geometry, Layout, OperatorData, OperatorFile, Precision};
 use crate::writer::ContainerWriter;
 
 /// Bytes in the DIMS payload: n, k, channels, precision, layout, 3 reserved, all u32.
@@ -25,6 +26,8 @@ pub(crate) struct Sizes {
     pub fk: usize,
     /// `channels * k * k`: cores.
     pub cores: usize,
+    /// `channels * n * k`: plain Y_k.
+    pub yk: usize,
     /// `n * 3`: reflectance, emission, normals.
     pub rgb: usize,
     /// `n * 12`: vertices.
@@ -39,6 +42,7 @@ impl Sizes {
             index: checked_product("section INDEX (k + 1)", &[k64 + 1])?,
             fk: checked_product("section FK (n * k)", &[n64, k64])?,
             cores: checked_product("section CORES (channels * k * k)", &[c64, k64, k64])?,
+            yk: checked_product("section YK (channels * n * k)", &[c64, n64, k64])?,
             rgb: checked_product("section REFLECTANCE (n * 3)", &[n64, 3])?,
             vertices: checked_product("section GEOMETRY (n * 12)", &[n64, 12])?,
         })
@@ -68,19 +72,32 @@ pub(crate) fn encode(file: &OperatorFile) -> Vec<u8> {
     w.add(kind::ORDER, true, u32_payload(&file.order));
     w.add(kind::INDEX, true, u32_payload(&file.index));
     w.add(kind::WEIGHTS, true, f32_payload(&file.weights));
-    let mut fk = Vec::new();
-    match &file.fk {
-        FkData::F32(v) => bytes::put_f32s(&mut fk, v),
-        FkData::F16(v) => bytes::put_u16s(&mut fk, v),
+    if let OperatorData::Factored { fk, cores } = &file.operator {
+        w.add(kind::FK, true, matrix_payload(fk));
+        let mut payload = Vec::new();
+        bytes::put_f64s(&mut payload, cores);
+        w.add(kind::CORES, true, payload);
     }
-    w.add(kind::FK, true, fk);
-    let mut cores = Vec::new();
-    bytes::put_f64s(&mut cores, &file.cores);
-    w.add(kind::CORES, true, cores);
     w.add(kind::REFLECTANCE, true, f32_payload(&file.reflectance));
     w.add(kind::EMISSION, true, f32_payload(&file.emission));
     w.add(kind::GEOMETRY, true, encode_geometry(&file.geometry));
+    if let OperatorData::PlainYk { yk } = &file.operator {
+        w.add(kind::YK, true, matrix_payload(yk));
+    }
+    if !file.lights.is_empty() {
+        // Optional: a reader of format 1.0 skips it and still evaluates per-element emission.
+        w.add(kind::LIGHTS, false, lights::encode(&file.lights));
+    }
     w.to_bytes()
+}
+
+fn matrix_payload(m: &FkData) -> Vec<u8> {
+    let mut out = Vec::new();
+    match m {
+        FkData::F32(v) => bytes::put_f32s(&mut out, v),
+        FkData::F16(v) => bytes::put_u16s(&mut out, v),
+    }
+    out
 }
 
 fn encode_dims(file: &OperatorFile) -> Vec<u8> {
@@ -89,7 +106,7 @@ fn encode_dims(file: &OperatorFile) -> Vec<u8> {
         file.k,
         file.channels,
         file.precision.code(),
-        file.layout.code(),
+        file.layout().code(),
         0,
         0,
         0,
@@ -143,9 +160,10 @@ pub(crate) fn decode(c: &Container<'_>) -> Result<OperatorFile, FormatError> {
             e.utf8_error().valid_up_to()
         ))
     })?;
-    let fk = match precision {
-        Precision::F32 => FkData::F32(bytes::f32s(exact(c, kind::FK, sizes.fk, 4, "n * k")?)),
-        Precision::F16 => FkData::F16(bytes::u16s(exact(c, kind::FK, sizes.fk, 2, "n * k")?)),
+    let operator = decode_operator(c, layout, precision, &sizes)?;
+    let lights = match c.section(kind::LIGHTS) {
+        Some(payload) => lights::decode(payload, sizes.index - 1)?,
+        None => Vec::new(),
     };
     Ok(OperatorFile {
         metadata_json,
@@ -153,15 +171,55 @@ pub(crate) fn decode(c: &Container<'_>) -> Result<OperatorFile, FormatError> {
         k,
         channels,
         precision,
-        layout,
         order: bytes::u32s(exact(c, kind::ORDER, sizes.n, 4, "n")?),
         index: bytes::u32s(exact(c, kind::INDEX, sizes.index, 4, "k + 1")?),
         weights: bytes::f32s(exact(c, kind::WEIGHTS, sizes.n, 4, "n")?),
-        fk,
-        cores: bytes::f64s(exact(c, kind::CORES, sizes.cores, 8, "channels * k * k")?),
+        operator,
         reflectance: bytes::f32s(exact(c, kind::REFLECTANCE, sizes.rgb, 4, "n * 3")?),
         emission: bytes::f32s(exact(c, kind::EMISSION, sizes.rgb, 4, "n * 3")?),
         geometry: decode_geometry(require(c, kind::GEOMETRY)?, &sizes)?,
+        lights,
+    })
+}
+
+/// FK and CORES, or YK; the sections of the other layout must be absent.
+fn decode_operator(
+    c: &Container<'_>,
+    layout: Layout,
+    precision: Precision,
+    sizes: &Sizes,
+) -> Result<OperatorData, FormatError> {
+    let (present, absent): (&[u32], &[u32]) = match layout {
+        Layout::Factored => (&[kind::FK, kind::CORES], &[kind::YK]),
+        Layout::PlainYk => (&[kind::YK], &[kind::FK, kind::CORES]),
+    };
+    if let Some(&other) = absent.iter().find(|&&kind| c.section(kind).is_some()) {
+        return Err(FormatError::corrupt(format!(
+            "section {} is present, but DIMS says the layout is {layout:?}, which stores {}",
+            kind::describe(other),
+            present
+                .iter()
+                .map(|&k| kind::name(k).unwrap_or("?"))
+                .collect::<Vec<_>>()
+                .join(" and ")
+        )));
+    }
+    let matrix = |kind, count, formula| -> Result<FkData, FormatError> {
+        let size = precision.size() as u64;
+        let payload = exact(c, kind, count, size, formula)?;
+        Ok(match precision {
+            Precision::F32 => FkData::F32(bytes::f32s(payload)),
+            Precision::F16 => FkData::F16(bytes::u16s(payload)),
+        })
+    };
+    Ok(match layout {
+        Layout::Factored => OperatorData::Factored {
+            fk: matrix(kind::FK, sizes.fk, "n * k")?,
+            cores: bytes::f64s(exact(c, kind::CORES, sizes.cores, 8, "channels * k * k")?),
+        },
+        Layout::PlainYk => OperatorData::PlainYk {
+            yk: matrix(kind::YK, sizes.yk, "channels * n * k")?,
+        },
     })
 }
 

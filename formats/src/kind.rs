@@ -1,8 +1,9 @@
 //! Section kinds: the `u32` codes in the section table.
 //!
-//! Every kind listed here is known to this reader. The writer marks all of them *required*; a
-//! reader that meets a required kind it does not know refuses the file, and skips unknown
-//! optional ones. New kinds take new codes; a code is never reused for another meaning.
+//! Every kind listed here is known to this reader. The writer marks all of them *required* except
+//! [`LIGHTS`] (optional, so that readers of format 1.0 skip it); a reader that meets a required
+//! kind it does not know refuses the file, and skips unknown optional ones. New kinds take new
+//! codes; a code is never reused for another meaning.
 
 /// UTF-8 JSON text from the precompute (scene name, bake parameters, timings, error estimates).
 pub const METADATA: u32 = 1;
@@ -24,9 +25,15 @@ pub const REFLECTANCE: u32 = 8;
 pub const EMISSION: u32 = 9;
 /// Display geometry: vertex counts, vertices, normals.
 pub const GEOMETRY: u32 = 10;
+/// `channels * n * k` plain `Y_c = -diag(rho_c) F_k M_c`, `f32` or binary16 per DIMS (format 1.1,
+/// plain layout only).
+pub const YK: u32 = 11;
+/// Light groups: names, positions, emission and `Vᵀ E_g` (format 1.1, optional).
+pub const LIGHTS: u32 = 12;
 
-/// Every kind this reader knows, in the order the writer stores them.
-pub const KNOWN: [u32; 10] = [
+/// Every kind this reader knows, by code. The writer stores them in this order, leaving out the
+/// operator sections of the other layout (FK and CORES, or YK) and an empty LIGHTS.
+pub const KNOWN: [u32; 12] = [
     METADATA,
     DIMS,
     ORDER,
@@ -37,6 +44,8 @@ pub const KNOWN: [u32; 10] = [
     REFLECTANCE,
     EMISSION,
     GEOMETRY,
+    YK,
+    LIGHTS,
 ];
 
 /// The name of a known kind (`"FK"`), `None` for unknown codes.
@@ -52,6 +61,8 @@ pub fn name(kind: u32) -> Option<&'static str> {
         REFLECTANCE => "REFLECTANCE",
         EMISSION => "EMISSION",
         GEOMETRY => "GEOMETRY",
+        YK => "YK",
+        LIGHTS => "LIGHTS",
         _ => return None,
     })
 }

@@ -8,9 +8,9 @@
 //! Two levels:
 //! - [`Container`] / [`ContainerWriter`]: header, section table, payload bytes.
 //! - [`OperatorFile`]: the decoded, validated operator (see DESIGN.md §2 for the maths:
-//!   `B~_c = E_c + rho_c ⊙ F_k M_c (Vᵀ E_c)`).
+//!   `B~_c = E_c + rho_c ⊙ F_k M_c (Vᵀ E_c)`, or `B~_c = E_c - Y_c (Vᵀ E_c)` in the plain layout).
 //!
-//! # Layout, version 1.0
+//! # Layout, version 1.1
 //!
 //! All integers little-endian. The header (64 bytes):
 //!
@@ -43,26 +43,58 @@
 //! ends with the last payload. The checksums detect corruption (any single changed byte for
 //! certain), not tampering: anyone can recompute them.
 //!
-//! The sections of an operator file, all written as required:
+//! The sections of an operator file, all written as required except LIGHTS:
 //!
 //! | kind | name | payload |
 //! |-----:|------|---------|
 //! | 1 | [`METADATA`](kind::METADATA) | UTF-8 JSON text |
-//! | 2 | [`DIMS`](kind::DIMS) | `n, k, channels, precision (0 f32, 1 f16), layout (0 factored)`, 3 reserved: 8 × u32 |
+//! | 2 | [`DIMS`](kind::DIMS) | `n, k, channels, precision (0 f32, 1 f16), layout (0 factored, 1 plain Y_k)`, 3 reserved: 8 × u32 |
 //! | 3 | [`ORDER`](kind::ORDER) | `n` × u32: file position -> element id |
 //! | 4 | [`INDEX`](kind::INDEX) | `k + 1` × u32: patch offsets |
 //! | 5 | [`WEIGHTS`](kind::WEIGHTS) | `n` × f32 |
-//! | 6 | [`FK`](kind::FK) | `n * k` × f32 or u16 (binary16), row-major |
-//! | 7 | [`CORES`](kind::CORES) | `channels * k * k` × f64, row-major |
+//! | 6 | [`FK`](kind::FK) | factored layout only: `n * k` × f32 or u16 (binary16), row-major |
+//! | 7 | [`CORES`](kind::CORES) | factored layout only: `channels * k * k` × f64, row-major |
 //! | 8 | [`REFLECTANCE`](kind::REFLECTANCE) | `n * 3` × f32 |
 //! | 9 | [`EMISSION`](kind::EMISSION) | `n * 3` × f32 |
 //! | 10 | [`GEOMETRY`](kind::GEOMETRY) | `n` × u8 vertex counts, zero-padded to 4 bytes; `n * 12` × f32 vertices; `n * 3` × f32 normals |
+//! | 11 | [`YK`](kind::YK) | plain layout only (1.1): `channels * n * k` × f32 or u16 (binary16): channel-major, each channel `n x k` row-major, rows in file order |
+//! | 12 | [`LIGHTS`](kind::LIGHTS) | optional (1.1), absent when there are no groups: the light groups, see below |
+//!
+//! The factored layout stores FK and CORES and no YK; the plain layout stores YK and neither FK
+//! nor CORES. A file holding a section of the other layout is refused.
+//!
+//! ## LIGHTS
+//!
+//! A count and one record per [`LightGroup`]; every record starts at a multiple of 8 bytes from
+//! the start of the payload, so every field is naturally aligned:
+//!
+//! | offset | size | field |
+//! |-------:|-----:|-------|
+//! | 0 | 4 | group count `G` |
+//! | 4 | 4 | reserved (0, ignored) |
+//! | 8 | | `G` records |
+//!
+//! A record, with `L` the length of the name in bytes and `m` the number of positions:
+//!
+//! | offset | size | field |
+//! |-------:|-----:|-------|
+//! | 0 | 4 | `L` (at least 1) |
+//! | 4 | 4 | `m` (at least 1) |
+//! | 8 | `24 k` | `x = Vᵀ E_g`: `k * 3` × f64, `x[3 p + c]` |
+//! | `8 + 24 k` | `L` rounded up to 8 | name, UTF-8, zero-padded |
+//! | then | `4 m` | file positions: `m` × u32, strictly increasing |
+//! | then | `12 m` | emission at intensity 1: `m * 3` × f32 (RGB per position) |
+//!
+//! The payload ends with the last record.
 //!
 //! # Compatibility
 //!
 //! A reader refuses another major version, naming both versions. It reads any minor version of
 //! its major: a newer minor may add sections, which older readers skip when they are optional and
-//! refuse, with an error, when they are marked required.
+//! refuse, with an error, when they are marked required. Version 1.1 added the plain layout
+//! (layout code 1, section YK, required) and light groups (LIGHTS, optional): a 1.0 reader
+//! refuses plain files and reads factored files with light groups as if they had none; this
+//! reader reads 1.0 files unchanged.
 //!
 //! A reader also refuses ([`ErrorKind`] says which kind of fault): a wrong magic; a table or
 //! payload past the end of the file; a payload offset that is misaligned or inside the table;
@@ -73,21 +105,22 @@
 //! # Example
 //!
 //! ```
-//! use lrr_formats::{FkData, Geometry, Layout, OperatorFile, Precision};
+//! use lrr_formats::{FkData, Geometry, Layout, OperatorData, OperatorFile, Precision};
 //!
 //! // Two triangles forming one patch, the first one emitting.
-//! let file = OperatorFile {
+//! let mut file = OperatorFile {
 //!     metadata_json: r#"{"scene":"two triangles"}"#.to_string(),
 //!     n: 2,
 //!     k: 1,
 //!     channels: 1,
 //!     precision: Precision::F32,
-//!     layout: Layout::Factored,
 //!     order: vec![1, 0],
 //!     index: vec![0, 2],
 //!     weights: vec![0.5, 0.5],
-//!     fk: FkData::F32(vec![0.0, 0.0]),
-//!     cores: vec![1.0],
+//!     operator: OperatorData::Factored {
+//!         fk: FkData::F32(vec![0.0, 0.0]),
+//!         cores: vec![1.0],
+//!     },
 //!     reflectance: vec![0.5; 6],
 //!     emission: vec![1.0, 1.0, 1.0, 0.0, 0.0, 0.0],
 //!     geometry: Geometry {
@@ -98,7 +131,12 @@
 //!         ],
 //!         normals: vec![0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
 //!     },
+//!     lights: Vec::new(),
 //! };
+//! // A light group: file position 0 at intensity 1 (x = Vᵀ E_g is computed from the file).
+//! let lamp = file.light_group("lamp", vec![0], vec![1.0, 1.0, 1.0])?;
+//! assert_eq!(lamp.x, [0.5, 0.5, 0.5]);
+//! file.lights.push(lamp);
 //!
 //! let bytes = file.to_bytes()?;
 //! assert_eq!(&bytes[..8], &lrr_formats::MAGIC);
@@ -114,6 +152,10 @@
 //! let last = damaged.len() - 1;
 //! damaged[last] ^= 1;
 //! assert!(OperatorFile::from_bytes(&damaged).is_err());
+//!
+//! // The papers' plain layout, for comparison: Y_k = -diag(rho) F_k M (n x k per channel).
+//! let plain = file.to_plain_yk(1)?;
+//! assert_eq!(plain.layout(), Layout::PlainYk);
 //! # Ok::<(), lrr_formats::FormatError>(())
 //! ```
 
@@ -125,9 +167,11 @@ mod bytes;
 mod checksum;
 mod codec;
 mod container;
+mod convert;
 mod error;
 mod half;
 pub mod kind;
+mod lights;
 mod operator;
 #[cfg(test)]
 mod testdata;
@@ -141,7 +185,7 @@ pub use container::{
 };
 pub use error::{ErrorKind, FormatError};
 pub use half::{f16_to_f32, f32_to_f16};
-pub use operator::{FkData, Geometry, Layout, OperatorFile, Precision};
+pub use operator::{FkData, Geometry, Layout, LightGroup, OperatorData, OperatorFile, Precision};
 pub use writer::ContainerWriter;
 
 /// The first 8 bytes of every operator file: `\x89LRR\r\n\x1a\n`.
@@ -149,4 +193,4 @@ pub const MAGIC: [u8; 8] = *b"\x89LRR\r\n\x1a\n";
 /// The major format version this crate reads and writes; files of another major are refused.
 pub const VERSION_MAJOR: u16 = 1;
 /// The minor format version this crate writes; files of any minor version are read.
-pub const VERSION_MINOR: u16 = 0;
+pub const VERSION_MINOR: u16 = 1;

@@ -10,7 +10,7 @@ use crate::atomic::write_atomic;
 use crate::codec;
 use crate::container::Container;
 use crate::error::{ErrorKind, FormatError};
-use crate::half::f16_to_f32;
+use crate::half::{f16_to_f32, f32_to_f16};
 use crate::validate;
 
 /// How `F_k` is stored.
@@ -49,11 +49,15 @@ impl Precision {
     }
 }
 
-/// How the operator is stored. Only one layout exists so far; more come later with new codes.
+/// How the operator is stored (DIMS word 4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Layout {
-    /// Shared `F_k` (n x k) plus `channels` k x k cores `M_c` (DIMS code 0).
+    /// Shared `F_k` (n x k) plus `channels` k x k cores `M_c` (DIMS code 0): sections FK and CORES.
     Factored,
+    /// The papers' plain per-channel `Y_c = -diag(rho_c) F_k M_c` (DIMS code 1): section YK, so
+    /// `B_c = E_c - Y_c (Vᵀ E_c)`. Reads `channels` times the bytes of `Factored` per RGB frame
+    /// and bakes the reflectance in (no albedo edits); kept for comparison with the papers.
+    PlainYk,
 }
 
 impl Layout {
@@ -61,6 +65,7 @@ impl Layout {
     pub fn code(self) -> u32 {
         match self {
             Layout::Factored => 0,
+            Layout::PlainYk => 1,
         }
     }
 
@@ -68,13 +73,15 @@ impl Layout {
     pub fn from_code(code: u32) -> Option<Self> {
         match code {
             0 => Some(Layout::Factored),
+            1 => Some(Layout::PlainYk),
             _ => None,
         }
     }
 }
 
-/// The element-to-patch form factors `F_k`: `n * k` values, row-major (row = element in file
-/// order, column = patch).
+/// A stored matrix in the file's [`Precision`]: the form factors `F_k` of the factored layout
+/// (n x k, row-major: row = element in file order, column = patch), or the `channels` n x k
+/// blocks of `Y_k` of the plain layout, one after the other.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FkData {
     /// Single precision.
@@ -120,6 +127,67 @@ impl FkData {
             FkData::F16(v) => v.iter().map(|&h| f16_to_f32(h)).collect(),
         }
     }
+
+    /// `values` stored in `precision` (rounded to nearest for binary16).
+    pub fn from_f32(values: &[f32], precision: Precision) -> Self {
+        match precision {
+            Precision::F32 => FkData::F32(values.to_vec()),
+            Precision::F16 => FkData::F16(values.iter().map(|&v| f32_to_f16(v)).collect()),
+        }
+    }
+}
+
+/// The operator itself, in one of the two [`Layout`]s.
+#[derive(Debug, Clone, PartialEq)]
+pub enum OperatorData {
+    /// `F_k` and the cores: `B_c = E_c + rho_c ⊙ F_k M_c (Vᵀ E_c)`.
+    Factored {
+        /// `n * k` element-to-patch form factors `F_k`, finite, >= 0.
+        fk: FkData,
+        /// `channels * k * k` row-major: `M_c = (I - Vᵀ diag(rho_c) F_k)⁻¹`, finite.
+        cores: Vec<f64>,
+    },
+    /// Plain `Y_c = -diag(rho_c) F_k M_c`: `B_c = E_c - Y_c (Vᵀ E_c)`.
+    PlainYk {
+        /// `channels * n * k` values, finite: channel-major, each channel an n x k row-major
+        /// block with rows in file order.
+        yk: FkData,
+    },
+}
+
+impl OperatorData {
+    /// The layout of this data.
+    pub fn layout(&self) -> Layout {
+        match self {
+            OperatorData::Factored { .. } => Layout::Factored,
+            OperatorData::PlainYk { .. } => Layout::PlainYk,
+        }
+    }
+
+    /// The stored matrix a frame reads: `F_k`, or all channels of `Y_k`.
+    pub fn matrix(&self) -> &FkData {
+        match self {
+            OperatorData::Factored { fk, .. } => fk,
+            OperatorData::PlainYk { yk } => yk,
+        }
+    }
+}
+
+/// A named group of emitting elements (section LIGHTS): a frame given only per-group intensities
+/// `a_g` has `E = Σ_g a_g E_g` and `Vᵀ E = Σ_g a_g x_g` without an O(n) pass.
+///
+/// Build one with [`OperatorFile::light_group`], which computes `x` from the file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LightGroup {
+    /// Non-empty UTF-8, unique within the file.
+    pub name: String,
+    /// File positions of the group's elements, strictly increasing, `< n`, at least one.
+    pub positions: Vec<u32>,
+    /// `3 * positions.len()`: RGB exitance of each position at intensity 1, finite, >= 0.
+    pub emission: Vec<f32>,
+    /// `k * 3`: `x_g = Vᵀ E_g` per patch and channel (`x[3 p + c]`), finite; agrees with the
+    /// weights and `emission` within 1e-5 relative (see [`OperatorFile::light_group`]).
+    pub x: Vec<f64>,
 }
 
 /// The fine mesh for display, one polygon per element, in file order.
@@ -142,12 +210,11 @@ pub struct OperatorFile {
     pub n: u32,
     /// Number of patches (coarse mesh), at least 1 and at most `n`.
     pub k: u32,
-    /// Number of k x k cores: 1 (grey scene) or 3 (RGB).
+    /// Number of channels of the operator: 1 (grey scene) or 3 (RGB). Factored: the number of
+    /// cores; plain: the number of `Y_c` blocks.
     pub channels: u32,
-    /// How `fk` is stored; must agree with the variant of `fk`.
+    /// How the matrix of `operator` is stored; must agree with it.
     pub precision: Precision,
-    /// How the operator is stored.
-    pub layout: Layout,
     /// `n`: file position -> original element id (a permutation of `0..n`).
     pub order: Vec<u32>,
     /// `k + 1` offsets: patch `p` holds file positions `index[p]..index[p + 1]`; `index[0] = 0`,
@@ -155,19 +222,24 @@ pub struct OperatorFile {
     pub index: Vec<u32>,
     /// `n`: `w_e = A_e / A_P(e)`, finite, in (0, 1].
     pub weights: Vec<f32>,
-    /// `n * k` element-to-patch form factors `F_k`, finite, >= 0.
-    pub fk: FkData,
-    /// `channels * k * k` row-major: `M_c = (I - Vᵀ diag(rho_c) F_k)⁻¹`, finite.
-    pub cores: Vec<f64>,
+    /// The operator: `F_k` with cores, or plain `Y_k`.
+    pub operator: OperatorData,
     /// `n * 3` RGB reflectance per element (file order), finite, in [0, 1].
     pub reflectance: Vec<f32>,
     /// `n * 3` RGB emitted exitance per element (file order), finite, >= 0.
     pub emission: Vec<f32>,
     /// Display geometry.
     pub geometry: Geometry,
+    /// Light groups, possibly none (then no LIGHTS section is written).
+    pub lights: Vec<LightGroup>,
 }
 
 impl OperatorFile {
+    /// The layout of [`operator`](Self::operator).
+    pub fn layout(&self) -> Layout {
+        self.operator.layout()
+    }
+
     /// Encodes the file. Runs [`validate`](Self::validate) first: an inconsistent struct gives an
     /// `Invalid` error and no bytes.
     pub fn to_bytes(&self) -> Result<Vec<u8>, FormatError> {

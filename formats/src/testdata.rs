@@ -2,7 +2,7 @@
 //! public API).
 
 use crate::half::f32_to_f16;
-use crate::operator::{FkData, Geometry, Layout, OperatorFile, Precision};
+use crate::operator::{FkData, Geometry, OperatorData, OperatorFile, Precision};
 
 /// n = 6 elements in k = 2 patches of 3; elements 1, 3 are triangles, the others quads.
 pub(crate) fn sample(precision: Precision, channels: u32) -> OperatorFile {
@@ -22,17 +22,18 @@ pub(crate) fn sample(precision: Precision, channels: u32) -> OperatorFile {
         k: 2,
         channels,
         precision,
-        layout: Layout::Factored,
         order: vec![3, 0, 5, 1, 4, 2],
         index: vec![0, 3, 6],
         weights: vec![0.5, 0.25, 0.25, 0.2, 0.3, 0.5],
-        fk: match precision {
-            Precision::F32 => FkData::F32(fk.to_vec()),
-            Precision::F16 => FkData::F16(fk.iter().map(|&v| f32_to_f16(v)).collect()),
+        operator: OperatorData::Factored {
+            fk: match precision {
+                Precision::F32 => FkData::F32(fk.to_vec()),
+                Precision::F16 => FkData::F16(fk.iter().map(|&v| f32_to_f16(v)).collect()),
+            },
+            cores: (0..channels * 4)
+                .map(|i| 1.0 + f64::from(i) / 8.0)
+                .collect(),
         },
-        cores: (0..channels * 4)
-            .map(|i| 1.0 + f64::from(i) / 8.0)
-            .collect(),
         reflectance: (0..18).map(|i| i as f32 / 20.0).collect(),
         emission: (0..18).map(|i| if i < 3 { 5.0 } else { 0.0 }).collect(),
         geometry: Geometry {
@@ -40,5 +41,19 @@ pub(crate) fn sample(precision: Precision, channels: u32) -> OperatorFile {
             vertices,
             normals: [0.0, 0.0, 1.0].repeat(6),
         },
+        lights: Vec::new(),
+    }
+}
+
+/// The same elements in the plain layout, `channels` blocks of made-up `Y_k` values.
+pub(crate) fn plain_sample(precision: Precision, channels: u32) -> OperatorFile {
+    let yk: Vec<f32> = (0..channels * 12).map(|i| -(i as f32) / 64.0).collect();
+    OperatorFile {
+        channels,
+        precision,
+        operator: OperatorData::PlainYk {
+            yk: FkData::from_f32(&yk, precision),
+        },
+        ..sample(precision, channels)
     }
 }

@@ -7,7 +7,8 @@
 use crate::codec::{Sizes, check_dims};
 use crate::error::FormatError;
 use crate::half::f16_to_f32;
-use crate::operator::{FkData, OperatorFile};
+use crate::lights;
+use crate::operator::{FkData, OperatorData, OperatorFile};
 
 /// How far a stored normal's length may be from 1.
 const NORMAL_TOLERANCE: f64 = 1e-3;
@@ -16,11 +17,13 @@ const RGB: [&str; 3] = ["r", "g", "b"];
 
 pub(crate) fn check(f: &OperatorFile) -> Result<(), FormatError> {
     check_dims(f.n, f.k, f.channels)?;
-    if f.fk.precision() != f.precision {
+    let matrix = f.operator.matrix();
+    if matrix.precision() != f.precision {
         return Err(FormatError::invalid(format!(
-            "section FK: DIMS says precision {:?} but the data is {:?}",
+            "section {}: DIMS says precision {:?} but the data is {:?}",
+            matrix_section(f),
             f.precision,
-            f.fk.precision()
+            matrix.precision()
         )));
     }
     let sizes = Sizes::new(f.n, f.k, f.channels)?;
@@ -28,8 +31,13 @@ pub(crate) fn check(f: &OperatorFile) -> Result<(), FormatError> {
     check_order(&f.order)?;
     check_index(&f.index, f.n)?;
     check_weights(&f.weights)?;
-    check_fk(&f.fk, f.k as usize)?;
-    check_cores(&f.cores, f.k as usize)?;
+    match &f.operator {
+        OperatorData::Factored { fk, cores } => {
+            check_fk(fk, f.k as usize)?;
+            check_cores(cores, f.k as usize)?;
+        }
+        OperatorData::PlainYk { yk } => check_yk(yk, f.n as usize, f.k as usize)?,
+    }
     check_rgb(
         "REFLECTANCE",
         &f.reflectance,
@@ -37,17 +45,29 @@ pub(crate) fn check(f: &OperatorFile) -> Result<(), FormatError> {
         "in [0, 1]",
     )?;
     check_rgb("EMISSION", &f.emission, |v| v >= 0.0, ">= 0")?;
-    check_geometry(f)
+    check_geometry(f)?;
+    lights::check(f)
+}
+
+fn matrix_section(f: &OperatorFile) -> &'static str {
+    match f.operator {
+        OperatorData::Factored { .. } => "FK",
+        OperatorData::PlainYk { .. } => "YK",
+    }
 }
 
 fn check_lengths(f: &OperatorFile, s: &Sizes) -> Result<(), FormatError> {
     let g = &f.geometry;
+    let (matrix, cores) = match &f.operator {
+        OperatorData::Factored { fk, cores } => (("FK", "n * k", s.fk, fk.len()), cores.len()),
+        OperatorData::PlainYk { yk } => (("YK", "channels * n * k", s.yk, yk.len()), s.cores),
+    };
     let arrays = [
         ("ORDER", "n", s.n, f.order.len()),
         ("INDEX", "k + 1", s.index, f.index.len()),
         ("WEIGHTS", "n", s.n, f.weights.len()),
-        ("FK", "n * k", s.fk, f.fk.len()),
-        ("CORES", "channels * k * k", s.cores, f.cores.len()),
+        matrix,
+        ("CORES", "channels * k * k", s.cores, cores),
         ("REFLECTANCE", "n * 3", s.rgb, f.reflectance.len()),
         ("EMISSION", "n * 3", s.rgb, f.emission.len()),
         ("GEOMETRY", "n vertex counts", s.n, g.vertex_count.len()),
@@ -157,6 +177,24 @@ fn fk_error(i: usize, k: usize, value: &str) -> FormatError {
     ))
 }
 
+/// `Y_c` values may have either sign; they must be finite.
+fn check_yk(yk: &FkData, n: usize, k: usize) -> Result<(), FormatError> {
+    let bad = match yk {
+        FkData::F32(v) => v.iter().position(|x| !x.is_finite()),
+        FkData::F16(v) => v.iter().position(|&h| !f16_to_f32(h).is_finite()),
+    };
+    match bad {
+        Some(i) => Err(FormatError::invalid(format!(
+            "section YK: channel {}, element {}, patch {}: value {} must be finite",
+            i / (n * k),
+            i / k % n,
+            i % k,
+            yk.get(i).unwrap_or(f32::NAN)
+        ))),
+        None => Ok(()),
+    }
+}
+
 fn check_cores(cores: &[f64], k: usize) -> Result<(), FormatError> {
     match cores.iter().position(|v| !v.is_finite()) {
         Some(i) => Err(FormatError::invalid(format!(
@@ -228,7 +266,7 @@ mod tests {
     use super::*;
     use crate::error::ErrorKind;
     use crate::operator::Precision;
-    use crate::testdata::sample;
+    use crate::testdata::{plain_sample, sample};
 
     fn message(edit: impl FnOnce(&mut OperatorFile)) -> String {
         let mut f = sample(Precision::F32, 3);
@@ -243,6 +281,35 @@ mod tests {
     fn samples_are_valid() {
         sample(Precision::F32, 3).validate().unwrap();
         sample(Precision::F16, 1).validate().unwrap();
+        plain_sample(Precision::F16, 3).validate().unwrap();
+    }
+
+    #[test]
+    fn plain_yk_messages() {
+        let mut f = plain_sample(Precision::F32, 3);
+        if let OperatorData::PlainYk { yk: FkData::F32(v) } = &mut f.operator {
+            v[2 * 12 + 5] = f32::INFINITY;
+        }
+        let e = f.validate().unwrap_err();
+        assert_eq!(
+            e.message,
+            "section YK: channel 2, element 2, patch 1: value inf must be finite"
+        );
+        let mut f = plain_sample(Precision::F16, 1);
+        f.precision = Precision::F32;
+        let e = f.validate().unwrap_err();
+        assert!(
+            e.message.starts_with("section YK: DIMS says precision F32"),
+            "{e}"
+        );
+        let mut f = plain_sample(Precision::F32, 3);
+        f.channels = 1;
+        let e = f.validate().unwrap_err();
+        assert!(
+            e.message
+                .starts_with("section YK: expected channels * n * k = 12"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -296,7 +363,10 @@ mod tests {
             ),
             (
                 Box::new(|f| {
-                    f.fk = FkData::F32(vec![
+                    let OperatorData::Factored { fk, .. } = &mut f.operator else {
+                        unreachable!()
+                    };
+                    *fk = FkData::F32(vec![
                         0.1,
                         0.2,
                         0.0,
@@ -314,7 +384,11 @@ mod tests {
                 "section FK: element 3, patch 1: value NaN",
             ),
             (
-                Box::new(|f| f.cores[6] = f64::INFINITY),
+                Box::new(|f| {
+                    if let OperatorData::Factored { cores, .. } = &mut f.operator {
+                        cores[6] = f64::INFINITY;
+                    }
+                }),
                 "section CORES: channel 1, row 1, column 0: value inf",
             ),
             (

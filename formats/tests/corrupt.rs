@@ -4,7 +4,8 @@ mod common;
 
 use common::{entry_at, entry_of, rebuild, reseal, samples, set_entry_u64, table_end, with_word};
 use lrr_formats::{
-    Container, ContainerWriter, ErrorKind, FormatError, OperatorFile, Precision, f32_to_f16, kind,
+    Container, ContainerWriter, ErrorKind, FormatError, Layout, OperatorFile, Precision,
+    f32_to_f16, kind,
 };
 
 fn err(bytes: &[u8]) -> FormatError {
@@ -18,14 +19,24 @@ fn round_trip_is_byte_exact() {
         let back = OperatorFile::from_bytes(&bytes).unwrap();
         assert_eq!(back, file);
         assert_eq!(back.to_bytes().unwrap(), bytes);
-        // Payloads are aligned, so they can be used in place.
+        // Payloads are aligned, so they can be used in place; only LIGHTS is optional.
         let c = Container::parse(&bytes).unwrap();
+        assert!(c.sections().iter().all(|s| s.offset % 64 == 0));
         assert!(
             c.sections()
                 .iter()
-                .all(|s| s.offset % 64 == 0 && s.required())
+                .all(|s| s.required() == (s.kind != kind::LIGHTS))
         );
-        assert_eq!(c.kinds().collect::<Vec<_>>(), kind::KNOWN);
+        let expected: Vec<u32> = kind::KNOWN
+            .into_iter()
+            .filter(|&k| match file.layout() {
+                Layout::Factored => k != kind::YK,
+                Layout::PlainYk => k != kind::FK && k != kind::CORES,
+            })
+            .filter(|&k| k != kind::LIGHTS || !file.lights.is_empty())
+            .collect();
+        assert_eq!(c.kinds().collect::<Vec<_>>(), expected);
+        assert_eq!(c.version(), (1, 1));
     }
 }
 
@@ -114,7 +125,7 @@ fn other_major_version_is_refused_with_both_versions() {
     reseal(&mut v2);
     let e = err(&v2);
     assert_eq!(e.kind, ErrorKind::UnsupportedVersion);
-    assert!(e.message.contains("version 2.0"), "{e}");
+    assert!(e.message.contains("version 2.1"), "{e}");
     assert!(e.message.contains("supports version 1.x"), "{e}");
     assert!(
         e.message
@@ -265,9 +276,17 @@ fn dims_codes() {
     let e = err(&with_word(&bytes, kind::DIMS, 3, 7));
     assert_eq!(e.kind, ErrorKind::UnsupportedVersion);
     assert!(e.message.contains("precision code 7"), "{e}");
-    let e = err(&with_word(&bytes, kind::DIMS, 4, 1));
+    let e = err(&with_word(&bytes, kind::DIMS, 4, 2));
     assert_eq!(e.kind, ErrorKind::UnsupportedVersion);
-    assert!(e.message.contains("layout code 1"), "{e}");
+    assert!(e.message.contains("layout code 2"), "{e}");
+    // A factored file declared plain: it holds sections of the other layout.
+    let e = err(&with_word(&bytes, kind::DIMS, 4, 1));
+    assert_eq!(e.kind, ErrorKind::Corrupt);
+    assert!(
+        e.message
+            .contains("section FK (kind 6) is present, but DIMS says the layout is PlainYk"),
+        "{e}"
+    );
     let e = err(&with_word(&bytes, kind::DIMS, 2, 2));
     assert_eq!(e.kind, ErrorKind::Invalid);
     assert!(e.message.contains("channels = 2"), "{e}");
@@ -283,7 +302,7 @@ fn dims_codes() {
 /// Rebuilt files whose checksums match but whose values break an invariant.
 #[test]
 fn invalid_values_with_valid_checksums() {
-    let [rgb, grey] = samples();
+    let [rgb, grey, ..] = samples();
     let rgb = rgb.to_bytes().unwrap();
     let grey = grey.to_bytes().unwrap();
     let nan = f32::NAN.to_bits();
@@ -371,7 +390,7 @@ fn read_and_write_name_the_path() {
     let dir = std::env::temp_dir().join(format!("lrr-formats-corrupt-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("sample.lrr");
-    let [file, _] = samples();
+    let [file, ..] = samples();
     file.write(&path).unwrap();
     assert_eq!(OperatorFile::read(&path).unwrap(), file);
     let mut bytes = std::fs::read(&path).unwrap();

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use lrr_formats::{FkData, Geometry, Layout, OperatorFile, Precision};
+use lrr_formats::{FkData, Geometry, OperatorData, OperatorFile, Precision};
 
 use crate::bake::Baked;
 use crate::error::Result;
@@ -39,15 +39,17 @@ pub fn operator_file(b: &Baked) -> OperatorFile {
         k: b.k() as u32,
         channels: b.cores.channels as u32,
         precision: Precision::F32,
-        layout: Layout::Factored,
         order: b.mesh.order.clone(),
         index: b.mesh.index.clone(),
         weights: b.mesh.weights.iter().map(|&w| w as f32).collect(),
-        fk: FkData::F32(b.fk.iter().map(|&f| f as f32).collect()),
-        cores: b.cores.m.clone(),
+        operator: OperatorData::Factored {
+            fk: FkData::F32(b.fk.iter().map(|&f| f as f32).collect()),
+            cores: b.cores.m.clone(),
+        },
         reflectance: flat(&b.reflectance),
         emission: flat(&b.emission),
         geometry,
+        lights: Vec::new(),
     }
 }
 

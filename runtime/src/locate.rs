@@ -7,7 +7,7 @@ impl Operator {
     /// those whose normal agrees with `normal` (dot > 0), or among all when none agrees.
     /// Linear in n (a probe is not a per-frame operation).
     pub fn locate(&self, point: [f32; 3], normal: [f32; 3]) -> Option<u32> {
-        let g = &self.file.geometry;
+        let g = &self.file().geometry;
         let mut best: Option<(bool, f64, usize)> = None;
         for s in 0..self.n() {
             let count = usize::from(g.vertex_count[s]);
@@ -36,7 +36,7 @@ impl Operator {
                 best = Some((agrees, d, s));
             }
         }
-        best.map(|(_, _, s)| self.file.order[s])
+        best.map(|(_, _, s)| self.file().order[s])
     }
 }
 

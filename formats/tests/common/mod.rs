@@ -6,7 +6,7 @@
 
 use lrr_formats::{
     ALIGN, Container, ContainerWriter, FkData, Geometry, HEADER_CHECKSUM_OFFSET, HEADER_LEN,
-    Layout, OperatorFile, Precision, SECTION_ENTRY_LEN, checksum, f32_to_f16,
+    OperatorData, OperatorFile, Precision, SECTION_ENTRY_LEN, checksum,
 };
 
 /// n = 6 elements in k = 2 patches; elements 1, 3, 5 are triangles, the others quads.
@@ -27,17 +27,15 @@ pub fn sample(precision: Precision, channels: u32) -> OperatorFile {
         k: 2,
         channels,
         precision,
-        layout: Layout::Factored,
         order: vec![3, 0, 5, 1, 4, 2],
         index: vec![0, 3, 6],
         weights: vec![0.5, 0.25, 0.25, 0.2, 0.3, 0.5],
-        fk: match precision {
-            Precision::F32 => FkData::F32(fk.to_vec()),
-            Precision::F16 => FkData::F16(fk.iter().map(|&v| f32_to_f16(v)).collect()),
+        operator: OperatorData::Factored {
+            fk: FkData::from_f32(&fk, precision),
+            cores: (0..channels * 4)
+                .map(|i| 1.0 + f64::from(i) / 8.0)
+                .collect(),
         },
-        cores: (0..channels * 4)
-            .map(|i| 1.0 + f64::from(i) / 8.0)
-            .collect(),
         reflectance: (0..18).map(|i| i as f32 / 20.0).collect(),
         emission: (0..18).map(|i| if i < 3 { 5.0 } else { 0.0 }).collect(),
         geometry: Geometry {
@@ -45,12 +43,40 @@ pub fn sample(precision: Precision, channels: u32) -> OperatorFile {
             vertices,
             normals: [0.0, 0.0, 1.0].repeat(6),
         },
+        lights: Vec::new(),
     }
 }
 
-/// The two samples the brief asks for: f32 RGB and f16 grey.
-pub fn samples() -> [OperatorFile; 2] {
-    [sample(Precision::F32, 3), sample(Precision::F16, 1)]
+/// `sample` in the plain layout (made-up `Y_k` of either sign).
+pub fn plain_sample(precision: Precision, channels: u32) -> OperatorFile {
+    let yk: Vec<f32> = (0..channels * 12)
+        .map(|i| (i as f32 - 7.0) / 64.0)
+        .collect();
+    OperatorFile {
+        operator: OperatorData::PlainYk {
+            yk: FkData::from_f32(&yk, precision),
+        },
+        ..sample(precision, channels)
+    }
+}
+
+/// Two light groups on `file` (one of two positions, one of one).
+pub fn with_lights(mut file: OperatorFile) -> OperatorFile {
+    let lamp = file.light_group("lamp", vec![1, 4], vec![1.0, 2.0, 3.0, 0.5, 0.5, 0.0]);
+    let sun = file.light_group("sun ☀", vec![5], vec![4.0, 4.0, 3.5]);
+    file.lights = vec![lamp.unwrap(), sun.unwrap()];
+    file
+}
+
+/// Every kind of file: f32 RGB factored with light groups, f16 grey factored, f16 RGB plain with
+/// light groups, f32 grey plain.
+pub fn samples() -> [OperatorFile; 4] {
+    [
+        with_lights(sample(Precision::F32, 3)),
+        sample(Precision::F16, 1),
+        with_lights(plain_sample(Precision::F16, 3)),
+        plain_sample(Precision::F32, 1),
+    ]
 }
 
 pub fn u32_at(bytes: &[u8], at: usize) -> u32 {

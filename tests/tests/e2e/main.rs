@@ -2,8 +2,10 @@
 //! `lrr_precompute::cli::run`), operator files, the runtime.
 
 mod analytic;
+mod capi;
 mod cornell;
 mod files;
 mod furnace;
+mod fuzz_replay;
 mod import;
 mod util;

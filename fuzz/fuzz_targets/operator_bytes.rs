@@ -1,0 +1,10 @@
+//! Arbitrary bytes through `lrr_runtime::Operator::from_bytes`: Ok or Err, never a panic, and no
+//! allocation beyond what the input justifies.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use lrr_fuzz::{alloc, harness};
+
+fuzz_target!(|data: &[u8]| {
+    alloc::check(data.len(), || harness::operator_bytes(data));
+});

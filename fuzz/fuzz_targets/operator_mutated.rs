@@ -1,0 +1,11 @@
+//! A valid operator file edited as the input says (sections re-packed with valid checksums, or
+//! raw edits resealed), then loaded: reaches the decoder and the validator past the checksums.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use lrr_fuzz::{alloc, harness};
+
+fuzz_target!(|data: &[u8]| {
+    let bytes = harness::mutate(data);
+    alloc::check(bytes.len(), || harness::operator_bytes(&bytes));
+});

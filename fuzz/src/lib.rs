@@ -1,0 +1,19 @@
+//! Support for the fuzz targets in `fuzz_targets/`: the shared bodies ([`harness`], also
+//! replayed by the end-to-end tests) and an allocation meter for the loader's size limits.
+
+pub mod alloc;
+pub mod harness;
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// A folder of this process for the files the importer targets write (created once).
+pub fn scratch_dir(name: &str) -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = std::env::temp_dir().join(format!("lrr-fuzz-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("cannot create the fuzz scratch folder");
+        harness::prepare_scene_dir(&dir);
+        dir
+    })
+}

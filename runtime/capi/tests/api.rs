@@ -1,0 +1,254 @@
+//! The C functions called from Rust: results agree with lrr-runtime, and every kind of bad
+//! argument gives its error code and a message instead of undefined behaviour or a panic.
+
+use std::ffi::{CStr, CString, c_char};
+use std::ptr::{null, null_mut};
+
+use lrr_capi::*;
+use lrr_formats::{ContainerWriter, kind};
+use lrr_runtime::Operator;
+
+/// Two facing unit squares (F = 1 each way), ρ = 0.5, file order reversed, the one at file
+/// position 0 (element 1) emitting (1, 2, 3). Encoded by hand as a version 1.0 file (layout in
+/// lrr_formats' crate docs; readers of major 1 read it), so this test does not follow every
+/// change of `OperatorFile`.
+fn plates() -> Vec<u8> {
+    let u32s = |v: &[u32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let f32s = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let f64s = |v: &[f64]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let square = |z: f32| [0.0, 0.0, z, 1.0, 0.0, z, 1.0, 1.0, z, 0.0, 1.0, z];
+    let mut geometry = vec![4, 4, 0, 0];
+    geometry.extend(f32s(&square(1.0)));
+    geometry.extend(f32s(&square(0.0)));
+    geometry.extend(f32s(&[0.0, 0.0, -1.0, 0.0, 0.0, 1.0]));
+    let mut w = ContainerWriter::new();
+    w.set_version(1, 0);
+    w.add(kind::METADATA, true, b"{}".to_vec());
+    // n, k, channels, precision (f32), layout (factored), 3 reserved.
+    w.add(kind::DIMS, true, u32s(&[2, 2, 1, 0, 0, 0, 0, 0]));
+    w.add(kind::ORDER, true, u32s(&[1, 0]));
+    w.add(kind::INDEX, true, u32s(&[0, 1, 2]));
+    w.add(kind::WEIGHTS, true, f32s(&[1.0, 1.0]));
+    w.add(kind::FK, true, f32s(&[0.0, 1.0, 1.0, 0.0]));
+    w.add(
+        kind::CORES,
+        true,
+        f64s(&[4.0 / 3.0, 2.0 / 3.0, 2.0 / 3.0, 4.0 / 3.0]),
+    );
+    w.add(kind::REFLECTANCE, true, f32s(&[0.5; 6]));
+    w.add(kind::EMISSION, true, f32s(&[1.0, 2.0, 3.0, 0.0, 0.0, 0.0]));
+    w.add(kind::GEOMETRY, true, geometry);
+    w.to_bytes()
+}
+
+fn last_error() -> String {
+    // SAFETY: lrr_last_error returns a NUL-terminated string valid until the next failing call
+    // on this thread; it is copied at once.
+    unsafe { CStr::from_ptr(lrr_last_error()) }
+        .to_str()
+        .unwrap()
+        .to_string()
+}
+
+/// Loads `bytes` through the C function; the handle is freed by the caller.
+fn load(bytes: &[u8]) -> *mut LrrOperator {
+    let mut op = null_mut();
+    // SAFETY: valid slice and out-pointer.
+    let code = unsafe { lrr_load_bytes(bytes.as_ptr(), bytes.len(), &mut op) };
+    assert_eq!(code, LRR_OK, "{}", last_error());
+    op
+}
+
+#[test]
+fn evaluate_matches_the_runtime() {
+    let bytes = plates();
+    let op = load(&bytes);
+    // SAFETY: `op` is live until lrr_free below; buffers have the lengths passed.
+    unsafe {
+        assert_eq!(lrr_element_count(op), 2);
+        let mut emission = [0.0f32; 6];
+        assert_eq!(lrr_baked_emission(op, emission.as_mut_ptr(), 6), LRR_OK);
+        // Element 1 is file position 0, which emits (1, 2, 3).
+        assert_eq!(emission, [0.0, 0.0, 0.0, 1.0, 2.0, 3.0]);
+        emission.iter_mut().for_each(|e| *e *= 3.0);
+        let mut radiosity = [0.0f32; 6];
+        let code = lrr_evaluate(op, emission.as_ptr(), 6, radiosity.as_mut_ptr(), 6);
+        assert_eq!(code, LRR_OK, "{}", last_error());
+        let rust = Operator::from_bytes(&bytes).unwrap();
+        let mut expected = [[0.0f32; 3]; 2];
+        rust.evaluate(&[[0.0; 3], [3.0, 6.0, 9.0]], &mut expected)
+            .unwrap();
+        assert_eq!(radiosity.as_slice(), expected.as_flattened());
+        let mut element = u32::MAX;
+        let (p, n) = ([0.5f32, 0.5, 0.9], [0.0f32, 0.0, -1.0]);
+        assert_eq!(lrr_locate(op, p.as_ptr(), n.as_ptr(), &mut element), LRR_OK);
+        assert_eq!(element, 1);
+        let n = [0.0f32, 0.0, 1.0];
+        assert_eq!(lrr_locate(op, p.as_ptr(), n.as_ptr(), &mut element), LRR_OK);
+        assert_eq!(element, 0);
+        lrr_free(op);
+    }
+}
+
+#[test]
+fn load_from_a_path() {
+    let path = std::env::temp_dir().join(format!("lrr-capi-{}.lrr", std::process::id()));
+    std::fs::write(&path, plates()).unwrap();
+    let c_path = CString::new(path.to_str().unwrap()).unwrap();
+    let mut op = null_mut();
+    // SAFETY: NUL-terminated path, valid out-pointer; the handle is freed below.
+    unsafe {
+        assert_eq!(
+            lrr_load(c_path.as_ptr(), &mut op),
+            LRR_OK,
+            "{}",
+            last_error()
+        );
+        assert_eq!(lrr_element_count(op), 2);
+        lrr_free(op);
+    }
+    std::fs::remove_file(&path).unwrap();
+    let mut op = std::ptr::dangling_mut::<LrrOperator>(); // garbage the call must overwrite
+    // SAFETY: as above.
+    let code = unsafe { lrr_load(c_path.as_ptr(), &mut op) };
+    assert_eq!(code, LRR_ERROR_IO);
+    assert!(op.is_null(), "a failed load leaves a null handle");
+    assert!(
+        last_error().contains(path.to_str().unwrap()),
+        "{}",
+        last_error()
+    );
+}
+
+#[test]
+fn bad_loads_are_errors() {
+    let mut op = null_mut();
+    // SAFETY: each call passes either null or valid pointers with their true lengths.
+    unsafe {
+        assert_eq!(lrr_load(null(), &mut op), LRR_ERROR_NULL);
+        assert!(last_error().contains("path"), "{}", last_error());
+        let path = c"ok.lrr";
+        assert_eq!(lrr_load(path.as_ptr(), null_mut()), LRR_ERROR_NULL);
+        let bad = [0x66u8, 0xff, 0xfe, 0];
+        assert_eq!(
+            lrr_load(bad.as_ptr().cast::<c_char>(), &mut op),
+            LRR_ERROR_UTF8
+        );
+        assert!(last_error().contains("UTF-8"), "{}", last_error());
+        assert_eq!(lrr_load_bytes(null(), 0, &mut op), LRR_ERROR_FORMAT);
+        assert_eq!(lrr_load_bytes(null(), 10, &mut op), LRR_ERROR_NULL);
+        let junk = b"PK\x03\x04 not an operator";
+        assert_eq!(
+            lrr_load_bytes(junk.as_ptr(), junk.len(), &mut op),
+            LRR_ERROR_FORMAT
+        );
+        assert!(last_error().contains("not an lrr"), "{}", last_error());
+        let mut damaged = plates();
+        *damaged.last_mut().unwrap() ^= 1;
+        let code = lrr_load_bytes(damaged.as_ptr(), damaged.len(), &mut op);
+        assert_eq!(code, LRR_ERROR_FORMAT);
+        assert!(last_error().contains("checksum"), "{}", last_error());
+        assert!(op.is_null());
+        lrr_free(null_mut());
+    }
+}
+
+#[test]
+fn bad_buffers_are_errors_and_leave_the_output_alone() {
+    let op = load(&plates());
+    let e = [1.0f32; 6];
+    let mut b = [7.0f32; 7];
+    // SAFETY: every pointer is null or valid for the length passed; `op` is live until freed.
+    unsafe {
+        assert_eq!(lrr_element_count(null()), 0);
+        assert_eq!(
+            lrr_evaluate(null(), e.as_ptr(), 6, b.as_mut_ptr(), 6),
+            LRR_ERROR_NULL
+        );
+        assert_eq!(
+            lrr_evaluate(op, null(), 6, b.as_mut_ptr(), 6),
+            LRR_ERROR_NULL
+        );
+        assert_eq!(
+            lrr_evaluate(op, e.as_ptr(), 6, null_mut(), 6),
+            LRR_ERROR_NULL
+        );
+        assert_eq!(
+            lrr_evaluate(op, e.as_ptr(), 5, b.as_mut_ptr(), 6),
+            LRR_ERROR_LENGTH
+        );
+        assert!(last_error().contains("3 × 2"), "{}", last_error());
+        assert_eq!(
+            lrr_evaluate(op, e.as_ptr(), 6, b.as_mut_ptr(), 7),
+            LRR_ERROR_LENGTH
+        );
+        let misaligned = b.as_mut_ptr().cast::<u8>().add(1).cast::<f32>();
+        assert_eq!(
+            lrr_evaluate(op, e.as_ptr(), 6, misaligned, 6),
+            LRR_ERROR_BUFFER
+        );
+        // In place (the same buffer for both) is refused: the output would alias the input.
+        let both = b.as_mut_ptr();
+        assert_eq!(lrr_evaluate(op, both, 6, both, 6), LRR_ERROR_BUFFER);
+        assert_eq!(lrr_evaluate(op, both.add(1), 6, both, 6), LRR_ERROR_BUFFER);
+        let negative = [-1.0f32, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let code = lrr_evaluate(op, negative.as_ptr(), 6, b.as_mut_ptr(), 6);
+        assert_eq!(code, LRR_ERROR_INPUT);
+        let nan = [f32::NAN; 6];
+        assert_eq!(
+            lrr_evaluate(op, nan.as_ptr(), 6, b.as_mut_ptr(), 6),
+            LRR_ERROR_INPUT
+        );
+        assert!(
+            b.iter().all(|x| *x == 7.0),
+            "output written on error: {b:?}"
+        );
+        assert_eq!(lrr_baked_emission(op, b.as_mut_ptr(), 7), LRR_ERROR_LENGTH);
+        assert_eq!(lrr_baked_emission(op, null_mut(), 6), LRR_ERROR_NULL);
+        let (p, inf) = ([0.0f32; 3], [f32::INFINITY, 0.0, 0.0]);
+        let mut id = 0u32;
+        assert_eq!(
+            lrr_locate(op, p.as_ptr(), inf.as_ptr(), &mut id),
+            LRR_ERROR_INPUT
+        );
+        assert_eq!(lrr_locate(op, null(), p.as_ptr(), &mut id), LRR_ERROR_NULL);
+        assert_eq!(
+            lrr_locate(op, p.as_ptr(), p.as_ptr(), null_mut()),
+            LRR_ERROR_NULL
+        );
+        lrr_free(op);
+    }
+}
+
+#[test]
+fn operators_are_shared_across_threads() {
+    let bytes = plates();
+    let op = load(&bytes) as usize; // a handle is immutable: threads may evaluate it at once
+    let results: Vec<Vec<f32>> = std::thread::scope(|s| {
+        let workers: Vec<_> = (0..4)
+            .map(|t| {
+                s.spawn(move || {
+                    let e = [t as f32; 6];
+                    let mut b = [0.0f32; 6];
+                    let op = op as *const LrrOperator;
+                    // SAFETY: the handle stays live until every thread is joined.
+                    let code = unsafe { lrr_evaluate(op, e.as_ptr(), 6, b.as_mut_ptr(), 6) };
+                    assert_eq!(code, LRR_OK);
+                    b.to_vec()
+                })
+            })
+            .collect();
+        workers.into_iter().map(|w| w.join().unwrap()).collect()
+    });
+    for (t, b) in results.iter().enumerate() {
+        // Linear in the emission: thread t's result is t times thread 1's.
+        for (x, y) in b.iter().zip(&results[1]) {
+            assert!(
+                (x - t as f32 * y).abs() <= 1e-6 * x.abs().max(1.0),
+                "{results:?}"
+            );
+        }
+    }
+    // SAFETY: the last user of the handle.
+    unsafe { lrr_free(op as *mut LrrOperator) };
+}

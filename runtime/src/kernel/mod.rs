@@ -1,0 +1,116 @@
+//! The hot loop of a frame: `W(s, c) = Σ_q M(s, q) z_c(q)` for a block of rows of the stored
+//! matrix `M` (`F_k`, or a channel of `Y_k`), all channels in one pass over the row, and the
+//! plain read pass the benchmark compares it with.
+//!
+//! Two implementations of the same arithmetic:
+//! - [`scalar`]: safe Rust, the reference and the fallback on every CPU;
+//! - [`avx2`] (x86-64 with AVX2, FMA and F16C, detected at run time): the only `unsafe` code of
+//!   the crate. Measured on the development machine (one thread, 1000 rows × k = 216 in cache,
+//!   three channels): the safe loop reaches 4.8 GB/s of f32 and 1.8 GB/s of f16 (LLVM vectorises
+//!   the lanes to SSE2 at best, without FMA, and has no hardware f16 conversion), the intrinsics
+//!   25 GB/s and 10–13 GB/s; memory gives one thread 5–10 GB/s, so only the intrinsics keep up
+//!   with it. Tests compare the two on every shape.
+//!
+//! Accuracy: products are summed in 8 f32 lanes over blocks of [`BLOCK`] columns, each block's
+//! sum is added in f64. With non-negative terms (form factors, cores of a physical operator,
+//! non-negative emission) the relative error of a row is at most about
+//! `(BLOCK / 8 + 4) · 2⁻²⁴ ≈ 2.2e-6`, whatever k is.
+
+pub(crate) mod scalar;
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx2;
+
+/// Columns summed in f32 before the partial sum is added in f64.
+pub(crate) const BLOCK: usize = 256;
+
+/// f32 lanes of the accumulators (one AVX2 register).
+pub(crate) const LANES: usize = 8;
+
+/// A block of whole rows of the stored matrix, `rows × k` values, row-major.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Rows<'a> {
+    F32(&'a [f32]),
+    F16(&'a [u16]),
+}
+
+impl Rows<'_> {
+    /// Number of values.
+    pub(crate) fn len(&self) -> usize {
+        match self {
+            Rows::F32(v) => v.len(),
+            Rows::F16(v) => v.len(),
+        }
+    }
+}
+
+/// Which implementation runs the kernels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Backend {
+    /// Safe Rust on any CPU.
+    Scalar,
+    /// x86-64 AVX2 + FMA + F16C intrinsics.
+    Avx2,
+}
+
+impl Backend {
+    /// The fastest implementation this CPU supports.
+    pub fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if avx2::supported() {
+            return Backend::Avx2;
+        }
+        Backend::Scalar
+    }
+
+    /// A short name for reports: `"avx2+fma+f16c"` or `"scalar"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Backend::Scalar => "scalar",
+            Backend::Avx2 => "avx2+fma+f16c",
+        }
+    }
+}
+
+/// The shape of one gather: `C` channels from `z` (`C` planes of `kp >= k` values, zero past
+/// `k`) into `w[3 r + offset + c]` for every row `r` of `m`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Gather<'a> {
+    pub m: Rows<'a>,
+    pub k: usize,
+    pub z: &'a [f32],
+    pub kp: usize,
+    pub offset: usize,
+}
+
+impl Gather<'_> {
+    /// Rows of `m`.
+    pub(crate) fn rows(&self) -> usize {
+        self.m.len() / self.k
+    }
+}
+
+/// `w[3 r + offset + c] = Σ_q m(r, q) z[c kp + q]` for `c < C` (1 or 3).
+pub(crate) fn gather<const C: usize>(backend: Backend, g: &Gather<'_>, w: &mut [f32]) {
+    debug_assert!(g.z.len() >= C * g.kp && g.kp >= g.k && w.len() >= 3 * g.rows());
+    match backend {
+        #[cfg(target_arch = "x86_64")]
+        Backend::Avx2 if avx2::supported() => avx2::gather::<C>(g, w),
+        _ => scalar::gather::<C>(g, w),
+    }
+}
+
+/// A wrapping sum of every stored word of `m` (f32 bits modulo 2³², or binary16 bits modulo
+/// 2¹⁶), so that nothing can be skipped: the memory-read roofline of a gather over the same rows.
+pub(crate) fn read_sum(backend: Backend, m: Rows<'_>) -> u64 {
+    match backend {
+        #[cfg(target_arch = "x86_64")]
+        Backend::Avx2 => avx2::read_sum(m),
+        _ => scalar::read_sum(m),
+    }
+}
+
+/// `kp`: `k` rounded up to whole lanes (the padded length of a `z` plane).
+pub(crate) fn padded(k: usize) -> usize {
+    k.next_multiple_of(LANES)
+}

@@ -1,0 +1,309 @@
+//! The persistent worker threads of an [`Evaluator`](crate::Evaluator).
+//!
+//! The rows of the stored matrix are cut into chunks (a few per thread), each with its own `W`
+//! buffer, allocated once. A frame puts every chunk into a shared queue, wakes the workers (each
+//! gets a copy of `z` in its [`Job`]) and takes chunks itself: whoever is free takes the next
+//! one, so a thread the OS preempts (or the caller, busy with `B` of finished chunks) does not
+//! hold the frame up. Chunks and jobs travel through bounded channels whose slots are allocated
+//! up front; moving a `Vec` moves three words, so a frame allocates nothing.
+//!
+//! Why workers write into chunk buffers and not into the caller's output: without `unsafe`, a
+//! thread that outlives the call cannot hold the caller's borrowed slice. The caller reads `W`
+//! back in the O(n) step it runs anyway (`B` per original id), chunk by chunk as they come back,
+//! while the others still gather: that is `1/k` of the bytes the gather reads.
+
+use std::ops::Range;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use lrr_formats::OperatorFile;
+
+use crate::error::RuntimeError;
+use crate::frame;
+use crate::kernel::Backend;
+
+/// What a frame computes per chunk.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Task {
+    /// `W` of the chunk's rows from `z`.
+    Gather,
+    /// The read roofline of the chunk's rows, into `sum`.
+    Read,
+}
+
+/// A block of rows and its `W`.
+#[derive(Debug)]
+pub(crate) struct Chunk {
+    pub index: usize,
+    pub rows: Range<usize>,
+    /// `3 * rows.len()`: `W` of the rows.
+    pub w: Vec<f32>,
+    pub sum: u64,
+    /// Set when the computation panicked (a bug): the frame fails instead of hanging.
+    failed: bool,
+}
+
+impl Chunk {
+    fn run(&mut self, task: Task, file: &OperatorFile, z: &[f32], kp: usize, backend: Backend) {
+        let rows = self.rows.clone();
+        match task {
+            Task::Gather => frame::gather_rows(file, rows, z, kp, &mut self.w, backend),
+            Task::Read => self.sum = frame::read_rows(file, rows, backend),
+        }
+    }
+
+    /// [`run`](Self::run), recording a panic instead of unwinding.
+    fn run_caught(&mut self, task: Task, file: &OperatorFile, z: &[f32], kp: usize, b: Backend) {
+        let run = AssertUnwindSafe(|| self.run(task, file, z, kp, b));
+        self.failed = catch_unwind(run).is_err();
+    }
+}
+
+/// What wakes a worker for a frame: the task and its copy of `z` (`3 * kp`).
+#[derive(Debug)]
+struct Job {
+    task: Task,
+    z: Vec<f32>,
+}
+
+/// What comes back to the caller.
+enum Done {
+    Ready,
+    Chunk(Chunk),
+    Job(usize, Job),
+}
+
+/// One worker: its channel, its job while it is home, its thread.
+struct Worker {
+    to: Option<SyncSender<Job>>,
+    job: Option<Job>,
+    thread: Option<JoinHandle<()>>,
+}
+
+/// The chunks and the threads that share them.
+pub(crate) struct Pool {
+    /// Every chunk, home between frames (`None` while out).
+    chunks: Vec<Option<Chunk>>,
+    queue_tx: SyncSender<Chunk>,
+    queue: Arc<Mutex<Receiver<Chunk>>>,
+    workers: Vec<Worker>,
+    done: Receiver<Done>,
+    file: Arc<OperatorFile>,
+    kp: usize,
+    backend: Backend,
+}
+
+impl Pool {
+    /// Cuts the rows at `bounds` into chunks and starts `workers` threads, waiting until each
+    /// is ready.
+    ///
+    /// std's channels allocate a thread's wait state the first time it blocks. So every worker
+    /// blocks once (1 ms, on its empty job channel) before it reports ready, and the caller
+    /// blocks on the ready reports: after this, no frame allocates.
+    pub(crate) fn start(
+        file: &Arc<OperatorFile>,
+        bounds: &[usize],
+        workers: usize,
+        kp: usize,
+        backend: Backend,
+    ) -> Result<Self, RuntimeError> {
+        let chunks: Vec<Option<Chunk>> = bounds
+            .windows(2)
+            .enumerate()
+            .map(|(index, b)| {
+                Some(Chunk {
+                    index,
+                    rows: b[0]..b[1],
+                    w: vec![0.0; 3 * (b[1] - b[0])],
+                    sum: 0,
+                    failed: false,
+                })
+            })
+            .collect();
+        let (queue_tx, queue) = sync_channel(chunks.len());
+        let queue = Arc::new(Mutex::new(queue));
+        let (done_tx, done) = sync_channel(chunks.len() + 2 * workers + 1);
+        let mut pool = Pool {
+            chunks,
+            queue_tx,
+            queue,
+            workers: Vec::with_capacity(workers),
+            done,
+            file: Arc::clone(file),
+            kp,
+            backend,
+        };
+        for i in 0..workers {
+            let worker = pool.spawn(i, done_tx.clone())?;
+            pool.workers.push(worker);
+        }
+        for _ in 0..workers {
+            pool.done.recv().map_err(|_| lost())?;
+        }
+        Ok(pool)
+    }
+
+    fn spawn(&self, i: usize, done: SyncSender<Done>) -> Result<Worker, RuntimeError> {
+        let (to, from) = sync_channel::<Job>(1);
+        let (file, queue) = (Arc::clone(&self.file), Arc::clone(&self.queue));
+        let (kp, backend) = (self.kp, self.backend);
+        let thread = std::thread::Builder::new()
+            .name(format!("lrr-eval-{i}"))
+            .spawn(move || {
+                // Nothing is sent before every worker is ready: this times out.
+                let _ = from.recv_timeout(Duration::from_millis(1));
+                if done.send(Done::Ready).is_err() {
+                    return;
+                }
+                while let Ok(job) = from.recv() {
+                    while let Some(mut chunk) = take(&queue) {
+                        chunk.run_caught(job.task, &file, &job.z, kp, backend);
+                        if done.send(Done::Chunk(chunk)).is_err() {
+                            return;
+                        }
+                    }
+                    if done.send(Done::Job(i, job)).is_err() {
+                        return;
+                    }
+                }
+            })
+            .map_err(|e| {
+                RuntimeError::Input(format!(
+                    "cannot start evaluator thread {i}: {e} (ask for fewer threads)"
+                ))
+            })?;
+        Ok(Worker {
+            to: Some(to),
+            job: Some(Job {
+                task: Task::Gather,
+                z: vec![0.0; 3 * self.kp],
+            }),
+            thread: Some(thread),
+        })
+    }
+
+    /// Threads in all, the caller's included.
+    pub(crate) fn threads(&self) -> usize {
+        self.workers.len() + 1
+    }
+
+    /// Bytes of the buffers.
+    pub(crate) fn bytes(&self) -> usize {
+        let w: usize = self.chunks.iter().flatten().map(|c| c.w.len()).sum();
+        4 * (w + self.workers.len() * 3 * self.kp)
+    }
+
+    /// Runs `task` over every chunk with every thread; `z` is the caller's copy. `finished`
+    /// sees each chunk once, on the caller's thread, as soon as it is done (in any order).
+    pub(crate) fn run(
+        &mut self,
+        task: Task,
+        z: &[f32],
+        mut finished: impl FnMut(&Chunk),
+    ) -> Result<(), RuntimeError> {
+        for chunk in self.chunks.iter_mut() {
+            let chunk = chunk.take().ok_or_else(lost)?;
+            self.queue_tx.send(chunk).map_err(|_| lost())?;
+        }
+        for worker in &mut self.workers {
+            let mut job = worker.job.take().ok_or_else(lost)?;
+            job.task = task;
+            job.z.copy_from_slice(z);
+            worker
+                .to
+                .as_ref()
+                .ok_or_else(lost)?
+                .send(job)
+                .map_err(|_| lost())?;
+        }
+        let (mut chunks_out, mut jobs_out) = (self.chunks.len(), self.workers.len());
+        let mut failed = false;
+        while let Some(mut chunk) = take(&self.queue) {
+            chunk.run_caught(task, &self.file, z, self.kp, self.backend);
+            failed |= self.home(chunk, &mut finished);
+            chunks_out -= 1;
+            // B of the chunks the workers finished meanwhile.
+            while let Ok(done) = self.done.try_recv() {
+                failed |= self.receive(done, &mut chunks_out, &mut jobs_out, &mut finished);
+            }
+        }
+        while chunks_out + jobs_out > 0 {
+            let done = self.done.recv().map_err(|_| lost())?;
+            failed |= self.receive(done, &mut chunks_out, &mut jobs_out, &mut finished);
+        }
+        if failed {
+            return Err(RuntimeError::Input(
+                "an evaluator thread failed (a bug in lrr-runtime: please report it)".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Files what came back; whether it reports a failure.
+    fn receive(
+        &mut self,
+        done: Done,
+        chunks_out: &mut usize,
+        jobs_out: &mut usize,
+        finished: &mut impl FnMut(&Chunk),
+    ) -> bool {
+        match done {
+            Done::Ready => false,
+            Done::Chunk(chunk) => {
+                *chunks_out -= 1;
+                self.home(chunk, finished)
+            }
+            Done::Job(i, job) => {
+                *jobs_out -= 1;
+                if let Some(worker) = self.workers.get_mut(i) {
+                    worker.job = Some(job);
+                }
+                false
+            }
+        }
+    }
+
+    /// Hands a computed chunk to `finished` and puts it back; whether it failed.
+    fn home(&mut self, mut chunk: Chunk, finished: &mut impl FnMut(&Chunk)) -> bool {
+        let failed = std::mem::take(&mut chunk.failed);
+        if !failed {
+            finished(&chunk);
+        }
+        let index = chunk.index;
+        if let Some(slot) = self.chunks.get_mut(index) {
+            *slot = Some(chunk);
+        }
+        failed
+    }
+}
+
+/// The next chunk of the shared queue, if any is left.
+fn take(queue: &Mutex<Receiver<Chunk>>) -> Option<Chunk> {
+    let queue = queue.lock().unwrap_or_else(PoisonError::into_inner);
+    queue.try_recv().ok()
+}
+
+fn lost() -> RuntimeError {
+    RuntimeError::Input(
+        "the evaluator lost a worker thread or a chunk (a previous frame failed): create a new \
+         evaluator"
+            .into(),
+    )
+}
+
+impl Drop for Pool {
+    fn drop(&mut self) {
+        // Closing the job channels ends each worker's loop; then wait for the threads.
+        for w in &mut self.workers {
+            w.to = None;
+        }
+        for w in &mut self.workers {
+            if let Some(thread) = w.thread.take() {
+                let _ = thread.join();
+            }
+        }
+    }
+}

@@ -1,0 +1,137 @@
+//! The fuzz corpora as ordinary tests: every seed (`fuzz/seeds/<target>/`) and every committed
+//! crash input (`fuzz/regressions/<target>/`) runs through the same function as the cargo-fuzz
+//! target of that name (fuzz/src/harness.rs, included here), on stable, in CI. Each must be
+//! accepted or refused with an error, never panic.
+
+use std::path::{Path, PathBuf};
+
+use crate::util::{root, temp_dir};
+
+#[path = "../../../fuzz/src/harness.rs"]
+mod harness;
+
+const TARGETS: [&str; 4] = [
+    "operator_bytes",
+    "operator_mutated",
+    "obj_import",
+    "scene_description",
+];
+
+/// Runs one input through the target's body; `true` when it was accepted.
+fn run(target: &str, data: &[u8], dir: &Path) -> bool {
+    match target {
+        "operator_bytes" => harness::operator_bytes(data),
+        "operator_mutated" => harness::operator_mutated(data),
+        "obj_import" => harness::obj_import(data, dir),
+        "scene_description" => harness::scene_description(data, dir),
+        other => panic!("fuzz folder {other} is not a fuzz target"),
+    }
+}
+
+/// The files of `fuzz/<folder>/<target>/`, sorted; none when the folder does not exist.
+fn inputs(folder: &str, target: &str) -> Vec<PathBuf> {
+    let dir = root().join("fuzz").join(folder).join(target);
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        return Vec::new();
+    };
+    let mut files: Vec<PathBuf> = entries
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file() && !p.file_name().unwrap().to_str().unwrap().starts_with('.'))
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn every_fuzz_folder_names_a_target() {
+    for folder in ["seeds", "regressions"] {
+        for entry in std::fs::read_dir(root().join("fuzz").join(folder)).unwrap() {
+            let path = entry.unwrap().path();
+            let name = path.file_name().unwrap().to_str().unwrap();
+            assert!(
+                !path.is_dir() || TARGETS.contains(&name),
+                "fuzz/{folder}/{name} is not one of the targets {TARGETS:?}"
+            );
+        }
+    }
+    for target in TARGETS {
+        assert!(
+            !inputs("seeds", target).is_empty(),
+            "fuzz/seeds/{target} has no seed"
+        );
+    }
+}
+
+#[test]
+fn seeds_and_crash_inputs_give_ok_or_an_error_never_a_panic() {
+    let dir = temp_dir("fuzz-replay");
+    harness::prepare_scene_dir(&dir);
+    let mut failures = Vec::new();
+    for target in TARGETS {
+        for folder in ["seeds", "regressions"] {
+            let files = inputs(folder, target);
+            let mut accepted = 0;
+            for file in &files {
+                let data = std::fs::read(file).unwrap();
+                let outcome =
+                    std::panic::catch_unwind(|| run(target, &data, &dir)).map_err(|payload| {
+                        payload
+                            .downcast_ref::<&str>()
+                            .map(|s| s.to_string())
+                            .or_else(|| payload.downcast_ref::<String>().cloned())
+                            .unwrap_or_default()
+                    });
+                match outcome {
+                    Ok(ok) => accepted += usize::from(ok),
+                    Err(message) => failures.push(format!("{}: {message}", file.display())),
+                }
+            }
+            println!(
+                "{target}: {} {folder}, {accepted} accepted, {} refused",
+                files.len(),
+                files.len() - accepted
+            );
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "inputs that panic:\n{}",
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn mutation_bases_are_valid_operator_files() {
+    // `operator_mutated` starts from these; an invalid base would leave the fuzzer shallow.
+    for variant in 0..8 {
+        assert!(
+            harness::operator_bytes(&harness::base_file(variant)),
+            "base {variant} does not load"
+        );
+    }
+    // No edits: the base itself; the reseal bit alone changes nothing.
+    assert_eq!(harness::mutate(&[3]), harness::base_file(3));
+    assert_eq!(harness::mutate(&[0x83]), harness::base_file(3));
+}
+
+/// Rewrites the operator seeds: the mutation bases and a real bake of a seed scene. Run by hand
+/// after a format change: `cargo test --release -p lrr-tests -- --ignored write_operator_seeds`.
+#[test]
+#[ignore = "writes fuzz/seeds/operator_bytes/"]
+fn write_operator_seeds() {
+    let dir = root().join("fuzz/seeds/operator_bytes");
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, variant) in [("base-f32-grey", 0), ("base-f16-rgb", 3), ("base-k3", 4)] {
+        std::fs::write(dir.join(format!("{name}.lrr")), harness::base_file(variant)).unwrap();
+    }
+    let scene = root().join("fuzz/seeds/scene_description/two-squares.toml");
+    let out = dir.join("bake-two-squares.lrr");
+    crate::util::lrr(&[
+        "bake",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+    ])
+    .unwrap();
+}
