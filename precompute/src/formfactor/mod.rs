@@ -193,7 +193,8 @@ impl Visibility {
     ) {
         for i in range {
             let s = &points[i as usize % points.len()];
-            let y: DVec3 = pair_point(t, i, seed);
+            let far = pair_point(t, i, seed);
+            let y: DVec3 = far.point;
             let d = y - s.point;
             let cos_x = d.dot(e.normal);
             let cos_y = -d.dot(t.normal);
@@ -201,7 +202,7 @@ impl Visibility {
                 continue; // this pair of points exchanges no light
             }
             let r2 = d.length_squared();
-            let weight = s.weight * cos_x * cos_y / (r2 * r2);
+            let weight = s.weight * far.weight * cos_x * cos_y / (r2 * r2);
             if !weight.is_finite() {
                 continue;
             }

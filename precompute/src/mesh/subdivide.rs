@@ -74,13 +74,14 @@ pub fn estimate_elements(scene: &Scene, element_size: f64) -> f64 {
 pub fn two_fixed(scene: &Scene, sizes: MeshSizes) -> (Vec<Element>, Vec<Patch>) {
     let mut elements = Vec::new();
     let mut patches = Vec::new();
-    for (f, face) in scene.faces.iter().enumerate() {
+    for (piece, f) in super::imprint::split_at_contacts(&scene.faces) {
+        let surface = scene.faces[f].surface as u32;
         let ctx = Ctx {
             face: f as u32,
-            surface: face.surface as u32,
+            surface,
             sizes,
         };
-        descend(&ctx, face.polygon, None, &mut elements, &mut patches);
+        descend(&ctx, piece, None, &mut elements, &mut patches);
     }
     (elements, patches)
 }

@@ -148,7 +148,7 @@ fn cornell_energy_is_plausible_and_bakes_are_deterministic() {
         &one,
         &[
             ([555.0, 274.0, 280.0], [-1.0, 0.0, 0.0]), // red wall, middle
-            ([278.0, 0.0, 140.0], up),                 // floor in the open, in front
+            ([450.0, 0.0, 100.0], up),                 // floor in the open, in front
             ([368.0, 0.0, 351.0], up),                 // floor under the tall block
             ([200.0, 0.0, 500.0], up),                 // floor behind the blocks, in the open
         ],

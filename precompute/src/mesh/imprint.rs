@@ -1,0 +1,231 @@
+//! Splitting faces along the lines where other faces stand on them ("imprinting").
+//!
+//! A wall standing on a floor that continues under it, a block on a table: an element that
+//! straddles such a contact line is lit on one side and dark (or in another room) on the
+//! other, and its one radiosity value smears light across the contact: the classic light leak
+//! under walls and boxes. Before subdivision every face is therefore cut by the plane of each
+//! face that has an edge lying in it, where that edge crosses the face's interior. Cuts use
+//! the whole plane, so every piece stays convex (more pieces than a polygon-with-hole
+//! triangulation would give, but no new algorithm to get wrong). Tolerances are relative to
+//! the faces' sizes.
+
+use glam::DVec3;
+
+use crate::formfactor::kernel::Polygon;
+use crate::scene::Face;
+
+/// Relative distance under which a vertex counts as lying in a plane.
+const CONTACT_TOLERANCE: f64 = 1e-7;
+/// Pieces smaller than this fraction of their face's area are not cut off.
+const MIN_PIECE_FRACTION: f64 = 1e-9;
+
+/// Every face cut at its contact lines: (piece, index of the face it came from).
+pub fn split_at_contacts(faces: &[Face]) -> Vec<(Polygon, usize)> {
+    let boxes: Vec<(DVec3, DVec3)> = faces.iter().map(|f| bounds(&f.polygon)).collect();
+    // Sweep on x to find pairs whose (slightly grown) boxes overlap.
+    let mut by_x: Vec<usize> = (0..faces.len()).collect();
+    by_x.sort_by(|&a, &b| boxes[a].0.x.total_cmp(&boxes[b].0.x));
+    let mut out = Vec::with_capacity(faces.len());
+    for (f, face) in faces.iter().enumerate() {
+        let mut pieces = vec![face.polygon];
+        let grow = DVec3::splat(CONTACT_TOLERANCE * face.polygon.scale.max(1e-300));
+        let (lo, hi) = (boxes[f].0 - grow, boxes[f].1 + grow);
+        for &g in &by_x {
+            if boxes[g].0.x > hi.x {
+                break;
+            }
+            if g == f || !overlaps((lo, hi), boxes[g]) {
+                continue;
+            }
+            if let Some(edge) = contact_edge(&face.polygon, &faces[g].polygon) {
+                pieces = pieces
+                    .into_iter()
+                    .flat_map(|p| cut(&p, &faces[g].polygon, edge, face.polygon.area()))
+                    .collect();
+            }
+        }
+        out.extend(pieces.into_iter().map(|p| (p, f)));
+    }
+    out
+}
+
+fn bounds(p: &Polygon) -> (DVec3, DVec3) {
+    let v = p.vertices();
+    v.iter()
+        .fold((v[0], v[0]), |(lo, hi), x| (lo.min(*x), hi.max(*x)))
+}
+
+fn overlaps(a: (DVec3, DVec3), b: (DVec3, DVec3)) -> bool {
+    a.0.cmple(b.1).all() && b.0.cmple(a.1).all()
+}
+
+/// An edge of `g` lying in the plane of `f`, when `g` is not parallel to `f`.
+fn contact_edge(f: &Polygon, g: &Polygon) -> Option<(DVec3, DVec3)> {
+    if f.normal.cross(g.normal).length() < 1e-6 {
+        return None; // parallel or coplanar: nothing stands on f
+    }
+    let tol = CONTACT_TOLERANCE * f.scale.max(g.scale);
+    let v = g.vertices();
+    (0..v.len())
+        .map(|i| (v[i], v[(i + 1) % v.len()]))
+        .find(|(a, b)| f.height(*a).abs() <= tol && f.height(*b).abs() <= tol)
+}
+
+/// Cuts `p` by the plane of `g` if the contact edge crosses `p`'s interior.
+fn cut(p: &Polygon, g: &Polygon, edge: (DVec3, DVec3), face_area: f64) -> Vec<Polygon> {
+    let tol = CONTACT_TOLERANCE * p.scale.max(g.scale);
+    if !segment_touches(p, edge, tol) {
+        return vec![*p];
+    }
+    let side = |v: &DVec3| (*v - g.vertices[0]).dot(g.normal);
+    let d: Vec<f64> = p.vertices().iter().map(side).collect();
+    if !(d.iter().any(|&x| x > tol) && d.iter().any(|&x| x < -tol)) {
+        return vec![*p];
+    }
+    let front = clip(p.vertices(), &d, 1.0);
+    let back = clip(p.vertices(), &d, -1.0);
+    let pieces: Vec<Polygon> = [front, back]
+        .iter()
+        .flat_map(|v| convex_pieces(v, p.normal))
+        .collect();
+    let min_area = MIN_PIECE_FRACTION * face_area;
+    if pieces.iter().any(|q| q.area() < min_area) {
+        return vec![*p];
+    }
+    pieces
+}
+
+/// True when the segment meets the polygon (in its plane) over a positive length.
+fn segment_touches(p: &Polygon, (a, b): (DVec3, DVec3), tol: f64) -> bool {
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    let v = p.vertices();
+    for i in 0..v.len() {
+        let e = v[(i + 1) % v.len()] - v[i];
+        let inward = p.normal.cross(e).normalize();
+        let da = (a - v[i]).dot(inward) + tol;
+        let db = (b - v[i]).dot(inward) + tol;
+        if da < 0.0 && db < 0.0 {
+            return false;
+        }
+        if da < 0.0 || db < 0.0 {
+            let t = da / (da - db);
+            if da < 0.0 {
+                t0 = t0.max(t);
+            } else {
+                t1 = t1.min(t);
+            }
+        }
+    }
+    (t1 - t0) * (b - a).length() > tol
+}
+
+/// The part of a convex polygon on one side (`sign`) of a plane given signed distances `d`.
+fn clip(v: &[DVec3], d: &[f64], sign: f64) -> Vec<DVec3> {
+    let mut out = Vec::with_capacity(v.len() + 1);
+    for i in 0..v.len() {
+        let j = (i + 1) % v.len();
+        let (di, dj) = (sign * d[i], sign * d[j]);
+        if di >= 0.0 {
+            out.push(v[i]);
+        }
+        if (di >= 0.0) != (dj >= 0.0) {
+            let t = di / (di - dj);
+            out.push(v[i] + (v[j] - v[i]) * t);
+        }
+    }
+    out
+}
+
+/// A convex polygon as pieces of 3 or 4 vertices (a fan beyond 4), keeping the face normal.
+fn convex_pieces(v: &[DVec3], normal: DVec3) -> Vec<Polygon> {
+    let mut out = Vec::new();
+    let mut make = |vs: &[DVec3]| {
+        if let Some(mut p) = Polygon::new(vs) {
+            p.normal = normal;
+            out.push(p);
+        }
+    };
+    match v.len() {
+        0..=2 => {}
+        3 | 4 => make(v),
+        _ => {
+            // Quads from the fan where possible: (0, i, i+1, i+2), then a last triangle.
+            let mut i = 1;
+            while i + 2 < v.len() {
+                make(&[v[0], v[i], v[i + 1], v[i + 2]]);
+                i += 2;
+            }
+            if i + 1 < v.len() {
+                make(&[v[0], v[i], v[i + 1]]);
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::procedural;
+    use std::path::Path;
+
+    #[test]
+    fn a_wall_standing_on_a_floor_cuts_it() {
+        let mut d = procedural::furnace(0.5, 1.0);
+        d.boxes[0].max = [2.0, 1.0, 1.0];
+        d.boxes.push(crate::scene::description::BoxDesc {
+            name: "wall".into(),
+            material: "wall".into(),
+            min: [1.0, 0.0, 0.0],
+            max: [1.01, 1.0, 1.0],
+            inward: false,
+            omit: vec![],
+        });
+        let scene = d.build("t", Path::new(".")).unwrap();
+        let pieces = split_at_contacts(&scene.faces);
+        let floor = scene.surfaces.iter().position(|s| s == "cube.-z").unwrap();
+        let floor_pieces: Vec<&Polygon> = pieces
+            .iter()
+            .filter(|(_, f)| scene.faces[*f].surface == floor)
+            .map(|(p, _)| p)
+            .collect();
+        // Cut at x = 1 and x = 1.01: three pieces, areas 1, 0.01, 0.99.
+        let mut areas: Vec<f64> = floor_pieces.iter().map(|p| p.area()).collect();
+        areas.sort_by(f64::total_cmp);
+        assert_eq!(areas.len(), 3, "{areas:?}");
+        assert!(
+            (areas[0] - 0.01).abs() < 1e-12
+                && (areas[1] - 0.99).abs() < 1e-12
+                && (areas[2] - 1.0).abs() < 1e-12
+        );
+        // Total area is preserved for every face.
+        for (f, face) in scene.faces.iter().enumerate() {
+            let a: f64 = pieces
+                .iter()
+                .filter(|(_, g)| *g == f)
+                .map(|(p, _)| p.area())
+                .sum();
+            assert!((a - face.polygon.area()).abs() < 1e-12 * face.polygon.area().max(1.0));
+        }
+    }
+
+    #[test]
+    fn cornell_floor_is_cut_by_the_blocks_sides() {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/cornell-box.toml");
+        let scene = crate::scene::load(&path).unwrap();
+        let floor = scene.surfaces.iter().position(|s| s == "floor").unwrap();
+        let f = scene.faces.iter().position(|x| x.surface == floor).unwrap();
+        let pieces = split_at_contacts(&scene.faces);
+        // 8 block sides stand on the floor; each cut line crosses it.
+        assert!(pieces.iter().filter(|(_, g)| *g == f).count() >= 9);
+    }
+
+    #[test]
+    fn walls_along_a_boundary_cut_nothing() {
+        let scene = procedural::furnace(0.5, 1.0)
+            .build("t", Path::new("."))
+            .unwrap();
+        assert_eq!(split_at_contacts(&scene.faces).len(), 6);
+    }
+}
