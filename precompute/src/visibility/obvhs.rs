@@ -63,8 +63,16 @@ impl ObvhsOccluder {
 impl Occluder for ObvhsOccluder {
     fn occluded(&self, from: DVec3, to: DVec3) -> bool {
         let origin = Vec3A::from((from - self.centre).as_vec3());
-        let direction = Vec3A::from((to - from).as_vec3());
-        let ray = Ray::new(origin, direction, SEGMENT_EPSILON, 1.0 - SEGMENT_EPSILON);
+        // A unit direction keeps obvhs' absolute guards (its reciprocal of a direction
+        // component clamps at f32::EPSILON) meaningful at any scene scale.
+        let d = to - from;
+        let length = d.length();
+        if !(length > 0.0) {
+            return false; // a point does not block itself
+        }
+        let direction = Vec3A::from((d / length).as_vec3());
+        let (t0, t1) = (SEGMENT_EPSILON * length as f32, (1.0 - SEGMENT_EPSILON) * length as f32);
+        let ray = Ray::new(origin, direction, t0, t1);
         !self
             .bvh
             .ray_traverse_miss(ray, |ray, id| self.triangles[id].intersect(ray))

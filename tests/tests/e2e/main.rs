@@ -6,4 +6,5 @@ mod cornell;
 mod files;
 mod furnace;
 mod import;
+mod resilience;
 mod util;
