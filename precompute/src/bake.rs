@@ -129,7 +129,12 @@ impl<'s> Prepared<'s> {
     ) -> Result<(Vec<f64>, Option<Checkpoint>)> {
         let (n, k) = (self.mesh.n(), self.mesh.k());
         let bytes = (n as u128) * (k as u128) * 12;
-        memory::check_with(bytes, max_memory, "the element-to-patch matrix", "use a larger --element-size or --patch-size")?;
+        memory::check_with(
+            bytes,
+            max_memory,
+            "the element-to-patch matrix",
+            "use a larger --element-size or --patch-size",
+        )?;
         let rows: Vec<Polygon> = (0..n).map(|s| self.mesh.element_at(s).polygon).collect();
         let targets: Vec<Polygon> = self.mesh.patches.iter().map(|p| p.polygon).collect();
         let mut fk = vec![0.0; n * k];
@@ -142,12 +147,18 @@ impl<'s> Prepared<'s> {
         let mut done = vec![false; blocks];
         let mut file = None;
         if let Some(c) = checkpoint {
-            let shape = checkpoint::Shape { key: self.key(ff.samples), n: n as u64, k: k as u64, block_rows: block_rows as u64 };
+            let shape = checkpoint::Shape {
+                key: self.key(ff.samples),
+                n: n as u64,
+                k: k as u64,
+                block_rows: block_rows as u64,
+            };
             file = Some(if c.resume {
                 let (f, saved) = Checkpoint::resume(&c.path, shape)?;
                 for (b, values) in saved {
                     let b = b as usize;
-                    fk[b * block_rows * k..b * block_rows * k + values.len()].copy_from_slice(&values);
+                    fk[b * block_rows * k..b * block_rows * k + values.len()]
+                        .copy_from_slice(&values);
                     done[b] = true;
                     stage.inc((values.len() / k.max(1)) as u64);
                 }
@@ -159,7 +170,13 @@ impl<'s> Prepared<'s> {
         for b in (0..blocks).filter(|&b| !done[b]) {
             let (r0, r1) = (b * block_rows, ((b + 1) * block_rows).min(n));
             let out = &mut fk[r0 * k..r1 * k];
-            ff.matrix(&rows[r0..r1], &self.mesh.order[r0..r1], &targets, out, &|i| stage.inc(i));
+            ff.matrix(
+                &rows[r0..r1],
+                &self.mesh.order[r0..r1],
+                &targets,
+                out,
+                &|i| stage.inc(i),
+            );
             if let Some(f) = &mut file {
                 f.append(b as u64, out)?;
             }
@@ -178,9 +195,24 @@ impl<'s> Prepared<'s> {
                 }
             }
         }
-        let sizes = [self.sizes.element_size.to_le_bytes(), self.sizes.patch_size.to_le_bytes()].concat();
-        let counts = [self.mesh.n() as u64, self.mesh.k() as u64, u64::from(samples)].map(u64::to_le_bytes).concat();
-        checkpoint::key(&[&geometry, &sizes, &counts, env!("CARGO_PKG_VERSION").as_bytes()])
+        let sizes = [
+            self.sizes.element_size.to_le_bytes(),
+            self.sizes.patch_size.to_le_bytes(),
+        ]
+        .concat();
+        let counts = [
+            self.mesh.n() as u64,
+            self.mesh.k() as u64,
+            u64::from(samples),
+        ]
+        .map(u64::to_le_bytes)
+        .concat();
+        checkpoint::key(&[
+            &geometry,
+            &sizes,
+            &counts,
+            env!("CARGO_PKG_VERSION").as_bytes(),
+        ])
     }
 
     /// Reflectance and emission of each element, in original id order.
@@ -223,8 +255,12 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
     with_threads(settings.threads, || {
         let prepared = Prepared::new(scene, sizes, progress)?;
         let ff = prepared.form_factors(settings.samples);
-        let (fk, checkpoint) =
-            prepared.element_patch_matrix(&ff, progress, settings.max_memory, settings.checkpoint.as_ref())?;
+        let (fk, checkpoint) = prepared.element_patch_matrix(
+            &ff,
+            progress,
+            settings.max_memory,
+            settings.checkpoint.as_ref(),
+        )?;
         let (rho, emission) = prepared.element_materials();
         let order = &prepared.mesh.order;
         let reflectance: Vec<[f64; 3]> = order.iter().map(|&e| rho[e as usize]).collect();

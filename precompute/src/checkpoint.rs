@@ -54,19 +54,34 @@ impl Checkpoint {
     /// Starts a fresh checkpoint (replacing any old one).
     pub fn create(path: &Path, shape: Shape) -> Result<Self> {
         let mut file = File::create(path).map_err(|e| Error::io(path, e))?;
-        file.write_all(&shape.to_bytes()).map_err(|e| Error::io(path, e))?;
+        file.write_all(&shape.to_bytes())
+            .map_err(|e| Error::io(path, e))?;
         file.flush().map_err(|e| Error::io(path, e))?;
-        Ok(Self { path: path.to_path_buf(), file })
+        Ok(Self {
+            path: path.to_path_buf(),
+            file,
+        })
     }
 
     /// Opens an existing checkpoint to resume: returns the blocks it holds (index → rows).
     /// A checkpoint of another bake is an error; a torn last record is dropped.
     pub fn resume(path: &Path, shape: Shape) -> Result<(Self, Vec<(u64, Vec<f64>)>)> {
-        let mut file = OpenOptions::new().read(true).write(true).open(path).map_err(|e| {
-            Error::io(path, std::io::Error::new(e.kind(), format!("cannot resume: {e} (no interrupted bake to continue)")))
-        })?;
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(path)
+            .map_err(|e| {
+                Error::io(
+                    path,
+                    std::io::Error::new(
+                        e.kind(),
+                        format!("cannot resume: {e} (no interrupted bake to continue)"),
+                    ),
+                )
+            })?;
         let mut bytes = Vec::new();
-        file.read_to_end(&mut bytes).map_err(|e| Error::io(path, e))?;
+        file.read_to_end(&mut bytes)
+            .map_err(|e| Error::io(path, e))?;
         if bytes.len() < HEADER || bytes[..HEADER] != shape.to_bytes()[..] {
             return Err(Error::Settings(format!(
                 "{}: this checkpoint belongs to a different bake (the scene, the mesh sizes, the samples or the \
@@ -82,8 +97,15 @@ impl Checkpoint {
         }
         // Drop a torn tail so new records follow the last good one.
         file.set_len(at as u64).map_err(|e| Error::io(path, e))?;
-        file.seek(SeekFrom::End(0)).map_err(|e| Error::io(path, e))?;
-        Ok((Self { path: path.to_path_buf(), file }, blocks))
+        file.seek(SeekFrom::End(0))
+            .map_err(|e| Error::io(path, e))?;
+        Ok((
+            Self {
+                path: path.to_path_buf(),
+                file,
+            },
+            blocks,
+        ))
     }
 
     /// Appends one finished block and flushes it to the operating system.
@@ -97,7 +119,9 @@ impl Checkpoint {
         record.extend_from_slice(&(payload.len() as u64).to_le_bytes());
         record.extend_from_slice(&lrr_formats::checksum(&payload).to_le_bytes());
         record.extend_from_slice(&payload);
-        self.file.write_all(&record).map_err(|e| Error::io(&self.path, e))?;
+        self.file
+            .write_all(&record)
+            .map_err(|e| Error::io(&self.path, e))?;
         self.file.flush().map_err(|e| Error::io(&self.path, e))
     }
 
@@ -109,7 +133,9 @@ impl Checkpoint {
 }
 
 fn read_u64(bytes: &[u8], at: usize) -> Option<u64> {
-    bytes.get(at..at + 8).map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes")))
+    bytes
+        .get(at..at + 8)
+        .map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes")))
 }
 
 /// One record at `at`, validated against the shape; `None` at the end or on damage.
@@ -118,7 +144,9 @@ fn read_record(bytes: &[u8], at: usize, shape: Shape) -> Option<(u64, Vec<f64>, 
     let len = usize::try_from(read_u64(bytes, at + 8)?).ok()?;
     let sum = read_u64(bytes, at + 16)?;
     let blocks = shape.n.div_ceil(shape.block_rows.max(1));
-    let rows_in_block = shape.block_rows.min(shape.n.checked_sub(index.checked_mul(shape.block_rows)?)?);
+    let rows_in_block = shape
+        .block_rows
+        .min(shape.n.checked_sub(index.checked_mul(shape.block_rows)?)?);
     if index >= blocks || len as u64 != rows_in_block.checked_mul(shape.k)?.checked_mul(8)? {
         return None;
     }
@@ -127,7 +155,10 @@ fn read_record(bytes: &[u8], at: usize, shape: Shape) -> Option<(u64, Vec<f64>, 
     if lrr_formats::checksum(payload) != sum {
         return None;
     }
-    let rows = payload.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect();
+    let rows = payload
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+        .collect();
     Some((index, rows, start + len))
 }
 
@@ -150,7 +181,12 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("lrr-ckpt-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("x.lrr.ckpt");
-        let shape = Shape { key: 42, n: 5, k: 2, block_rows: 2 };
+        let shape = Shape {
+            key: 42,
+            n: 5,
+            k: 2,
+            block_rows: 2,
+        };
         let mut c = Checkpoint::create(&path, shape).unwrap();
         c.append(0, &[1.0, 2.0, 3.0, 4.0]).unwrap();
         c.append(2, &[9.0, 10.0]).unwrap();
@@ -158,9 +194,17 @@ mod tests {
         drop(c);
         // Tear the last record.
         let len = std::fs::metadata(&path).unwrap().len();
-        OpenOptions::new().write(true).open(&path).unwrap().set_len(len - 3).unwrap();
+        OpenOptions::new()
+            .write(true)
+            .open(&path)
+            .unwrap()
+            .set_len(len - 3)
+            .unwrap();
         let (mut c, blocks) = Checkpoint::resume(&path, shape).unwrap();
-        assert_eq!(blocks, vec![(0, vec![1.0, 2.0, 3.0, 4.0]), (2, vec![9.0, 10.0])]);
+        assert_eq!(
+            blocks,
+            vec![(0, vec![1.0, 2.0, 3.0, 4.0]), (2, vec![9.0, 10.0])]
+        );
         c.append(1, &[5.0, 6.0, 7.0, 8.0]).unwrap();
         drop(c);
         let (_, blocks) = Checkpoint::resume(&path, shape).unwrap();

@@ -5,7 +5,10 @@ use std::process::Command;
 
 #[test]
 fn failure_exits_non_zero_with_one_line() {
-    let out = Command::new(env!("CARGO_BIN_EXE_lrr")).args(["info", "/nonexistent.lrr"]).output().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lrr"))
+        .args(["info", "/nonexistent.lrr"])
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8(out.stderr).unwrap();
     assert_eq!(err.lines().count(), 1, "{err}");
@@ -14,8 +17,16 @@ fn failure_exits_non_zero_with_one_line() {
 
 #[test]
 fn help_and_version_succeed() {
-    for args in [&["--help"][..], &["--version"], &["bake", "--help"], &["probe", "--help"]] {
-        let out = Command::new(env!("CARGO_BIN_EXE_lrr")).args(args).output().unwrap();
+    for args in [
+        &["--help"][..],
+        &["--version"],
+        &["bake", "--help"],
+        &["probe", "--help"],
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_lrr"))
+            .args(args)
+            .output()
+            .unwrap();
         assert!(out.status.success(), "{args:?}");
         assert!(!out.stdout.is_empty());
     }

@@ -81,7 +81,10 @@ fn parse_bytes(text: &str) -> std::result::Result<u64, String> {
         Some('T') => (&t[..t.len() - 1], 40),
         _ => (t, 0),
     };
-    let v: f64 = digits.trim().parse().map_err(|_| format!("'{text}' is not a size like 4096, 512M or 2G"))?;
+    let v: f64 = digits
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{text}' is not a size like 4096, 512M or 2G"))?;
     if !(v.is_finite() && v >= 0.0) {
         return Err(format!("'{text}' is not a size like 4096, 512M or 2G"));
     }

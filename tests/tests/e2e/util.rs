@@ -85,7 +85,8 @@ pub fn lrr_binary() -> PathBuf {
     if !bin.exists() {
         let profile = dir.file_name().unwrap().to_str().unwrap().to_string();
         let mut cmd = std::process::Command::new(env!("CARGO"));
-        cmd.args(["build", "--bin", "lrr", "--manifest-path"]).arg(root().join("Cargo.toml"));
+        cmd.args(["build", "--bin", "lrr", "--manifest-path"])
+            .arg(root().join("Cargo.toml"));
         if profile == "release" {
             cmd.arg("--release");
         }
