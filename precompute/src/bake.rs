@@ -7,6 +7,7 @@
 
 use serde::Serialize;
 
+use crate::checkpoint::{self, Checkpoint};
 use crate::error::{Error, Result};
 use crate::formfactor::FormFactors;
 use crate::formfactor::kernel::Polygon;
@@ -21,12 +22,27 @@ use crate::visibility::{Occluder, nothing_occludes, obvhs::ObvhsOccluder};
 pub const DEFAULT_SAMPLES: u32 = 16;
 
 /// What a bake may be told.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct BakeSettings {
     pub element_size: Option<f64>,
     pub patch_size: Option<f64>,
     pub samples: u32,
     pub threads: Option<usize>,
+    /// Refuse jobs whose working memory would exceed this many bytes (default: 80% of what
+    /// the machine has available).
+    pub max_memory: Option<u64>,
+    /// Where and how to checkpoint the form-factor stage (bake only).
+    pub checkpoint: Option<CheckpointSettings>,
+}
+
+/// Checkpointing of the form-factor rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckpointSettings {
+    pub path: std::path::PathBuf,
+    /// Continue from an existing checkpoint instead of starting over.
+    pub resume: bool,
+    /// Rows per checkpoint block (default: about 10⁶ element-patch-sample triples).
+    pub block_rows: Option<usize>,
 }
 
 impl Default for BakeSettings {
@@ -36,6 +52,8 @@ impl Default for BakeSettings {
             patch_size: None,
             samples: DEFAULT_SAMPLES,
             threads: None,
+            max_memory: None,
+            checkpoint: None,
         }
     }
 }
@@ -99,12 +117,21 @@ impl<'s> Prepared<'s> {
         }
     }
 
-    /// `F_k`: element-to-patch form factors, n×k row-major in file order.
-    pub fn element_patch_matrix(&self, ff: &FormFactors, progress: &Progress) -> Result<Vec<f64>> {
+    /// `F_k`: element-to-patch form factors, n×k row-major in file order, computed in blocks
+    /// of rows that are checkpointed when `checkpoint` is given. Returns the open checkpoint,
+    /// which the caller removes once the output is safely written.
+    pub fn element_patch_matrix(
+        &self,
+        ff: &FormFactors,
+        progress: &Progress,
+        max_memory: Option<u64>,
+        checkpoint: Option<&CheckpointSettings>,
+    ) -> Result<(Vec<f64>, Option<Checkpoint>)> {
         let (n, k) = (self.mesh.n(), self.mesh.k());
         let bytes = (n as u128) * (k as u128) * 12;
-        memory::check(
+        memory::check_with(
             bytes,
+            max_memory,
             "the element-to-patch matrix",
             "use a larger --element-size or --patch-size",
         )?;
@@ -112,11 +139,80 @@ impl<'s> Prepared<'s> {
         let targets: Vec<Polygon> = self.mesh.patches.iter().map(|p| p.polygon).collect();
         let mut fk = vec![0.0; n * k];
         let stage = progress.stage("form factors", n as u64);
-        ff.matrix(&rows, &self.mesh.order, &targets, &mut fk, &|i| {
-            stage.inc(i)
-        });
+        let block_rows = checkpoint
+            .and_then(|c| c.block_rows)
+            .unwrap_or_else(|| (1usize << 20) / (k.max(1) * ff.samples as usize))
+            .clamp(1, n.max(1));
+        let blocks = n.div_ceil(block_rows);
+        let mut done = vec![false; blocks];
+        let mut file = None;
+        if let Some(c) = checkpoint {
+            let shape = checkpoint::Shape {
+                key: self.key(ff.samples),
+                n: n as u64,
+                k: k as u64,
+                block_rows: block_rows as u64,
+            };
+            file = Some(if c.resume {
+                let (f, saved) = Checkpoint::resume(&c.path, shape)?;
+                for (b, values) in saved {
+                    let b = b as usize;
+                    fk[b * block_rows * k..b * block_rows * k + values.len()]
+                        .copy_from_slice(&values);
+                    done[b] = true;
+                    stage.inc((values.len() / k.max(1)) as u64);
+                }
+                f
+            } else {
+                Checkpoint::create(&c.path, shape)?
+            });
+        }
+        for b in (0..blocks).filter(|&b| !done[b]) {
+            let (r0, r1) = (b * block_rows, ((b + 1) * block_rows).min(n));
+            let out = &mut fk[r0 * k..r1 * k];
+            ff.matrix(
+                &rows[r0..r1],
+                &self.mesh.order[r0..r1],
+                &targets,
+                out,
+                &|i| stage.inc(i),
+            );
+            if let Some(f) = &mut file {
+                f.append(b as u64, out)?;
+            }
+        }
         stage.finish();
-        Ok(fk)
+        Ok((fk, file))
+    }
+
+    /// Key of everything `F_k` depends on, for checkpoints.
+    pub fn key(&self, samples: u32) -> u64 {
+        let mut geometry = Vec::with_capacity(self.scene.faces.len() * 4 * 24);
+        for f in &self.scene.faces {
+            for v in f.polygon.vertices() {
+                for c in v.to_array() {
+                    geometry.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+        }
+        let sizes = [
+            self.sizes.element_size.to_le_bytes(),
+            self.sizes.patch_size.to_le_bytes(),
+        ]
+        .concat();
+        let counts = [
+            self.mesh.n() as u64,
+            self.mesh.k() as u64,
+            u64::from(samples),
+        ]
+        .map(u64::to_le_bytes)
+        .concat();
+        checkpoint::key(&[
+            &geometry,
+            &sizes,
+            &counts,
+            env!("CARGO_PKG_VERSION").as_bytes(),
+        ])
     }
 
     /// Reflectance and emission of each element, in original id order.
@@ -146,6 +242,8 @@ pub struct Baked {
     pub surfaces: Vec<String>,
     pub rays: u64,
     pub culled_pairs: u64,
+    /// The form-factor checkpoint, to remove once the output is written.
+    pub checkpoint: Option<Checkpoint>,
 }
 
 /// Bakes a scene: the whole pipeline up to the k×k cores.
@@ -157,7 +255,12 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
     with_threads(settings.threads, || {
         let prepared = Prepared::new(scene, sizes, progress)?;
         let ff = prepared.form_factors(settings.samples);
-        let fk = prepared.element_patch_matrix(&ff, progress)?;
+        let (fk, checkpoint) = prepared.element_patch_matrix(
+            &ff,
+            progress,
+            settings.max_memory,
+            settings.checkpoint.as_ref(),
+        )?;
         let (rho, emission) = prepared.element_materials();
         let order = &prepared.mesh.order;
         let reflectance: Vec<[f64; 3]> = order.iter().map(|&e| rho[e as usize]).collect();
@@ -187,6 +290,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             surfaces: scene.surfaces.clone(),
             rays,
             culled_pairs: culled,
+            checkpoint,
         })
     })?
 }

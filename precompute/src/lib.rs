@@ -30,6 +30,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod bake;
+pub mod checkpoint;
 pub mod cli;
 pub mod error;
 pub mod formfactor;

@@ -26,7 +26,12 @@ pub fn available() -> u128 {
 
 /// Refuses `bytes` of working memory for `what` when they exceed 80% of what is available.
 pub fn check(bytes: u128, what: &str, fix: &str) -> Result<()> {
-    let limit = available() * 8 / 10;
+    check_with(bytes, None, what, fix)
+}
+
+/// Like [`check`], with an explicit limit in bytes (`--max-memory`) when given.
+pub fn check_with(bytes: u128, limit: Option<u64>, what: &str, fix: &str) -> Result<()> {
+    let limit = limit.map_or_else(|| available() * 8 / 10, u128::from);
     if bytes > limit {
         return Err(Error::Limits(format!(
             "{what} needs about {:.2} GiB but only {:.2} GiB can be used; {fix}",

@@ -30,12 +30,14 @@ pub fn solve_exact(
     mesh: &Mesh,
     data: &ElementData,
     ff: &FormFactors,
+    max_memory: Option<u64>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<ExactSolution> {
     let n = mesh.n();
     let bytes = (n as u128) * (n as u128) * 8 * 2;
-    memory::check(
+    memory::check_with(
         bytes,
+        max_memory,
         "the exact solve (two n×n f64 matrices)",
         "use a larger --element-size",
     )?;

@@ -10,7 +10,8 @@ use clap::Args;
 use serde::Serialize;
 
 use super::{MeshArgs, load_scene, summary};
-use crate::bake::bake;
+use crate::bake::{CheckpointSettings, bake};
+use crate::checkpoint;
 use crate::output;
 
 #[derive(Debug, Args)]
@@ -25,6 +26,13 @@ pub struct BakeArgs {
     /// Also write a JSON report (sizes, condition number, seconds per stage).
     #[arg(long, value_name = "R.json")]
     pub report: Option<PathBuf>,
+    /// Continue an interrupted bake from its checkpoint (OUT.lrr.ckpt); the result is the same
+    /// file an uninterrupted bake writes.
+    #[arg(long)]
+    pub resume: bool,
+    /// Rows of form factors per checkpoint block [default: about 10⁶ pair samples per block].
+    #[arg(long, value_name = "ROWS")]
+    pub checkpoint_rows: Option<usize>,
 }
 
 #[derive(Serialize)]
@@ -53,10 +61,26 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     let stage = progress.stage("import", 0);
     let scene = load_scene(&a.scene)?;
     stage.finish();
-    let baked = bake(&scene, &a.mesh.settings(), &progress)?;
+    let mut settings = a.mesh.settings();
+    let checkpoint_path = checkpoint::path_for(&a.output);
+    if !a.resume && checkpoint_path.exists() {
+        eprintln!(
+            "lrr: note: starting over; {} holds an interrupted bake (add --resume to continue it)",
+            checkpoint_path.display()
+        );
+    }
+    settings.checkpoint = Some(CheckpointSettings {
+        path: checkpoint_path,
+        resume: a.resume,
+        block_rows: a.checkpoint_rows,
+    });
+    let mut baked = bake(&scene, &settings, &progress)?;
     let stage = progress.stage("write", 0);
     let file = output::write(&baked, &a.output)
         .with_context(|| format!("writing the operator file {}", a.output.display()))?;
+    if let Some(c) = baked.checkpoint.take() {
+        c.remove()?;
+    }
     stage.finish();
     let file_bytes = std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0);
     let stages: BTreeMap<String, f64> = progress.timings().into_iter().collect();

@@ -62,9 +62,33 @@ pub struct MeshArgs {
     /// Worker threads [default: all cores]. Results do not depend on it.
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
+    /// Refuse jobs whose working memory would exceed this (bytes, or with a K/M/G/T suffix)
+    /// [default: 80% of the memory available].
+    #[arg(long, value_name = "BYTES", value_parser = parse_bytes)]
+    pub max_memory: Option<u64>,
     /// No progress bars.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+/// Parses "1000", "512M", "2G" (binary multiples).
+fn parse_bytes(text: &str) -> std::result::Result<u64, String> {
+    let t = text.trim();
+    let (digits, shift) = match t.chars().last().map(|c| c.to_ascii_uppercase()) {
+        Some('K') => (&t[..t.len() - 1], 10),
+        Some('M') => (&t[..t.len() - 1], 20),
+        Some('G') => (&t[..t.len() - 1], 30),
+        Some('T') => (&t[..t.len() - 1], 40),
+        _ => (t, 0),
+    };
+    let v: f64 = digits
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{text}' is not a size like 4096, 512M or 2G"))?;
+    if !(v.is_finite() && v >= 0.0) {
+        return Err(format!("'{text}' is not a size like 4096, 512M or 2G"));
+    }
+    Ok((v * (1u64 << shift) as f64) as u64)
 }
 
 impl MeshArgs {
@@ -74,6 +98,8 @@ impl MeshArgs {
             patch_size: self.patch_size,
             samples: self.samples,
             threads: self.threads,
+            max_memory: self.max_memory,
+            checkpoint: None,
         }
     }
 

@@ -67,7 +67,9 @@ pub fn solve(scene: &Scene, a: &MeshArgs, exact: bool) -> Result<Solution> {
                 reflectance: &rho,
                 emission: &emission,
             };
-            let sol = solve_exact(&prepared.mesh, &data, &ff, &|i| stage.inc(i))?;
+            let sol = solve_exact(&prepared.mesh, &data, &ff, settings.max_memory, &|i| {
+                stage.inc(i)
+            })?;
             stage.finish();
             Ok((prepared.mesh, sol.radiosity, "exact"))
         })??

@@ -40,7 +40,7 @@ pub fn view_factors(scene: &Scene, a: &MeshArgs) -> Result<ViewFactors> {
     let result = with_threads(settings.threads, || -> Result<ViewFactors> {
         let prepared = Prepared::new(scene, sizes, &progress)?;
         let ff = prepared.form_factors(settings.samples);
-        let fk = prepared.element_patch_matrix(&ff, &progress)?;
+        let (fk, _) = prepared.element_patch_matrix(&ff, &progress, settings.max_memory, None)?;
         let m = scene.surfaces.len();
         let k = prepared.mesh.k();
         let mut flux = vec![vec![0.0; m]; m];

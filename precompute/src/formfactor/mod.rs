@@ -161,7 +161,7 @@ fn visible_fraction(
     }
     if acc.total <= 0.0 {
         // Every sampled segment was grazing: fall back to one ray between the centroids.
-        let blocked = occ.occluded(e.centroid(), t.centroid());
+        let blocked = occ.occluded(e.centroid(), e.normal, t.centroid(), t.normal);
         return (if blocked { 0.0 } else { 1.0 }, acc.rays + 1);
     }
     (acc.visible / acc.total, acc.rays)
@@ -208,7 +208,7 @@ impl Visibility {
             }
             self.rays += 1;
             self.total += weight;
-            if !occ.occluded(s.point, y) {
+            if !occ.occluded(s.point, e.normal, y, t.normal) {
                 self.visible += weight;
             }
         }

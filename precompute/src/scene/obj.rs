@@ -22,6 +22,12 @@ pub fn load(path: &Path) -> Result<Scene> {
     let origin = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let face_lines = prescan(&bytes, &origin)?;
+    for library in material_libraries(&bytes) {
+        let mtl = path.parent().unwrap_or(Path::new(".")).join(&library);
+        if let Ok(text) = std::fs::read(&mtl) {
+            prescan_mtl(&text, &mtl.display().to_string())?;
+        }
+    }
     let options = tobj::LoadOptions {
         triangulate: false,
         single_index: false,
@@ -194,9 +200,61 @@ fn prescan(bytes: &[u8], origin: &str) -> Result<Vec<usize>> {
     Ok(faces)
 }
 
+/// The `mtllib` names of an OBJ, as tobj reads them (everything after the keyword, trimmed).
+fn material_libraries(bytes: &[u8]) -> Vec<String> {
+    bytes
+        .split(|&b| b == b'\n')
+        .filter_map(|raw| std::str::from_utf8(raw).ok())
+        .filter_map(|line| {
+            let line = line.trim_start();
+            let rest = line.strip_prefix("mtllib")?;
+            rest.starts_with([' ', '\t'])
+                .then(|| rest.trim().to_string())
+        })
+        .collect()
+}
+
+/// Checks an MTL file's colour statements (tobj panics on a `Kd` with fewer than three
+/// numbers; found by the `obj_import` fuzz target).
+fn prescan_mtl(bytes: &[u8], origin: &str) -> Result<()> {
+    for (i, raw) in bytes.split(|&b| b == b'\n').enumerate() {
+        let at = || format!("{origin}:{}", i + 1);
+        let line = std::str::from_utf8(raw)
+            .map_err(|_| Error::scene(at(), "the line is not valid UTF-8 text"))?;
+        let mut words = line.split_whitespace();
+        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() {
+            let numbers = words.take(3).filter(|w| w.parse::<f64>().is_ok()).count();
+            if numbers < 3 {
+                return Err(Error::scene(
+                    at(),
+                    format!("'{key}' needs three numbers (R G B)"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mtl_colours_need_three_numbers() {
+        let e = prescan_mtl(b"newmtl a\nKd 0.5\n", "m.mtl")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("m.mtl:2:") && e.contains("'Kd' needs three numbers"),
+            "{e}"
+        );
+        assert!(prescan_mtl(b"newmtl a\nKe\n", "m.mtl").is_err());
+        assert!(prescan_mtl(b"newmtl a\nKd 0.5 0.5 0.5 # grey\n", "m.mtl").is_ok());
+        assert_eq!(
+            material_libraries(b"mtllib a b.mtl\n  mtllib\tc.mtl\nmtllibx\n"),
+            vec!["a b.mtl", "c.mtl"]
+        );
+    }
 
     #[test]
     fn prescan_reports_lines() {

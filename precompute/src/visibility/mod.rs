@@ -1,25 +1,36 @@
 //! Visibility between sample points: ray casts against the scene's faces.
 //!
 //! The default backend is [`obvhs`] (pure Rust). A segment query asks whether anything blocks
-//! the open segment between two surface points; its parameter range excludes a relative
-//! 1e-4 of the segment at each end, so the faces the points lie on never count, at any scale.
+//! the open segment between two surface points: the faces the points lie on never count (nor
+//! coincident back faces), every other face does, at any scale.
 //!
 //! [`nothing_occludes`] detects scenes where no line of sight can be blocked (every face sees
 //! all others from its front: an empty convex room, two facing squares); those bakes cast no
 //! rays at all.
 
 pub mod obvhs;
+pub mod watertight;
 
 use glam::DVec3;
 
 use crate::scene::Scene;
 
-/// Fraction of a segment excluded at each end (relative, so scale-free).
-pub const SEGMENT_EPSILON: f32 = 1e-4;
+/// Fraction of a segment excluded at each end: only a guard against a zero parameter. The
+/// faces the end points lie on are skipped by plane and orientation instead (see
+/// [`PLANE_TOLERANCE`]). Excluding a relative 1e-4 of each end (the first design) let a point
+/// sampled within 1e-4 of a wall's foot see through the wall: a 5e-5 leak into a closed room
+/// behind a zero-thickness wall.
+pub const SEGMENT_EPSILON: f32 = 1e-9;
 
-/// Answers "is the segment between two surface points blocked?".
+/// Distance, relative to the scene's bounding-box diagonal, under which a segment's end point
+/// counts as lying in the plane of a face parallel to its own surface: that face is its own
+/// (or a coincident back face) and cannot block the segment.
+pub const PLANE_TOLERANCE: f64 = 1e-6;
+
+/// Answers "is the segment between two surface points blocked?". The normals are those of
+/// the surfaces the points lie on.
 pub trait Occluder: Sync {
-    fn occluded(&self, from: DVec3, to: DVec3) -> bool;
+    fn occluded(&self, from: DVec3, from_normal: DVec3, to: DVec3, to_normal: DVec3) -> bool;
 }
 
 /// Most faces for which the quadratic convexity test is run; larger scenes are assumed to

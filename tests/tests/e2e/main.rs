@@ -8,4 +8,5 @@ mod files;
 mod furnace;
 mod fuzz_replay;
 mod import;
+mod resilience;
 mod util;

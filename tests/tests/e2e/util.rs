@@ -76,3 +76,22 @@ pub fn factor(vf: &serde_json::Value, from: &str, to: &str) -> f64 {
     let j = names.iter().position(|n| *n == to).unwrap();
     vf["matrix"][i][j].as_f64().unwrap()
 }
+
+/// The `lrr` binary of this build (built by `cargo test`, or here if missing).
+pub fn lrr_binary() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let dir = exe.parent().unwrap().parent().unwrap(); // target/<profile>/deps/.. → target/<profile>
+    let bin = dir.join("lrr");
+    if !bin.exists() {
+        let profile = dir.file_name().unwrap().to_str().unwrap().to_string();
+        let mut cmd = std::process::Command::new(env!("CARGO"));
+        cmd.args(["build", "--bin", "lrr", "--manifest-path"])
+            .arg(root().join("Cargo.toml"));
+        if profile == "release" {
+            cmd.arg("--release");
+        }
+        cmd.env("CARGO_TARGET_DIR", dir.parent().unwrap());
+        assert!(cmd.status().unwrap().success(), "building lrr failed");
+    }
+    bin
+}

@@ -1,0 +1,322 @@
+//! Hard numerical cases (issue: "hard cases stay numerically stable"): reflectance near 1,
+//! edge-sharing elements, slivers and tiny elements, huge and tiny scales, thin walls.
+
+#[path = "e2e/util.rs"]
+#[allow(dead_code)]
+mod util;
+
+use lrr_runtime::Operator;
+use util::{cornell, factor, generated_scene, lrr, lrr_json, temp_dir};
+
+/// Per-element radiosity and surface names from `lrr solve --json`.
+fn solve(scene: &std::path::Path, extra: &[&str]) -> Vec<(String, [f64; 3], [f64; 3])> {
+    let mut args = vec!["solve", scene.to_str().unwrap(), "--json", "--quiet"];
+    args.extend_from_slice(extra);
+    let v = lrr_json(&args);
+    let arr = |x: &serde_json::Value| -> [f64; 3] {
+        let a = x.as_array().unwrap();
+        [
+            a[0].as_f64().unwrap(),
+            a[1].as_f64().unwrap(),
+            a[2].as_f64().unwrap(),
+        ]
+    };
+    v["elements"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            (
+                e["surface"].as_str().unwrap().to_string(),
+                arr(&e["centroid"]),
+                arr(&e["radiosity"]),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn reflectance_near_one_exact_and_low_rank() {
+    let dir = temp_dir("rho-near-one");
+    for rho in [0.999, 0.9999] {
+        let r = rho.to_string();
+        let scene = generated_scene(&dir, &format!("f{r}"), &["furnace", "--reflectance", &r]);
+        let expected = std::f64::consts::PI / (1.0 - rho);
+        let exact = solve(&scene, &["--exact"]);
+        let worst_exact = exact
+            .iter()
+            .map(|e| (e.2[0] - expected).abs() / expected)
+            .fold(0.0, f64::max);
+        let out = dir.join(format!("f{r}.lrr"));
+        let report = dir.join(format!("f{r}.json"));
+        lrr(&[
+            "bake",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+            "-q",
+        ])
+        .unwrap();
+        let op = Operator::load(&out).unwrap();
+        let b = op.evaluate_baked();
+        let worst_lrr = b
+            .iter()
+            .map(|x| (f64::from(x[0]) - expected).abs() / expected)
+            .fold(0.0, f64::max);
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        let kappa = r["condition"].as_f64().unwrap();
+        println!(
+            "rho {rho}: exact worst {worst_exact:.2e}, low-rank worst {worst_lrr:.2e}, condition of I - VᵀU {kappa:.4e}"
+        );
+        assert!(worst_exact < 1e-3 && worst_lrr < 1e-3);
+        // A closed scene's V^T U is stochastic times rho: its condition is (1 + rho) / (1 - rho)
+        // at most, and at least 1 / (1 - rho).
+        assert!(
+            kappa >= 0.99 / (1.0 - rho) && kappa <= 1.01 * (1.0 + rho) / (1.0 - rho),
+            "{kappa}"
+        );
+    }
+}
+
+#[test]
+fn edge_sharing_squares_refined_to_many_elements() {
+    let dir = temp_dir("edge-sharing");
+    let scene = generated_scene(&dir, "perp", &["perpendicular"]);
+    for size in ["0.05", "0.01"] {
+        let vf = lrr_json(&[
+            "view-factors",
+            scene.to_str().unwrap(),
+            "--json",
+            "-q",
+            "--element-size",
+            size,
+        ]);
+        let f = factor(&vf, "base", "wall");
+        println!("element size {size}: F = {f:.6} (closed form 0.200044)");
+        assert!((f - 0.200044).abs() < 1e-3);
+    }
+}
+
+/// A closed unit cube whose floor is tiled by slivers (aspect 1e4) and tiny triangles
+/// (area 1e-8 of the scene's).
+fn sliver_cube(dir: &std::path::Path, rho: f64) -> std::path::PathBuf {
+    let t = 1e-4; // sliver thickness
+    let s = (6.0f64 * 1e-8 * 2.0).sqrt(); // tiny right triangles of area 6e-8 (the scene's is 6)
+    let tri = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        format!(
+            "[[{}, {}, 0], [{}, {}, 0], [{}, {}, 0]]",
+            a[0], a[1], b[0], b[1], c[0], c[1]
+        )
+    };
+    let quad = |x0: f64, y0: f64, x1: f64, y1: f64| {
+        format!("[[{x0}, {y0}, 0], [{x1}, {y0}, 0], [{x1}, {y1}, 0], [{x0}, {y1}, 0]]")
+    };
+    let floor = [
+        // a strip of two slivers along y = 0 (aspect 1e4)
+        tri([0.0, 0.0], [1.0, 0.0], [1.0, t]),
+        tri([0.0, 0.0], [1.0, t], [0.0, t]),
+        // a tiny square of two tiny triangles in the corner above the strip
+        tri([0.0, t], [s, t], [s, t + s]),
+        tri([0.0, t], [s, t + s], [0.0, t + s]),
+        // the rest: a thin rectangle right of the tiny square, and the bulk
+        quad(s, t, 1.0, t + s),
+        quad(0.0, t + s, 1.0, 1.0),
+    ];
+    let text = format!(
+        "[[material]]\nname = \"w\"\nreflectance = [{rho}, {rho}, {rho}]\nradiance = [1, 1, 1]\n\
+         [[box]]\nname = \"cube\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\ninward = true\nomit = [\"-z\"]\n\
+         [[surface]]\nname = \"floor\"\nmaterial = \"w\"\npolygons = [{}]\n\
+         [mesh]\nelement_size = 0.125\npatch_size = 0.25\n",
+        floor.join(", ")
+    );
+    let path = dir.join("slivers.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn slivers_and_tiny_elements_stay_finite_and_conserve_energy() {
+    let dir = temp_dir("slivers");
+    let scene = sliver_cube(&dir, 0.9);
+    let vf = lrr_json(&["view-factors", scene.to_str().unwrap(), "--json", "-q"]);
+    for (i, row) in vf["matrix"].as_array().unwrap().iter().enumerate() {
+        let sum: f64 = row
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f.as_f64().unwrap())
+            .sum();
+        println!("{}: row sum {sum:.9}", vf["surfaces"][i]);
+        assert!(
+            sum.is_finite() && sum <= 1.0 + 1e-3 && sum >= 1.0 - 1e-3,
+            "row {i}: {sum}"
+        );
+    }
+    let out = dir.join("slivers.lrr");
+    lrr(&[
+        "bake",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+    ])
+    .unwrap();
+    let op = Operator::load(&out).unwrap(); // the reader validates every value is finite
+    let expected = std::f64::consts::PI / (1.0 - 0.9);
+    let b = op.evaluate_baked();
+    let worst = b
+        .iter()
+        .flatten()
+        .map(|x| (f64::from(*x) - expected).abs() / expected)
+        .fold(0.0, f64::max);
+    println!(
+        "furnace with slivers: n = {}, worst relative error {worst:.2e}",
+        op.n()
+    );
+    assert!(worst < 1e-3);
+}
+
+/// The Cornell box description with `scale = s` prepended.
+fn scaled_cornell(dir: &std::path::Path, s: f64) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(cornell()).unwrap();
+    let path = dir.join(format!("cornell-{s}.toml"));
+    std::fs::write(&path, format!("scale = {s:e}\n{text}")).unwrap();
+    path
+}
+
+#[test]
+fn scaled_cornell_box_gives_the_same_radiosity() {
+    let dir = temp_dir("scale");
+    let base = solve(&scaled_cornell(&dir, 1.0), &[]);
+    for s in [1e-3, 1e4] {
+        let scaled = solve(&scaled_cornell(&dir, s), &[]);
+        assert_eq!(
+            scaled.len(),
+            base.len(),
+            "default sizes must mesh a scaled scene identically"
+        );
+        let (mut num, mut den, mut worst) = (0.0, 0.0, 0.0f64);
+        for (a, b) in scaled.iter().zip(&base) {
+            for c in 0..3 {
+                num += (a.2[c] - b.2[c]).powi(2);
+                den += b.2[c].powi(2);
+                worst = worst.max((a.2[c] - b.2[c]).abs() / b.2[c].abs().max(1e-3));
+            }
+            let d = (a.1[0] / s - b.1[0]).abs();
+            assert!(d < 1e-6 * 556.0, "element centroids must scale exactly");
+        }
+        let rel = (num / den).sqrt();
+        println!("scale {s:e}: relative L2 difference {rel:.2e}, worst element {worst:.2e}");
+        assert!(rel < 1e-4, "scale {s}: {rel}");
+    }
+}
+
+/// Two rooms along x, sharing a wall from x = 1 to x = 1 + thickness (none: zero thickness,
+/// two coincident faces back to back). Floor, ceiling and side walls run under and over the
+/// wall as single faces, the worst case for leaks. A lamp hangs in the first room.
+fn two_rooms(dir: &std::path::Path, thickness: Option<f64>) -> std::path::PathBuf {
+    let x1 = 1.0 + thickness.unwrap_or(0.0);
+    let x2 = x1 + 1.0;
+    let wall = match thickness {
+        Some(t) => format!(
+            "[[box]]\nname = \"wall\"\nmaterial = \"w\"\nmin = [1, 0, 0]\nmax = [{}, 1, 1]\n",
+            1.0 + t
+        ),
+        None => "[[surface]]\nname = \"wall-dark\"\nmaterial = \"w\"\npolygons = [[[1, 0, 0], [1, 1, 0], [1, 1, 1], [1, 0, 1]]]\n\
+                 [[surface]]\nname = \"wall-lit\"\nmaterial = \"w\"\npolygons = [[[1, 0, 0], [1, 0, 1], [1, 1, 1], [1, 1, 0]]]\n"
+            .to_string(),
+    };
+    let text = format!(
+        "[[material]]\nname = \"w\"\nreflectance = [0.8, 0.8, 0.8]\n\
+         [[material]]\nname = \"lamp\"\nreflectance = [0.5, 0.5, 0.5]\nradiance = [10, 10, 10]\n\
+         [[box]]\nname = \"hall\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [{x2}, 1, 1]\ninward = true\n\
+         {wall}\
+         [[surface]]\nname = \"lamp\"\nmaterial = \"lamp\"\n\
+         polygons = [[[0.4, 0.4, 0.95], [0.4, 0.6, 0.95], [0.6, 0.6, 0.95], [0.6, 0.4, 0.95]]]\n\
+         [mesh]\nelement_size = 0.1\npatch_size = 0.3\n"
+    );
+    let name = match thickness {
+        Some(t) => format!("rooms-{t}.toml"),
+        None => "rooms-0.toml".into(),
+    };
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Mean radiosity of elements in the lit room and the largest in the dark one.
+fn lit_and_dark(
+    elements: &[(String, [f64; 3], [f64; 3])],
+    dark: impl Fn(&str, [f64; 3]) -> bool,
+) -> (f64, f64) {
+    let lit: Vec<f64> = elements
+        .iter()
+        .filter(|e| !dark(&e.0, e.1) && e.0 != "lamp")
+        .map(|e| e.2[0])
+        .collect();
+    let dark_max = elements
+        .iter()
+        .filter(|e| dark(&e.0, e.1))
+        .map(|e| e.2[0])
+        .fold(0.0, f64::max);
+    (lit.iter().sum::<f64>() / lit.len() as f64, dark_max)
+}
+
+#[test]
+fn thin_and_zero_thickness_walls_do_not_leak() {
+    let dir = temp_dir("thin-walls");
+    for thickness in [Some(0.01), None] {
+        let scene = two_rooms(&dir, thickness);
+        let x_dark = 1.0 + thickness.unwrap_or(0.0);
+        for extra in [&[][..], &["--exact"][..]] {
+            let e = solve(&scene, extra);
+            // The dark room: everything beyond the wall, and the wall's face towards it.
+            let (lit, dark) = lit_and_dark(&e, |name, c| {
+                c[0] > x_dark + 1e-9 || name == "wall.+x" || name == "wall-dark"
+            });
+            println!("wall {thickness:?} {extra:?}: lit mean {lit:.4e}, dark max {dark:.3e}");
+            assert!(
+                lit > 0.0 && dark <= 1e-6 * lit,
+                "light leaks: dark {dark} vs lit {lit}"
+            );
+        }
+    }
+}
+
+#[test]
+fn concave_corner_does_not_leak() {
+    // An L-shaped room around a closed dark room sitting in its notch: the L's inner walls
+    // and the dark room's walls coincide back to back, and meet at a concave corner.
+    let dir = temp_dir("corner");
+    let text = "[[material]]\nname = \"w\"\nreflectance = [0.8, 0.8, 0.8]\n\
+        [[material]]\nname = \"lamp\"\nreflectance = [0.5, 0.5, 0.5]\nradiance = [10, 10, 10]\n\
+        [[surface]]\nname = \"l-floor\"\nmaterial = \"w\"\n\
+        polygons = [[[0, 0, 0], [2, 0, 0], [2, 1, 0], [1, 1, 0], [1, 2, 0], [0, 2, 0]]]\n\
+        [[surface]]\nname = \"l-ceiling\"\nmaterial = \"w\"\n\
+        polygons = [[[0, 0, 1], [0, 2, 1], [1, 2, 1], [1, 1, 1], [2, 1, 1], [2, 0, 1]]]\n\
+        [[surface]]\nname = \"l-walls\"\nmaterial = \"w\"\npolygons = [\n\
+          [[0, 0, 0], [0, 0, 1], [2, 0, 1], [2, 0, 0]],\n\
+          [[2, 0, 0], [2, 0, 1], [2, 1, 1], [2, 1, 0]],\n\
+          [[2, 1, 0], [2, 1, 1], [1, 1, 1], [1, 1, 0]],\n\
+          [[1, 1, 0], [1, 1, 1], [1, 2, 1], [1, 2, 0]],\n\
+          [[1, 2, 0], [1, 2, 1], [0, 2, 1], [0, 2, 0]],\n\
+          [[0, 2, 0], [0, 2, 1], [0, 0, 1], [0, 0, 0]]]\n\
+        [[box]]\nname = \"dark\"\nmaterial = \"w\"\nmin = [1, 1, 0]\nmax = [2, 2, 1]\ninward = true\n\
+        [[surface]]\nname = \"lamp\"\nmaterial = \"lamp\"\n\
+        polygons = [[[1.4, 0.4, 0.95], [1.4, 0.6, 0.95], [1.6, 0.6, 0.95], [1.6, 0.4, 0.95]]]\n\
+        [mesh]\nelement_size = 0.1\npatch_size = 0.3\n";
+    let scene = dir.join("corner.toml");
+    std::fs::write(&scene, text).unwrap();
+    for extra in [&[][..], &["--exact"][..]] {
+        let e = solve(&scene, extra);
+        let (lit, dark) = lit_and_dark(&e, |name, _| name.starts_with("dark"));
+        println!("corner {extra:?}: lit mean {lit:.4e}, dark max {dark:.3e}");
+        assert!(
+            lit > 0.0 && dark <= 1e-6 * lit,
+            "light leaks: dark {dark} vs lit {lit}"
+        );
+    }
+}
