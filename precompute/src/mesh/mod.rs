@@ -189,44 +189,6 @@ mod tests {
     use std::path::Path;
 
     #[test]
-    fn dbg_convexity() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../scenes/cornell-box/cornell-box.toml");
-        let scene = crate::scene::load(&path).unwrap();
-        let sizes = MeshSizes::resolve(&scene, None, None).unwrap();
-        let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
-        let mut bad = 0;
-        for e in &mesh.elements {
-            let v = e.polygon.vertices();
-            for i in 0..v.len() {
-                let (a, b, c) = (v[i], v[(i + 1) % v.len()], v[(i + 2) % v.len()]);
-                if (b - a).cross(c - b).dot(e.polygon.normal) <= 0.0 {
-                    bad += 1;
-                    println!("{:?}", v);
-                    break;
-                }
-            }
-        }
-        let mut badp = 0;
-        for p in &mesh.patches {
-            let v = p.polygon.vertices();
-            for i in 0..v.len() {
-                let (a, b, c) = (v[i], v[(i + 1) % v.len()], v[(i + 2) % v.len()]);
-                if (b - a).cross(c - b).dot(p.polygon.normal) <= 0.0 {
-                    badp += 1;
-                    break;
-                }
-            }
-        }
-        mesh.validate().unwrap();
-        println!(
-            "non-convex elements {bad} patches {badp} of {} {}",
-            mesh.n(),
-            mesh.k()
-        );
-    }
-
-    #[test]
     fn furnace_mesh_is_consistent() {
         let d = procedural::furnace(0.5, 1.0);
         let scene = d.build("f", Path::new(".")).unwrap();
