@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use lrr_formats::{FkData, Geometry, OperatorData, OperatorFile, Precision};
+use lrr_formats::{FkData, Geometry, Layout, OperatorData, OperatorFile, Precision};
 
 use crate::bake::Baked;
 use crate::error::Result;
@@ -53,9 +53,61 @@ pub fn operator_file(b: &Baked) -> OperatorFile {
     }
 }
 
+/// How the operator is stored in the file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Storage {
+    pub precision: Precision,
+    pub layout: Layout,
+}
+
+impl Default for Storage {
+    fn default() -> Self {
+        Self {
+            precision: Precision::F32,
+            layout: Layout::Factored,
+        }
+    }
+}
+
+/// The operator file of a bake stored as asked, with one light group per emitting surface
+/// (named after the surface; its elements at their baked emission).
+pub fn stored_file(b: &Baked, storage: Storage) -> Result<OperatorFile> {
+    let mut file = operator_file(b);
+    add_light_groups(b, &mut file)?;
+    if storage.precision == Precision::F16 {
+        if let OperatorData::Factored { fk, .. } = &mut file.operator {
+            *fk = FkData::from_f32(&fk.to_f32(), Precision::F16);
+        }
+        file.precision = Precision::F16;
+    }
+    if storage.layout == Layout::PlainYk {
+        file = file.to_plain_yk(0)?;
+    }
+    Ok(file)
+}
+
+fn add_light_groups(b: &Baked, file: &mut OperatorFile) -> Result<()> {
+    for (surface, name) in b.surfaces.iter().enumerate() {
+        let mut positions = Vec::new();
+        let mut emission = Vec::new();
+        for s in 0..b.n() {
+            let e = b.emission[s];
+            if b.mesh.element_at(s).surface as usize == surface && e.iter().any(|&x| x > 0.0) {
+                positions.push(s as u32);
+                emission.extend(e.map(|x| x as f32));
+            }
+        }
+        if !positions.is_empty() {
+            let group = file.light_group(name.clone(), positions, emission)?;
+            file.lights.push(group);
+        }
+    }
+    Ok(())
+}
+
 /// Writes the bake's operator file atomically (temporary file + rename).
-pub fn write(b: &Baked, path: &Path) -> Result<OperatorFile> {
-    let file = operator_file(b);
+pub fn write(b: &Baked, path: &Path, storage: Storage) -> Result<OperatorFile> {
+    let file = stored_file(b, storage)?;
     file.write(path)?;
     Ok(file)
 }

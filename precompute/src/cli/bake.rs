@@ -33,6 +33,41 @@ pub struct BakeArgs {
     /// Rows of form factors per checkpoint block [default: about 10⁶ pair samples per block].
     #[arg(long, value_name = "ROWS")]
     pub checkpoint_rows: Option<usize>,
+    /// Storage of the n×k matrix: f32, or f16 (half the bytes a frame reads; see
+    /// docs/PERFORMANCE.md for the error it costs).
+    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
+    pub precision: PrecisionArg,
+    /// Operator layout: factored (shared F_k + k×k cores, a third of the bytes) or plain
+    /// (the papers' per-channel Y_k).
+    #[arg(long, value_enum, default_value_t = LayoutArg::Factored)]
+    pub layout: LayoutArg,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PrecisionArg {
+    F32,
+    F16,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LayoutArg {
+    Factored,
+    Plain,
+}
+
+impl BakeArgs {
+    fn storage(&self) -> output::Storage {
+        output::Storage {
+            precision: match self.precision {
+                PrecisionArg::F32 => lrr_formats::Precision::F32,
+                PrecisionArg::F16 => lrr_formats::Precision::F16,
+            },
+            layout: match self.layout {
+                LayoutArg::Factored => lrr_formats::Layout::Factored,
+                LayoutArg::Plain => lrr_formats::Layout::PlainYk,
+            },
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -76,7 +111,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     });
     let mut baked = bake(&scene, &settings, &progress)?;
     let stage = progress.stage("write", 0);
-    let file = output::write(&baked, &a.output)
+    let file = output::write(&baked, &a.output, a.storage())
         .with_context(|| format!("writing the operator file {}", a.output.display()))?;
     if let Some(c) = baked.checkpoint.take() {
         c.remove()?;

@@ -24,6 +24,10 @@ pub fn run(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
     let op =
         Operator::from_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     let f = op.file();
+    let layout = match op.layout() {
+        lrr_formats::Layout::Factored => "factored",
+        lrr_formats::Layout::PlainYk => "plain",
+    };
     let precision = match f.precision {
         Precision::F32 => "f32",
         Precision::F16 => "f16",
@@ -40,7 +44,8 @@ pub fn run(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
             "k": op.k(),
             "channels": op.channels(),
             "precision": precision,
-            "layout": "factored",
+            "layout": layout,
+            "light_groups": op.light_groups().collect::<Vec<_>>(),
             "metadata": metadata,
             "surfaces": surfaces,
         });
@@ -50,7 +55,7 @@ pub fn run(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
     writeln!(out, "{}: {} bytes", a.file.display(), bytes.len())?;
     writeln!(
         out,
-        "n = {} elements, k = {} patches, {} channel(s), F_k in {precision}",
+        "n = {} elements, k = {} patches, {} channel(s), {layout} layout in {precision}",
         op.n(),
         op.k(),
         op.channels()

@@ -9,4 +9,5 @@ mod furnace;
 mod fuzz_replay;
 mod import;
 mod resilience;
+mod storage;
 mod util;

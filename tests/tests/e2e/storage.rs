@@ -1,0 +1,94 @@
+//! Storage options of a bake (f16, plain Y_k), light groups and albedo edits, end to end.
+
+use lrr_runtime::{Operator, RgbMut};
+
+use crate::util::{cornell, lrr, temp_dir};
+
+fn bake(dir: &std::path::Path, name: &str, scene: &std::path::Path, extra: &[&str]) -> Operator {
+    let out = dir.join(format!("{name}.lrr"));
+    let mut args = vec![
+        "bake",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+    ];
+    args.extend_from_slice(extra);
+    lrr(&args).unwrap();
+    Operator::load(&out).unwrap()
+}
+
+fn relative_l2(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        for c in 0..3 {
+            num += (f64::from(x[c]) - f64::from(y[c])).powi(2);
+            den += f64::from(y[c]).powi(2);
+        }
+    }
+    (num / den).sqrt()
+}
+
+#[test]
+fn f16_plain_layout_and_light_groups_agree_with_the_default_file() {
+    let dir = temp_dir("storage");
+    let scene = cornell();
+    let f32_op = bake(&dir, "f32", &scene, &[]);
+    let reference = f32_op.evaluate_baked();
+    let plain = bake(&dir, "plain", &scene, &["--layout", "plain"]).evaluate_baked();
+    let half = bake(&dir, "f16", &scene, &["--precision", "f16"]).evaluate_baked();
+    let (e_plain, e_half) = (
+        relative_l2(&plain, &reference),
+        relative_l2(&half, &reference),
+    );
+    println!(
+        "Cornell box: plain Y_k vs factored {e_plain:.2e}, f16 vs f32 {e_half:.2e} (relative L2)"
+    );
+    assert!(e_plain < 1e-5, "{e_plain}");
+    // f16 rounds each F_k entry by at most 2^-11 relative; errors average over k terms.
+    assert!(e_half < 2f64.powi(-11), "{e_half}");
+    // One light group per emitting surface: intensity 1 reproduces the baked frame.
+    let groups: Vec<&str> = f32_op.light_groups().collect();
+    assert_eq!(groups, vec!["light"]);
+    let mut out = vec![[0.0f32; 3]; f32_op.n()];
+    f32_op
+        .evaluate_groups(&[1.0], RgbMut::triples(&mut out))
+        .unwrap();
+    assert!(relative_l2(&out, &reference) < 1e-5);
+    f32_op
+        .evaluate_groups(&[2.0], RgbMut::triples(&mut out))
+        .unwrap();
+    let doubled: Vec<[f32; 3]> = reference.iter().map(|b| b.map(|x| 2.0 * x)).collect();
+    assert!(relative_l2(&out, &doubled) < 1e-5);
+}
+
+#[test]
+fn an_albedo_edit_equals_a_fresh_bake() {
+    let dir = temp_dir("albedo");
+    let original = bake(&dir, "original", &cornell(), &[]);
+    // The same scene with a blue right wall and greyer floor.
+    let text = std::fs::read_to_string(cornell()).unwrap();
+    let edited = text
+        .replace(
+            "reflectance = [0.63, 0.065, 0.05]",
+            "reflectance = [0.05, 0.1, 0.7]",
+        )
+        .replace(
+            "reflectance = [0.725, 0.71, 0.68]",
+            "reflectance = [0.5, 0.5, 0.5]",
+        );
+    assert_ne!(edited, text);
+    let scene = dir.join("edited.toml");
+    std::fs::write(&scene, edited).unwrap();
+    let fresh = bake(&dir, "fresh", &scene, &[]);
+    let mut op = original.clone();
+    op.set_reflectance(&fresh.reflectance()).unwrap();
+    let (a, b) = (op.evaluate_baked(), fresh.evaluate_baked());
+    let e = relative_l2(&a, &b);
+    println!("albedo edit vs fresh bake: relative L2 {e:.2e}");
+    assert!(e < 1e-5, "{e}");
+    assert!(
+        relative_l2(&original.evaluate_baked(), &b) > 1e-2,
+        "the edit must change the result"
+    );
+}
