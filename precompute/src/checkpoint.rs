@@ -18,6 +18,9 @@ const MAGIC: &[u8; 8] = b"LRRCKPT1";
 const HEADER: usize = 8 + 8 * 4;
 const RECORD_HEADER: usize = 8 * 3;
 
+/// A saved block: its index and its rows (row-major, k values per row).
+pub type SavedBlock = (u64, Vec<f64>);
+
 /// An open checkpoint file.
 pub struct Checkpoint {
     path: PathBuf,
@@ -65,7 +68,7 @@ impl Checkpoint {
 
     /// Opens an existing checkpoint to resume: returns the blocks it holds (index → rows).
     /// A checkpoint of another bake is an error; a torn last record is dropped.
-    pub fn resume(path: &Path, shape: Shape) -> Result<(Self, Vec<(u64, Vec<f64>)>)> {
+    pub fn resume(path: &Path, shape: Shape) -> Result<(Self, Vec<SavedBlock>)> {
         let mut file = OpenOptions::new()
             .read(true)
             .write(true)

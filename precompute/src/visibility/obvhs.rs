@@ -113,7 +113,7 @@ impl Occluder for ObvhsOccluder {
         let (origin, target) = (from - self.centre, to - self.centre);
         let d = target - origin;
         let length = d.length();
-        if !(length > 0.0) {
+        if length.is_nan() || length <= 0.0 {
             return false; // a point does not block itself
         }
         let direction = d / length;
