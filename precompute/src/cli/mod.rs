@@ -2,6 +2,7 @@
 //! can call every command in-process; `main.rs` only prints the error chain and sets the exit code.
 
 mod bake;
+mod bench;
 mod info;
 mod probe;
 mod scene;
@@ -43,6 +44,8 @@ pub enum Command {
     Solve(solve::SolveArgs),
     /// Write a generated scene description (furnace, analytic pairs).
     Scene(scene::SceneArgs),
+    /// Benchmarks: `lrr bench runtime` (frame rates against the dense baseline and a memory read).
+    Bench(bench::BenchArgs),
 }
 
 /// Settings that change the fine mesh or the form factors; shared by bake, solve, view-factors.
@@ -135,6 +138,7 @@ where
         Command::ViewFactors(a) => view_factors::run(&a, out),
         Command::Solve(a) => solve::run(&a, out),
         Command::Scene(a) => scene::run(&a, out),
+        Command::Bench(a) => bench::run(&a, out),
     }
 }
 

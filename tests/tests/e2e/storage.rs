@@ -92,3 +92,38 @@ fn an_albedo_edit_equals_a_fresh_bake() {
         "the edit must change the result"
     );
 }
+
+#[test]
+fn bench_runtime_prints_the_promised_json_rows() {
+    let text = lrr(&[
+        "bench",
+        "runtime",
+        "--sizes",
+        "96x8,200x20",
+        "--seconds",
+        "0.01",
+        "--rounds",
+        "1",
+        "--no-cornell",
+        "--json",
+    ])
+    .unwrap();
+    let rows: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 4, "two sizes × f32, f16");
+    for r in rows {
+        for key in [
+            "n",
+            "k",
+            "precision",
+            "fps",
+            "roofline_ratio",
+            "speedup_vs_dense",
+        ] {
+            assert!(!r[key].is_null(), "{key} missing in {r}");
+        }
+        assert!(r["fps"].as_f64().unwrap() > 0.0 && r["roofline_ratio"].as_f64().unwrap() > 0.0);
+    }
+    let err = lrr(&["bench", "runtime", "--sizes", "10x20"]).unwrap_err();
+    assert!(err.contains("k <= n"), "{err}");
+}

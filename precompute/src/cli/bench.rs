@@ -1,0 +1,281 @@
+//! `lrr bench runtime`: frames per second of the runtime's layouts against the papers'
+//! dense baseline and a plain memory read, measured side by side in one run.
+
+use std::io::Write;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand};
+use lrr_runtime::baseline::DenseV;
+use lrr_runtime::{Layout, Operator, Precision, Rgb, RgbMut};
+use serde::Serialize;
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    #[command(subcommand)]
+    pub what: BenchKind,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum BenchKind {
+    /// Runtime frame rates: (a) factored RGB, (b) plain per-channel Y_k, (c) dense V_k per
+    /// channel (the papers' baseline), (d) a plain read of the bytes (a) reads (the roofline).
+    Runtime(RuntimeBench),
+}
+
+#[derive(Debug, Args)]
+pub struct RuntimeBench {
+    /// Synthetic operator sizes n×k, comma separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "3456x216,13824x864,55296x864,221184x216"
+    )]
+    pub sizes: Vec<String>,
+    /// Precisions of F_k to measure.
+    #[arg(long, value_delimiter = ',', default_value = "f32,f16")]
+    pub precisions: Vec<String>,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Seconds of frames per variant and round.
+    #[arg(long, default_value_t = 0.3)]
+    pub seconds: f64,
+    /// Rounds; each round times every variant once, interleaved, and the median is reported.
+    #[arg(long, default_value_t = 5)]
+    pub rounds: usize,
+    /// Skip the Cornell box row (which bakes the bundled scene first).
+    #[arg(long)]
+    pub no_cornell: bool,
+    /// Print JSON rows instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One measured size.
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    pub scene: String,
+    pub n: usize,
+    pub k: usize,
+    pub precision: &'static str,
+    pub threads: usize,
+    /// Frames per second of (a).
+    pub fps: f64,
+    pub fps_plain: f64,
+    pub fps_dense: f64,
+    pub fps_read: f64,
+    /// time(d) / time(a): how close (a) is to reading its bytes.
+    pub roofline_ratio: f64,
+    /// time(c) / time(a).
+    pub speedup_vs_dense: f64,
+    /// Bytes of the matrix a frame of (a) reads, and the rate it reads them at.
+    pub bytes_per_frame: usize,
+    pub gb_per_s: f64,
+}
+
+pub fn run(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
+    let BenchKind::Runtime(b) = &a.what;
+    let threads = b
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let mut rows = Vec::new();
+    if !b.no_cornell {
+        let op = cornell_operator()?;
+        for p in precisions(&b.precisions)? {
+            let op = if p == Precision::F32 {
+                op.clone()
+            } else {
+                recast(&op, p)?
+            };
+            rows.push(measure("cornell-box", &op, threads, b)?);
+            report_progress(rows.last().expect("just pushed"));
+        }
+    }
+    for size in &b.sizes {
+        let (n, k) = parse_size(size)?;
+        for p in precisions(&b.precisions)? {
+            let op = lrr_runtime::synthetic::operator(n, k, 3, p, Layout::Factored, 7)?;
+            rows.push(measure("synthetic", &op, threads, b)?);
+            report_progress(rows.last().expect("just pushed"));
+        }
+    }
+    if b.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?;
+    } else {
+        print_table(&rows, out)?;
+    }
+    Ok(())
+}
+
+fn report_progress(r: &Row) {
+    eprintln!(
+        "lrr bench: {} {}×{} {} done ({:.1} fps)",
+        r.scene, r.n, r.k, r.precision, r.fps
+    );
+}
+
+fn precisions(names: &[String]) -> Result<Vec<Precision>> {
+    names
+        .iter()
+        .map(|p| match p.as_str() {
+            "f32" => Ok(Precision::F32),
+            "f16" => Ok(Precision::F16),
+            other => bail!("unknown precision '{other}': use f32 or f16"),
+        })
+        .collect()
+}
+
+fn parse_size(s: &str) -> Result<(usize, usize)> {
+    let (n, k) = s
+        .split_once('x')
+        .with_context(|| format!("size '{s}' must look like 221184x216"))?;
+    let n: usize = n
+        .trim()
+        .parse()
+        .with_context(|| format!("size '{s}': n is not a number"))?;
+    let k: usize = k
+        .trim()
+        .parse()
+        .with_context(|| format!("size '{s}': k is not a number"))?;
+    if k == 0 || k > n {
+        bail!("size '{s}': need 1 <= k <= n");
+    }
+    Ok((n, k))
+}
+
+/// The bundled Cornell box, baked in-process with default settings.
+fn cornell_operator() -> Result<Operator> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenes/cornell-box/cornell-box.toml");
+    let scene = crate::scene::load(&path)?;
+    let baked = crate::bake::bake(
+        &scene,
+        &crate::bake::BakeSettings::default(),
+        &crate::progress::Progress::hidden(),
+    )?;
+    Ok(Operator::from_file(crate::output::operator_file(&baked))?)
+}
+
+/// The same operator with F_k stored in another precision.
+fn recast(op: &Operator, p: Precision) -> Result<Operator> {
+    let mut file = op.file().clone();
+    if let lrr_formats::OperatorData::Factored { fk, .. } = &mut file.operator {
+        *fk = lrr_formats::FkData::from_f32(&fk.to_f32(), p);
+    }
+    file.precision = p;
+    Ok(Operator::from_file(file)?)
+}
+
+/// Times `frame` repeatedly for about `seconds`; returns seconds per frame.
+fn time_frames(seconds: f64, mut frame: impl FnMut() -> Result<()>) -> Result<f64> {
+    frame()?; // warm caches and pages
+    let start = Instant::now();
+    let mut frames = 0u32;
+    while frames < 3 || start.elapsed().as_secs_f64() < seconds {
+        frame()?;
+        frames += 1;
+    }
+    Ok(start.elapsed().as_secs_f64() / f64::from(frames))
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Measures the four variants on one operator, interleaved over rounds.
+fn measure(scene: &str, op: &Operator, threads: usize, b: &RuntimeBench) -> Result<Row> {
+    let n = op.n();
+    let emission: Vec<[f32; 3]> = (0..n)
+        .map(|i| {
+            if i % 97 == 0 {
+                [1.0, 0.8, 0.6]
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect();
+    let mut radiosity = vec![[0.0f32; 3]; n];
+    let mut factored = op.evaluator(threads)?;
+    let plain_op = Operator::from_file(op.file().to_plain_yk(threads)?)?;
+    let mut plain = plain_op.evaluator(threads)?;
+    let dense = DenseV::new(op, threads)?;
+    let mut sink = 0u64;
+    let (mut ta, mut tb, mut tc, mut td) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..b.rounds.max(1) {
+        ta.push(time_frames(b.seconds, || {
+            Ok(factored.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut radiosity))?)
+        })?);
+        tb.push(time_frames(b.seconds, || {
+            Ok(plain.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut radiosity))?)
+        })?);
+        tc.push(time_frames(b.seconds, || {
+            Ok(dense.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut radiosity))?)
+        })?);
+        td.push(time_frames(b.seconds, || {
+            sink = sink.wrapping_add(factored.read_pass()?);
+            Ok(())
+        })?);
+    }
+    std::hint::black_box(sink);
+    let (a, pb, c, d) = (median(ta), median(tb), median(tc), median(td));
+    let bytes = op.matrix_bytes();
+    Ok(Row {
+        scene: scene.to_string(),
+        n,
+        k: op.k(),
+        precision: if op.precision() == Precision::F16 {
+            "f16"
+        } else {
+            "f32"
+        },
+        threads,
+        fps: 1.0 / a,
+        fps_plain: 1.0 / pb,
+        fps_dense: 1.0 / c,
+        fps_read: 1.0 / d,
+        roofline_ratio: d / a,
+        speedup_vs_dense: c / a,
+        bytes_per_frame: bytes,
+        gb_per_s: bytes as f64 / a / 1e9,
+    })
+}
+
+fn print_table(rows: &[Row], out: &mut dyn Write) -> Result<()> {
+    writeln!(
+        out,
+        "{:<12} {:>9} {:>5} {:>4} {:>3} {:>10} {:>10} {:>10} {:>10} {:>8} {:>8} {:>7}",
+        "scene",
+        "n",
+        "k",
+        "prec",
+        "thr",
+        "(a) fps",
+        "(b) fps",
+        "(c) fps",
+        "(d) fps",
+        "a/roof",
+        "a/dense",
+        "GB/s"
+    )?;
+    for r in rows {
+        writeln!(
+            out,
+            "{:<12} {:>9} {:>5} {:>4} {:>3} {:>10.1} {:>10.1} {:>10.1} {:>10.1} {:>8.2} {:>8.2} {:>7.2}",
+            r.scene,
+            r.n,
+            r.k,
+            r.precision,
+            r.threads,
+            r.fps,
+            r.fps_plain,
+            r.fps_dense,
+            r.fps_read,
+            r.roofline_ratio,
+            r.speedup_vs_dense,
+            r.gb_per_s
+        )?;
+    }
+    Ok(())
+}
