@@ -74,11 +74,8 @@ impl Default for Storage {
 pub fn stored_file(b: &Baked, storage: Storage) -> Result<OperatorFile> {
     let mut file = operator_file(b);
     add_light_groups(b, &mut file)?;
-    if storage.precision == Precision::F16 {
-        if let OperatorData::Factored { fk, .. } = &mut file.operator {
-            *fk = FkData::from_f32(&fk.to_f32(), Precision::F16);
-        }
-        file.precision = Precision::F16;
+    if storage.precision != file.precision {
+        store_matrix_as(&mut file, storage.precision);
     }
     if storage.layout == Layout::PlainYk {
         file = file.to_plain_yk(0)?;
@@ -87,22 +84,30 @@ pub fn stored_file(b: &Baked, storage: Storage) -> Result<OperatorFile> {
 }
 
 fn add_light_groups(b: &Baked, file: &mut OperatorFile) -> Result<()> {
-    for (surface, name) in b.surfaces.iter().enumerate() {
-        let mut positions = Vec::new();
-        let mut emission = Vec::new();
-        for s in 0..b.n() {
-            let e = b.emission[s];
-            if b.mesh.element_at(s).surface as usize == surface && e.iter().any(|&x| x > 0.0) {
-                positions.push(s as u32);
-                emission.extend(e.map(|x| x as f32));
-            }
+    // One pass over the elements, collecting emitters per surface.
+    let mut members: Vec<(Vec<u32>, Vec<f32>)> = vec![(Vec::new(), Vec::new()); b.surfaces.len()];
+    for (s, e) in b.emission.iter().enumerate() {
+        if e.iter().any(|&x| x > 0.0) {
+            let (positions, emission) = &mut members[b.mesh.element_at(s).surface as usize];
+            positions.push(s as u32);
+            emission.extend(e.map(|x| x as f32));
         }
+    }
+    for (name, (positions, emission)) in b.surfaces.iter().zip(members) {
         if !positions.is_empty() {
             let group = file.light_group(name.clone(), positions, emission)?;
             file.lights.push(group);
         }
     }
     Ok(())
+}
+
+/// Stores a factored file's `F_k` in `precision` (rounding once from its current values).
+pub fn store_matrix_as(file: &mut OperatorFile, precision: Precision) {
+    if let OperatorData::Factored { fk, .. } = &mut file.operator {
+        *fk = FkData::from_f32(&fk.to_f32(), precision);
+    }
+    file.precision = precision;
 }
 
 /// Writes the bake's operator file atomically (temporary file + rename).

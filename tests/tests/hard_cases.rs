@@ -8,31 +8,8 @@ mod util;
 use lrr_runtime::Operator;
 use util::{cornell, factor, generated_scene, lrr, lrr_json, temp_dir};
 
-/// Per-element radiosity and surface names from `lrr solve --json`.
 fn solve(scene: &std::path::Path, extra: &[&str]) -> Vec<(String, [f64; 3], [f64; 3])> {
-    let mut args = vec!["solve", scene.to_str().unwrap(), "--json", "--quiet"];
-    args.extend_from_slice(extra);
-    let v = lrr_json(&args);
-    let arr = |x: &serde_json::Value| -> [f64; 3] {
-        let a = x.as_array().unwrap();
-        [
-            a[0].as_f64().unwrap(),
-            a[1].as_f64().unwrap(),
-            a[2].as_f64().unwrap(),
-        ]
-    };
-    v["elements"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|e| {
-            (
-                e["surface"].as_str().unwrap().to_string(),
-                arr(&e["centroid"]),
-                arr(&e["radiosity"]),
-            )
-        })
-        .collect()
+    util::solve_elements(scene, extra)
 }
 
 #[test]

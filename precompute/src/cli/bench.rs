@@ -160,10 +160,7 @@ fn cornell_operator() -> Result<Operator> {
 /// The same operator with F_k stored in another precision.
 fn recast(op: &Operator, p: Precision) -> Result<Operator> {
     let mut file = op.file().clone();
-    if let lrr_formats::OperatorData::Factored { fk, .. } = &mut file.operator {
-        *fk = lrr_formats::FkData::from_f32(&fk.to_f32(), p);
-    }
-    file.precision = p;
+    crate::output::store_matrix_as(&mut file, p);
     Ok(Operator::from_file(file)?)
 }
 

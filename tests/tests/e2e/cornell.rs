@@ -45,22 +45,9 @@ fn reciprocity_between_cornell_surfaces() {
 
 /// Per-element radiosity from `lrr solve --json`.
 fn solve(extra: &[&str]) -> Vec<[f64; 3]> {
-    let scene = cornell();
-    let mut args = vec!["solve", scene.to_str().unwrap(), "--json", "--quiet"];
-    args.extend_from_slice(extra);
-    let v = lrr_json(&args);
-    v["elements"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|e| {
-            let r = e["radiosity"].as_array().unwrap();
-            [
-                r[0].as_f64().unwrap(),
-                r[1].as_f64().unwrap(),
-                r[2].as_f64().unwrap(),
-            ]
-        })
+    crate::util::solve_elements(&cornell(), extra)
+        .into_iter()
+        .map(|e| e.2)
         .collect()
 }
 

@@ -95,3 +95,30 @@ pub fn lrr_binary() -> PathBuf {
     }
     bin
 }
+
+/// Per element from `lrr solve SCENE --json EXTRA…`: (surface, centroid, radiosity).
+pub fn solve_elements(scene: &Path, extra: &[&str]) -> Vec<(String, [f64; 3], [f64; 3])> {
+    let mut args = vec!["solve", scene.to_str().unwrap(), "--json", "--quiet"];
+    args.extend_from_slice(extra);
+    let v = lrr_json(&args);
+    let triple = |x: &serde_json::Value| -> [f64; 3] {
+        let a = x.as_array().unwrap();
+        [
+            a[0].as_f64().unwrap(),
+            a[1].as_f64().unwrap(),
+            a[2].as_f64().unwrap(),
+        ]
+    };
+    v["elements"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            (
+                e["surface"].as_str().unwrap().to_string(),
+                triple(&e["centroid"]),
+                triple(&e["radiosity"]),
+            )
+        })
+        .collect()
+}
