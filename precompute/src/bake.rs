@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::formfactor::FormFactors;
 use crate::formfactor::kernel::Polygon;
 use crate::memory;
-use crate::mesh::{Mesh, MeshSizes};
+use crate::mesh::{Mesh, MeshSizes, PatchMethod};
 use crate::operator::{Cores, OperatorInputs, build_cores};
 use crate::progress::Progress;
 use crate::scene::Scene;
@@ -26,6 +26,8 @@ pub const DEFAULT_SAMPLES: u32 = 16;
 pub struct BakeSettings {
     pub element_size: Option<f64>,
     pub patch_size: Option<f64>,
+    /// How patches are built (2MF or 2MSC).
+    pub method: PatchMethod,
     pub samples: u32,
     pub threads: Option<usize>,
     /// Refuse jobs whose working memory would exceed this many bytes (default: 80% of what
@@ -50,6 +52,7 @@ impl Default for BakeSettings {
         Self {
             element_size: None,
             patch_size: None,
+            method: PatchMethod::TwoFixed,
             samples: DEFAULT_SAMPLES,
             threads: None,
             max_memory: None,
@@ -79,15 +82,21 @@ pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Sen
 pub struct Prepared<'s> {
     pub scene: &'s Scene,
     pub sizes: MeshSizes,
+    pub method: PatchMethod,
     pub mesh: Mesh,
     pub occluder: Option<ObvhsOccluder>,
 }
 
 impl<'s> Prepared<'s> {
-    /// Meshes the scene (2MF) and builds the BVH unless nothing can occlude.
-    pub fn new(scene: &'s Scene, sizes: MeshSizes, progress: &Progress) -> Result<Self> {
+    /// Meshes the scene and builds the BVH unless nothing can occlude.
+    pub fn new(
+        scene: &'s Scene,
+        sizes: MeshSizes,
+        method: PatchMethod,
+        progress: &Progress,
+    ) -> Result<Self> {
         let stage = progress.stage("mesh", 0);
-        let mesh = Mesh::two_fixed(scene, sizes)?;
+        let mesh = Mesh::build(scene, sizes, method)?;
         stage.finish();
         let stage = progress.stage("visibility", 0);
         let occluder = if nothing_occludes(scene) {
@@ -99,6 +108,7 @@ impl<'s> Prepared<'s> {
         Ok(Self {
             scene,
             sizes,
+            method,
             mesh,
             occluder,
         })
@@ -232,6 +242,7 @@ impl<'s> Prepared<'s> {
 pub struct Baked {
     pub scene_name: String,
     pub sizes: MeshSizes,
+    pub method: PatchMethod,
     pub samples: u32,
     pub visibility: &'static str,
     pub mesh: Mesh,
@@ -253,7 +264,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
     }
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
     with_threads(settings.threads, || {
-        let prepared = Prepared::new(scene, sizes, progress)?;
+        let prepared = Prepared::new(scene, sizes, settings.method, progress)?;
         let ff = prepared.form_factors(settings.samples);
         let (fk, checkpoint) = prepared.element_patch_matrix(
             &ff,
@@ -280,6 +291,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
         Ok(Baked {
             scene_name: scene.name.clone(),
             sizes,
+            method: settings.method,
             samples: settings.samples,
             visibility,
             mesh: prepared.mesh,
@@ -339,7 +351,7 @@ impl Baked {
         let meta = Metadata {
             generator: format!("lrr {}", env!("CARGO_PKG_VERSION")),
             scene: &self.scene_name,
-            method: "2mf",
+            method: self.method.name(),
             element_size: self.sizes.element_size,
             patch_size: self.sizes.patch_size,
             samples: self.samples,

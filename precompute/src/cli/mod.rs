@@ -17,6 +17,10 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
 use crate::bake::{BakeSettings, DEFAULT_SAMPLES};
+use crate::mesh::PatchMethod;
+
+/// Default 2MSC coherence threshold (`--threshold`).
+pub const DEFAULT_COHERENCE_THRESHOLD: f64 = 0.1;
 
 /// lrr: low-rank radiosity. Bake a lighting operator from a scene, inspect it, probe it.
 #[derive(Debug, Parser)]
@@ -59,6 +63,17 @@ pub struct MeshArgs {
     /// bounding-box diagonal].
     #[arg(long, value_name = "L")]
     pub patch_size: Option<f64>,
+    /// How patches are built: `2mf` (uniform cut at the patch size) or `2msc` (adaptive:
+    /// split while a patch lacks spatial coherence; `k` is an output).
+    #[arg(long, value_name = "METHOD", default_value = "2mf", value_parser = ["2mf", "2msc"])]
+    pub method: String,
+    /// 2MSC: coherence threshold; smaller gives more patches.
+    #[arg(long, value_name = "T", default_value_t = DEFAULT_COHERENCE_THRESHOLD)]
+    pub threshold: f64,
+    /// 2MSC: patches of at most this area (scene units²) are not split further
+    /// [default: chosen by the method].
+    #[arg(long, value_name = "A")]
+    pub min_patch_area: Option<f64>,
     /// Quadrature points and visibility rays per element-patch pair (a square gives a midpoint rule).
     #[arg(long, value_name = "S", default_value_t = DEFAULT_SAMPLES)]
     pub samples: u32,
@@ -99,10 +114,22 @@ impl MeshArgs {
         BakeSettings {
             element_size: self.element_size,
             patch_size: self.patch_size,
+            method: self.method(),
             samples: self.samples,
             threads: self.threads,
             max_memory: self.max_memory,
             checkpoint: None,
+        }
+    }
+
+    /// The patch method the flags name.
+    pub fn method(&self) -> PatchMethod {
+        match self.method.as_str() {
+            "2msc" => PatchMethod::SpatialCoherence {
+                threshold: self.threshold,
+                min_patch_area: self.min_patch_area,
+            },
+            _ => PatchMethod::TwoFixed,
         }
     }
 

@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use super::{MeshArgs, load_scene};
 use crate::bake::{Prepared, bake, with_threads};
-use crate::mesh::MeshSizes;
+use crate::mesh::{MeshSizes, PatchMethod};
 use crate::reference::{ElementData, solve_exact};
 use crate::scene::Scene;
 
@@ -59,7 +59,8 @@ pub fn solve(scene: &Scene, a: &MeshArgs, exact: bool) -> Result<Solution> {
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
     let (mesh, radiosity, method) = if exact {
         with_threads(settings.threads, || -> Result<_> {
-            let prepared = Prepared::new(scene, sizes, &progress)?;
+            // The exact solve needs only the fine mesh, which does not depend on the patch method.
+            let prepared = Prepared::new(scene, sizes, PatchMethod::TwoFixed, &progress)?;
             let ff = prepared.form_factors(settings.samples);
             let (rho, emission) = prepared.element_materials();
             let stage = progress.stage("exact matrix", prepared.mesh.n() as u64);

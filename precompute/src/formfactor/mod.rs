@@ -21,7 +21,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::visibility::Occluder;
+use crate::visibility::{Occluder, Segment};
 use kernel::{Polygon, point_to_polygon};
 use sampling::{Sample, pair_point, quadrature};
 
@@ -191,6 +191,8 @@ impl Visibility {
         seed: u64,
         range: std::ops::Range<u32>,
     ) {
+        let mut segments = Vec::with_capacity(range.len());
+        let mut weights = Vec::with_capacity(range.len());
         for i in range {
             let s = &points[i as usize % points.len()];
             let far = pair_point(t, i, seed);
@@ -206,10 +208,19 @@ impl Visibility {
             if !weight.is_finite() {
                 continue;
             }
-            self.rays += 1;
-            self.total += weight;
-            if !occ.occluded(s.point, e.normal, y, t.normal) {
-                self.visible += weight;
+            segments.push(Segment {
+                from: s.point,
+                to: y,
+            });
+            weights.push(weight);
+        }
+        let mut blocked = vec![false; segments.len()];
+        occ.occluded_bundle(e, t, &segments, &mut blocked);
+        self.rays += segments.len() as u64;
+        for (w, b) in weights.iter().zip(&blocked) {
+            self.total += w;
+            if !b {
+                self.visible += w;
             }
         }
     }

@@ -39,6 +39,31 @@ pub struct Patch {
     pub surface: u32,
 }
 
+/// How the coarse mesh (the patches) is built from the fine one.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum PatchMethod {
+    /// 2MF, two fixed meshes: the uniform cut at the patch size.
+    #[default]
+    TwoFixed,
+    /// 2MSC, two meshes with spatial coherence: patches are split while they lack coherence
+    /// (measured against `threshold`) and are larger than `min_patch_area`; `k` is an output.
+    SpatialCoherence {
+        threshold: f64,
+        /// Smallest area a patch is split from, in scene units² [default: chosen by the method].
+        min_patch_area: Option<f64>,
+    },
+}
+
+impl PatchMethod {
+    /// The name files and tables use: `2mf` or `2msc`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            PatchMethod::TwoFixed => "2mf",
+            PatchMethod::SpatialCoherence { .. } => "2msc",
+        }
+    }
+}
+
 /// Mesh sizes, absolute lengths in scene units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MeshSizes {
@@ -96,6 +121,16 @@ pub struct Mesh {
 }
 
 impl Mesh {
+    /// Builds both meshes with the given patch method.
+    pub fn build(scene: &Scene, sizes: MeshSizes, method: PatchMethod) -> Result<Self> {
+        match method {
+            PatchMethod::TwoFixed => Self::two_fixed(scene, sizes),
+            PatchMethod::SpatialCoherence { .. } => Err(Error::Settings(
+                "--method 2msc is not implemented yet; use --method 2mf".into(),
+            )),
+        }
+    }
+
     /// Builds both meshes by 2MF: uniform subdivision and a uniform cut.
     pub fn two_fixed(scene: &Scene, sizes: MeshSizes) -> Result<Self> {
         let estimate = estimate_elements(scene, sizes.element_size);

@@ -13,6 +13,7 @@ pub mod watertight;
 
 use glam::DVec3;
 
+use crate::formfactor::kernel::Polygon;
 use crate::scene::Scene;
 
 /// Fraction of a segment excluded at each end: only a guard against a zero parameter. The
@@ -31,6 +32,25 @@ pub const PLANE_TOLERANCE: f64 = 1e-6;
 /// the surfaces the points lie on.
 pub trait Occluder: Sync {
     fn occluded(&self, from: DVec3, from_normal: DVec3, to: DVec3, to_normal: DVec3) -> bool;
+
+    /// Answers [`Occluder::occluded`] for a bundle of segments from points of polygon `e` to
+    /// points of polygon `t` (the rays of one element-target pair: short of the polygons' own
+    /// faces, a coherent bundle inside the shaft between them). `blocked[i]` answers
+    /// `segments[i]`. A backend may exploit the bundle (shaft culling, packets); its answers
+    /// must equal the single queries'. The default asks them one by one.
+    fn occluded_bundle(&self, e: &Polygon, t: &Polygon, segments: &[Segment], blocked: &mut [bool]) {
+        debug_assert_eq!(segments.len(), blocked.len());
+        for (s, b) in segments.iter().zip(blocked.iter_mut()) {
+            *b = self.occluded(s.from, e.normal, s.to, t.normal);
+        }
+    }
+}
+
+/// A line of sight between a point of an element and a point of a target.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Segment {
+    pub from: DVec3,
+    pub to: DVec3,
 }
 
 /// Most faces for which the quadratic convexity test is run; larger scenes are assumed to
