@@ -50,6 +50,7 @@ use super::{Element, MeshSizes, Patch};
 use crate::formfactor::Target;
 use crate::formfactor::kernel::{Polygon, point_to_polygon};
 use crate::formfactor::sampling::mix;
+use crate::error::Result;
 use crate::visibility::Occluder;
 
 /// Visibility rays from a child's point to each probe.
@@ -76,17 +77,75 @@ pub enum Node {
     Cluster { pieces: Vec<usize> },
 }
 
-/// What a probe sees: the probe patches and their mean reflectance.
+/// The probe patches (the 2MF patches at the patch size) and a coarse radiosity solve on them.
 pub struct Probes<'a> {
     pub targets: Vec<Target>,
+    /// Mean reflectance over the channels.
     pub reflectance: Vec<f64>,
+    /// Estimated radiosity (mean over the channels): `(I - diag(ρ) F) B = E` on the probes.
+    pub radiosity: Vec<f64>,
+    /// Area-weighted mean of `radiosity`: the scale errors are relative to.
+    pub mean_radiosity: f64,
     pub occluder: Option<&'a dyn Occluder>,
+}
+
+impl<'a> Probes<'a> {
+    /// Builds the probes and solves the coarse system with point-to-patch form factors from
+    /// each probe's representative point (q² kernel sums, `q² · PROBE_RAYS` rays).
+    pub fn new(
+        targets: Vec<Target>,
+        reflectance: Vec<f64>,
+        emission: Vec<f64>,
+        occluder: Option<&'a dyn Occluder>,
+    ) -> Result<Self> {
+        let q = targets.len();
+        let mut probes = Self {
+            targets,
+            reflectance,
+            radiosity: Vec::new(),
+            mean_radiosity: 0.0,
+            occluder,
+        };
+        let mut f = vec![0.0; q * q];
+        f.par_chunks_mut(q.max(1))
+            .enumerate()
+            .for_each(|(i, row)| {
+                let t = &probes.targets[i];
+                let part = t.nearest_part(t.centroid());
+                view(&probes, part.centroid(), part.normal, row);
+            });
+        let rho: Vec<[f64; 3]> = probes.reflectance.iter().map(|&r| [r; 3]).collect();
+        let e: Vec<[f64; 3]> = emission.iter().map(|&x| [x; 3]).collect();
+        let data = crate::reference::ElementData {
+            reflectance: &rho,
+            emission: &e,
+        };
+        let b = crate::reference::solve_dense(&f, &data)?;
+        probes.radiosity = b.iter().map(|b| b[0]).collect();
+        let area: f64 = probes.targets.iter().map(Target::area).sum();
+        probes.mean_radiosity = probes
+            .targets
+            .iter()
+            .zip(&probes.radiosity)
+            .map(|(t, b)| t.area() * b)
+            .sum::<f64>()
+            / area;
+        Ok(probes)
+    }
+}
+
+/// Mean reflectance and emission (over the channels) of a piece's material.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Material {
+    pub reflectance: f64,
+    pub emission: f64,
 }
 
 /// Refines the hierarchy over `pieces` and returns the patches, with `elements[..].patch` set.
 /// Patches are numbered by their smallest element id.
 pub fn two_msc(
     pieces: &[Piece],
+    materials: &[Material],
     elements: &mut [Element],
     sizes: MeshSizes,
     refinement: Refinement,
@@ -95,6 +154,7 @@ pub fn two_msc(
     let ctx = Ctx {
         pieces,
         units: pieces.iter().map(|p| Unit::of(&p.polygon)).collect(),
+        materials,
         element_size: sizes.element_size,
     };
     let nodes = fifo_refine(roots(pieces, sizes), |node| {
@@ -105,8 +165,8 @@ pub fn two_msc(
         if children.len() < 2 {
             return None;
         }
-        let spread = ctx.spread(&children, probes);
-        (spread > refinement.threshold).then_some(children)
+        let error = ctx.error(node, &children, probes);
+        (error > refinement.threshold).then_some(children)
     });
     let mut patches: Vec<(u32, Patch, Vec<(u32, u32)>)> =
         nodes.into_iter().map(|n| ctx.patch(&n)).collect();
@@ -184,6 +244,7 @@ fn cluster_node(pieces: &[Piece], set: Vec<usize>) -> Node {
 struct Ctx<'a> {
     pieces: &'a [Piece],
     units: Vec<Unit>,
+    materials: &'a [Material],
     element_size: f64,
 }
 
@@ -258,33 +319,39 @@ impl Ctx<'_> {
         }
     }
 
-    /// The relative L1 spread of the children's view vectors (module docs).
-    fn spread(&self, children: &[Node], probes: &Probes) -> f64 {
-        let q = probes.targets.len();
-        let mut views = Vec::with_capacity(children.len());
-        let mut total_area = 0.0;
-        for child in children {
-            let (x, normal, area) = self.representative(child);
-            let mut v = vec![0.0; q];
-            view(probes, x, normal, &mut v);
-            views.push((area, v));
-            total_area += area;
-        }
-        let mut mean = vec![0.0; q];
-        for (a, v) in &views {
-            for (m, x) in mean.iter_mut().zip(v) {
-                *m += a * x / total_area;
-            }
-        }
-        let norm: f64 = mean.iter().sum();
-        if norm <= 0.0 {
+    /// The estimated error of treating `node` as one patch, relative to the scene's mean
+    /// radiosity (module docs).
+    fn error(&self, node: &Node, children: &[Node], probes: &Probes) -> f64 {
+        if probes.mean_radiosity <= 0.0 {
             return 0.0;
         }
-        let deviation: f64 = views
-            .iter()
-            .map(|(a, v)| a * v.iter().zip(&mean).map(|(x, m)| (x - m).abs()).sum::<f64>())
-            .sum();
-        deviation / (total_area * norm)
+        let piece = match node {
+            Node::Polygon { piece, .. } => *piece as usize,
+            Node::Cluster { pieces } => pieces[0],
+        };
+        let m = self.materials[piece];
+        let q = probes.targets.len();
+        let mut views = Vec::with_capacity(children.len());
+        let mut area = 0.0;
+        for child in children {
+            let (x, normal, a) = self.representative(child);
+            let mut f = vec![0.0; q];
+            view(probes, x, normal, &mut f);
+            let gathered: f64 = f.iter().zip(&probes.radiosity).map(|(f, b)| f * b).sum();
+            views.push((a, m.emission + m.reflectance * gathered, f));
+            area += a;
+        }
+        let mean_b = views.iter().map(|(a, b, _)| a * b).sum::<f64>() / area;
+        let mut error = 0.0;
+        for j in 0..q {
+            let mean_f = views.iter().map(|(a, _, f)| a * f[j]).sum::<f64>() / area;
+            let covariance: f64 = views
+                .iter()
+                .map(|(a, b, f)| a * (f[j] - mean_f) * (b - mean_b))
+                .sum();
+            error += probes.reflectance[j] * covariance.abs();
+        }
+        error / (area * probes.mean_radiosity)
     }
 
     /// The patch of an accepted node: (smallest element id, patch, element id ranges).
@@ -322,7 +389,7 @@ impl Ctx<'_> {
     }
 }
 
-/// The view vector of a surface point: `ρ̄_j · F(x → probe j)` with visibility.
+/// The view vector of a surface point: `F(x → probe j)` with visibility.
 pub fn view(probes: &Probes, x: DVec3, normal: DVec3, out: &mut [f64]) {
     let seed = mix(x.x.to_bits() ^ mix(x.y.to_bits() ^ mix(x.z.to_bits())));
     for (j, (probe, out)) in probes.targets.iter().zip(out.iter_mut()).enumerate() {
@@ -332,14 +399,14 @@ pub fn view(probes: &Probes, x: DVec3, normal: DVec3, out: &mut [f64]) {
             .map(|part| point_to_polygon(x, normal, part))
             .sum();
         *out = 0.0;
-        if f <= 0.0 || probes.reflectance[j] <= 0.0 {
+        if f <= 0.0 {
             continue;
         }
         let visible = match probes.occluder {
             None => 1.0,
             Some(occ) => visible_fraction(occ, x, normal, probe, seed ^ j as u64),
         };
-        *out = probes.reflectance[j] * f * visible;
+        *out = f * visible;
     }
 }
 

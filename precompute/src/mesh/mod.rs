@@ -262,19 +262,24 @@ impl Mesh {
     ) -> Result<Self> {
         let (mut elements, pieces) = fine_mesh(scene, sizes)?;
         let probe_patches = two_fixed_patches(&pieces, sizes, &mut elements.clone());
-        let reflectance = probe_patches
+        let material = |face: u32| {
+            let m = &scene.materials[scene.faces[face as usize].material];
+            coherence::Material {
+                reflectance: m.reflectance.iter().sum::<f64>() / 3.0,
+                emission: m.emission.iter().sum::<f64>() / 3.0,
+            }
+        };
+        let (reflectance, emission) = probe_patches
             .iter()
             .map(|p| {
-                let rho = scene.materials[scene.faces[p.face as usize].material].reflectance;
-                (rho[0] + rho[1] + rho[2]) / 3.0
+                let m = material(p.face);
+                (m.reflectance, m.emission)
             })
-            .collect();
-        let probes = coherence::Probes {
-            targets: probe_patches.into_iter().map(|p| p.shape).collect(),
-            reflectance,
-            occluder,
-        };
-        let patches = coherence::two_msc(&pieces, &mut elements, sizes, refinement, &probes);
+            .unzip();
+        let targets = probe_patches.into_iter().map(|p| p.shape).collect();
+        let probes = coherence::Probes::new(targets, reflectance, emission, occluder)?;
+        let materials: Vec<coherence::Material> = pieces.iter().map(|p| material(p.face)).collect();
+        let patches = coherence::two_msc(&pieces, &materials, &mut elements, sizes, refinement, &probes);
         Ok(Self::from_parts(elements, patches))
     }
 
