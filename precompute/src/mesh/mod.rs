@@ -7,6 +7,10 @@
 //! patch is therefore a convex polygon that contains its elements exactly (inclusion), and the
 //! elements of one patch have equal areas when their face was a parallelogram.
 //!
+//! *2MSC* ([`coherence`]) cuts the same hierarchy adaptively, and surfaces made of many faces
+//! smaller than the patch size get patches by clustering ([`cluster`]): a patch is then a union
+//! of faces. The fine mesh is the same whatever the patch method.
+//!
 //! Elements are numbered in generation order (depth-first, face by face): that is the
 //! *original element id* every output reports. The operator works in *file order*, elements
 //! sorted by patch, described by `order` (file position → element id) and the index vector
