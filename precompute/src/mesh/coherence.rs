@@ -183,8 +183,7 @@ pub fn two_msc(
         let error = ctx.error(node, &children, probes);
         (error > refinement.threshold).then_some(children)
     });
-    let mut patches: Vec<(u32, Patch, Vec<(u32, u32)>)> =
-        nodes.into_iter().map(|n| ctx.patch(&n)).collect();
+    let mut patches: Vec<(u32, Patch, Ranges)> = nodes.into_iter().map(|n| ctx.patch(&n)).collect();
     patches.sort_by_key(|p| p.0);
     patches
         .into_iter()
@@ -199,6 +198,9 @@ pub fn two_msc(
         })
         .collect()
 }
+
+/// Element ids `(first, count)` of a patch's parts.
+type Ranges = Vec<(u32, u32)>;
 
 /// Top-down refinement with a FIFO list: `split` returns a node's children when it must be
 /// split. Nodes come out in the order they were accepted. One generation of the list is
@@ -374,7 +376,7 @@ impl Ctx<'_> {
     }
 
     /// The patch of an accepted node: (smallest element id, patch, element id ranges).
-    fn patch(&self, node: &Node) -> (u32, Patch, Vec<(u32, u32)>) {
+    fn patch(&self, node: &Node) -> (u32, Patch, Ranges) {
         match node {
             Node::Polygon {
                 polygon,
