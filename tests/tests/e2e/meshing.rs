@@ -158,5 +158,8 @@ fn two_msc_bakes_are_identical_across_thread_counts() {
         "2MSC bakes differ between 1 and 2 threads"
     );
     let info = lrr(&["info", dir.join("t2.lrr").to_str().unwrap()]).unwrap();
-    assert!(info.contains("2msc"), "{info}");
+    assert!(
+        info.contains("method: \"2msc\"") && info.contains("threshold: 0.0001"),
+        "{info}"
+    );
 }
