@@ -341,6 +341,12 @@ pub struct Metadata<'a> {
     pub generator: String,
     pub scene: &'a str,
     pub method: &'a str,
+    /// 2MSC only: `--threshold` and the `A_min` used (absent for 2MF, whose files stay as
+    /// they were before 2MSC existed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub threshold: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub min_patch_area: Option<f64>,
     pub element_size: f64,
     pub patch_size: f64,
     pub samples: u32,
@@ -375,10 +381,19 @@ impl Baked {
     }
 
     pub fn metadata_json(&self) -> String {
+        let refinement = match self.method {
+            PatchMethod::TwoFixed => None,
+            PatchMethod::SpatialCoherence {
+                threshold,
+                min_patch_area,
+            } => crate::mesh::refinement(self.sizes, threshold, min_patch_area).ok(),
+        };
         let meta = Metadata {
             generator: format!("lrr {}", env!("CARGO_PKG_VERSION")),
             scene: &self.scene_name,
             method: self.method.name(),
+            threshold: refinement.map(|r| r.threshold),
+            min_patch_area: refinement.map(|r| r.min_patch_area),
             element_size: self.sizes.element_size,
             patch_size: self.sizes.patch_size,
             samples: self.samples,

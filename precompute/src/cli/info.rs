@@ -65,6 +65,8 @@ pub fn run(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
             "generator",
             "scene",
             "method",
+            "threshold",
+            "min_patch_area",
             "element_size",
             "patch_size",
             "samples",
