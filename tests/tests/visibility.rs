@@ -5,7 +5,9 @@
 #[allow(dead_code)]
 mod util;
 
-use util::{cornell, lrr, lrr_json, temp_dir};
+use util::lrr_json;
+#[cfg(not(feature = "embree"))]
+use util::{cornell, lrr, temp_dir};
 
 /// Without the feature, asking for Embree is an error that says how to get it.
 #[cfg(not(feature = "embree"))]
@@ -209,4 +211,45 @@ mod embree {
             "backends differ by {backends:.2e}, sampling error {sampling:.2e}"
         );
     }
+}
+
+/// `lrr scene cluttered` writes a scene that loads, has its objects and needs rays.
+#[test]
+fn scene_cluttered_writes_a_room_with_occluders() {
+    let dir = util::temp_dir("cluttered");
+    let path = dir.join("cluttered.toml");
+    util::lrr(&[
+        "scene",
+        "cluttered",
+        "--grid",
+        "3",
+        "--seed",
+        "7",
+        "-o",
+        path.to_str().unwrap(),
+    ])
+    .unwrap();
+    let scene = lrr_precompute::scene::load(&path).unwrap();
+    // The room's six walls, the lamp and at least one face per object.
+    assert!(scene.faces.len() >= 6 + 1 + 9, "{}", scene.faces.len());
+    assert!(!lrr_precompute::visibility::nothing_occludes(&scene));
+    let again = dir.join("again.toml");
+    util::lrr(&[
+        "scene",
+        "cluttered",
+        "--grid",
+        "3",
+        "--seed",
+        "7",
+        "-o",
+        again.to_str().unwrap(),
+    ])
+    .unwrap();
+    assert_eq!(
+        std::fs::read(&path).unwrap(),
+        std::fs::read(&again).unwrap(),
+        "same seed, same scene"
+    );
+    let err = util::lrr(&["scene", "cluttered", "--grid", "0"]).unwrap_err();
+    assert!(err.contains("--grid"), "{err}");
 }

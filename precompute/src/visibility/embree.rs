@@ -68,7 +68,9 @@ struct Query {
 }
 
 thread_local! {
-    static QUERY: Cell<Option<Query>> = const { Cell::new(None) };
+    /// Points at the `Query` on the stack of this thread's `occluded` call while Embree runs
+    /// it; null otherwise. (A pointer, not a copy: the filter runs once or twice per ray.)
+    static QUERY: Cell<*const Query> = const { Cell::new(std::ptr::null()) };
 }
 
 pub struct EmbreeOccluder {
@@ -236,14 +238,17 @@ unsafe extern "C" fn occlusion_filter(args: *const sys::RTCFilterFunctionNArgume
     // SAFETY: Embree passes valid arguments for `N` rays: `valid` has N entries, the ray and
     // hit are SoA blocks of N lanes (RTCRayN: tfar is the 9th float block; RTCHitN: primID the
     // 6th u32 block), and the user pointer is the `Exact` set in `build`, alive as long as
-    // the scene.
+    // the scene. A non-null QUERY points at the live `Query` of the `occluded` call that is
+    // running Embree on this very thread (filters run on the calling thread).
     unsafe {
         let args = &*args;
         let n = args.N as usize;
         let exact = &*(args.geometryUserPtr as *const Exact);
-        let Some(q) = QUERY.with(Cell::get) else {
+        let q = QUERY.with(Cell::get);
+        if q.is_null() {
             return; // not one of our queries: leave Embree's answer
-        };
+        }
+        let q = &*q;
         for i in 0..n {
             let valid = args.valid.add(i);
             if *valid == 0 {
@@ -251,7 +256,7 @@ unsafe extern "C" fn occlusion_filter(args: *const sys::RTCFilterFunctionNArgume
             }
             let tfar = *(args.ray as *const f32).add(8 * n + i);
             let prim = *(args.hit as *const u32).add(5 * n + i) as usize;
-            if !accept(exact, &q, prim, f64::from(tfar)) {
+            if !accept(exact, q, prim, f64::from(tfar)) {
                 *valid = 0;
             }
         }
@@ -293,11 +298,11 @@ impl Occluder for EmbreeOccluder {
             id: 0,
             flags: 0,
         };
-        QUERY.with(|c| c.set(Some(query)));
+        QUERY.with(|c| c.set(&query));
         // SAFETY: the scene is committed and lives as long as `self`; a null argument pointer
         // asks for Embree's default query arguments (the geometry filter still runs).
         unsafe { sys::rtcOccluded1(self.scene, &mut ray, null_mut()) };
-        QUERY.with(|c| c.set(None));
+        QUERY.with(|c| c.set(std::ptr::null()));
         // Embree marks an occluded ray by setting tfar to -inf.
         ray.tfar == f32::NEG_INFINITY
     }
