@@ -211,6 +211,32 @@ mod embree {
             "backends differ by {backends:.2e}, sampling error {sampling:.2e}"
         );
     }
+
+    /// A scene where nothing occludes casts no rays, whichever backend is asked for.
+    #[test]
+    fn embree_asked_for_a_convex_scene_casts_no_rays() {
+        let dir = temp_dir("embree-furnace");
+        let scene = dir.join("furnace.toml");
+        lrr(&["scene", "furnace", "-o", scene.to_str().unwrap()]).unwrap();
+        let report = dir.join("r.json");
+        let out = dir.join("f.lrr");
+        lrr(&[
+            "bake",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--visibility",
+            "embree",
+            "--report",
+            report.to_str().unwrap(),
+            "-q",
+        ])
+        .unwrap();
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        assert_eq!(r["rays"], 0, "{r}");
+        assert_eq!(r["visibility"], "none (nothing occludes)", "{r}");
+    }
 }
 
 /// `lrr scene cluttered` writes a scene that loads, has its objects and needs rays.
