@@ -9,8 +9,8 @@ use serde::Serialize;
 
 use crate::checkpoint::{self, Checkpoint};
 use crate::error::{Error, Result};
-use crate::formfactor::FormFactors;
 use crate::formfactor::kernel::Polygon;
+use crate::formfactor::{FormFactors, Target};
 use crate::memory;
 use crate::mesh::{Mesh, MeshSizes, PatchMethod};
 use crate::operator::{Cores, OperatorInputs, build_cores};
@@ -93,8 +93,9 @@ pub struct Prepared<'s> {
 }
 
 impl<'s> Prepared<'s> {
-    /// Meshes the scene and builds the `visibility` backend's BVH unless nothing can occlude
-    /// (then no backend is needed, whichever was asked for).
+    /// Builds the `visibility` backend's BVH unless nothing can occlude (then no backend is
+    /// needed, whichever was asked for), and meshes the scene (2MSC probes visibility while
+    /// it meshes, so the BVH comes first).
     pub fn new(
         scene: &'s Scene,
         sizes: MeshSizes,
@@ -103,18 +104,26 @@ impl<'s> Prepared<'s> {
         progress: &Progress,
     ) -> Result<Self> {
         if !visibility.available() {
-            // Refuse before meshing, even where no ray would be cast: the flag is wrong here.
+            // Refuse before any work, even where no ray would be cast: the flag is wrong here.
             visibility.build(scene)?;
         }
-        let stage = progress.stage("mesh", 0);
-        let mesh = Mesh::build(scene, sizes, method)?;
-        stage.finish();
+        if let PatchMethod::SpatialCoherence {
+            threshold,
+            min_patch_area,
+        } = method
+        {
+            // Refuse bad parameters before the BVH is built.
+            crate::mesh::refinement(sizes, threshold, min_patch_area)?;
+        }
         let stage = progress.stage("visibility", 0);
         let occluder = if nothing_occludes(scene) {
             None
         } else {
             Some(visibility.build(scene)?)
         };
+        stage.finish();
+        let stage = progress.stage("mesh", 0);
+        let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
         stage.finish();
         Ok(Self {
             scene,
@@ -158,7 +167,7 @@ impl<'s> Prepared<'s> {
             "use a larger --element-size or --patch-size",
         )?;
         let rows: Vec<Polygon> = (0..n).map(|s| self.mesh.element_at(s).polygon).collect();
-        let targets: Vec<Polygon> = self.mesh.patches.iter().map(|p| p.polygon).collect();
+        let targets: Vec<Target> = self.mesh.patches.iter().map(|p| p.shape.clone()).collect();
         let mut fk = vec![0.0; n * k];
         let stage = progress.stage("form factors", n as u64);
         let block_rows = checkpoint
@@ -229,10 +238,23 @@ impl<'s> Prepared<'s> {
         ]
         .map(u64::to_le_bytes)
         .concat();
+        let method = match self.method {
+            PatchMethod::TwoFixed => b"2mf".to_vec(),
+            PatchMethod::SpatialCoherence {
+                threshold,
+                min_patch_area,
+            } => [
+                b"2msc".to_vec(),
+                threshold.to_le_bytes().to_vec(),
+                min_patch_area.unwrap_or(-1.0).to_le_bytes().to_vec(),
+            ]
+            .concat(),
+        };
         checkpoint::key(&[
             &geometry,
             &sizes,
             &counts,
+            &method,
             env!("CARGO_PKG_VERSION").as_bytes(),
             // Backends agree on all but grazing rays: never mix their rows in one file.
             self.visibility_name().as_bytes(),

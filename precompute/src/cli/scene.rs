@@ -46,6 +46,13 @@ pub enum SceneKind {
         #[arg(long, default_value_t = 1.0)]
         height: f64,
     },
+    /// A dense mesh: an icosphere of 20·4^N small triangles in a closed room with a ceiling
+    /// light (patches are built by clustering).
+    DenseSphere {
+        /// Icosphere subdivision levels N (0 to 6; 3 gives 1 280 triangles).
+        #[arg(long, default_value_t = 3)]
+        subdivisions: u32,
+    },
     /// A room cluttered with boxes, upright, leaning and horizontal zero-thickness panels
     /// (visibility tests and `lrr bench visibility`).
     Cluttered {
@@ -70,6 +77,16 @@ pub fn run(a: &SceneArgs, out: &mut dyn Write) -> Result<()> {
             width,
             height,
         } => procedural::perpendicular(length, width, height),
+        SceneKind::DenseSphere { subdivisions } => {
+            if subdivisions > procedural::MAX_SPHERE_SUBDIVISIONS {
+                anyhow::bail!(
+                    "--subdivisions {subdivisions} is too fine: at most {} ({} triangles)",
+                    procedural::MAX_SPHERE_SUBDIVISIONS,
+                    20u64 << (2 * procedural::MAX_SPHERE_SUBDIVISIONS)
+                );
+            }
+            procedural::dense_sphere(subdivisions)
+        }
         SceneKind::Cluttered { grid, seed } => {
             if grid == 0 || grid > 64 {
                 anyhow::bail!("--grid {grid}: use 1 to 64 objects per side");

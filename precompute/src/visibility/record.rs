@@ -14,6 +14,7 @@ use rayon::prelude::*;
 
 use super::{Occluder, Segment};
 use crate::bake::Prepared;
+use crate::formfactor::Target;
 use crate::formfactor::kernel::Polygon;
 use crate::formfactor::sampling::quadrature;
 
@@ -130,7 +131,12 @@ pub fn record(prepared: &Prepared, samples: u32, min_rays: usize) -> RaySet {
     };
     let ff = crate::formfactor::FormFactors::new(samples, Some(&recorder));
     let n = prepared.mesh.n();
-    let targets: Vec<Polygon> = prepared.mesh.patches.iter().map(|p| p.polygon).collect();
+    let targets: Vec<Target> = prepared
+        .mesh
+        .patches
+        .iter()
+        .map(|p| p.shape.clone())
+        .collect();
     let mut row = vec![0.0; targets.len()];
     let mut points = Vec::new();
     // A prime stride coprime with n visits every row once, spread over the scene.
