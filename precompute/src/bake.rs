@@ -16,7 +16,7 @@ use crate::mesh::{Mesh, MeshSizes, PatchMethod};
 use crate::operator::{Cores, OperatorInputs, build_cores};
 use crate::progress::Progress;
 use crate::scene::Scene;
-use crate::visibility::{Occluder, nothing_occludes, obvhs::ObvhsOccluder};
+use crate::visibility::{Backend, Occluder, nothing_occludes};
 
 /// Default quadrature/visibility samples per element-patch pair.
 pub const DEFAULT_SAMPLES: u32 = 16;
@@ -29,6 +29,8 @@ pub struct BakeSettings {
     /// How patches are built (2MF or 2MSC).
     pub method: PatchMethod,
     pub samples: u32,
+    /// Which backend answers the occlusion queries (`--visibility`).
+    pub visibility: Backend,
     pub threads: Option<usize>,
     /// Refuse jobs whose working memory would exceed this many bytes (default: 80% of what
     /// the machine has available).
@@ -54,6 +56,7 @@ impl Default for BakeSettings {
             patch_size: None,
             method: PatchMethod::TwoFixed,
             samples: DEFAULT_SAMPLES,
+            visibility: Backend::default(),
             threads: None,
             max_memory: None,
             checkpoint: None,
@@ -84,18 +87,26 @@ pub struct Prepared<'s> {
     pub sizes: MeshSizes,
     pub method: PatchMethod,
     pub mesh: Mesh,
-    pub occluder: Option<ObvhsOccluder>,
+    /// The backend asked for; `occluder` is `None` when nothing can occlude.
+    pub visibility: Backend,
+    pub occluder: Option<Box<dyn Occluder>>,
 }
 
 impl<'s> Prepared<'s> {
-    /// Builds the BVH unless nothing can occlude, and meshes the scene (2MSC probes
-    /// visibility while it meshes, so the BVH comes first).
+    /// Builds the `visibility` backend's BVH unless nothing can occlude (then no backend is
+    /// needed, whichever was asked for), and meshes the scene (2MSC probes visibility while
+    /// it meshes, so the BVH comes first).
     pub fn new(
         scene: &'s Scene,
         sizes: MeshSizes,
         method: PatchMethod,
+        visibility: Backend,
         progress: &Progress,
     ) -> Result<Self> {
+        if !visibility.available() {
+            // Refuse before any work, even where no ray would be cast: the flag is wrong here.
+            visibility.build(scene)?;
+        }
         if let PatchMethod::SpatialCoherence {
             threshold,
             min_patch_area,
@@ -108,34 +119,30 @@ impl<'s> Prepared<'s> {
         let occluder = if nothing_occludes(scene) {
             None
         } else {
-            Some(ObvhsOccluder::build(scene))
+            Some(visibility.build(scene)?)
         };
         stage.finish();
         let stage = progress.stage("mesh", 0);
-        let mesh = Mesh::build(
-            scene,
-            sizes,
-            method,
-            occluder.as_ref().map(|o| o as &dyn Occluder),
-        )?;
+        let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
         stage.finish();
         Ok(Self {
             scene,
             sizes,
             method,
             mesh,
+            visibility,
             occluder,
         })
     }
 
     pub fn form_factors(&self, samples: u32) -> FormFactors<'_> {
-        FormFactors::new(samples, self.occluder.as_ref().map(|o| o as &dyn Occluder))
+        FormFactors::new(samples, self.occluder.as_deref())
     }
 
-    /// Name of the visibility method used.
+    /// Name of the visibility method used (the file metadata's `visibility`).
     pub fn visibility_name(&self) -> &'static str {
         if self.occluder.is_some() {
-            "obvhs"
+            self.visibility.name()
         } else {
             "none (nothing occludes)"
         }
@@ -249,6 +256,8 @@ impl<'s> Prepared<'s> {
             &counts,
             &method,
             env!("CARGO_PKG_VERSION").as_bytes(),
+            // Backends agree on all but grazing rays: never mix their rows in one file.
+            self.visibility_name().as_bytes(),
         ])
     }
 
@@ -291,7 +300,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
     }
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
     with_threads(settings.threads, || {
-        let prepared = Prepared::new(scene, sizes, settings.method, progress)?;
+        let prepared = Prepared::new(scene, sizes, settings.method, settings.visibility, progress)?;
         let ff = prepared.form_factors(settings.samples);
         let (fk, checkpoint) = prepared.element_patch_matrix(
             &ff,

@@ -228,12 +228,27 @@ fn lit_and_dark(
 
 #[test]
 fn thin_and_zero_thickness_walls_do_not_leak() {
-    let dir = temp_dir("thin-walls");
+    walls_do_not_leak("obvhs", &[&[], &["--exact"]]);
+}
+
+/// The same walls with Embree answering the occlusion queries; low-rank bakes only, to keep
+/// CI short (the exact solves take minutes and ask the same occluder; measured once: dark
+/// max 0 with `--exact` too).
+#[cfg(feature = "embree")]
+#[test]
+fn thin_and_zero_thickness_walls_do_not_leak_embree() {
+    walls_do_not_leak("embree", &[&[]]);
+}
+
+fn walls_do_not_leak(visibility: &str, solves: &[&[&str]]) {
+    let dir = temp_dir(&format!("thin-walls-{visibility}"));
     for thickness in [Some(0.01), None] {
         let scene = two_rooms(&dir, thickness);
         let x_dark = 1.0 + thickness.unwrap_or(0.0);
-        for extra in [&[][..], &["--exact"][..]] {
-            let e = solve(&scene, extra);
+        for &extra in solves {
+            let mut extra = extra.to_vec();
+            extra.extend(["--visibility", visibility]);
+            let e = solve(&scene, &extra);
             // The dark room: everything beyond the wall, and the wall's face towards it.
             let (lit, dark) = lit_and_dark(&e, |name, c| {
                 c[0] > x_dark + 1e-9 || name == "wall.+x" || name == "wall-dark"
@@ -249,9 +264,20 @@ fn thin_and_zero_thickness_walls_do_not_leak() {
 
 #[test]
 fn concave_corner_does_not_leak() {
+    corner_does_not_leak("obvhs", &[&[], &["--exact"]]);
+}
+
+/// The same corner with Embree answering the occlusion queries (low-rank only, as above).
+#[cfg(feature = "embree")]
+#[test]
+fn concave_corner_does_not_leak_embree() {
+    corner_does_not_leak("embree", &[&[]]);
+}
+
+fn corner_does_not_leak(visibility: &str, solves: &[&[&str]]) {
     // An L-shaped room around a closed dark room sitting in its notch: the L's inner walls
     // and the dark room's walls coincide back to back, and meet at a concave corner.
-    let dir = temp_dir("corner");
+    let dir = temp_dir(&format!("corner-{visibility}"));
     let text = "[[material]]\nname = \"w\"\nreflectance = [0.8, 0.8, 0.8]\n\
         [[material]]\nname = \"lamp\"\nreflectance = [0.5, 0.5, 0.5]\nradiance = [10, 10, 10]\n\
         [[surface]]\nname = \"l-floor\"\nmaterial = \"w\"\n\
@@ -271,8 +297,10 @@ fn concave_corner_does_not_leak() {
         [mesh]\nelement_size = 0.1\npatch_size = 0.3\n";
     let scene = dir.join("corner.toml");
     std::fs::write(&scene, text).unwrap();
-    for extra in [&[][..], &["--exact"][..]] {
-        let e = solve(&scene, extra);
+    for &extra in solves {
+        let mut extra = extra.to_vec();
+        extra.extend(["--visibility", visibility]);
+        let e = solve(&scene, &extra);
         let (lit, dark) = lit_and_dark(&e, |name, _| name.starts_with("dark"));
         println!("corner {extra:?}: lit mean {lit:.4e}, dark max {dark:.3e}");
         assert!(

@@ -22,6 +22,9 @@ pub enum BenchKind {
     /// channel (the papers' baseline), (d) a plain read of the bytes (a) reads (the roofline),
     /// (e) the factored frame from light-group intensities (no O(n) emission pass).
     Runtime(RuntimeBench),
+    /// Occlusion rays/s of the visibility backends (Embree, obvhs, the default path) on the
+    /// form-factor rays of the Cornell box and a cluttered room, one thread and all cores.
+    Visibility(super::bench_visibility::VisibilityBench),
 }
 
 #[derive(Debug, Args)]
@@ -82,7 +85,10 @@ pub struct Row {
 }
 
 pub fn run(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
-    let BenchKind::Runtime(b) = &a.what;
+    let b = match &a.what {
+        BenchKind::Runtime(b) => b,
+        BenchKind::Visibility(v) => return super::bench_visibility::run(v, out),
+    };
     let threads = b
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));

@@ -3,6 +3,7 @@
 
 mod bake;
 mod bench;
+mod bench_visibility;
 mod info;
 mod probe;
 mod scene;
@@ -51,7 +52,8 @@ pub enum Command {
     Solve(solve::SolveArgs),
     /// Write a generated scene description (furnace, analytic pairs).
     Scene(scene::SceneArgs),
-    /// Benchmarks: `lrr bench runtime` (frame rates against the dense baseline and a memory read).
+    /// Benchmarks: `lrr bench runtime` (frame rates against the dense baseline and a memory
+    /// read), `lrr bench visibility` (occlusion rays/s of the visibility backends).
     Bench(bench::BenchArgs),
 }
 
@@ -81,6 +83,10 @@ pub struct MeshArgs {
     /// Quadrature points and visibility rays per element-patch pair (a square gives a midpoint rule).
     #[arg(long, value_name = "S", default_value_t = DEFAULT_SAMPLES)]
     pub samples: u32,
+    /// Occlusion backend: `obvhs` (pure Rust, exact f64 triangle test) or `embree` (Embree 4,
+    /// builds with the cargo feature `embree` only; see scripts/setup-embree.sh).
+    #[arg(long, value_name = "BACKEND", default_value = "obvhs", value_parser = ["obvhs", "embree"])]
+    pub visibility: String,
     /// Worker threads [default: all cores]. Results do not depend on it.
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
@@ -120,6 +126,7 @@ impl MeshArgs {
             patch_size: self.patch_size,
             method: self.method(),
             samples: self.samples,
+            visibility: crate::visibility::Backend::parse(&self.visibility).unwrap_or_default(),
             threads: self.threads,
             max_memory: self.max_memory,
             checkpoint: None,

@@ -53,6 +53,16 @@ pub enum SceneKind {
         #[arg(long, default_value_t = 3)]
         subdivisions: u32,
     },
+    /// A room cluttered with boxes, upright, leaning and horizontal zero-thickness panels
+    /// (visibility tests and `lrr bench visibility`).
+    Cluttered {
+        /// Objects per side of the floor grid.
+        #[arg(long, default_value_t = 4)]
+        grid: usize,
+        /// Seed of the objects' kinds, sizes and angles.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
 }
 
 pub fn run(a: &SceneArgs, out: &mut dyn Write) -> Result<()> {
@@ -76,6 +86,12 @@ pub fn run(a: &SceneArgs, out: &mut dyn Write) -> Result<()> {
                 );
             }
             procedural::dense_sphere(subdivisions)
+        }
+        SceneKind::Cluttered { grid, seed } => {
+            if grid == 0 || grid > 64 {
+                anyhow::bail!("--grid {grid}: use 1 to 64 objects per side");
+            }
+            procedural::cluttered(grid, seed)
         }
     };
     // Build once so a bad parameter is reported here, not at bake time.

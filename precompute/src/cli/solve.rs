@@ -60,7 +60,13 @@ pub fn solve(scene: &Scene, a: &MeshArgs, exact: bool) -> Result<Solution> {
     let (mesh, radiosity, method) = if exact {
         with_threads(settings.threads, || -> Result<_> {
             // The exact solve needs only the fine mesh, which does not depend on the patch method.
-            let prepared = Prepared::new(scene, sizes, PatchMethod::TwoFixed, &progress)?;
+            let prepared = Prepared::new(
+                scene,
+                sizes,
+                PatchMethod::TwoFixed,
+                settings.visibility,
+                &progress,
+            )?;
             let ff = prepared.form_factors(settings.samples);
             let (rho, emission) = prepared.element_materials();
             let stage = progress.stage("exact matrix", prepared.mesh.n() as u64);

@@ -38,7 +38,13 @@ pub fn view_factors(scene: &Scene, a: &MeshArgs) -> Result<ViewFactors> {
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
     let progress = a.progress();
     let result = with_threads(settings.threads, || -> Result<ViewFactors> {
-        let prepared = Prepared::new(scene, sizes, settings.method, &progress)?;
+        let prepared = Prepared::new(
+            scene,
+            sizes,
+            settings.method,
+            settings.visibility,
+            &progress,
+        )?;
         let ff = prepared.form_factors(settings.samples);
         let (fk, _) = prepared.element_patch_matrix(&ff, &progress, settings.max_memory, None)?;
         let m = scene.surfaces.len();

@@ -229,3 +229,175 @@ fn icosphere(levels: u32, centre: [f64; 3], radius: f64) -> Vec<Vec<[f64; 3]>> {
         })
         .collect()
 }
+
+/// A cluttered room for visibility tests and benchmarks (`lrr scene cluttered`): a closed
+/// 4 × 4 × 2.5 room lit by a ceiling lamp, with a `grid` × `grid` array of objects on the
+/// floor, one per cell, chosen and placed by `seed`: boxes standing on the floor, upright
+/// zero-thickness panels (two coincident faces back to back) turned to any angle, leaning
+/// panels, shelves (a horizontal panel on a box), boxes with a box stacked on top. Heights are
+/// multiples of 0.25, so many tops are coplanar, and every object stands on the floor: rays
+/// graze coplanar faces, contact lines and panel edges everywhere.
+pub fn cluttered(grid: usize, seed: u64) -> SceneDescription {
+    let mut d = empty(format!("cluttered grid={grid} seed={seed}"));
+    d.materials.push(grey("wall", 0.6, 0.0));
+    d.materials.push(MaterialDesc {
+        name: "clutter".into(),
+        reflectance: [0.7, 0.5, 0.3],
+        radiance: [0.0; 3],
+    });
+    d.materials.push(grey("lamp", 0.5, 8.0));
+    let (side, height) = (4.0, 2.5);
+    d.boxes.push(BoxDesc {
+        name: "room".into(),
+        material: "wall".into(),
+        min: [0.0; 3],
+        max: [side, side, height],
+        inward: true,
+        omit: Vec::new(),
+    });
+    let z = height - 0.05;
+    d.surfaces.push(SurfaceDesc {
+        name: "lamp".into(),
+        material: "lamp".into(),
+        polygons: vec![vec![
+            [1.6, 1.6, z],
+            [1.6, 2.4, z],
+            [2.4, 2.4, z],
+            [2.4, 1.6, z],
+        ]],
+    });
+    let grid = grid.max(1);
+    let cell = side / grid as f64;
+    let mut state = seed;
+    let mut next = || {
+        state = crate::formfactor::sampling::mix(state);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    // Heights in multiples of 0.25 up to 1.5 (coplanar tops across the room).
+    let step = |u: f64| 0.25 * (1.0 + (u * 6.0).floor().min(5.0));
+    // A box standing on something: its bottom is never seen.
+    let boxed = |d: &mut SceneDescription, name: String, min: [f64; 3], max: [f64; 3]| {
+        d.boxes.push(BoxDesc {
+            name,
+            material: "clutter".into(),
+            min,
+            max,
+            inward: false,
+            omit: vec!["-z".into()],
+        });
+    };
+    // Both faces of a zero-thickness panel, back to back.
+    let panel = |d: &mut SceneDescription, name: String, quad: [[f64; 3]; 4]| {
+        let mut back = quad;
+        back.reverse();
+        d.surfaces.push(SurfaceDesc {
+            name,
+            material: "clutter".into(),
+            polygons: vec![quad.to_vec(), back.to_vec()],
+        });
+    };
+    for i in 0..grid {
+        for j in 0..grid {
+            let (x0, y0) = (i as f64 * cell, j as f64 * cell);
+            let (cx, cy) = (x0 + 0.5 * cell, y0 + 0.5 * cell);
+            let margin = 0.08 * cell;
+            let name = format!("c{i}-{j}");
+            let kind = (next() * 5.0) as u32;
+            let h = step(next());
+            match kind {
+                0 => {
+                    // A box standing on the floor.
+                    let w = 0.3 * cell + 0.5 * cell * next();
+                    let half = 0.5 * w.min(cell - 2.0 * margin);
+                    boxed(
+                        &mut d,
+                        name,
+                        [cx - half, cy - half, 0.0],
+                        [cx + half, cy + half, h],
+                    );
+                }
+                1 => {
+                    // An upright panel turned by any angle about the vertical.
+                    let a = std::f64::consts::PI * next();
+                    let r = 0.5 * cell - margin;
+                    let (dx, dy) = (r * a.cos(), r * a.sin());
+                    panel(
+                        &mut d,
+                        name,
+                        [
+                            [cx - dx, cy - dy, 0.0],
+                            [cx + dx, cy + dy, 0.0],
+                            [cx + dx, cy + dy, h],
+                            [cx - dx, cy - dy, h],
+                        ],
+                    );
+                }
+                2 => {
+                    // A panel leaning over: bottom edge on the floor, top edge shifted.
+                    let lean = (next() - 0.5) * (cell - 2.0 * margin);
+                    let (ya, yb) = (y0 + margin, y0 + cell - margin);
+                    let xb = cx - 0.5 * lean;
+                    panel(
+                        &mut d,
+                        name,
+                        [
+                            [xb, ya, 0.0],
+                            [xb, yb, 0.0],
+                            [xb + lean, yb, h],
+                            [xb + lean, ya, h],
+                        ],
+                    );
+                }
+                3 => {
+                    // A shelf: a box whose top is a larger horizontal panel, overhanging.
+                    let half = 0.25 * cell;
+                    boxed(
+                        &mut d,
+                        format!("{name}-base"),
+                        [cx - half, cy - half, 0.0],
+                        [cx + half, cy + half, h],
+                    );
+                    d.boxes
+                        .last_mut()
+                        .expect("just pushed")
+                        .omit
+                        .push("+z".into());
+                    let r = 0.5 * cell - margin;
+                    panel(
+                        &mut d,
+                        format!("{name}-shelf"),
+                        [
+                            [cx - r, cy - r, h],
+                            [cx + r, cy - r, h],
+                            [cx + r, cy + r, h],
+                            [cx - r, cy + r, h],
+                        ],
+                    );
+                }
+                _ => {
+                    // Two boxes stacked, the upper one smaller and off centre.
+                    let half = 0.5 * (cell - 2.0 * margin);
+                    boxed(
+                        &mut d,
+                        format!("{name}-low"),
+                        [cx - half, cy - half, 0.0],
+                        [cx + half, cy + half, h],
+                    );
+                    let q = 0.5 * half;
+                    let (ox, oy) = ((next() - 0.5) * q, (next() - 0.5) * q);
+                    boxed(
+                        &mut d,
+                        format!("{name}-top"),
+                        [cx + ox - q, cy + oy - q, h],
+                        [cx + ox + q, cy + oy + q, h + 0.25],
+                    );
+                }
+            }
+        }
+    }
+    d.mesh = MeshHints {
+        element_size: Some(0.25),
+        patch_size: Some(0.8),
+    };
+    d
+}

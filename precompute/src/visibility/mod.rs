@@ -1,20 +1,81 @@
 //! Visibility between sample points: ray casts against the scene's faces.
 //!
-//! The default backend is [`obvhs`] (pure Rust). A segment query asks whether anything blocks
-//! the open segment between two surface points: the faces the points lie on never count (nor
-//! coincident back faces), every other face does, at any scale.
+//! The default backend is [`obvhs`] (pure Rust). With the cargo feature `embree`, [`embree`]
+//! answers the same queries through Embree 4 (`lrr bake --visibility embree`). A segment query
+//! asks whether anything blocks the open segment between two surface points: the faces the
+//! points lie on never count (nor coincident back faces), every other face does, at any scale.
+//! [`record`] captures the segments a bake casts, to compare backends on the same rays.
 //!
 //! [`nothing_occludes`] detects scenes where no line of sight can be blocked (every face sees
 //! all others from its front: an empty convex room, two facing squares); those bakes cast no
 //! rays at all.
 
+#[cfg(feature = "embree")]
+pub mod embree;
 pub mod obvhs;
+pub mod record;
 pub mod watertight;
 
 use glam::DVec3;
 
+use crate::error::{Error, Result};
 use crate::formfactor::kernel::Polygon;
 use crate::scene::Scene;
+
+/// Which implementation answers the occlusion queries of a bake (`--visibility`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Backend {
+    /// The pure-Rust BVH of [`obvhs`] with the exact f64 triangle test (the default).
+    #[default]
+    Obvhs,
+    /// Embree 4 single-ray occlusion (`rtcOccluded1`); needs the cargo feature `embree`.
+    Embree,
+}
+
+impl Backend {
+    /// The name `--visibility` takes and the file metadata records.
+    pub fn name(self) -> &'static str {
+        match self {
+            Backend::Obvhs => "obvhs",
+            Backend::Embree => "embree",
+        }
+    }
+
+    /// Parses a `--visibility` value.
+    pub fn parse(name: &str) -> Result<Self> {
+        match name {
+            "obvhs" => Ok(Backend::Obvhs),
+            "embree" => Ok(Backend::Embree),
+            other => Err(Error::Settings(format!(
+                "unknown visibility backend '{other}': use obvhs or embree"
+            ))),
+        }
+    }
+
+    /// True when this build can use the backend (Embree needs the cargo feature `embree`).
+    pub fn available(self) -> bool {
+        match self {
+            Backend::Obvhs => true,
+            Backend::Embree => cfg!(feature = "embree"),
+        }
+    }
+
+    /// Builds the backend's acceleration structure over the scene's faces.
+    pub fn build(self, scene: &Scene) -> Result<Box<dyn Occluder>> {
+        match self {
+            Backend::Obvhs => Ok(Box::new(obvhs::ObvhsOccluder::build(scene))),
+            #[cfg(feature = "embree")]
+            Backend::Embree => Ok(Box::new(embree::EmbreeOccluder::build(scene)?)),
+            #[cfg(not(feature = "embree"))]
+            Backend::Embree => Err(Error::Settings(EMBREE_MISSING.into())),
+        }
+    }
+}
+
+/// What `--visibility embree` says in a build without the feature.
+pub const EMBREE_MISSING: &str = "--visibility embree: this lrr was built without Embree; \
+    run scripts/setup-embree.sh, then rebuild with `cargo build --release --features embree` \
+    (or use the default --visibility obvhs)";
 
 /// Fraction of a segment excluded at each end: only a guard against a zero parameter. The
 /// faces the end points lie on are skipped by plane and orientation instead (see

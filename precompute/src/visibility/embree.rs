@@ -1,0 +1,394 @@
+//! Occlusion queries through Embree 4 (cargo feature `embree`; scripts/setup-embree.sh fetches
+//! the library).
+//!
+//! One triangle geometry (quads as two triangles, coordinates shifted to the scene's centre
+//! before the f32 conversion, like [`super::obvhs`]), scene flag `ROBUST`, build quality `HIGH`.
+//! A query is one `rtcOccluded1` over the segment extended by a small slack at both ends, so
+//! that f32 rounding never drops a face crossed right next to an end point.
+//!
+//! The own-face rule lives in the geometry's occlusion filter, which Embree calls for every
+//! candidate hit before it may end the query. The filter rejects a candidate when
+//! - it is the face an end point lies on, or a coincident back face: the same plane-and-normal
+//!   test as the obvhs backend (end point within [`PLANE_TOLERANCE`] of the scene extent from
+//!   the triangle's plane, triangle normal parallel to the point's surface normal);
+//! - otherwise, when Embree's f32 hit distance lies within the slack of an end point: there f32
+//!   cannot tell a face crossed just inside the segment from one just outside, so the exact f64
+//!   watertight test of [`super::watertight`] over the segment decides.
+//!
+//! Hits in the segment's interior are Embree's own f32 answer (its triangle test is
+//! watertight: zero-thickness walls do not leak). The two backends therefore differ only on
+//! rays that graze a triangle's edge, where f32 and f64 round differently; the agreement
+//! tests measure how often (≈ 1 ray in 10⁶ or less).
+//!
+//! Why no embree4-rs: its 0.0.16 keeps the scene handle private and has no occlusion query, so
+//! everything goes through embree4-sys (Embree 4.2 headers; the 4.4 library is ABI compatible
+//! for what is used here: single rays, default query arguments, geometry filter functions).
+//! The per-query data (f64 end points and normals) reaches the filter through a thread-local:
+//! a custom ray query context would depend on the context's layout, which grew between 4.2
+//! and 4.4.
+
+use std::cell::Cell;
+use std::ffi::c_void;
+use std::ptr::null_mut;
+
+use embree4_sys as sys;
+use glam::DVec3;
+
+use super::watertight::ShearedRay;
+use super::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON};
+use crate::error::{Error, Result};
+use crate::scene::Scene;
+
+/// |cos| above which two faces count as parallel (as in the obvhs backend).
+const PARALLEL: f64 = 1.0 - 1e-5;
+
+/// Slack added at both ends of a query, relative to the segment's length and, added, to the
+/// scene's extent (f32 rounding of the hit distance grows with the coordinates).
+const SLACK_LENGTH: f64 = 1e-5;
+const SLACK_EXTENT: f64 = 1e-5;
+
+/// The triangles in f64 (relative to the centre), their planes and the tolerance: what the
+/// filter needs, at a stable address (the geometry's user pointer).
+struct Exact {
+    tris: Vec<[DVec3; 3]>,
+    planes: Vec<(DVec3, f64)>,
+    plane_tolerance: f64,
+}
+
+/// The query in flight on this thread, for the filter.
+#[derive(Clone, Copy)]
+struct Query {
+    origin: DVec3,
+    target: DVec3,
+    from_normal: DVec3,
+    to_normal: DVec3,
+    length: f64,
+    slack: f64,
+    sheared: ShearedRay,
+}
+
+thread_local! {
+    /// Points at the `Query` on the stack of this thread's `occluded` call while Embree runs
+    /// it; null otherwise. (A pointer, not a copy: the filter runs once or twice per ray.)
+    static QUERY: Cell<*const Query> = const { Cell::new(std::ptr::null()) };
+}
+
+pub struct EmbreeOccluder {
+    device: sys::RTCDevice,
+    scene: sys::RTCScene,
+    exact: Box<Exact>,
+    centre: DVec3,
+    extent: f64,
+}
+
+// SAFETY: a committed Embree scene is safe to query from any number of threads at once
+// (Embree's documented contract for rtcOccluded1); the handles are only released in `drop`,
+// which takes `&mut self`. `exact` is read-only after construction.
+unsafe impl Send for EmbreeOccluder {}
+unsafe impl Sync for EmbreeOccluder {}
+
+/// The device's last error as a message, or `Ok` when none. (The message text needs
+/// `rtcGetDeviceLastErrorMessage`, which the 4.2 headers lack; the code says enough.)
+fn check(device: sys::RTCDevice, what: &str) -> Result<()> {
+    // SAFETY: `device` is a live device handle (or null, which Embree accepts here).
+    let code = unsafe { sys::rtcGetDeviceError(device) };
+    if code == sys::RTCError::NONE {
+        return Ok(());
+    }
+    Err(Error::Settings(format!(
+        "Embree: {what} failed ({code:?}); check the library installed by \
+         scripts/setup-embree.sh, or bake with --visibility obvhs"
+    )))
+}
+
+impl EmbreeOccluder {
+    /// Builds Embree's BVH over the scene's faces (quads as two triangles).
+    pub fn build(scene: &Scene) -> Result<Self> {
+        let (lo, hi) = scene.bounds();
+        let centre = (lo + hi) * 0.5;
+        let extent = (hi - lo).length();
+        let mut tris = Vec::with_capacity(scene.faces.len() * 2);
+        for f in &scene.faces {
+            let v = f.polygon.vertices();
+            for i in 1..v.len() - 1 {
+                tris.push([v[0] - centre, v[i] - centre, v[i + 1] - centre]);
+            }
+        }
+        let planes = tris
+            .iter()
+            .map(|t| {
+                let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+                (n, n.dot(t[0]))
+            })
+            .collect();
+        let exact = Box::new(Exact {
+            tris,
+            planes,
+            plane_tolerance: PLANE_TOLERANCE * extent,
+        });
+        // SAFETY: plain FFI calls on handles created here; every buffer Embree hands out is
+        // written within the sizes it was created with. On error the handles made so far
+        // are released by `Drop` (the struct is built before the first fallible step).
+        unsafe {
+            let device = sys::rtcNewDevice(null_mut());
+            if device.is_null() {
+                check(null_mut(), "creating the device")?;
+                return Err(Error::Settings(
+                    "Embree: could not create a device (unsupported CPU?); bake with \
+                     --visibility obvhs"
+                        .into(),
+                ));
+            }
+            let scene_handle = sys::rtcNewScene(device);
+            let occ = Self {
+                device,
+                scene: scene_handle,
+                exact,
+                centre,
+                extent,
+            };
+            check(device, "creating the scene")?;
+            sys::rtcSetSceneFlags(occ.scene, sys::RTCSceneFlags::ROBUST);
+            sys::rtcSetSceneBuildQuality(occ.scene, sys::RTCBuildQuality::HIGH);
+            check(device, "setting the scene flags")?;
+            let count = occ.exact.tris.len();
+            let geometry = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
+            check(device, "creating the triangle geometry")?;
+            let vertices = sys::rtcSetNewGeometryBuffer(
+                geometry,
+                sys::RTCBufferType::VERTEX,
+                0,
+                sys::RTCFormat::FLOAT3,
+                3 * size_of::<f32>(),
+                3 * count,
+            ) as *mut f32;
+            let indices = sys::rtcSetNewGeometryBuffer(
+                geometry,
+                sys::RTCBufferType::INDEX,
+                0,
+                sys::RTCFormat::UINT3,
+                3 * size_of::<u32>(),
+                count,
+            ) as *mut u32;
+            if vertices.is_null() || indices.is_null() {
+                sys::rtcReleaseGeometry(geometry);
+                check(device, "allocating the triangle buffers")?;
+                return Err(Error::Settings(
+                    "Embree: could not allocate the triangle buffers".into(),
+                ));
+            }
+            let vertices = std::slice::from_raw_parts_mut(vertices, 9 * count);
+            let indices = std::slice::from_raw_parts_mut(indices, 3 * count);
+            for (i, t) in occ.exact.tris.iter().enumerate() {
+                for (j, v) in t.iter().enumerate() {
+                    let v = v.as_vec3();
+                    vertices[9 * i + 3 * j..9 * i + 3 * j + 3].copy_from_slice(&[v.x, v.y, v.z]);
+                    indices[3 * i + j] = (3 * i + j) as u32;
+                }
+            }
+            sys::rtcSetGeometryUserData(geometry, &*occ.exact as *const Exact as *mut c_void);
+            sys::rtcSetGeometryOccludedFilterFunction(geometry, Some(occlusion_filter));
+            sys::rtcCommitGeometry(geometry);
+            sys::rtcAttachGeometry(occ.scene, geometry);
+            sys::rtcReleaseGeometry(geometry); // the scene holds it now
+            check(device, "committing the triangle geometry")?;
+            sys::rtcCommitScene(occ.scene);
+            check(device, "building the BVH")?;
+            Ok(occ)
+        }
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.exact.tris.len()
+    }
+}
+
+impl Drop for EmbreeOccluder {
+    fn drop(&mut self) {
+        // SAFETY: the handles were created by `build` and are released once, here.
+        unsafe {
+            if !self.scene.is_null() {
+                sys::rtcReleaseScene(self.scene);
+            }
+            sys::rtcReleaseDevice(self.device);
+        }
+    }
+}
+
+/// Whether a candidate hit of Embree blocks the query: the own-face rule, then, near the end
+/// points, the exact test (see the module documentation).
+fn accept(exact: &Exact, q: &Query, prim: usize, t_hit: f64) -> bool {
+    let (Some(&(n, offset)), Some(&[a, b, c])) = (exact.planes.get(prim), exact.tris.get(prim))
+    else {
+        return false;
+    };
+    let tol = exact.plane_tolerance;
+    let own = |p: DVec3, pn: DVec3| (n.dot(p) - offset).abs() <= tol && n.dot(pn).abs() > PARALLEL;
+    if own(q.origin, q.from_normal) || own(q.target, q.to_normal) {
+        return false;
+    }
+    if t_hit > q.slack && t_hit < q.length - q.slack {
+        return true;
+    }
+    q.sheared.hit(a, b, c).is_some()
+}
+
+/// Embree's occlusion filter: clears `valid` for candidates that do not block.
+unsafe extern "C" fn occlusion_filter(args: *const sys::RTCFilterFunctionNArguments) {
+    // SAFETY: Embree passes valid arguments for `N` rays: `valid` has N entries, the ray and
+    // hit are SoA blocks of N lanes (RTCRayN: tfar is the 9th float block; RTCHitN: primID the
+    // 6th u32 block), and the user pointer is the `Exact` set in `build`, alive as long as
+    // the scene. A non-null QUERY points at the live `Query` of the `occluded` call that is
+    // running Embree on this very thread (filters run on the calling thread).
+    unsafe {
+        let args = &*args;
+        let n = args.N as usize;
+        let exact = &*(args.geometryUserPtr as *const Exact);
+        let q = QUERY.with(Cell::get);
+        if q.is_null() {
+            return; // not one of our queries: leave Embree's answer
+        }
+        let q = &*q;
+        for i in 0..n {
+            let valid = args.valid.add(i);
+            if *valid == 0 {
+                continue;
+            }
+            let tfar = *(args.ray as *const f32).add(8 * n + i);
+            let prim = *(args.hit as *const u32).add(5 * n + i) as usize;
+            if !accept(exact, q, prim, f64::from(tfar)) {
+                *valid = 0;
+            }
+        }
+    }
+}
+
+impl Occluder for EmbreeOccluder {
+    fn occluded(&self, from: DVec3, from_normal: DVec3, to: DVec3, to_normal: DVec3) -> bool {
+        let (origin, target) = (from - self.centre, to - self.centre);
+        let d = target - origin;
+        let length = d.length();
+        if length.is_nan() || length <= 0.0 {
+            return false; // a point does not block itself
+        }
+        let direction = d / length;
+        let slack = SLACK_LENGTH * length + SLACK_EXTENT * self.extent;
+        let eps = f64::from(SEGMENT_EPSILON) * length;
+        let query = Query {
+            origin,
+            target,
+            from_normal,
+            to_normal,
+            length,
+            slack,
+            sheared: ShearedRay::new(origin, direction, eps, length - eps),
+        };
+        let (o, dir) = (origin.as_vec3(), direction.as_vec3());
+        let mut ray = sys::RTCRay {
+            org_x: o.x,
+            org_y: o.y,
+            org_z: o.z,
+            tnear: -(slack as f32),
+            dir_x: dir.x,
+            dir_y: dir.y,
+            dir_z: dir.z,
+            time: 0.0,
+            tfar: (length + slack) as f32,
+            mask: u32::MAX,
+            id: 0,
+            flags: 0,
+        };
+        QUERY.with(|c| c.set(&query));
+        // SAFETY: the scene is committed and lives as long as `self`; a null argument pointer
+        // asks for Embree's default query arguments (the geometry filter still runs).
+        unsafe { sys::rtcOccluded1(self.scene, &mut ray, null_mut()) };
+        QUERY.with(|c| c.set(std::ptr::null()));
+        // Embree marks an occluded ray by setting tfar to -inf.
+        ray.tfar == f32::NEG_INFINITY
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::procedural;
+    use crate::visibility::obvhs::ObvhsOccluder;
+    use std::path::Path;
+
+    #[test]
+    fn embree_block_in_a_room_casts_a_shadow() {
+        let mut d = procedural::furnace(0.5, 1.0);
+        d.boxes.push(crate::scene::description::BoxDesc {
+            name: "block".into(),
+            material: "wall".into(),
+            min: [0.4, 0.4, 0.0],
+            max: [0.6, 0.6, 0.5],
+            inward: false,
+            omit: vec!["-z".into()],
+        });
+        let scene = d.build("c", Path::new(".")).unwrap();
+        let occ = EmbreeOccluder::build(&scene).unwrap();
+        assert_eq!(occ.triangle_count(), 2 * scene.faces.len());
+        let floor = DVec3::new(0.1, 0.5, 0.0);
+        assert!(occ.occluded(floor, DVec3::Z, DVec3::new(1.0, 0.5, 0.2), -DVec3::X));
+        assert!(!occ.occluded(floor, DVec3::Z, DVec3::new(0.1, 0.5, 1.0), -DVec3::Z));
+        // Along the floor, touching only the end faces (the walls the points lie on): free.
+        assert!(!occ.occluded(
+            DVec3::new(0.0, 0.1, 0.5),
+            DVec3::X,
+            DVec3::new(1.0, 0.1, 0.5),
+            -DVec3::X
+        ));
+    }
+
+    #[test]
+    fn embree_blocks_walls_crossed_next_to_an_end_point() {
+        // A zero-thickness wall at x = 1 between two rooms; segments from points 1e-9 .. 1e-3
+        // away from the wall's foot to the other room: every one crosses the wall, most of
+        // them within f32 rounding of their start.
+        let text = "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
+            [[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\ninward = true\n\
+            [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [1, 0, 0]\nmax = [2, 1, 1]\ninward = true\n";
+        let d = crate::scene::description::SceneDescription::parse(text, "t").unwrap();
+        let scene = d.build("t", Path::new(".")).unwrap();
+        let occ = EmbreeOccluder::build(&scene).unwrap();
+        let reference = ObvhsOccluder::build(&scene);
+        for k in 3..=9 {
+            let gap = 10f64.powi(-k);
+            let from = DVec3::new(1.0 - gap, 0.37, 0.0);
+            let to = DVec3::new(1.6, 0.52, 1.0);
+            assert!(reference.occluded(from, DVec3::Z, to, -DVec3::Z));
+            assert!(
+                occ.occluded(from, DVec3::Z, to, -DVec3::Z),
+                "leak at gap {gap}"
+            );
+            // The same segment reversed.
+            assert!(
+                occ.occluded(to, -DVec3::Z, from, DVec3::Z),
+                "leak at gap {gap}"
+            );
+        }
+    }
+
+    #[test]
+    fn embree_agrees_with_obvhs_near_walls_and_corners() {
+        // The obvhs unit test's two rooms sharing walls at a corner, with random segments:
+        // every segment crosses a wall.
+        let text = "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
+            [[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\ninward = true\n\
+            [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [1, 1, 0]\nmax = [2, 2, 1]\ninward = true\n";
+        let d = crate::scene::description::SceneDescription::parse(text, "t").unwrap();
+        let scene = d.build("t", Path::new(".")).unwrap();
+        let occ = EmbreeOccluder::build(&scene).unwrap();
+        let mut state = 0x9e37_79b9u64;
+        let mut next = || {
+            state = crate::formfactor::sampling::mix(state);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..100_000 {
+            let from = DVec3::new(next(), next(), next());
+            let to = DVec3::new(1.0 + next(), 1.0 + next(), next());
+            assert!(occ.occluded(from, DVec3::Z, to, DVec3::Z), "{from} → {to}");
+        }
+    }
+}
