@@ -1,6 +1,7 @@
 //! The `lrr` command line (clap). [`run`] takes the arguments and an output stream so tests
 //! can call every command in-process; `main.rs` only prints the error chain and sets the exit code.
 
+mod accuracy;
 mod bake;
 mod bench;
 mod info;
@@ -48,6 +49,8 @@ pub enum Command {
     Solve(solve::SolveArgs),
     /// Write a generated scene description (furnace, analytic pairs).
     Scene(scene::SceneArgs),
+    /// What accuracy costs in time: sweep 2MF/2MSC over k, n, samples, f32/f16; CSV, markdown, plots.
+    Accuracy(accuracy::AccuracyArgs),
     /// Benchmarks: `lrr bench runtime` (frame rates against the dense baseline and a memory read).
     Bench(bench::BenchArgs),
 }
@@ -166,6 +169,7 @@ where
         Command::Solve(a) => solve::run(&a, out),
         Command::Scene(a) => scene::run(&a, out),
         Command::Bench(a) => bench::run(&a, out),
+        Command::Accuracy(a) => accuracy::run(&a, out),
     }
 }
 
