@@ -133,6 +133,16 @@ fn draw<DB: DrawingBackend>(
     root.present().map_err(|e| text(&e))
 }
 
+/// Labels powers of ten only (the other grid lines stay unlabelled).
+fn decade_label(v: &f64) -> String {
+    let e = v.log10().round();
+    if (v.log10() - e).abs() < 1e-6 {
+        format!("1e{e}")
+    } else {
+        String::new()
+    }
+}
+
 /// Log range around the values, padded by a quarter of a decade on each side.
 fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (lo, hi) = values
@@ -165,8 +175,8 @@ fn panel<DB: DrawingBackend>(
         .configure_mesh()
         .x_desc(xlabel)
         .y_desc(ylabel)
-        .x_label_formatter(&|v| format!("{v:.0e}"))
-        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .x_label_formatter(&decade_label)
+        .y_label_formatter(&decade_label)
         .label_style(("sans-serif", 14))
         .axis_desc_style(("sans-serif", 16))
         .light_line_style(WHITE.mix(0.0))

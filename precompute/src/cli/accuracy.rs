@@ -36,7 +36,7 @@ pub struct AccuracyArgs {
     /// Methods to sweep.
     #[arg(long, value_delimiter = ',', default_value = "2mf,2msc", value_parser = ["2mf", "2msc"])]
     pub methods: Vec<String>,
-    /// Fine element sizes in scene units, the first the main one [default: 1/20 and 1/12 of
+    /// Fine element sizes in scene units, the first the main one [default: 1/12 and 1/8 of
     /// the scene's diagonal; --quick: 1/10].
     #[arg(long, value_delimiter = ',', value_name = "L,…")]
     pub element_sizes: Vec<f64>,
@@ -50,20 +50,20 @@ pub struct AccuracyArgs {
     /// 2MSC: patches of at most this area are not split [default: chosen by the method].
     #[arg(long, value_name = "A")]
     pub min_patch_area: Option<f64>,
-    /// Samples per pair, the first the main one [default: 16,4,64; --quick: 16].
+    /// Samples per pair, the first the main one [default: 16,4,32; --quick: 16].
     #[arg(long, value_delimiter = ',', value_name = "S,…")]
     pub samples: Vec<u32>,
-    /// Samples per pair of the reference exact solve (column rel_error_ref) [default: 64].
+    /// Samples per pair of the reference exact solve (column rel_error_ref) [default: 32].
     #[arg(long, value_name = "S")]
     pub ref_samples: Option<u32>,
     /// No reference exact solve (drops rel_error_ref).
     #[arg(long, conflicts_with = "ref_samples")]
     pub no_ref: bool,
     /// Rounds of frame timing (each times f32 and f16 back to back).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 7)]
     pub rounds: usize,
     /// Seconds of frames per precision and round.
-    #[arg(long, default_value_t = 0.02)]
+    #[arg(long, default_value_t = 0.03)]
     pub frame_seconds: f64,
     /// No progress lines on stderr.
     #[arg(long, short)]
