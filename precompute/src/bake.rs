@@ -9,8 +9,8 @@ use serde::Serialize;
 
 use crate::checkpoint::{self, Checkpoint};
 use crate::error::{Error, Result};
-use crate::formfactor::FormFactors;
 use crate::formfactor::kernel::Polygon;
+use crate::formfactor::{FormFactors, Target};
 use crate::memory;
 use crate::mesh::{Mesh, MeshSizes, PatchMethod};
 use crate::operator::{Cores, OperatorInputs, build_cores};
@@ -88,22 +88,36 @@ pub struct Prepared<'s> {
 }
 
 impl<'s> Prepared<'s> {
-    /// Meshes the scene and builds the BVH unless nothing can occlude.
+    /// Builds the BVH unless nothing can occlude, and meshes the scene (2MSC probes
+    /// visibility while it meshes, so the BVH comes first).
     pub fn new(
         scene: &'s Scene,
         sizes: MeshSizes,
         method: PatchMethod,
         progress: &Progress,
     ) -> Result<Self> {
-        let stage = progress.stage("mesh", 0);
-        let mesh = Mesh::build(scene, sizes, method)?;
-        stage.finish();
+        if let PatchMethod::SpatialCoherence {
+            threshold,
+            min_patch_area,
+        } = method
+        {
+            // Refuse bad parameters before the BVH is built.
+            crate::mesh::refinement(sizes, threshold, min_patch_area)?;
+        }
         let stage = progress.stage("visibility", 0);
         let occluder = if nothing_occludes(scene) {
             None
         } else {
             Some(ObvhsOccluder::build(scene))
         };
+        stage.finish();
+        let stage = progress.stage("mesh", 0);
+        let mesh = Mesh::build(
+            scene,
+            sizes,
+            method,
+            occluder.as_ref().map(|o| o as &dyn Occluder),
+        )?;
         stage.finish();
         Ok(Self {
             scene,
@@ -146,7 +160,7 @@ impl<'s> Prepared<'s> {
             "use a larger --element-size or --patch-size",
         )?;
         let rows: Vec<Polygon> = (0..n).map(|s| self.mesh.element_at(s).polygon).collect();
-        let targets: Vec<Polygon> = self.mesh.patches.iter().map(|p| p.polygon).collect();
+        let targets: Vec<Target> = self.mesh.patches.iter().map(|p| p.shape.clone()).collect();
         let mut fk = vec![0.0; n * k];
         let stage = progress.stage("form factors", n as u64);
         let block_rows = checkpoint
@@ -217,10 +231,23 @@ impl<'s> Prepared<'s> {
         ]
         .map(u64::to_le_bytes)
         .concat();
+        let method = match self.method {
+            PatchMethod::TwoFixed => b"2mf".to_vec(),
+            PatchMethod::SpatialCoherence {
+                threshold,
+                min_patch_area,
+            } => [
+                b"2msc".to_vec(),
+                threshold.to_le_bytes().to_vec(),
+                min_patch_area.unwrap_or(-1.0).to_le_bytes().to_vec(),
+            ]
+            .concat(),
+        };
         checkpoint::key(&[
             &geometry,
             &sizes,
             &counts,
+            &method,
             env!("CARGO_PKG_VERSION").as_bytes(),
         ])
     }

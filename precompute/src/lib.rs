@@ -5,7 +5,7 @@
 //! | stage | module | what |
 //! |---|---|---|
 //! | import | [`scene`] | OBJ/MTL (tobj) and lrr scene descriptions (TOML) → planar convex faces |
-//! | mesh | [`mesh`] | 2MF: fine elements and coarse patches from one subdivision hierarchy |
+//! | mesh | [`mesh`] | fine elements and coarse patches: 2MF (uniform cut) or 2MSC (adaptive), clusters for dense meshes |
 //! | visibility | [`visibility`] | occlusion rays (obvhs), skipped when nothing occludes |
 //! | form factors | [`formfactor`] | element→patch `F_k`: closed-form kernel × visibility fraction |
 //! | operator | [`operator`] | per-channel cores `M_c = (I - Vᵀ diag(ρ_c) F_k)⁻¹` (faer) |

@@ -7,8 +7,8 @@ use faer::Mat;
 use faer::linalg::solvers::Solve;
 
 use crate::error::{Error, Result};
-use crate::formfactor::FormFactors;
 use crate::formfactor::kernel::Polygon;
+use crate::formfactor::{FormFactors, Target};
 use crate::memory;
 use crate::mesh::Mesh;
 
@@ -44,7 +44,8 @@ pub fn solve_exact(
     let polygons: Vec<Polygon> = mesh.elements.iter().map(|e| e.polygon).collect();
     let ids: Vec<u32> = (0..n as u32).collect();
     let mut f = vec![0.0; n * n];
-    ff.matrix(&polygons, &ids, &polygons, &mut f, progress);
+    let targets: Vec<Target> = polygons.iter().map(|&p| Target::single(p)).collect();
+    ff.matrix(&polygons, &ids, &targets, &mut f, progress);
     let radiosity = solve_dense(&f, data)?;
     Ok(ExactSolution {
         radiosity,

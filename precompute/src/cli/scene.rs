@@ -46,6 +46,13 @@ pub enum SceneKind {
         #[arg(long, default_value_t = 1.0)]
         height: f64,
     },
+    /// A dense mesh: an icosphere of 20·4^N small triangles in a closed room with a ceiling
+    /// light (patches are built by clustering).
+    DenseSphere {
+        /// Icosphere subdivision levels N (0 to 6; 3 gives 1 280 triangles).
+        #[arg(long, default_value_t = 3)]
+        subdivisions: u32,
+    },
 }
 
 pub fn run(a: &SceneArgs, out: &mut dyn Write) -> Result<()> {
@@ -60,6 +67,16 @@ pub fn run(a: &SceneArgs, out: &mut dyn Write) -> Result<()> {
             width,
             height,
         } => procedural::perpendicular(length, width, height),
+        SceneKind::DenseSphere { subdivisions } => {
+            if subdivisions > procedural::MAX_SPHERE_SUBDIVISIONS {
+                anyhow::bail!(
+                    "--subdivisions {subdivisions} is too fine: at most {} ({} triangles)",
+                    procedural::MAX_SPHERE_SUBDIVISIONS,
+                    20u64 << (2 * procedural::MAX_SPHERE_SUBDIVISIONS)
+                );
+            }
+            procedural::dense_sphere(subdivisions)
+        }
     };
     // Build once so a bad parameter is reported here, not at bake time.
     d.build("generated scene", std::path::Path::new("."))?;

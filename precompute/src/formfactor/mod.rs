@@ -15,6 +15,7 @@
 
 pub mod kernel;
 pub mod sampling;
+pub mod target;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -24,6 +25,7 @@ use rayon::prelude::*;
 use crate::visibility::{Occluder, Segment};
 use kernel::{Polygon, point_to_polygon};
 use sampling::{Sample, pair_point, quadrature};
+pub use target::Target;
 
 /// Counters of one form-factor pass.
 #[derive(Debug, Default)]
@@ -61,14 +63,15 @@ impl<'a> FormFactors<'a> {
         }
     }
 
-    /// Fills `out` (rows × targets, row-major) with `F(rows[i] → targets[j])`.
+    /// Fills `out` (rows × targets, row-major) with `F(rows[i] → targets[j])` (a target is one
+    /// polygon or a union of several, [`Target`]).
     /// `row_ids` seed the per-pair sampling (use the element ids). `progress` is called with
     /// the number of rows finished, from worker threads.
     pub fn matrix(
         &self,
         rows: &[Polygon],
         row_ids: &[u32],
-        targets: &[Polygon],
+        targets: &[Target],
         out: &mut [f64],
         progress: &(dyn Fn(u64) + Sync),
     ) {
@@ -92,13 +95,24 @@ impl<'a> FormFactors<'a> {
         e: &Polygon,
         e_id: u32,
         points: &[Sample],
-        targets: &[Polygon],
+        targets: &[Target],
         row: &mut [f64],
     ) {
         let mut culled = 0u64;
         let mut rays = 0u64;
-        for (t_id, (t, out)) in targets.iter().zip(row.iter_mut()).enumerate() {
+        for (t_id, (target, out)) in targets.iter().zip(row.iter_mut()).enumerate() {
             *out = 0.0;
+            let Some(t) = target.as_single() else {
+                let seed = (u64::from(e_id) << 32) | t_id as u64;
+                match target::multi_part(self.occluder, e, points, target, seed) {
+                    None => culled += 1,
+                    Some((f, r)) => {
+                        *out = f;
+                        rays += r;
+                    }
+                }
+                continue;
+            };
             if faces_away(e, t) {
                 culled += 1;
                 continue;
@@ -131,7 +145,7 @@ impl<'a> FormFactors<'a> {
 
 /// True when the pair cannot exchange light: the target lies entirely behind (or in) the
 /// element's plane, or the element entirely behind (or in) the target's plane.
-fn faces_away(e: &Polygon, t: &Polygon) -> bool {
+pub(crate) fn faces_away(e: &Polygon, t: &Polygon) -> bool {
     let eps_t = 1e-12 * t.scale;
     let eps_e = 1e-12 * e.scale;
     t.vertices().iter().all(|v| e.height(*v) <= eps_e)
@@ -251,7 +265,7 @@ mod tests {
         ff.matrix(
             &[unit_square(0.0, false)],
             &[0],
-            &[unit_square(1.0, true)],
+            &[Target::single(unit_square(1.0, true))],
             &mut out,
             &|_| {},
         );
@@ -265,7 +279,7 @@ mod tests {
         ff.matrix(
             &[unit_square(0.0, true)],
             &[0],
-            &[unit_square(1.0, false)],
+            &[Target::single(unit_square(1.0, false))],
             &mut out,
             &|_| {},
         );

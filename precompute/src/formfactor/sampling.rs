@@ -82,7 +82,7 @@ pub fn mix(mut z: u64) -> u64 {
 }
 
 /// Maps (u, w) in the unit square onto the polygon; the weight is the local area density.
-fn map_unit_square(v: &[DVec3], u: f64, w: f64) -> Sample {
+pub(crate) fn map_unit_square(v: &[DVec3], u: f64, w: f64) -> Sample {
     if v.len() == 3 {
         // Fold the square onto the triangle: area-preserving.
         let (u, w) = if u + w > 1.0 {

@@ -12,12 +12,16 @@
 //! sorted by patch, described by `order` (file position → element id) and the index vector
 //! `index` (k+1 offsets into file positions).
 
+pub mod cluster;
+pub mod coherence;
 pub mod imprint;
-mod subdivide;
+pub mod subdivide;
 
 use crate::error::{Error, Result};
+use crate::formfactor::Target;
 use crate::formfactor::kernel::Polygon;
 use crate::scene::Scene;
+use crate::visibility::Occluder;
 
 pub use subdivide::estimate_elements;
 
@@ -31,10 +35,12 @@ pub struct Element {
     pub patch: u32,
 }
 
-/// A coarse-mesh patch: a convex polygon holding its elements.
+/// A coarse-mesh patch holding its elements: a convex polygon of one face's subdivision, or
+/// (dense meshes, [`cluster`]) the union of several small pieces of one surface.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Patch {
-    pub polygon: Polygon,
+    pub shape: Target,
+    /// The face of its (first) part.
     pub face: u32,
     pub surface: u32,
 }
@@ -120,28 +126,155 @@ pub struct Mesh {
     pub weights: Vec<f64>,
 }
 
+/// Checks the 2MSC parameters and fills in the default `A_min`.
+pub fn refinement(
+    sizes: MeshSizes,
+    threshold: f64,
+    min_patch_area: Option<f64>,
+) -> Result<coherence::Refinement> {
+    if !(threshold.is_finite() && threshold > 0.0) {
+        return Err(Error::Settings(format!(
+            "--threshold must be a positive number (the largest relative spread of a patch's \
+             view vectors, e.g. 0.1), got {threshold}"
+        )));
+    }
+    let min_patch_area = min_patch_area.unwrap_or(4.0 * sizes.element_size * sizes.element_size);
+    if !(min_patch_area.is_finite() && min_patch_area >= 0.0) {
+        return Err(Error::Settings(format!(
+            "--min-patch-area must be an area of zero or more (scene units²), got {min_patch_area}"
+        )));
+    }
+    Ok(coherence::Refinement {
+        threshold,
+        min_patch_area,
+    })
+}
+
+/// The fine mesh (independent of the patch method), refused when it would be too large.
+fn fine_mesh(scene: &Scene, sizes: MeshSizes) -> Result<(Vec<Element>, Vec<subdivide::Piece>)> {
+    let estimate = estimate_elements(scene, sizes.element_size);
+    if estimate > MAX_ELEMENTS as f64 {
+        return Err(Error::Limits(format!(
+            "the element size {:.4} would create about {estimate:.0} elements (limit {MAX_ELEMENTS}); \
+             use a larger --element-size",
+            sizes.element_size
+        )));
+    }
+    Ok(subdivide::fine(scene, sizes.element_size))
+}
+
+/// The 2MF patches: the uniform cut of each large piece, clusters of the small pieces of each
+/// surface (a lone small piece is its own patch). Patches are numbered in piece order (a
+/// cluster where its first piece comes), depth-first within a piece; sets `elements[..].patch`.
+fn two_fixed_patches(
+    pieces: &[subdivide::Piece],
+    sizes: MeshSizes,
+    elements: &mut [Element],
+) -> Vec<Patch> {
+    let units: Vec<cluster::Unit> = pieces
+        .iter()
+        .map(|p| cluster::Unit::of(&p.polygon))
+        .collect();
+    let mut cluster_of = vec![usize::MAX; pieces.len()];
+    let mut clusters = Vec::new();
+    for set in subdivide::dense_sets(pieces, sizes) {
+        for c in cluster::by_size(&units, set, sizes.patch_size) {
+            for &p in &c {
+                cluster_of[p] = clusters.len();
+            }
+            clusters.push(c);
+        }
+    }
+    let mut patch_of_cluster: Vec<Option<u32>> = vec![None; clusters.len()];
+    let mut patches = Vec::new();
+    for (i, piece) in pieces.iter().enumerate() {
+        let mut assign = |id: u32, first: u32, count: u32| {
+            for e in &mut elements[first as usize..(first + count) as usize] {
+                e.patch = id;
+            }
+        };
+        if cluster_of[i] == usize::MAX {
+            subdivide::cut(
+                piece.polygon,
+                piece.first,
+                sizes,
+                &mut |polygon, first, count| {
+                    patches.push(Patch {
+                        shape: Target::single(polygon),
+                        face: piece.face,
+                        surface: piece.surface,
+                    });
+                    assign(patches.len() as u32 - 1, first, count);
+                },
+            );
+            continue;
+        }
+        let c = &clusters[cluster_of[i]];
+        let id = *patch_of_cluster[cluster_of[i]].get_or_insert_with(|| {
+            patches.push(Patch {
+                shape: Target::new(c.iter().map(|&p| pieces[p].polygon).collect()),
+                face: piece.face,
+                surface: piece.surface,
+            });
+            patches.len() as u32 - 1
+        });
+        assign(id, piece.first, piece.count);
+    }
+    patches
+}
+
 impl Mesh {
-    /// Builds both meshes with the given patch method.
-    pub fn build(scene: &Scene, sizes: MeshSizes, method: PatchMethod) -> Result<Self> {
+    /// Builds both meshes with the given patch method. 2MSC probes visibility with `occluder`
+    /// (`None`: nothing occludes).
+    pub fn build(
+        scene: &Scene,
+        sizes: MeshSizes,
+        method: PatchMethod,
+        occluder: Option<&dyn Occluder>,
+    ) -> Result<Self> {
         match method {
             PatchMethod::TwoFixed => Self::two_fixed(scene, sizes),
-            PatchMethod::SpatialCoherence { .. } => Err(Error::Settings(
-                "--method 2msc is not implemented yet; use --method 2mf".into(),
-            )),
+            PatchMethod::SpatialCoherence {
+                threshold,
+                min_patch_area,
+            } => {
+                let refinement = refinement(sizes, threshold, min_patch_area)?;
+                Self::two_msc(scene, sizes, refinement, occluder)
+            }
         }
     }
 
-    /// Builds both meshes by 2MF: uniform subdivision and a uniform cut.
+    /// Builds both meshes by 2MF: uniform subdivision and a uniform cut; small pieces (dense
+    /// meshes) are clustered to the patch size.
     pub fn two_fixed(scene: &Scene, sizes: MeshSizes) -> Result<Self> {
-        let estimate = estimate_elements(scene, sizes.element_size);
-        if estimate > MAX_ELEMENTS as f64 {
-            return Err(Error::Limits(format!(
-                "the element size {:.4} would create about {estimate:.0} elements (limit {MAX_ELEMENTS}); \
-                 use a larger --element-size",
-                sizes.element_size
-            )));
-        }
-        let (elements, patches) = subdivide::two_fixed(scene, sizes);
+        let (mut elements, pieces) = fine_mesh(scene, sizes)?;
+        let patches = two_fixed_patches(&pieces, sizes, &mut elements);
+        Ok(Self::from_parts(elements, patches))
+    }
+
+    /// Builds both meshes by 2MSC ([`coherence`]): the fine mesh of 2MF, adaptive patches
+    /// probed against the 2MF patches at the patch size.
+    pub fn two_msc(
+        scene: &Scene,
+        sizes: MeshSizes,
+        refinement: coherence::Refinement,
+        occluder: Option<&dyn Occluder>,
+    ) -> Result<Self> {
+        let (mut elements, pieces) = fine_mesh(scene, sizes)?;
+        let probe_patches = two_fixed_patches(&pieces, sizes, &mut elements.clone());
+        let reflectance = probe_patches
+            .iter()
+            .map(|p| {
+                let rho = scene.materials[scene.faces[p.face as usize].material].reflectance;
+                (rho[0] + rho[1] + rho[2]) / 3.0
+            })
+            .collect();
+        let probes = coherence::Probes {
+            targets: probe_patches.into_iter().map(|p| p.shape).collect(),
+            reflectance,
+            occluder,
+        };
+        let patches = coherence::two_msc(&pieces, &mut elements, sizes, refinement, &probes);
         Ok(Self::from_parts(elements, patches))
     }
 
@@ -205,16 +338,44 @@ impl Mesh {
                 return Err(format!("weights of patch {p} sum to {w}"));
             }
             let area: f64 = (a..b).map(|s| self.element_at(s).polygon.area()).sum();
-            let pa = self.patches[p].polygon.area();
+            let pa = self.patches[p].shape.area();
             if (area - pa).abs() > 1e-9 * pa {
                 return Err(format!("patch {p} area {pa} but its elements cover {area}"));
             }
             if (a..b).any(|s| self.element_at(s).patch as usize != p) {
                 return Err(format!("patch {p} holds an element of another patch"));
             }
+            let surface = self.patches[p].surface;
+            if (a..b).any(|s| self.element_at(s).surface != surface) {
+                return Err(format!("patch {p} straddles two surfaces"));
+            }
+            let parts = self.patches[p].shape.parts();
+            if let Some(s) = (a..b).find(|&s| {
+                let e = &self.element_at(s).polygon;
+                !parts.iter().any(|part| inside(e, part))
+            }) {
+                return Err(format!(
+                    "element {} lies outside patch {p} (inclusion)",
+                    self.order[s]
+                ));
+            }
         }
         Ok(())
     }
+}
+
+/// True when every vertex of `e` lies in the convex polygon `part` (within a tolerance
+/// relative to the part's size).
+fn inside(e: &Polygon, part: &Polygon) -> bool {
+    let tol = 1e-9 * part.scale;
+    let v = part.vertices();
+    e.vertices().iter().all(|&x| {
+        part.height(x).abs() <= tol
+            && (0..v.len()).all(|i| {
+                let (a, b) = (v[i], v[(i + 1) % v.len()]);
+                (b - a).cross(x - a).dot(part.normal) >= -tol * (b - a).length()
+            })
+    })
 }
 
 #[cfg(test)]

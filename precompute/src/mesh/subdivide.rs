@@ -2,7 +2,7 @@
 
 use glam::DVec3;
 
-use super::{Element, MeshSizes, Patch};
+use super::{Element, MeshSizes};
 use crate::formfactor::kernel::Polygon;
 use crate::scene::Scene;
 
@@ -69,57 +69,108 @@ pub fn estimate_elements(scene: &Scene, element_size: f64) -> f64 {
         .sum()
 }
 
-/// The 2MF meshes: elements where the size ([`Polygon::size`]) first drops to the element size,
-/// patches where it first drops to the patch size (an element larger than the patch size is its own patch).
-pub fn two_fixed(scene: &Scene, sizes: MeshSizes) -> (Vec<Element>, Vec<Patch>) {
+/// A piece of an input face (after imprinting): the root of one subdivision hierarchy, and the
+/// consecutive original ids `first..first + count` of its elements.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Piece {
+    pub polygon: Polygon,
+    pub face: u32,
+    pub surface: u32,
+    pub first: u32,
+    pub count: u32,
+}
+
+/// The fine mesh: every piece subdivided depth-first until its nodes' size ([`Polygon::size`])
+/// drops to the element size. It does not depend on the patch method; `patch` is left unset
+/// (`u32::MAX`) for the coarse mesh to fill.
+pub fn fine(scene: &Scene, element_size: f64) -> (Vec<Element>, Vec<Piece>) {
     let mut elements = Vec::new();
-    let mut patches = Vec::new();
-    for (piece, f) in super::imprint::split_at_contacts(&scene.faces) {
+    let mut pieces = Vec::new();
+    for (polygon, f) in super::imprint::split_at_contacts(&scene.faces) {
         let surface = scene.faces[f].surface as u32;
-        let ctx = Ctx {
+        let first = elements.len() as u32;
+        leaves(polygon, element_size, &mut |p| {
+            elements.push(Element {
+                polygon: p,
+                face: f as u32,
+                surface,
+                patch: u32::MAX,
+            })
+        });
+        pieces.push(Piece {
+            polygon,
             face: f as u32,
             surface,
-            sizes,
-        };
-        descend(&ctx, piece, None, &mut elements, &mut patches);
+            first,
+            count: elements.len() as u32 - first,
+        });
     }
-    (elements, patches)
+    (elements, pieces)
 }
 
-struct Ctx {
-    face: u32,
-    surface: u32,
-    sizes: MeshSizes,
-}
-
-fn descend(
-    ctx: &Ctx,
-    node: Polygon,
-    mut patch: Option<u32>,
-    elements: &mut Vec<Element>,
-    patches: &mut Vec<Patch>,
-) {
-    let edge = node.size();
-    let is_leaf = edge <= ctx.sizes.element_size;
-    if patch.is_none() && (edge <= ctx.sizes.patch_size || is_leaf) {
-        patches.push(Patch {
-            polygon: node,
-            face: ctx.face,
-            surface: ctx.surface,
-        });
-        patch = Some(patches.len() as u32 - 1);
-    }
-    if is_leaf {
-        let patch = patch.expect("set above for leaves");
-        elements.push(Element {
-            polygon: node,
-            face: ctx.face,
-            surface: ctx.surface,
-            patch,
-        });
+/// Calls `visit` on the leaves (elements) under `node`, depth-first.
+pub fn leaves(node: Polygon, element_size: f64, visit: &mut dyn FnMut(Polygon)) {
+    if node.size() <= element_size {
+        visit(node);
         return;
     }
     for child in split(&node) {
-        descend(ctx, child, patch, elements, patches);
+        leaves(child, element_size, visit);
     }
+}
+
+/// Number of elements under `node`.
+pub fn leaf_count(node: Polygon, element_size: f64) -> u32 {
+    let mut n = 0;
+    leaves(node, element_size, &mut |_| n += 1);
+    n
+}
+
+/// True when a piece is its own patch or smaller under the 2MF cut (its root is cut): such
+/// pieces are grouped by clustering instead of each becoming a patch.
+pub fn is_small(piece: &Piece, sizes: MeshSizes) -> bool {
+    let size = piece.polygon.size();
+    size <= sizes.patch_size || size <= sizes.element_size
+}
+
+/// Fewest small pieces a surface must have for them to be clustered: below it each small
+/// piece stays its own patch, as the 2MF cut makes it. Imprinting leaves a few small slivers
+/// at the feet of blocks and walls (3 on the Cornell box floor); dense meshes have hundreds.
+pub const DENSE_PIECES: usize = 16;
+
+/// The small pieces of each *dense* surface (at least [`DENSE_PIECES`] of them), by surface
+/// then piece index: what clustering groups.
+pub fn dense_sets(pieces: &[Piece], sizes: MeshSizes) -> Vec<Vec<usize>> {
+    let mut small: std::collections::BTreeMap<u32, Vec<usize>> = Default::default();
+    for (i, p) in pieces.iter().enumerate() {
+        if is_small(p, sizes) {
+            small.entry(p.surface).or_default().push(i);
+        }
+    }
+    small
+        .into_values()
+        .filter(|set| set.len() >= DENSE_PIECES)
+        .collect()
+}
+
+/// The 2MF cut of one (large) piece: nodes where the size first drops to the patch size (an
+/// element larger than the patch size is its own patch), depth-first; `visit` gets each patch
+/// polygon and its first element id and element count.
+pub fn cut(
+    node: Polygon,
+    first: u32,
+    sizes: MeshSizes,
+    visit: &mut dyn FnMut(Polygon, u32, u32),
+) -> u32 {
+    let edge = node.size();
+    if edge <= sizes.patch_size || edge <= sizes.element_size {
+        let count = leaf_count(node, sizes.element_size);
+        visit(node, first, count);
+        return count;
+    }
+    let mut count = 0;
+    for child in split(&node) {
+        count += cut(child, first + count, sizes, visit);
+    }
+    count
 }

@@ -38,7 +38,13 @@ pub trait Occluder: Sync {
     /// faces, a coherent bundle inside the shaft between them). `blocked[i]` answers
     /// `segments[i]`. A backend may exploit the bundle (shaft culling, packets); its answers
     /// must equal the single queries'. The default asks them one by one.
-    fn occluded_bundle(&self, e: &Polygon, t: &Polygon, segments: &[Segment], blocked: &mut [bool]) {
+    fn occluded_bundle(
+        &self,
+        e: &Polygon,
+        t: &Polygon,
+        segments: &[Segment],
+        blocked: &mut [bool],
+    ) {
         debug_assert_eq!(segments.len(), blocked.len());
         for (s, b) in segments.iter().zip(blocked.iter_mut()) {
             *b = self.occluded(s.from, e.normal, s.to, t.normal);

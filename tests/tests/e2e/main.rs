@@ -8,6 +8,7 @@ mod files;
 mod furnace;
 mod fuzz_replay;
 mod import;
+mod meshing;
 mod resilience;
 mod storage;
 mod util;

@@ -1,0 +1,281 @@
+//! Form-factor targets made of several convex polygons: the clustered patches of dense meshes.
+//!
+//! A patch built by clustering (see [`crate::mesh::cluster`]) is a union of the small input
+//! faces it groups, not one polygon. Form factors are additive over disjoint parts, so
+//!
+//! ```text
+//! F(e → T) = Σ_parts F_unoccluded(e → part) · visibility(e, T)
+//! ```
+//!
+//! with the closed-form kernel summed over the parts (exact, `S × parts` kernel evaluations per
+//! pair) and one kernel-weighted visibility fraction over the whole target: segment `i` ends on
+//! the part an area-proportional choice picks, so the rays sample the union uniformly by area.
+//! The rays of one pair are grouped by the part they land on and each group is answered by one
+//! [`Occluder::occluded_bundle`] call (a bundle is a coherent set between two polygons).
+//!
+//! A one-part target is handled by the single-polygon code of [`super::FormFactors::row`],
+//! unchanged: 2MF bakes of meshes without clusters give the same bytes as before targets had parts.
+
+use glam::DVec3;
+
+use super::kernel::{Polygon, point_to_polygon};
+use super::sampling::{Sample, map_unit_square, mix, r2};
+use super::{ADAPTIVE_FACTOR, faces_away};
+use crate::visibility::{Occluder, Segment};
+
+/// A form-factor target: one convex polygon, or the union of several (a cluster patch).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Target {
+    parts: Vec<Polygon>,
+    /// Running sums of the parts' areas (`parts.len() + 1` values from 0).
+    cumulative: Vec<f64>,
+}
+
+impl Target {
+    /// A target from its parts (at least one; the parts must not overlap).
+    pub fn new(parts: Vec<Polygon>) -> Self {
+        assert!(!parts.is_empty(), "a target has at least one part");
+        let mut cumulative = Vec::with_capacity(parts.len() + 1);
+        cumulative.push(0.0);
+        let mut sum = 0.0;
+        for p in &parts {
+            sum += p.area();
+            cumulative.push(sum);
+        }
+        Self { parts, cumulative }
+    }
+
+    pub fn single(p: Polygon) -> Self {
+        Self::new(vec![p])
+    }
+
+    pub fn parts(&self) -> &[Polygon] {
+        &self.parts
+    }
+
+    /// The polygon when the target has exactly one part.
+    pub fn as_single(&self) -> Option<&Polygon> {
+        match self.parts.as_slice() {
+            [p] => Some(p),
+            _ => None,
+        }
+    }
+
+    pub fn area(&self) -> f64 {
+        self.cumulative[self.parts.len()]
+    }
+
+    /// Area-weighted centroid of the parts (may lie off the surface of a curved cluster).
+    pub fn centroid(&self) -> DVec3 {
+        let mut sum = DVec3::ZERO;
+        for p in &self.parts {
+            sum += p.area() * p.centroid();
+        }
+        sum / self.area()
+    }
+
+    /// The part whose centroid is nearest `x` (ties: the first), for a representative point.
+    pub fn nearest_part(&self, x: DVec3) -> &Polygon {
+        let mut best = &self.parts[0];
+        let mut best_d = f64::INFINITY;
+        for p in &self.parts {
+            let d = p.centroid().distance_squared(x);
+            if d < best_d {
+                best_d = d;
+                best = p;
+            }
+        }
+        best
+    }
+
+    /// The `i`-th pair point on the union (R2 shifted by `seed`, the first coordinate choosing
+    /// the part by area): the part's index and the sample, whose weight is the area density
+    /// relative to uniform over the union (1 on average, like [`super::sampling::pair_point`]).
+    pub fn pair_point(&self, i: u32, seed: u64) -> (usize, Sample) {
+        let h = mix(seed);
+        let shift = (
+            (h >> 11) as f64 / (1u64 << 53) as f64,
+            (mix(h) >> 11) as f64 / (1u64 << 53) as f64,
+        );
+        let (u, w) = r2(i, shift);
+        let a = u * self.area();
+        // first part whose running sum exceeds a
+        let j = self.cumulative[1..]
+            .partition_point(|&c| c <= a)
+            .min(self.parts.len() - 1);
+        let part = &self.parts[j];
+        let (lo, area) = (self.cumulative[j], part.area());
+        let u = ((a - lo) / area).clamp(0.0, 1.0);
+        let mut s = map_unit_square(part.vertices(), u, w);
+        if part.count == 4 {
+            s.weight /= area; // the bilinear Jacobian relative to the part's area
+        }
+        (j, s)
+    }
+}
+
+/// `F(e → target)` for a target of several parts, and the rays cast (`None` when every part
+/// faces away from `e`: a culled pair).
+pub fn multi_part(
+    occluder: Option<&dyn Occluder>,
+    e: &Polygon,
+    points: &[Sample],
+    target: &Target,
+    seed: u64,
+) -> Option<(f64, u64)> {
+    let mut unoccluded = 0.0;
+    let mut any = false;
+    for part in target.parts() {
+        if faces_away(e, part) {
+            continue;
+        }
+        any = true;
+        unoccluded += points
+            .iter()
+            .map(|s| s.weight * point_to_polygon(s.point, e.normal, part))
+            .sum::<f64>();
+    }
+    if !any {
+        return None;
+    }
+    if unoccluded <= 0.0 {
+        return Some((0.0, 0));
+    }
+    let Some(occ) = occluder else {
+        return Some((unoccluded, 0));
+    };
+    let mut acc = Accumulator::default();
+    let first = points.len() as u32;
+    acc.cast(occ, e, target, points, seed, 0..first);
+    if acc.visible > 0.0 && acc.visible < acc.total {
+        acc.cast(occ, e, target, points, seed, first..first * ADAPTIVE_FACTOR);
+    }
+    if acc.total <= 0.0 {
+        // Every sampled segment was grazing: one ray to the nearest part's centroid.
+        let t = target.nearest_part(e.centroid());
+        let blocked = occ.occluded(e.centroid(), e.normal, t.centroid(), t.normal);
+        let v = if blocked { 0.0 } else { 1.0 };
+        return Some((unoccluded * v, acc.rays + 1));
+    }
+    Some((unoccluded * acc.visible / acc.total, acc.rays))
+}
+
+#[derive(Default)]
+struct Accumulator {
+    total: f64,
+    visible: f64,
+    rays: u64,
+}
+
+impl Accumulator {
+    /// Rays `i` in `range`, from quadrature point `i mod S` to the `i`-th pair point of the
+    /// union, answered per part by one bundle each (parts in order, rays in order in a part).
+    fn cast(
+        &mut self,
+        occ: &dyn Occluder,
+        e: &Polygon,
+        target: &Target,
+        points: &[Sample],
+        seed: u64,
+        range: std::ops::Range<u32>,
+    ) {
+        let mut by_part: Vec<(usize, Segment, f64)> = Vec::with_capacity(range.len());
+        for i in range {
+            let s = &points[i as usize % points.len()];
+            let (j, far) = target.pair_point(i, seed);
+            let normal = target.parts()[j].normal;
+            let d = far.point - s.point;
+            let cos_x = d.dot(e.normal);
+            let cos_y = -d.dot(normal);
+            if cos_x <= 0.0 || cos_y <= 0.0 {
+                continue;
+            }
+            let r2 = d.length_squared();
+            let weight = s.weight * far.weight * cos_x * cos_y / (r2 * r2);
+            if !weight.is_finite() {
+                continue;
+            }
+            let segment = Segment {
+                from: s.point,
+                to: far.point,
+            };
+            by_part.push((j, segment, weight));
+        }
+        by_part.sort_by_key(|&(j, _, _)| j); // stable: ray order kept within a part
+        let mut blocked = Vec::new();
+        let mut segments = Vec::new();
+        for group in by_part.chunk_by(|a, b| a.0 == b.0) {
+            segments.clear();
+            segments.extend(group.iter().map(|g| g.1));
+            blocked.clear();
+            blocked.resize(segments.len(), false);
+            occ.occluded_bundle(e, &target.parts()[group[0].0], &segments, &mut blocked);
+            self.rays += segments.len() as u64;
+            for ((_, _, w), b) in group.iter().zip(&blocked) {
+                self.total += w;
+                if !b {
+                    self.visible += w;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formfactor::FormFactors;
+
+    fn square(x0: f64, x1: f64, y0: f64, y1: f64, z: f64, down: bool) -> Polygon {
+        let mut v = vec![
+            DVec3::new(x0, y0, z),
+            DVec3::new(x1, y0, z),
+            DVec3::new(x1, y1, z),
+            DVec3::new(x0, y1, z),
+        ];
+        if down {
+            v.reverse();
+        }
+        Polygon::new(&v).unwrap()
+    }
+
+    #[test]
+    fn parts_add_up_to_the_whole() {
+        // The unit square split into four quads (and one split into triangles) as a target
+        // must give the same factor as the whole square: the closed form is additive.
+        let e = square(0.0, 1.0, 0.0, 1.0, 0.0, false);
+        let whole = Target::single(square(0.0, 1.0, 0.0, 1.0, 1.0, true));
+        let quarters = Target::new(vec![
+            square(0.0, 0.5, 0.0, 0.5, 1.0, true),
+            square(0.5, 1.0, 0.0, 0.5, 1.0, true),
+            square(0.0, 0.5, 0.5, 1.0, 1.0, true),
+            square(0.5, 1.0, 0.5, 1.0, 1.0, true),
+        ]);
+        assert!((quarters.area() - 1.0).abs() < 1e-12);
+        let ff = FormFactors::new(400, None);
+        let mut out = [0.0; 2];
+        ff.matrix(&[e], &[0], &[whole, quarters], &mut out, &|_| {});
+        assert!((out[0] - 0.199825).abs() < 1e-4, "{}", out[0]);
+        assert!((out[1] - out[0]).abs() < 1e-12, "{} vs {}", out[1], out[0]);
+    }
+
+    #[test]
+    fn pair_points_cover_parts_by_area() {
+        let t = Target::new(vec![
+            square(0.0, 1.0, 0.0, 1.0, 0.0, false),
+            square(2.0, 5.0, 0.0, 1.0, 0.0, false),
+        ]);
+        let mut counts = [0usize; 2];
+        let mut weight = 0.0;
+        for i in 0..4000 {
+            let (j, s) = t.pair_point(i, 7);
+            counts[j] += 1;
+            weight += s.weight;
+            let p = &t.parts()[j];
+            assert!(p.height(s.point).abs() < 1e-12);
+        }
+        let share = counts[1] as f64 / 4000.0;
+        assert!((share - 0.75).abs() < 0.01, "{share}");
+        assert!((weight / 4000.0 - 1.0).abs() < 1e-9, "{}", weight / 4000.0);
+    }
+}
