@@ -164,8 +164,14 @@ mod tests {
     #[test]
     fn ratio_of_two_power_laws_is_constant() {
         // 2MSC reaching every error with half the k of 2MF.
-        let mf: Vec<_> = [4.0, 16.0, 64.0, 256.0].iter().map(|&k| (k, 1.0 / k)).collect();
-        let msc: Vec<_> = [2.0, 8.0, 32.0, 128.0].iter().map(|&k| (k, 2.0 / k)).collect();
+        let mf: Vec<_> = [4.0, 16.0, 64.0, 256.0]
+            .iter()
+            .map(|&k| (k, 1.0 / k))
+            .collect();
+        let msc: Vec<_> = [2.0, 8.0, 32.0, 128.0]
+            .iter()
+            .map(|&k| (k, 2.0 / k))
+            .collect();
         let r = k_ratio(&mf, &msc, 5).unwrap();
         assert!((r.median - 2.0).abs() < 1e-9, "{r:?}");
         assert!((r.min - 2.0).abs() < 1e-9 && (r.max - 2.0).abs() < 1e-9);

@@ -106,7 +106,14 @@ pub fn run(
         let element_size = settings
             .element_size
             .ok_or_else(|| Error::Settings("a sweep point needs an element size".into()))?;
-        let same = exact(scene, &mut cache, element_size, settings.samples, threads, log)?;
+        let same = exact(
+            scene,
+            &mut cache,
+            element_size,
+            settings.samples,
+            threads,
+            log,
+        )?;
         let reference = match plan.ref_samples {
             Some(s) => Some(exact(scene, &mut cache, element_size, s, threads, log)?),
             None => None,
@@ -115,7 +122,15 @@ pub fn run(
             threads,
             ..settings.clone()
         };
-        let point = measure(scene, &settings, &cache, same, reference, eval_threads, timing)?;
+        let point = measure(
+            scene,
+            &settings,
+            &cache,
+            same,
+            reference,
+            eval_threads,
+            timing,
+        )?;
         for r in &point {
             log(&format!(
                 "[{}/{}] {} n = {} k = {} samples = {} {}: error {:.3e}, bake {:.2} s, frame {:.1} µs",

@@ -124,19 +124,33 @@ impl PlanOptions {
                 "pass --patch-multiples or --thresholds",
             );
         }
-        if let Some(e) = self.element_sizes.iter().find(|e| !(e.is_finite() && **e > 0.0)) {
+        if let Some(e) = self
+            .element_sizes
+            .iter()
+            .find(|e| !(e.is_finite() && **e > 0.0))
+        {
             return bad(
                 &format!("element size {e} is not a positive length"),
                 "fix --element-sizes",
             );
         }
-        if let Some(m) = self.patch_multiples.iter().find(|m| !(m.is_finite() && **m >= 1.0)) {
+        if let Some(m) = self
+            .patch_multiples
+            .iter()
+            .find(|m| !(m.is_finite() && **m >= 1.0))
+        {
             return bad(
-                &format!("patch multiple {m} is below 1 (a patch cannot be smaller than its elements)"),
+                &format!(
+                    "patch multiple {m} is below 1 (a patch cannot be smaller than its elements)"
+                ),
                 "fix --patch-multiples (1 gives k = n)",
             );
         }
-        if let Some(t) = self.thresholds.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
+        if let Some(t) = self
+            .thresholds
+            .iter()
+            .find(|t| !(t.is_finite() && **t > 0.0))
+        {
             return bad(
                 &format!("2MSC threshold {t} is not positive"),
                 "fix --thresholds",
@@ -179,7 +193,12 @@ mod tests {
             probes[1].method,
             PatchMethod::SpatialCoherence { threshold, .. } if threshold == 0.1
         ));
-        assert!(plan.points.iter().filter(|p| p.element_size == Some(2.0)).all(|p| p.samples == 16));
+        assert!(
+            plan.points
+                .iter()
+                .filter(|p| p.element_size == Some(2.0))
+                .all(|p| p.samples == 16)
+        );
     }
 
     #[test]

@@ -147,7 +147,9 @@ fn decade_label(v: &f64) -> String {
 fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (lo, hi) = values
         .filter(|v| v.is_finite() && *v > 0.0)
-        .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
     if !(lo.is_finite() && hi > 0.0) {
         return 1e-6..1.0;
     }
@@ -183,17 +185,17 @@ fn panel<DB: DrawingBackend>(
         .draw()
         .map_err(|e| text(&e))?;
     let pos = |r: &Row| (cost(r), user_error(r));
-    for (method, colour, label) in [
-        ("2mf", MF_COLOUR, "2MF"),
-        ("2msc", MSC_COLOUR, "2MSC"),
-    ] {
+    for (method, colour, label) in [("2mf", MF_COLOUR, "2MF"), ("2msc", MSC_COLOUR, "2MSC")] {
         let Some(key) = analysis::main_key(rows, method) else {
             continue;
         };
         let mut main: Vec<&Row> = rows
             .iter()
             .filter(|r| {
-                r.method == method && r.n == key.n && r.samples == key.samples && r.precision == "f32"
+                r.method == method
+                    && r.n == key.n
+                    && r.samples == key.samples
+                    && r.precision == "f32"
             })
             .collect();
         if main.is_empty() {
@@ -201,12 +203,20 @@ fn panel<DB: DrawingBackend>(
         }
         main.sort_by_key(|r| r.k);
         let first = main[0];
-        let caption = format!("{label}: n = {}, {} samples, f32, by k", first.n, first.samples);
+        let caption = format!(
+            "{label}: n = {}, {} samples, f32, by k",
+            first.n, first.samples
+        );
         chart
-            .draw_series(LineSeries::new(main.iter().map(|r| pos(r)), colour.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                main.iter().map(|r| pos(r)),
+                colour.stroke_width(2),
+            ))
             .map_err(|e| text(&e))?
             .label(caption)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+            });
         let markers = rows.iter().filter(|r| r.method == method).map(|r| {
             let style = if r.precision == "f32" {
                 colour.filled()
@@ -246,7 +256,10 @@ fn pareto<DB: DrawingBackend>(
 ) -> std::result::Result<(), String> {
     let text = |e: &dyn std::fmt::Display| e.to_string();
     let points: Vec<(f64, f64)> = rows.iter().map(|r| (cost(r), user_error(r))).collect();
-    let front: Vec<(f64, f64)> = analysis::pareto(&points).into_iter().map(|i| points[i]).collect();
+    let front: Vec<(f64, f64)> = analysis::pareto(&points)
+        .into_iter()
+        .map(|i| points[i])
+        .collect();
     let mut steps = Vec::new();
     for (i, &(x, y)) in front.iter().enumerate() {
         if i > 0 {
@@ -260,7 +273,11 @@ fn pareto<DB: DrawingBackend>(
         .label("Pareto front (ringed)")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
     chart
-        .draw_series(front.iter().map(|&p| Circle::new(p, 8, BLACK.stroke_width(1))))
+        .draw_series(
+            front
+                .iter()
+                .map(|&p| Circle::new(p, 8, BLACK.stroke_width(1))),
+        )
         .map_err(|e| text(&e))?;
     Ok(())
 }

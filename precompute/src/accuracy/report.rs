@@ -108,7 +108,10 @@ pub fn summary(rows: &[Row]) -> Summary {
 }
 
 fn matches_key(r: &Row, key: CurveKey) -> bool {
-    r.method == key.method && r.n == key.n && r.samples == key.samples && r.precision == key.precision
+    r.method == key.method
+        && r.n == key.n
+        && r.samples == key.samples
+        && r.precision == key.precision
 }
 
 /// The error the plots and fronts use: against the high-sample reference when there is one
@@ -121,7 +124,10 @@ pub fn user_error(r: &Row) -> f64 {
 pub fn markdown(scene: &str, machine: &str, command: &str, rows: &[Row]) -> String {
     let mut s = String::new();
     let ref_samples = rows.iter().find_map(|r| r.ref_samples);
-    let _ = writeln!(s, "Scene `{scene}`, measured on {machine} by `{command}`.\n");
+    let _ = writeln!(
+        s,
+        "Scene `{scene}`, measured on {machine} by `{command}`.\n"
+    );
     let _ = writeln!(
         s,
         "`error` is the relative L2 error of the runtime's radiosity against the exact solve on the \
@@ -213,14 +219,20 @@ fn summary_text(s: &mut String, sum: &Summary) {
         let _ = writeln!(
             s,
             "- {method}, main curve (f32): the error {} as k grows (worst ratio of neighbours {g:.3}).",
-            if *g <= 1.0 { "never grows" } else { "grows somewhere" }
+            if *g <= 1.0 {
+                "never grows"
+            } else {
+                "grows somewhere"
+            }
         );
     }
     if let Some((n, e, r)) = sum.full_rank {
         let _ = writeln!(
             s,
             "- k = n = {n} (2MF, f32): error {e:.2e} against the same-samples exact solve{}.",
-            r.map_or(String::new(), |r| format!(", {r:.2e} against the reference"))
+            r.map_or(String::new(), |r| format!(
+                ", {r:.2e} against the reference"
+            ))
         );
     }
     match &sum.ratio {

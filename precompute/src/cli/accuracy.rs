@@ -10,9 +10,9 @@ use super::load_scene;
 use crate::accuracy::{self, FrameTiming, PlanOptions, plot, report};
 
 /// Default 2MSC thresholds of the full sweep (smaller: more patches).
-pub const FULL_THRESHOLDS: [f64; 6] = [0.4, 0.2, 0.1, 0.05, 0.025, 0.0125];
+pub const FULL_THRESHOLDS: [f64; 7] = [1.0, 0.7, 0.5, 0.35, 0.25, 0.15, 0.1];
 /// Default 2MSC thresholds of `--quick`.
-pub const QUICK_THRESHOLDS: [f64; 4] = [0.4, 0.2, 0.1, 0.05];
+pub const QUICK_THRESHOLDS: [f64; 5] = [1.0, 0.7, 0.5, 0.35, 0.25];
 
 #[derive(Debug, Args)]
 pub struct AccuracyArgs {
@@ -44,7 +44,7 @@ pub struct AccuracyArgs {
     /// [default: 1,1.5,2,3,4,6,8,12; --quick: 1,1.5,2,3,4,6].
     #[arg(long, value_delimiter = ',', value_name = "M,…")]
     pub patch_multiples: Vec<f64>,
-    /// 2MSC coherence thresholds [default: 0.4,0.2,0.1,0.05,0.025,0.0125; --quick: 0.4,0.2,0.1,0.05].
+    /// 2MSC coherence thresholds [default: 1,0.7,0.5,0.35,0.25,0.15,0.1; --quick: 1,0.7,0.5,0.35,0.25].
     #[arg(long, value_delimiter = ',', value_name = "T,…")]
     pub thresholds: Vec<f64>,
     /// 2MSC: patches of at most this area are not split [default: chosen by the method].
