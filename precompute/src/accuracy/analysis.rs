@@ -32,6 +32,26 @@ pub fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
     front
 }
 
+/// Indices of the rows on the Pareto front of (`cost`, `error`) among the rows of the main
+/// fine mesh (the first row's `n`), by increasing cost. Rows of other fine meshes are left out:
+/// their errors are measured against the exact solve on *their* mesh, which does not include
+/// the discretisation error of a coarser mesh, so they are not comparable.
+pub fn main_front(
+    rows: &[Row],
+    cost: impl Fn(&Row) -> f64,
+    error: impl Fn(&Row) -> f64,
+) -> Vec<usize> {
+    let Some(n) = rows.first().map(|r| r.n) else {
+        return Vec::new();
+    };
+    let members: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].n == n).collect();
+    let points: Vec<(f64, f64)> = members
+        .iter()
+        .map(|&i| (cost(&rows[i]), error(&rows[i])))
+        .collect();
+    pareto(&points).into_iter().map(|j| members[j]).collect()
+}
+
 /// Which rows make one error curve: one method on one fine mesh, one sample count, one precision.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CurveKey<'a> {

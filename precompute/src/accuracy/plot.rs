@@ -1,7 +1,8 @@
 //! The sweep's figure, as PNG and SVG (plotters): two log-log panels, error against bake time
 //! and error against frame time. Every row is a marker in its method's colour (f32 filled, f16
-//! hollow); each method's main curve (main fine mesh and samples, f32, by increasing `k`) is a
-//! line; the Pareto front over all rows is a black step line with ringed markers.
+//! hollow; circles for the main fine mesh, triangles for the others); each method's main curve (main fine mesh and samples, f32, by increasing `k`) is a
+//! line; the Pareto front over the main fine mesh's rows is a black step line with ringed
+//! markers.
 //!
 //! Text needs a TrueType font, read at run time (plotters' `ab_glyph` text, no system font
 //! libraries): `LRR_FONT` if set, else the first of [`FONT_PATHS`] that exists. Without one
@@ -217,15 +218,24 @@ fn panel<DB: DrawingBackend>(
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
             });
-        let markers = rows.iter().filter(|r| r.method == method).map(|r| {
-            let style = if r.precision == "f32" {
+        let style = |r: &Row| {
+            if r.precision == "f32" {
                 colour.filled()
             } else {
                 colour.stroke_width(1)
-            };
-            Circle::new(pos(r), 4, style)
-        });
-        chart.draw_series(markers).map_err(|e| text(&e))?;
+            }
+        };
+        // Rows of the main fine mesh as circles, of other fine meshes as triangles.
+        let mine = |main: bool| {
+            rows.iter()
+                .filter(move |r| r.method == method && (r.n == key.n) == main)
+        };
+        chart
+            .draw_series(mine(true).map(|r| Circle::new(pos(r), 4, style(r))))
+            .map_err(|e| text(&e))?;
+        chart
+            .draw_series(mine(false).map(|r| TriangleMarker::new(pos(r), 5, style(r))))
+            .map_err(|e| text(&e))?;
     }
     pareto(&mut chart, rows, cost)?;
     chart
@@ -247,7 +257,7 @@ type Chart<'a, DB> = ChartContext<
     >,
 >;
 
-/// The Pareto front over all rows: a step line (error holds until a costlier point improves
+/// The Pareto front over the main fine mesh's rows ([`analysis::main_front`]): a step line (error holds until a costlier point improves
 /// it) and a ring around each of its points.
 fn pareto<DB: DrawingBackend>(
     chart: &mut Chart<'_, DB>,
@@ -270,7 +280,7 @@ fn pareto<DB: DrawingBackend>(
     chart
         .draw_series(LineSeries::new(steps, BLACK.stroke_width(1)))
         .map_err(|e| text(&e))?
-        .label("Pareto front (ringed)")
+        .label(format!("Pareto front, n = {} (ringed)", rows[0].n))
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
     chart
         .draw_series(

@@ -189,9 +189,14 @@ fn fronts(s: &mut String, rows: &[Row]) {
         ("bake time", (|r: &Row| r.bake_s) as fn(&Row) -> f64),
         ("frame time", |r: &Row| r.frame_s),
     ] {
-        let points: Vec<(f64, f64)> = rows.iter().map(|r| (cost(r), user_error(r))).collect();
-        let front = analysis::pareto(&points);
-        let _ = writeln!(s, "Pareto front of {label} against {what}:\n");
+        let front = analysis::main_front(rows, cost, user_error);
+        let n = rows.first().map_or(0, |r| r.n);
+        let _ = writeln!(
+            s,
+            "Pareto front of {label} against {what} (fine mesh n = {n}; rows of other fine meshes \
+             are compared with the exact solve on their own mesh, so their errors leave out the \
+             coarser mesh's discretisation error and do not compete):\n"
+        );
         for i in front {
             let r = &rows[i];
             let _ = writeln!(
