@@ -265,10 +265,9 @@ fn pareto<DB: DrawingBackend>(
     cost: Cost,
 ) -> std::result::Result<(), String> {
     let text = |e: &dyn std::fmt::Display| e.to_string();
-    let points: Vec<(f64, f64)> = rows.iter().map(|r| (cost(r), user_error(r))).collect();
-    let front: Vec<(f64, f64)> = analysis::pareto(&points)
+    let front: Vec<(f64, f64)> = analysis::main_front(rows, cost, user_error)
         .into_iter()
-        .map(|i| points[i])
+        .map(|i| (cost(&rows[i]), user_error(&rows[i])))
         .collect();
     let mut steps = Vec::new();
     for (i, &(x, y)) in front.iter().enumerate() {
