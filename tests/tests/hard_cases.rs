@@ -6,7 +6,7 @@
 mod util;
 
 use lrr_runtime::Operator;
-use util::{cornell, factor, generated_scene, lrr, lrr_json, temp_dir};
+use util::{bake, cornell, factor, generated_scene, lrr_json, temp_dir};
 
 fn solve(scene: &std::path::Path, extra: &[&str]) -> Vec<(String, [f64; 3], [f64; 3])> {
     util::solve_elements(scene, extra)
@@ -26,16 +26,7 @@ fn reflectance_near_one_exact_and_low_rank() {
             .fold(0.0, f64::max);
         let out = dir.join(format!("f{r}.lrr"));
         let report = dir.join(format!("f{r}.json"));
-        lrr(&[
-            "bake",
-            scene.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--report",
-            report.to_str().unwrap(),
-            "-q",
-        ])
-        .unwrap();
+        bake(&scene, &out, &["--report", report.to_str().unwrap()]).unwrap();
         let op = Operator::load(&out).unwrap();
         let b = op.evaluate_baked();
         let worst_lrr = b
@@ -133,14 +124,7 @@ fn slivers_and_tiny_elements_stay_finite_and_conserve_energy() {
         );
     }
     let out = dir.join("slivers.lrr");
-    lrr(&[
-        "bake",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-    ])
-    .unwrap();
+    bake(&scene, &out, &[]).unwrap();
     let op = Operator::load(&out).unwrap(); // the reader validates every value is finite
     let expected = std::f64::consts::PI / (1.0 - 0.9);
     let b = op.evaluate_baked();

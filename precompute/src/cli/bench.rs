@@ -19,7 +19,8 @@ pub struct BenchArgs {
 #[derive(Debug, Subcommand)]
 pub enum BenchKind {
     /// Runtime frame rates: (a) factored RGB, (b) plain per-channel Y_k, (c) dense V_k per
-    /// channel (the papers' baseline), (d) a plain read of the bytes (a) reads (the roofline).
+    /// channel (the papers' baseline), (d) a plain read of the bytes (a) reads (the roofline),
+    /// (e) the factored frame from light-group intensities (no O(n) emission pass).
     Runtime(RuntimeBench),
 }
 
@@ -41,7 +42,8 @@ pub struct RuntimeBench {
     /// Seconds of frames per variant and round.
     #[arg(long, default_value_t = 0.3)]
     pub seconds: f64,
-    /// Rounds; each round times (a), (d), (c), (a) again and (b) back to back; ratios are medians of per-round ratios.
+    /// Rounds; each round times (a), (d), (e), (c), (a) again and (b) back to back; ratios are
+    /// medians of per-round ratios.
     #[arg(long, default_value_t = 5)]
     pub rounds: usize,
     /// Skip the Cornell box row (which bakes the bundled scene first).
@@ -69,6 +71,11 @@ pub struct Row {
     pub roofline_ratio: f64,
     /// time(c) / time(a).
     pub speedup_vs_dense: f64,
+    /// (e) the factored frame from light-group intensities (`Vᵀ E` from the stored groups, no
+    /// O(n) pass over an emission on the calling thread), when the operator has light groups.
+    pub fps_groups: Option<f64>,
+    /// time(d) / time(e).
+    pub roofline_ratio_groups: Option<f64>,
     /// Bytes of the matrix a frame of (a) reads, and the rate it reads them at.
     pub bytes_per_frame: usize,
     pub gb_per_s: f64,
@@ -204,6 +211,8 @@ fn measure(scene: &str, op: &Operator, threads: usize, b: &RuntimeBench) -> Resu
     // on a shared machine (other tenants, a last-level cache that may or may not hold the
     // operator) the regime changes between rounds, and a ratio of medians would mix regimes.
     let (mut roof, mut speedup) = (Vec::new(), Vec::new());
+    let groups = vec![1.0f32; op.light_groups().len()];
+    let (mut te, mut roof_groups) = (Vec::new(), Vec::new());
     for _ in 0..b.rounds.max(1) {
         let a = time_frames(b.seconds, || {
             Ok(factored.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut radiosity))?)
@@ -212,6 +221,13 @@ fn measure(scene: &str, op: &Operator, threads: usize, b: &RuntimeBench) -> Resu
             sink = sink.wrapping_add(factored.read_pass()?);
             Ok(())
         })?;
+        if !groups.is_empty() {
+            let e = time_frames(b.seconds, || {
+                Ok(factored.evaluate_groups(&groups, RgbMut::triples(&mut radiosity))?)
+            })?;
+            te.push(e);
+            roof_groups.push(d / e);
+        }
         let c = time_frames(b.seconds, || {
             Ok(dense.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut radiosity))?)
         })?;
@@ -246,6 +262,8 @@ fn measure(scene: &str, op: &Operator, threads: usize, b: &RuntimeBench) -> Resu
         fps_dense: 1.0 / c,
         fps_read: 1.0 / d,
         roofline_ratio: median(roof),
+        fps_groups: (!te.is_empty()).then(|| 1.0 / median(te)),
+        roofline_ratio_groups: (!roof_groups.is_empty()).then(|| median(roof_groups)),
         speedup_vs_dense: median(speedup),
         bytes_per_frame: bytes,
         gb_per_s: bytes as f64 / a / 1e9,
@@ -255,7 +273,7 @@ fn measure(scene: &str, op: &Operator, threads: usize, b: &RuntimeBench) -> Resu
 fn print_table(rows: &[Row], out: &mut dyn Write) -> Result<()> {
     writeln!(
         out,
-        "{:<12} {:>9} {:>5} {:>4} {:>3} {:>10} {:>10} {:>10} {:>10} {:>8} {:>8} {:>7}",
+        "{:<12} {:>9} {:>5} {:>4} {:>3} {:>10} {:>10} {:>10} {:>10} {:>8} {:>8} {:>7} {:>10} {:>8}",
         "scene",
         "n",
         "k",
@@ -267,12 +285,14 @@ fn print_table(rows: &[Row], out: &mut dyn Write) -> Result<()> {
         "(d) fps",
         "a/roof",
         "a/dense",
-        "GB/s"
+        "GB/s",
+        "(e) fps",
+        "e/roof"
     )?;
     for r in rows {
         writeln!(
             out,
-            "{:<12} {:>9} {:>5} {:>4} {:>3} {:>10.1} {:>10.1} {:>10.1} {:>10.1} {:>8.2} {:>8.2} {:>7.2}",
+            "{:<12} {:>9} {:>5} {:>4} {:>3} {:>10.1} {:>10.1} {:>10.1} {:>10.1} {:>8.2} {:>8.2} {:>7.2} {:>10} {:>8}",
             r.scene,
             r.n,
             r.k,
@@ -284,7 +304,10 @@ fn print_table(rows: &[Row], out: &mut dyn Write) -> Result<()> {
             r.fps_read,
             r.roofline_ratio,
             r.speedup_vs_dense,
-            r.gb_per_s
+            r.gb_per_s,
+            r.fps_groups.map_or("-".into(), |f| format!("{f:.1}")),
+            r.roofline_ratio_groups
+                .map_or("-".into(), |f| format!("{f:.2}")),
         )?;
     }
     Ok(())

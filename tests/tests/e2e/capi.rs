@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use crate::util::{cornell, lrr, lrr_json, root, temp_dir};
+use crate::util::{bake, cornell, lrr_json, root, temp_dir};
 
 /// Points on the Cornell box's surfaces (millimetres, y up): floor, ceiling, light, back wall,
 /// red and green walls, the top of the short block.
@@ -128,14 +128,7 @@ fn c_program_prints_what_lrr_probe_prints() {
     let dir = temp_dir("capi");
     let baked = dir.join("cornell.lrr");
     let scene = cornell();
-    lrr(&[
-        "bake",
-        scene.to_str().unwrap(),
-        "-o",
-        baked.to_str().unwrap(),
-        "-q",
-    ])
-    .unwrap();
+    bake(&scene, &baked, &[]).unwrap();
     let json: Vec<serde_json::Value> = POINTS
         .iter()
         .map(|(p, n)| serde_json::json!({"position": p, "normal": n}))

@@ -2,7 +2,7 @@
 
 use lrr_runtime::Operator;
 
-use crate::util::{cornell, lrr, lrr_json, shared_cornell_obj, temp_dir};
+use crate::util::{bake, cornell, lrr_json, shared_cornell_obj, temp_dir};
 
 #[test]
 fn reciprocity_between_cornell_surfaces() {
@@ -105,26 +105,8 @@ fn cornell_energy_is_plausible_and_bakes_are_deterministic() {
     let one = dir.join("t1.lrr");
     let two = dir.join("t2.lrr");
     let scene = cornell();
-    lrr(&[
-        "bake",
-        scene.to_str().unwrap(),
-        "-o",
-        one.to_str().unwrap(),
-        "--threads",
-        "1",
-        "-q",
-    ])
-    .unwrap();
-    lrr(&[
-        "bake",
-        scene.to_str().unwrap(),
-        "-o",
-        two.to_str().unwrap(),
-        "--threads",
-        "2",
-        "-q",
-    ])
-    .unwrap();
+    bake(&scene, &one, &["--threads", "1"]).unwrap();
+    bake(&scene, &two, &["--threads", "2"]).unwrap();
     assert!(
         std::fs::read(&one).unwrap() == std::fs::read(&two).unwrap(),
         "1 and 2 threads differ"
@@ -188,14 +170,7 @@ fn the_public_obj_imports_with_warnings_for_its_quirks() {
     }
     let dir = temp_dir("obj");
     let out = dir.join("obj.lrr");
-    lrr(&[
-        "bake",
-        shared_cornell_obj().to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-    ])
-    .unwrap();
+    bake(&shared_cornell_obj(), &out, &[]).unwrap();
     let op = Operator::load(&out).unwrap();
     assert_eq!(op.channels(), 3);
 }

@@ -2,23 +2,17 @@
 
 use lrr_runtime::Operator;
 
-use crate::util::{generated_scene, lrr, lrr_json, temp_dir};
+use crate::util::{bake, generated_scene, lrr, lrr_json, temp_dir};
 
 /// A small real bake (a coarse furnace) and its bytes.
 fn small_bake(dir: &std::path::Path) -> std::path::PathBuf {
     let scene = generated_scene(dir, "small", &["furnace", "--reflectance", "0.7"]);
     let out = dir.join("small.lrr");
-    lrr(&[
-        "bake",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--element-size",
-        "0.5",
-        "--patch-size",
-        "1",
-        "-q",
-    ])
+    bake(
+        &scene,
+        &out,
+        &["--element-size", "0.5", "--patch-size", "1"],
+    )
     .unwrap();
     out
 }
@@ -62,16 +56,7 @@ fn report_info_and_probe_agree() {
     let scene = generated_scene(&dir, "f", &["furnace", "--reflectance", "0.5"]);
     let out = dir.join("f.lrr");
     let report = dir.join("r.json");
-    lrr(&[
-        "bake",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--report",
-        report.to_str().unwrap(),
-        "-q",
-    ])
-    .unwrap();
+    bake(&scene, &out, &["--report", report.to_str().unwrap()]).unwrap();
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     let (n, k) = (r["n"].as_u64().unwrap(), r["k"].as_u64().unwrap());
@@ -121,14 +106,7 @@ fn a_failed_bake_leaves_the_previous_file_intact() {
         "[[material]]\nname = \"m\"\nreflectance = [0.5, 0.5, 2.0]\n",
     )
     .unwrap();
-    let err = lrr(&[
-        "bake",
-        bad.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-    ])
-    .unwrap_err();
+    let err = bake(&bad, &out, &[]).unwrap_err();
     assert!(
         err.contains("bad.toml") && err.contains("reflectance"),
         "{err}"

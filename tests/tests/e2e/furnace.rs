@@ -2,7 +2,7 @@
 
 use lrr_runtime::Operator;
 
-use crate::util::{generated_scene, lrr, temp_dir};
+use crate::util::{bake, generated_scene, temp_dir};
 
 #[test]
 fn furnace_radiosity_is_emission_over_one_minus_rho() {
@@ -15,14 +15,7 @@ fn furnace_radiosity_is_emission_over_one_minus_rho() {
             &["furnace", "--reflectance", &r],
         );
         let out = dir.join(format!("furnace-{r}.lrr"));
-        lrr(&[
-            "bake",
-            scene.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--quiet",
-        ])
-        .unwrap();
+        bake(&scene, &out, &[]).unwrap();
         let op = Operator::load(&out).unwrap();
         assert_eq!(op.channels(), 1, "a grey scene needs one channel");
         let b = op.evaluate_baked();
@@ -51,14 +44,7 @@ fn reflectance_one_is_refused_with_an_explanation() {
          [[box]]\nname = \"c\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\ninward = true\n",
     )
     .unwrap();
-    let err = lrr(&[
-        "bake",
-        path.to_str().unwrap(),
-        "-o",
-        dir.join("x.lrr").to_str().unwrap(),
-        "-q",
-    ])
-    .unwrap_err();
+    let err = bake(&path, &dir.join("x.lrr"), &[]).unwrap_err();
     assert!(
         err.contains("reflectance") && err.contains("singular"),
         "{err}"

@@ -126,12 +126,5 @@ fn write_operator_seeds() {
     }
     let scene = root().join("fuzz/seeds/scene_description/two-squares.toml");
     let out = dir.join("bake-two-squares.lrr");
-    crate::util::lrr(&[
-        "bake",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-    ])
-    .unwrap();
+    crate::util::bake(&scene, &out, &[]).unwrap();
 }

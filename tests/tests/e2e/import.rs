@@ -1,6 +1,6 @@
 //! Scene import: warnings and errors name the file and the line.
 
-use crate::util::{lrr, temp_dir};
+use crate::util::{bake, temp_dir};
 
 fn write(dir: &std::path::Path, name: &str, text: &str) -> std::path::PathBuf {
     let p = dir.join(name);
@@ -70,14 +70,7 @@ fn bad_obj_input_gets_errors_naming_file_line_and_problem() {
     write(&dir, "r.mtl", "newmtl r\nKd 1.2 0.5 0.5\n");
     for (name, text, place, problem) in cases {
         let path = write(&dir, name, text);
-        let err = lrr(&[
-            "bake",
-            path.to_str().unwrap(),
-            "-o",
-            dir.join("x.lrr").to_str().unwrap(),
-            "-q",
-        ])
-        .unwrap_err();
+        let err = bake(&path, &dir.join("x.lrr"), &[]).unwrap_err();
         println!("{name}: {err}");
         assert!(
             err.contains(place) && err.contains(problem),
@@ -87,14 +80,7 @@ fn bad_obj_input_gets_errors_naming_file_line_and_problem() {
     // Non-UTF-8 bytes in a name.
     let path = dir.join("latin1.obj");
     std::fs::write(&path, b"v 0 0 0\ng caf\xe9\n").unwrap();
-    let err = lrr(&[
-        "bake",
-        path.to_str().unwrap(),
-        "-o",
-        dir.join("x.lrr").to_str().unwrap(),
-        "-q",
-    ])
-    .unwrap_err();
+    let err = bake(&path, &dir.join("x.lrr"), &[]).unwrap_err();
     assert!(
         err.contains("latin1.obj:2") && err.contains("UTF-8"),
         "{err}"

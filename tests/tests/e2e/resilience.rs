@@ -4,7 +4,7 @@
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::util::{cornell, lrr, lrr_binary, temp_dir};
+use crate::util::{bake, cornell, lrr_binary, temp_dir};
 
 fn spawn_bake(out: &std::path::Path, extra: &[&str]) -> Child {
     Command::new(lrr_binary())
@@ -41,16 +41,7 @@ fn wait_for(child: &mut Child, cond: impl Fn() -> bool) -> bool {
 fn a_bake_killed_while_writing_leaves_the_previous_file_intact() {
     let dir = temp_dir("sigkill");
     let out = dir.join("cornell.lrr");
-    lrr(&[
-        "bake",
-        cornell().to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--samples",
-        "1",
-    ])
-    .unwrap();
+    bake(&cornell(), &out, &["--samples", "1"]).unwrap();
     let old = std::fs::read(&out).unwrap();
     // Kill the next bake as soon as its temporary output appears (mid-write).
     let mut caught = 0;
@@ -90,16 +81,7 @@ fn a_bake_killed_while_writing_leaves_the_previous_file_intact() {
 fn a_killed_bake_resumes_to_the_same_bytes() {
     let dir = temp_dir("resume");
     let whole = dir.join("whole.lrr");
-    lrr(&[
-        "bake",
-        cornell().to_str().unwrap(),
-        "-o",
-        whole.to_str().unwrap(),
-        "-q",
-        "--checkpoint-rows",
-        "32",
-    ])
-    .unwrap();
+    bake(&cornell(), &whole, &["--checkpoint-rows", "32"]).unwrap();
     assert!(
         !dir.join("whole.lrr.ckpt").exists(),
         "a finished bake removes its checkpoint"
@@ -120,17 +102,7 @@ fn a_killed_bake_resumes_to_the_same_bytes() {
         "the bake finished before it could be killed"
     );
     assert!(!out.exists());
-    let text = lrr(&[
-        "bake",
-        cornell().to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--checkpoint-rows",
-        "32",
-        "--resume",
-    ])
-    .unwrap();
+    let text = bake(&cornell(), &out, &["--checkpoint-rows", "32", "--resume"]).unwrap();
     assert!(text.contains("baked"));
     assert_eq!(
         std::fs::read(&out).unwrap(),
@@ -143,18 +115,11 @@ fn a_killed_bake_resumes_to_the_same_bytes() {
     wait_for(&mut child, || ckpt.exists());
     let _ = child.kill();
     child.wait().unwrap();
-    let err = lrr(&[
-        "bake",
-        cornell().to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--samples",
-        "9",
-        "--checkpoint-rows",
-        "32",
-        "--resume",
-    ])
+    let err = bake(
+        &cornell(),
+        &out,
+        &["--samples", "9", "--checkpoint-rows", "32", "--resume"],
+    )
     .unwrap_err();
     assert!(err.contains("different bake"), "{err}");
 }
@@ -165,16 +130,7 @@ fn bakes_are_identical_across_runs_and_thread_counts() {
     let mut files = Vec::new();
     for (i, threads) in ["1", "2", "4", "2"].iter().enumerate() {
         let out = dir.join(format!("t{i}.lrr"));
-        lrr(&[
-            "bake",
-            cornell().to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "-q",
-            "--threads",
-            threads,
-        ])
-        .unwrap();
+        bake(&cornell(), &out, &["--threads", threads]).unwrap();
         files.push(std::fs::read(&out).unwrap());
     }
     assert!(
@@ -187,30 +143,12 @@ fn bakes_are_identical_across_runs_and_thread_counts() {
 fn a_bake_larger_than_memory_is_refused_before_allocating() {
     let dir = temp_dir("memory");
     let out = dir.join("big.lrr");
-    let err = lrr(&[
-        "bake",
-        cornell().to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--max-memory",
-        "1M",
-    ])
-    .unwrap_err();
+    let err = bake(&cornell(), &out, &["--max-memory", "1M"]).unwrap_err();
     assert!(
         err.contains("GiB") && err.contains("--element-size"),
         "{err}"
     );
-    let err = lrr(&[
-        "bake",
-        cornell().to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--element-size",
-        "1e-4",
-    ])
-    .unwrap_err();
+    let err = bake(&cornell(), &out, &["--element-size", "1e-4"]).unwrap_err();
     assert!(
         err.contains("elements") && err.contains("--element-size"),
         "{err}"

@@ -6,15 +6,7 @@ use crate::util::{cornell, lrr, temp_dir};
 
 fn bake(dir: &std::path::Path, name: &str, scene: &std::path::Path, extra: &[&str]) -> Operator {
     let out = dir.join(format!("{name}.lrr"));
-    let mut args = vec![
-        "bake",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-    ];
-    args.extend_from_slice(extra);
-    lrr(&args).unwrap();
+    crate::util::bake(scene, &out, extra).unwrap();
     Operator::load(&out).unwrap()
 }
 

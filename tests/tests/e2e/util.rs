@@ -48,6 +48,19 @@ pub fn lrr(args: &[&str]) -> Result<String, String> {
     }
 }
 
+/// Runs `lrr bake SCENE -o OUT -q EXTRA…` in-process.
+pub fn bake(scene: &Path, out: &Path, extra: &[&str]) -> Result<String, String> {
+    let mut args = vec![
+        "bake",
+        scene.to_str().expect("UTF-8 path"),
+        "-o",
+        out.to_str().expect("UTF-8 path"),
+        "-q",
+    ];
+    args.extend_from_slice(extra);
+    lrr(&args)
+}
+
 /// Runs `lrr` and parses its JSON output.
 pub fn lrr_json(args: &[&str]) -> serde_json::Value {
     let text = lrr(args).unwrap_or_else(|e| panic!("lrr {args:?} failed: {e}"));
