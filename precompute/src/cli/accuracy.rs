@@ -10,9 +10,9 @@ use super::load_scene;
 use crate::accuracy::{self, FrameTiming, PlanOptions, plot, report};
 
 /// Default 2MSC thresholds of the full sweep (smaller: more patches).
-pub const FULL_THRESHOLDS: [f64; 7] = [1.0, 0.7, 0.5, 0.35, 0.25, 0.15, 0.1];
+pub const FULL_THRESHOLDS: [f64; 7] = [3e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5];
 /// Default 2MSC thresholds of `--quick`.
-pub const QUICK_THRESHOLDS: [f64; 5] = [1.0, 0.7, 0.5, 0.35, 0.25];
+pub const QUICK_THRESHOLDS: [f64; 5] = [3e-3, 1e-3, 5e-4, 2e-4, 1e-4];
 
 #[derive(Debug, Args)]
 pub struct AccuracyArgs {
@@ -44,7 +44,7 @@ pub struct AccuracyArgs {
     /// [default: 1,1.5,2,3,4,6,8,12; --quick: 1,1.5,2,3,4,6].
     #[arg(long, value_delimiter = ',', value_name = "M,…")]
     pub patch_multiples: Vec<f64>,
-    /// 2MSC coherence thresholds [default: 1,0.7,0.5,0.35,0.25,0.15,0.1; --quick: 1,0.7,0.5,0.35,0.25].
+    /// 2MSC coherence thresholds [default: 3e-3,1e-3,5e-4,2e-4,1e-4,5e-5,2e-5; --quick: 3e-3,1e-3,5e-4,2e-4,1e-4].
     #[arg(long, value_delimiter = ',', value_name = "T,…")]
     pub thresholds: Vec<f64>,
     /// 2MSC: patches of at most this area are not split [default: chosen by the method].
