@@ -181,7 +181,7 @@ mod tests {
         assert!((k_at_error(&bumpy, 0.2).unwrap() - 5.0).abs() < 1e-9);
         assert!(
             (k_at_error(&bumpy, 0.1).unwrap()
-                - 10f64.powf(1.0 + 0.301029995663981 / 1.301029995663981))
+                - 10f64.powf(1.0 + std::f64::consts::LOG10_2 / (1.0 + std::f64::consts::LOG10_2)))
             .abs()
                 < 1e-6
         );
