@@ -29,6 +29,7 @@
 // Indexed loops over RGB channels and matrix entries read like the maths they implement.
 #![allow(clippy::needless_range_loop)]
 
+pub mod accuracy;
 pub mod bake;
 pub mod checkpoint;
 pub mod cli;

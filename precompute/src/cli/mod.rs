@@ -1,6 +1,7 @@
 //! The `lrr` command line (clap). [`run`] takes the arguments and an output stream so tests
 //! can call every command in-process; `main.rs` only prints the error chain and sets the exit code.
 
+mod accuracy;
 mod bake;
 mod bench;
 mod bench_visibility;
@@ -52,6 +53,8 @@ pub enum Command {
     Solve(solve::SolveArgs),
     /// Write a generated scene description (furnace, analytic pairs).
     Scene(scene::SceneArgs),
+    /// What accuracy costs in time: sweep 2MF/2MSC over k, n, samples, f32/f16; CSV, markdown, plots.
+    Accuracy(accuracy::AccuracyArgs),
     /// Benchmarks: `lrr bench runtime` (frame rates against the dense baseline and a memory
     /// read), `lrr bench visibility` (occlusion rays/s of the visibility backends).
     Bench(bench::BenchArgs),
@@ -177,6 +180,7 @@ where
         Command::Solve(a) => solve::run(&a, out),
         Command::Scene(a) => scene::run(&a, out),
         Command::Bench(a) => bench::run(&a, out),
+        Command::Accuracy(a) => accuracy::run(&a, out),
     }
 }
 

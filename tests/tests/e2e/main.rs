@@ -1,6 +1,7 @@
 //! End-to-end tests across the crates: scene files in, `lrr` commands (run in-process through
 //! `lrr_precompute::cli::run`), operator files, the runtime.
 
+mod accuracy;
 mod analytic;
 mod capi;
 mod cornell;
