@@ -128,7 +128,7 @@ impl<'a> FormFactors<'a> {
                 None => 1.0,
                 Some(occ) => {
                     let seed = (u64::from(e_id) << 32) | t_id as u64;
-                    let (v, r) = visible_fraction(occ, e, t, points, seed);
+                    let (v, r) = visible_fraction(occ, e, Shape::One(t), points, seed);
                     rays += r;
                     v
                 }
@@ -159,10 +159,10 @@ pub(crate) fn faces_away(e: &Polygon, t: &Polygon) -> bool {
 /// converges to `∫∫ K V / ∫∫ K`, the visibility that multiplies the exact unoccluded factor.
 /// An unweighted fraction (tried first) converges to the *area*-weighted visibility instead:
 /// biased by ~1% on Cornell-box surface pairs at any sample count, which broke reciprocity.
-fn visible_fraction(
+pub(crate) fn visible_fraction(
     occ: &dyn Occluder,
     e: &Polygon,
-    t: &Polygon,
+    t: Shape<'_>,
     points: &[Sample],
     seed: u64,
 ) -> (f64, u64) {
@@ -174,7 +174,9 @@ fn visible_fraction(
         acc.cast(occ, e, t, points, seed, first..first * ADAPTIVE_FACTOR);
     }
     if acc.total <= 0.0 {
-        // Every sampled segment was grazing: fall back to one ray between the centroids.
+        // Every sampled segment was grazing: fall back to one ray between the element's
+        // centroid and that of the (nearest part of the) target.
+        let t = t.nearest_part(e.centroid());
         let blocked = occ.occluded(e.centroid(), e.normal, t.centroid(), t.normal);
         return (if blocked { 0.0 } else { 1.0 }, acc.rays + 1);
     }
@@ -187,6 +189,38 @@ fn visible_fraction(
 /// about twice the rays).
 pub const ADAPTIVE_FACTOR: u32 = 16;
 
+/// Where a target's pair points lie: one polygon ([`pair_point`]), or a union of parts
+/// ([`Target::pair_point`], parts chosen by area).
+#[derive(Clone, Copy)]
+pub(crate) enum Shape<'a> {
+    One(&'a Polygon),
+    Union(&'a Target),
+}
+
+impl Shape<'_> {
+    fn part(&self, j: usize) -> &Polygon {
+        match self {
+            Shape::One(t) => t,
+            Shape::Union(t) => &t.parts()[j],
+        }
+    }
+
+    /// The `i`-th pair point and the index of the part it lies on.
+    fn pair_point(&self, i: u32, seed: u64) -> (usize, Sample) {
+        match self {
+            Shape::One(t) => (0, pair_point(t, i, seed)),
+            Shape::Union(t) => t.pair_point(i, seed),
+        }
+    }
+
+    fn nearest_part(&self, x: DVec3) -> &Polygon {
+        match self {
+            Shape::One(t) => t,
+            Shape::Union(t) => t.nearest_part(x),
+        }
+    }
+}
+
 #[derive(Default)]
 struct Visibility {
     total: f64,
@@ -195,25 +229,24 @@ struct Visibility {
 }
 
 impl Visibility {
-    /// Casts rays `i` in `range`: from quadrature point `i mod S` to the `i`-th pair point.
+    /// Casts rays `i` in `range`: from quadrature point `i mod S` to the `i`-th pair point,
+    /// answered per part by one bundle each (parts in order, rays in order within a part).
     fn cast(
         &mut self,
         occ: &dyn Occluder,
         e: &Polygon,
-        t: &Polygon,
+        t: Shape<'_>,
         points: &[Sample],
         seed: u64,
         range: std::ops::Range<u32>,
     ) {
-        let mut segments = Vec::with_capacity(range.len());
-        let mut weights = Vec::with_capacity(range.len());
+        let mut rays: Vec<(usize, Segment, f64)> = Vec::with_capacity(range.len());
         for i in range {
             let s = &points[i as usize % points.len()];
-            let far = pair_point(t, i, seed);
-            let y: DVec3 = far.point;
-            let d = y - s.point;
+            let (j, far) = t.pair_point(i, seed);
+            let d = far.point - s.point;
             let cos_x = d.dot(e.normal);
-            let cos_y = -d.dot(t.normal);
+            let cos_y = -d.dot(t.part(j).normal);
             if cos_x <= 0.0 || cos_y <= 0.0 {
                 continue; // this pair of points exchanges no light
             }
@@ -222,19 +255,26 @@ impl Visibility {
             if !weight.is_finite() {
                 continue;
             }
-            segments.push(Segment {
+            let segment = Segment {
                 from: s.point,
-                to: y,
-            });
-            weights.push(weight);
+                to: far.point,
+            };
+            rays.push((j, segment, weight));
         }
-        let mut blocked = vec![false; segments.len()];
-        occ.occluded_bundle(e, t, &segments, &mut blocked);
-        self.rays += segments.len() as u64;
-        for (w, b) in weights.iter().zip(&blocked) {
-            self.total += w;
-            if !b {
-                self.visible += w;
+        rays.sort_by_key(|&(j, _, _)| j); // stable: ray order kept within a part
+        let (mut segments, mut blocked) = (Vec::new(), Vec::new());
+        for group in rays.chunk_by(|a, b| a.0 == b.0) {
+            segments.clear();
+            segments.extend(group.iter().map(|g| g.1));
+            blocked.clear();
+            blocked.resize(segments.len(), false);
+            occ.occluded_bundle(e, t.part(group[0].0), &segments, &mut blocked);
+            self.rays += segments.len() as u64;
+            for ((_, _, w), b) in group.iter().zip(&blocked) {
+                self.total += w;
+                if !b {
+                    self.visible += w;
+                }
             }
         }
     }

@@ -20,8 +20,8 @@ use glam::DVec3;
 
 use super::kernel::{Polygon, point_to_polygon};
 use super::sampling::{Sample, map_unit_square, mix, r2};
-use super::{ADAPTIVE_FACTOR, faces_away};
-use crate::visibility::{Occluder, Segment};
+use super::{Shape, faces_away, visible_fraction};
+use crate::visibility::Occluder;
 
 /// A form-factor target: one convex polygon, or the union of several (a cluster patch).
 #[derive(Debug, Clone, PartialEq)]
@@ -144,81 +144,8 @@ pub fn multi_part(
     let Some(occ) = occluder else {
         return Some((unoccluded, 0));
     };
-    let mut acc = Accumulator::default();
-    let first = points.len() as u32;
-    acc.cast(occ, e, target, points, seed, 0..first);
-    if acc.visible > 0.0 && acc.visible < acc.total {
-        acc.cast(occ, e, target, points, seed, first..first * ADAPTIVE_FACTOR);
-    }
-    if acc.total <= 0.0 {
-        // Every sampled segment was grazing: one ray to the nearest part's centroid.
-        let t = target.nearest_part(e.centroid());
-        let blocked = occ.occluded(e.centroid(), e.normal, t.centroid(), t.normal);
-        let v = if blocked { 0.0 } else { 1.0 };
-        return Some((unoccluded * v, acc.rays + 1));
-    }
-    Some((unoccluded * acc.visible / acc.total, acc.rays))
-}
-
-#[derive(Default)]
-struct Accumulator {
-    total: f64,
-    visible: f64,
-    rays: u64,
-}
-
-impl Accumulator {
-    /// Rays `i` in `range`, from quadrature point `i mod S` to the `i`-th pair point of the
-    /// union, answered per part by one bundle each (parts in order, rays in order in a part).
-    fn cast(
-        &mut self,
-        occ: &dyn Occluder,
-        e: &Polygon,
-        target: &Target,
-        points: &[Sample],
-        seed: u64,
-        range: std::ops::Range<u32>,
-    ) {
-        let mut by_part: Vec<(usize, Segment, f64)> = Vec::with_capacity(range.len());
-        for i in range {
-            let s = &points[i as usize % points.len()];
-            let (j, far) = target.pair_point(i, seed);
-            let normal = target.parts()[j].normal;
-            let d = far.point - s.point;
-            let cos_x = d.dot(e.normal);
-            let cos_y = -d.dot(normal);
-            if cos_x <= 0.0 || cos_y <= 0.0 {
-                continue;
-            }
-            let r2 = d.length_squared();
-            let weight = s.weight * far.weight * cos_x * cos_y / (r2 * r2);
-            if !weight.is_finite() {
-                continue;
-            }
-            let segment = Segment {
-                from: s.point,
-                to: far.point,
-            };
-            by_part.push((j, segment, weight));
-        }
-        by_part.sort_by_key(|&(j, _, _)| j); // stable: ray order kept within a part
-        let mut blocked = Vec::new();
-        let mut segments = Vec::new();
-        for group in by_part.chunk_by(|a, b| a.0 == b.0) {
-            segments.clear();
-            segments.extend(group.iter().map(|g| g.1));
-            blocked.clear();
-            blocked.resize(segments.len(), false);
-            occ.occluded_bundle(e, &target.parts()[group[0].0], &segments, &mut blocked);
-            self.rays += segments.len() as u64;
-            for ((_, _, w), b) in group.iter().zip(&blocked) {
-                self.total += w;
-                if !b {
-                    self.visible += w;
-                }
-            }
-        }
-    }
+    let (visible, rays) = visible_fraction(occ, e, Shape::Union(target), points, seed);
+    Some((unoccluded * visible, rays))
 }
 
 #[cfg(test)]
