@@ -7,7 +7,7 @@ mod util;
 
 use util::lrr_json;
 #[cfg(not(feature = "embree"))]
-use util::{cornell, lrr, temp_dir};
+use util::{bake, cornell, temp_dir};
 
 /// Without the feature, asking for Embree is an error that says how to get it.
 #[cfg(not(feature = "embree"))]
@@ -15,16 +15,7 @@ use util::{cornell, lrr, temp_dir};
 fn visibility_embree_without_the_feature_says_how_to_rebuild() {
     let dir = temp_dir("no-embree");
     let out = dir.join("c.lrr");
-    let err = lrr(&[
-        "bake",
-        cornell().to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--visibility",
-        "embree",
-        "-q",
-    ])
-    .unwrap_err();
+    let err = bake(&cornell(), &out, &["--visibility", "embree"]).unwrap_err();
     assert!(
         err.contains("scripts/setup-embree.sh") && err.contains("--features embree"),
         "{err}"
@@ -80,7 +71,7 @@ fn bench_visibility_rows_cover_the_backends_embree_when_built() {
 
 #[cfg(feature = "embree")]
 mod embree {
-    use super::util::{cornell, lrr, temp_dir};
+    use super::util::{bake, cornell, lrr, temp_dir};
     use lrr_precompute::bake::{DEFAULT_SAMPLES, Prepared};
     use lrr_precompute::mesh::{MeshSizes, PatchMethod};
     use lrr_precompute::progress::Progress;
@@ -220,17 +211,16 @@ mod embree {
         lrr(&["scene", "furnace", "-o", scene.to_str().unwrap()]).unwrap();
         let report = dir.join("r.json");
         let out = dir.join("f.lrr");
-        lrr(&[
-            "bake",
-            scene.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--visibility",
-            "embree",
-            "--report",
-            report.to_str().unwrap(),
-            "-q",
-        ])
+        bake(
+            &scene,
+            &out,
+            &[
+                "--visibility",
+                "embree",
+                "--report",
+                report.to_str().unwrap(),
+            ],
+        )
         .unwrap();
         let r: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();

@@ -1,7 +1,7 @@
 //! Patch methods: 2MSC (adaptive patches) and clustered patches of dense meshes, measured
 //! against the exact solve on the same fine mesh.
 
-use crate::util::{cornell, generated_scene, lrr, lrr_json, solve_elements, temp_dir};
+use crate::util::{bake, cornell, generated_scene, lrr, lrr_json, solve_elements, temp_dir};
 use lrr_precompute::reference::relative_l2;
 
 fn radiosity(scene: &std::path::Path, extra: &[&str]) -> Vec<[f64; 3]> {
@@ -73,17 +73,7 @@ fn two_msc_refuses_bad_parameters() {
         ),
     ] {
         let arg = format!("{flag}={value}");
-        let err = lrr(&[
-            "bake",
-            scene.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--quiet",
-            "--method",
-            "2msc",
-            &arg,
-        ])
-        .unwrap_err();
+        let err = bake(&scene, &out, &["--method", "2msc", &arg]).unwrap_err();
         assert!(err.contains(expect), "{arg}: {err}");
         assert!(!out.exists());
     }
@@ -134,19 +124,18 @@ fn two_msc_bakes_are_identical_across_thread_counts() {
     let mut files = Vec::new();
     for threads in ["1", "2"] {
         let out = dir.join(format!("t{threads}.lrr"));
-        let text = lrr(&[
-            "bake",
-            scene.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--quiet",
-            "--method",
-            "2msc",
-            "--element-size",
-            "100",
-            "--threads",
-            threads,
-        ])
+        let text = bake(
+            &scene,
+            &out,
+            &[
+                "--method",
+                "2msc",
+                "--element-size",
+                "100",
+                "--threads",
+                threads,
+            ],
+        )
         .unwrap();
         assert!(text.contains("patches"), "{text}");
         files.push(std::fs::read(&out).unwrap());
