@@ -311,34 +311,15 @@ impl Occluder for EmbreeOccluder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::procedural;
+    use crate::visibility::fixtures;
     use crate::visibility::obvhs::ObvhsOccluder;
-    use std::path::Path;
 
     #[test]
     fn embree_block_in_a_room_casts_a_shadow() {
-        let mut d = procedural::furnace(0.5, 1.0);
-        d.boxes.push(crate::scene::description::BoxDesc {
-            name: "block".into(),
-            material: "wall".into(),
-            min: [0.4, 0.4, 0.0],
-            max: [0.6, 0.6, 0.5],
-            inward: false,
-            omit: vec!["-z".into()],
-        });
-        let scene = d.build("c", Path::new(".")).unwrap();
+        let scene = fixtures::block_in_a_room();
         let occ = EmbreeOccluder::build(&scene).unwrap();
         assert_eq!(occ.triangle_count(), 2 * scene.faces.len());
-        let floor = DVec3::new(0.1, 0.5, 0.0);
-        assert!(occ.occluded(floor, DVec3::Z, DVec3::new(1.0, 0.5, 0.2), -DVec3::X));
-        assert!(!occ.occluded(floor, DVec3::Z, DVec3::new(0.1, 0.5, 1.0), -DVec3::Z));
-        // Along the floor, touching only the end faces (the walls the points lie on): free.
-        assert!(!occ.occluded(
-            DVec3::new(0.0, 0.1, 0.5),
-            DVec3::X,
-            DVec3::new(1.0, 0.1, 0.5),
-            -DVec3::X
-        ));
+        fixtures::assert_block_casts_a_shadow(&occ);
     }
 
     #[test]
@@ -346,11 +327,7 @@ mod tests {
         // A zero-thickness wall at x = 1 between two rooms; segments from points 1e-9 .. 1e-3
         // away from the wall's foot to the other room: every one crosses the wall, most of
         // them within f32 rounding of their start.
-        let text = "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
-            [[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\ninward = true\n\
-            [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [1, 0, 0]\nmax = [2, 1, 1]\ninward = true\n";
-        let d = crate::scene::description::SceneDescription::parse(text, "t").unwrap();
-        let scene = d.build("t", Path::new(".")).unwrap();
+        let scene = fixtures::two_rooms([1, 0, 0]);
         let occ = EmbreeOccluder::build(&scene).unwrap();
         let reference = ObvhsOccluder::build(&scene);
         for k in 3..=9 {
@@ -374,20 +351,9 @@ mod tests {
     fn embree_agrees_with_obvhs_near_walls_and_corners() {
         // The obvhs unit test's two rooms sharing walls at a corner, with random segments:
         // every segment crosses a wall.
-        let text = "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
-            [[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\ninward = true\n\
-            [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [1, 1, 0]\nmax = [2, 2, 1]\ninward = true\n";
-        let d = crate::scene::description::SceneDescription::parse(text, "t").unwrap();
-        let scene = d.build("t", Path::new(".")).unwrap();
+        let scene = fixtures::two_rooms([1, 1, 0]);
         let occ = EmbreeOccluder::build(&scene).unwrap();
-        let mut state = 0x9e37_79b9u64;
-        let mut next = || {
-            state = crate::formfactor::sampling::mix(state);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for _ in 0..100_000 {
-            let from = DVec3::new(next(), next(), next());
-            let to = DVec3::new(1.0 + next(), 1.0 + next(), next());
+        for (from, to) in fixtures::corner_segments(100_000) {
             assert!(occ.occluded(from, DVec3::Z, to, DVec3::Z), "{from} → {to}");
         }
     }

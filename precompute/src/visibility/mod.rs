@@ -141,6 +141,78 @@ pub fn nothing_occludes(scene: &Scene) -> bool {
     })
 }
 
+/// Scenes and checks the backends' unit tests share.
+#[cfg(test)]
+pub(crate) mod fixtures {
+    use std::path::Path;
+
+    use glam::DVec3;
+
+    use super::Occluder;
+    use crate::scene::description::{BoxDesc, SceneDescription};
+    use crate::scene::{Scene, procedural};
+
+    /// The furnace room (unit cube) with a 0.2 × 0.2 × 0.5 block standing on its floor.
+    pub fn block_in_a_room() -> Scene {
+        let mut d = procedural::furnace(0.5, 1.0);
+        d.boxes.push(BoxDesc {
+            name: "block".into(),
+            material: "wall".into(),
+            min: [0.4, 0.4, 0.0],
+            max: [0.6, 0.6, 0.5],
+            inward: false,
+            omit: vec!["-z".into()],
+        });
+        d.build("c", Path::new(".")).unwrap()
+    }
+
+    /// In [`block_in_a_room`]: blocked through the block, free to the ceiling, free along the
+    /// floor between the two walls the end points lie on.
+    pub fn assert_block_casts_a_shadow(occ: &dyn Occluder) {
+        let floor = DVec3::new(0.1, 0.5, 0.0);
+        assert!(occ.occluded(floor, DVec3::Z, DVec3::new(1.0, 0.5, 0.2), -DVec3::X));
+        assert!(!occ.occluded(floor, DVec3::Z, DVec3::new(0.1, 0.5, 1.0), -DVec3::Z));
+        assert!(!occ.occluded(
+            DVec3::new(0.0, 0.1, 0.5),
+            DVec3::X,
+            DVec3::new(1.0, 0.1, 0.5),
+            -DVec3::X
+        ));
+    }
+
+    /// Two closed unit rooms (inward boxes) touching at zero-thickness walls: the second's
+    /// minimum corner is `offset` (`[1, 0, 0]`: side by side; `[1, 1, 0]`: meeting at an edge).
+    pub fn two_rooms(offset: [u32; 3]) -> Scene {
+        let [x, y, z] = offset;
+        let text = format!(
+            "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
+             [[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\ninward = true\n\
+             [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [{x}, {y}, {z}]\n\
+             max = [{}, {}, {}]\ninward = true\n",
+            x + 1,
+            y + 1,
+            z + 1
+        );
+        let d = SceneDescription::parse(&text, "t").unwrap();
+        d.build("t", Path::new(".")).unwrap()
+    }
+
+    /// Random segments from the first of [`two_rooms`]`([1, 1, 0])` to the second: every one
+    /// crosses a wall, many near the shared edge.
+    pub fn corner_segments(count: usize) -> impl Iterator<Item = (DVec3, DVec3)> {
+        let mut state = 0x9e37_79b9u64;
+        let mut next = move || {
+            state = crate::formfactor::sampling::mix(state);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..count).map(move |_| {
+            let from = DVec3::new(next(), next(), next());
+            let to = DVec3::new(1.0 + next(), 1.0 + next(), next());
+            (from, to)
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

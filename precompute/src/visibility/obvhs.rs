@@ -154,55 +154,22 @@ impl Occluder for ObvhsOccluder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::procedural;
-    use std::path::Path;
+    use crate::visibility::fixtures;
 
     #[test]
     fn block_in_a_room_casts_a_shadow() {
-        let mut d = procedural::furnace(0.5, 1.0);
-        d.boxes.push(crate::scene::description::BoxDesc {
-            name: "block".into(),
-            material: "wall".into(),
-            min: [0.4, 0.4, 0.0],
-            max: [0.6, 0.6, 0.5],
-            inward: false,
-            omit: vec!["-z".into()],
-        });
-        let scene = d.build("c", Path::new(".")).unwrap();
-        let occ = ObvhsOccluder::build(&scene);
-        let floor = DVec3::new(0.1, 0.5, 0.0);
-        // Through the block to the other wall: blocked.
-        assert!(occ.occluded(floor, DVec3::Z, DVec3::new(1.0, 0.5, 0.2), -DVec3::X));
-        // Straight up to the ceiling: free.
-        assert!(!occ.occluded(floor, DVec3::Z, DVec3::new(0.1, 0.5, 1.0), -DVec3::Z));
-        // Along the floor surface itself, touching only the end faces: free.
-        assert!(!occ.occluded(
-            DVec3::new(0.0, 0.1, 0.5),
-            DVec3::X,
-            DVec3::new(1.0, 0.1, 0.5),
-            -DVec3::X
-        ));
+        let scene = fixtures::block_in_a_room();
+        fixtures::assert_block_casts_a_shadow(&ObvhsOccluder::build(&scene));
     }
 
     #[test]
     fn traversal_agrees_with_brute_force_near_walls_and_corners() {
         // Two rooms side by side sharing zero-thickness walls at x = 1 and y = 1: segments
         // between random points of the two boxes' faces, many passing near the corner edge.
-        let text = "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
-            [[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\ninward = true\n\
-            [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [1, 1, 0]\nmax = [2, 2, 1]\ninward = true\n";
-        let d = crate::scene::description::SceneDescription::parse(text, "t").unwrap();
-        let scene = d.build("t", Path::new(".")).unwrap();
+        let scene = fixtures::two_rooms([1, 1, 0]);
         let occ = ObvhsOccluder::build(&scene);
-        let mut state = 0x9e37_79b9u64;
-        let mut next = || {
-            state = crate::formfactor::sampling::mix(state);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
         let mut disagreements = 0;
-        for _ in 0..100_000 {
-            let from = DVec3::new(next(), next(), next());
-            let to = DVec3::new(1.0 + next(), 1.0 + next(), next());
+        for (from, to) in fixtures::corner_segments(100_000) {
             let traversed = occ.occluded(from, DVec3::Z, to, DVec3::Z);
             let brute = !occ.blockers_brute_force(from, to).is_empty();
             if traversed != brute {
