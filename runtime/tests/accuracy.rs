@@ -87,7 +87,8 @@ fn every_layout_precision_thread_count_and_form_matches_f64() {
         let e = emission(op.n(), 3);
         let want = reference::evaluate(op.file(), &e).unwrap();
         for threads in [1, 2, 3] {
-            for backend in [Backend::detect(), Backend::Scalar] {
+            let backends = [Backend::Avx2, Backend::Scalar];
+            for backend in backends.into_iter().filter(|b| b.supported()) {
                 let mut eval = Evaluator::with_backend(&op, threads, backend).unwrap();
                 assert_eq!(eval.threads(), threads);
                 let what = format!("{name}, {threads} threads, {backend:?}");

@@ -427,21 +427,8 @@ fn hsum(v: __m256) -> f32 {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{Gather, Rows, padded, scalar};
+    use super::super::{Gather, Rows, padded, scalar, tests::values};
     use super::*;
-
-    /// A deterministic matrix with values spread over several binades.
-    fn values(len: usize, seed: u64) -> Vec<f32> {
-        let mut s = seed;
-        (0..len)
-            .map(|_| {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                ((s >> 40) as f32 / (1u64 << 24) as f32) * 2f32.powi((s >> 20) as i32 % 8 - 4)
-            })
-            .collect()
-    }
 
     #[test]
     fn matches_the_scalar_twin_on_every_shape() {
