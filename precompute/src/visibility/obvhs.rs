@@ -103,6 +103,14 @@ impl ObvhsOccluder {
             .collect()
     }
 
+    /// True when triangle `id` is the face a point `p` (relative to `centre`) with surface
+    /// normal `normal` lies on, or a coincident back face: it cannot block a segment from `p`.
+    #[inline]
+    fn own_face(&self, id: usize, p: DVec3, normal: DVec3) -> bool {
+        let (n, offset) = self.planes[id];
+        (n.dot(p) - offset).abs() <= self.plane_tolerance && n.dot(normal).abs() > PARALLEL
+    }
+
     pub fn triangle_count(&self) -> usize {
         self.exact.len()
     }
@@ -128,16 +136,11 @@ impl Occluder for ObvhsOccluder {
         );
         let eps = f64::from(SEGMENT_EPSILON) * length;
         let sheared = ShearedRay::new(origin, direction, eps, length - eps);
-        let tol = self.plane_tolerance;
         !self.bvh.ray_traverse_miss(ray, |_, id| {
             // The face an end point lies on (or a coincident back face) meets the segment only
             // at that end point: skip it, whatever the rounding says. Every other face counts
             // over the whole segment, however close to an end point it is crossed.
-            let (n, offset) = self.planes[id];
-            let own = |p: DVec3, pn: DVec3| {
-                (n.dot(p) - offset).abs() <= tol && n.dot(pn).abs() > PARALLEL
-            };
-            if own(origin, from_normal) || own(target, to_normal) {
+            if self.own_face(id, origin, from_normal) || self.own_face(id, target, to_normal) {
                 return f32::INFINITY;
             }
             let [a, b, c] = self.exact[id];
@@ -160,6 +163,127 @@ mod tests {
     fn block_in_a_room_casts_a_shadow() {
         let scene = fixtures::block_in_a_room();
         fixtures::assert_block_casts_a_shadow(&ObvhsOccluder::build(&scene));
+    }
+
+    /// Two closed rooms of side `size` (inward boxes) touching at zero-thickness walls: the
+    /// second's minimum corner is `offset · size`.
+    fn rooms(size: f64, offset: [f64; 3]) -> Scene {
+        let [x, y, z] = offset.map(|o| o * size);
+        let text = format!(
+            "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
+             [[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0.0, 0.0, 0.0]\n\
+             max = [{size:?}, {size:?}, {size:?}]\ninward = true\n\
+             [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [{x:?}, {y:?}, {z:?}]\n\
+             max = [{:?}, {:?}, {:?}]\ninward = true\n",
+            x + size,
+            y + size,
+            z + size
+        );
+        let d = crate::scene::description::SceneDescription::parse(&text, "t").unwrap();
+        d.build("t", std::path::Path::new(".")).unwrap()
+    }
+
+    /// The answer `occluded` must give: a face the exact test says is crossed that is not the
+    /// own face of either end point (brute force over all triangles).
+    fn expected(
+        occ: &ObvhsOccluder,
+        from: DVec3,
+        fnormal: DVec3,
+        to: DVec3,
+        tnormal: DVec3,
+    ) -> bool {
+        let (origin, target) = (from - occ.centre, to - occ.centre);
+        occ.blockers_brute_force(from, to)
+            .into_iter()
+            .any(|i| !occ.own_face(i, origin, fnormal) && !occ.own_face(i, target, tnormal))
+    }
+
+    #[test]
+    fn walls_crossed_next_to_the_start_are_found() {
+        // Segments starting within 1e-7..1e-4 of the diagonal of a zero-thickness wall (either
+        // side, or exactly on it) and crossing it (or the corner edge) into the other room, the
+        // start's normal never parallel to the wall. Several scales: the traversal's own
+        // epsilon is absolute.
+        let mut state = 0x5eed_u64;
+        let mut next = move || {
+            state = crate::formfactor::sampling::mix(state);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut failures = Vec::new();
+        let mut blocked = 0;
+        let mut total = 0;
+        for size in [0.01, 1.0, 1000.0] {
+            for offset in [[1.0, 0.0, 0.0], [1.0, 1.0, 0.0]] {
+                let scene = rooms(size, offset);
+                let occ = ObvhsOccluder::build(&scene);
+                let diagonal = scene.extent();
+                let inside = |lo: [f64; 3], next: &mut dyn FnMut() -> f64| {
+                    DVec3::from_array(lo.map(|l| (l + 0.05 + 0.9 * next()) * size))
+                };
+                for _ in 0..8000 {
+                    // The start: a point of room a moved onto or next to a shared wall.
+                    let mut from = inside([0.0; 3], &mut next);
+                    let axis = if offset[1] > 0.0 && next() < 0.5 {
+                        1
+                    } else {
+                        0
+                    };
+                    let distance = if next() < 0.125 {
+                        0.0
+                    } else {
+                        diagonal * 10f64.powf(-7.0 + 3.0 * next())
+                    };
+                    let side = if next() < 0.5 { -1.0 } else { 1.0 };
+                    from[axis] = size + side * distance;
+                    // The end: inside the room across the wall.
+                    let to = if side > 0.0 {
+                        inside([0.0; 3], &mut next)
+                    } else {
+                        inside(offset, &mut next)
+                    };
+                    let mut from_normal = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+                    from_normal[axis] = 0.0;
+                    let from_normal = from_normal.normalize_or(DVec3::Z);
+                    let want = expected(&occ, from, from_normal, to, DVec3::Z);
+                    let got = occ.occluded(from, from_normal, to, DVec3::Z);
+                    total += 1;
+                    blocked += usize::from(want);
+                    if got != want {
+                        failures.push((size, offset, from, to, want));
+                    }
+                }
+            }
+        }
+        assert!(blocked > total / 2, "{blocked} of {total} blocked");
+        assert!(
+            failures.is_empty(),
+            "{} of {total} disagree with brute force ({} at size 0.01, {} at 1, {} at 1000), \
+             e.g. {:?}",
+            failures.len(),
+            failures.iter().filter(|f| f.0 == 0.01).count(),
+            failures.iter().filter(|f| f.0 == 1.0).count(),
+            failures.iter().filter(|f| f.0 == 1000.0).count(),
+            &failures[..failures.len().min(5)]
+        );
+    }
+
+    #[test]
+    fn a_negative_zero_direction_component_still_finds_walls() {
+        // A scene centred at x = 0: from x = +0 to x = -0 the direction's x is -0.0.
+        let text = "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
+             [[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [-1, 0, 0]\nmax = [1, 1, 1]\ninward = true\n\
+             [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [-1, 1, 0]\nmax = [1, 2, 1]\ninward = true\n";
+        let d = crate::scene::description::SceneDescription::parse(text, "t").unwrap();
+        let occ = ObvhsOccluder::build(&d.build("t", std::path::Path::new(".")).unwrap());
+        for (x0, x1) in [(0.0, -0.0), (-0.0, 0.0), (0.0, -1e-300), (0.0, 0.0)] {
+            let from = DVec3::new(x0, 0.5, 0.5);
+            let to = DVec3::new(x1, 1.5, 0.3);
+            assert!(expected(&occ, from, DVec3::Z, to, DVec3::Z));
+            assert!(
+                occ.occluded(from, DVec3::Z, to, DVec3::Z),
+                "{x0:?} → {x1:?}"
+            );
+        }
     }
 
     #[test]
