@@ -3,7 +3,16 @@
 //! Build settings: obvhs' `medium_build` preset with `search_depth_threshold = 0`. The stock
 //! value (3) made traversal of grid-tessellated walls about 30× slower in our measurements.
 //! Triangles are tested with the watertight test of [`super::watertight`], not obvhs' own.
-//! Coordinates are shifted to the scene's centre before the f32 conversion to keep precision.
+//! Coordinates are shifted to the scene's centre before the f32 conversion to keep precision,
+//! and scaled by a power of two to a diagonal of 2048..4096 (see [`F32_DIAGONAL`]).
+//!
+//! The BVH only proposes candidates; every decision is the exact f64 test, so the traversal
+//! must never cull a face the exact test would call crossed. Before the scaling it did: obvhs'
+//! node test ignores `Ray::tmin` and culls every box the ray leaves before
+//! t = 1e-4 in absolute units, so in a scene a few units across a wall crossed within ~1e-4
+//! of a segment's start (its padded box left before 1e-4) was never tested (5365 of 16 000
+//! segments starting 1e-7..1e-4 diagonals from a wall missed it at size 1, 5186 of 16 000 at
+//! size 0.01, none at size 1000); and a direction component of -0.0 made every box test fail.
 
 use glam::{DVec3, Vec3A};
 use obvhs::BvhBuildParams;
@@ -18,6 +27,23 @@ use super::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON};
 
 /// |cos| above which two faces count as parallel.
 const PARALLEL: f64 = 1.0 - 1e-5;
+
+/// The scene's diagonal in the f32 coordinates of the BVH is scaled (by a power of two) into
+/// `(F32_DIAGONAL / 2, F32_DIAGONAL]`.
+///
+/// Why: obvhs' child-box test (`CwBvhNode::intersect_ray{,_simd}`, obvhs 0.4) ignores the
+/// ray's `tmin` and clamps the entry distance to a constant `EPSILON = 1e-4` instead, in the
+/// scene's absolute units: a box the ray leaves before t = 1e-4 is culled. A face crossed at
+/// t_c ≥ 0 has a padded box the ray leaves at t ≥ t_c + pad (pad = [`PLANE_TOLERANCE`] ×
+/// diagonal, the box's half-thickness: a unit direction moves no coordinate faster than
+/// 1), minus f32 rounding (a few ulps of the coordinates, well under pad). With a unit-sized
+/// scene pad ≈ 2e-6 < 1e-4, so faces crossed within ~1e-4 of the start were never offered to
+/// the exact test; no negative `tmin` or slack on the segment's length can change that. At a
+/// diagonal of 2048..4096 pad ≥ 2e-3 ≥ 20 × 1e-4, so the clamp culls no box that contains a
+/// point of the segment, at any scene scale, and the f32 precision relative to the diagonal
+/// is unchanged (a power of two scales exactly). The faces through the start point (its own
+/// face, a wall it stands on) are now always candidates; the own-face rule answers those.
+const F32_DIAGONAL: f64 = 4096.0;
 use crate::scene::Scene;
 
 pub struct ObvhsOccluder {
@@ -27,6 +53,8 @@ pub struct ObvhsOccluder {
     /// Their planes (unit normal, offset), same order.
     planes: Vec<(DVec3, f64)>,
     centre: DVec3,
+    /// Factor (a power of two) from coordinates relative to `centre` to the BVH's f32 ones.
+    scale: f64,
     /// Distance under which an end point counts as lying in a triangle's plane.
     plane_tolerance: f64,
 }
@@ -36,7 +64,8 @@ impl ObvhsOccluder {
     pub fn build(scene: &Scene) -> Self {
         let (lo, hi) = scene.bounds();
         let centre = (lo + hi) * 0.5;
-        let to_f32 = |v: DVec3| Vec3A::from((v - centre).as_vec3());
+        let scale = f32_scale((hi - lo).length());
+        let to_f32 = |v: DVec3| Vec3A::from(((v - centre) * scale).as_vec3());
         let mut tris = Vec::with_capacity(scene.faces.len() * 2);
         let mut exact_tris = Vec::with_capacity(scene.faces.len() * 2);
         for f in &scene.faces {
@@ -56,7 +85,7 @@ impl ObvhsOccluder {
         };
         // Boxes padded by a hair: an axis-aligned wall has a box of zero thickness, which the
         // traversal's slab test can reject for rays that cross it (a corner leak we measured).
-        let pad = Vec3A::splat((PLANE_TOLERANCE * (hi - lo).length()) as f32);
+        let pad = Vec3A::splat((PLANE_TOLERANCE * (hi - lo).length() * scale) as f32);
         let boxes: Vec<Aabb> = tris
             .iter()
             .map(|t| {
@@ -83,6 +112,7 @@ impl ObvhsOccluder {
             exact,
             planes,
             centre,
+            scale,
             plane_tolerance,
         }
     }
@@ -116,6 +146,19 @@ impl ObvhsOccluder {
     }
 }
 
+/// The power of two that brings a scene diagonal into `(F32_DIAGONAL / 2, F32_DIAGONAL]`
+/// (1 for a diagonal that is zero or not finite).
+fn f32_scale(diagonal: f64) -> f64 {
+    if !(diagonal.is_finite() && diagonal > 0.0) {
+        return 1.0;
+    }
+    let exponent = (F32_DIAGONAL / diagonal)
+        .log2()
+        .floor()
+        .clamp(-900.0, 900.0);
+    2f64.powi(exponent as i32)
+}
+
 impl Occluder for ObvhsOccluder {
     fn occluded(&self, from: DVec3, from_normal: DVec3, to: DVec3, to_normal: DVec3) -> bool {
         let (origin, target) = (from - self.centre, to - self.centre);
@@ -125,14 +168,18 @@ impl Occluder for ObvhsOccluder {
             return false; // a point does not block itself
         }
         let direction = d / length;
-        // The BVH is traversed in f32 over a slightly longer range (culling stays conservative
-        // under rounding); the decision is the exact f64 test over the segment.
-        let slack = 1e-5 * length as f32;
+        // The BVH is traversed in f32 (scaled coordinates, see `F32_DIAGONAL`) over a slightly
+        // longer range (culling stays conservative under rounding); the decision is the exact
+        // f64 test over the segment. obvhs ignores `tmin`; the start is covered by the boxes'
+        // padding. `+ 0.0` turns a -0.0 component (from -0.0 - 0.0, or a tiny negative one
+        // rounded to f32) into +0.0: obvhs picks the slab's near side by `dir < 0` but inverts
+        // -0.0 to a negative number, which made every box test of such a ray fail.
+        let scaled = length * self.scale;
         let ray = Ray::new(
-            Vec3A::from(origin.as_vec3()),
-            Vec3A::from(direction.as_vec3()),
-            -slack,
-            length as f32 + slack,
+            Vec3A::from((origin * self.scale).as_vec3()),
+            Vec3A::from(direction.as_vec3()) + Vec3A::ZERO,
+            0.0,
+            (scaled * (1.0 + 1e-5)) as f32,
         );
         let eps = f64::from(SEGMENT_EPSILON) * length;
         let sheared = ShearedRay::new(origin, direction, eps, length - eps);
