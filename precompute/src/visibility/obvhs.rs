@@ -3,7 +3,16 @@
 //! Build settings: obvhs' `medium_build` preset with `search_depth_threshold = 0`. The stock
 //! value (3) made traversal of grid-tessellated walls about 30× slower in our measurements.
 //! Triangles are tested with the watertight test of [`super::watertight`], not obvhs' own.
-//! Coordinates are shifted to the scene's centre before the f32 conversion to keep precision.
+//! Coordinates are shifted to the scene's centre before the f32 conversion to keep precision,
+//! and scaled by a power of two to a diagonal of 2048..4096 (see [`F32_DIAGONAL`]).
+//!
+//! The BVH only proposes candidates; every decision is the exact f64 test, so the traversal
+//! must never cull a face the exact test would call crossed. Before the scaling it did: obvhs'
+//! node test ignores `Ray::tmin` and culls every box the ray leaves before
+//! t = 1e-4 in absolute units, so in a scene a few units across a wall crossed within ~1e-4
+//! of a segment's start (its padded box left before 1e-4) was never tested (5365 of 16 000
+//! segments starting 1e-7..1e-4 diagonals from a wall missed it at size 1, 5186 of 16 000 at
+//! size 0.01, none at size 1000); and a direction component of -0.0 made every box test fail.
 
 use glam::{DVec3, Vec3A};
 use obvhs::BvhBuildParams;
@@ -18,6 +27,23 @@ use super::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON};
 
 /// |cos| above which two faces count as parallel.
 const PARALLEL: f64 = 1.0 - 1e-5;
+
+/// The scene's diagonal in the f32 coordinates of the BVH is scaled (by a power of two) into
+/// `(F32_DIAGONAL / 2, F32_DIAGONAL]`.
+///
+/// Why: obvhs' child-box test (`CwBvhNode::intersect_ray{,_simd}`, obvhs 0.4) ignores the
+/// ray's `tmin` and clamps the entry distance to a constant `EPSILON = 1e-4` instead, in the
+/// scene's absolute units: a box the ray leaves before t = 1e-4 is culled. A face crossed at
+/// t_c ≥ 0 has a padded box the ray leaves at t ≥ t_c + pad (pad = [`PLANE_TOLERANCE`] ×
+/// diagonal, the box's half-thickness: a unit direction moves no coordinate faster than
+/// 1), minus f32 rounding (a few ulps of the coordinates, well under pad). With a unit-sized
+/// scene pad ≈ 2e-6 < 1e-4, so faces crossed within ~1e-4 of the start were never offered to
+/// the exact test; no negative `tmin` or slack on the segment's length can change that. At a
+/// diagonal of 2048..4096 pad ≥ 2e-3 ≥ 20 × 1e-4, so the clamp culls no box that contains a
+/// point of the segment, at any scene scale, and the f32 precision relative to the diagonal
+/// is unchanged (a power of two scales exactly). The faces through the start point (its own
+/// face, a wall it stands on) are now always candidates; the own-face rule answers those.
+const F32_DIAGONAL: f64 = 4096.0;
 use crate::scene::Scene;
 
 pub struct ObvhsOccluder {
@@ -27,6 +53,8 @@ pub struct ObvhsOccluder {
     /// Their planes (unit normal, offset), same order.
     planes: Vec<(DVec3, f64)>,
     centre: DVec3,
+    /// Factor (a power of two) from coordinates relative to `centre` to the BVH's f32 ones.
+    scale: f64,
     /// Distance under which an end point counts as lying in a triangle's plane.
     plane_tolerance: f64,
 }
@@ -36,7 +64,8 @@ impl ObvhsOccluder {
     pub fn build(scene: &Scene) -> Self {
         let (lo, hi) = scene.bounds();
         let centre = (lo + hi) * 0.5;
-        let to_f32 = |v: DVec3| Vec3A::from((v - centre).as_vec3());
+        let scale = f32_scale((hi - lo).length());
+        let to_f32 = |v: DVec3| Vec3A::from(((v - centre) * scale).as_vec3());
         let mut tris = Vec::with_capacity(scene.faces.len() * 2);
         let mut exact_tris = Vec::with_capacity(scene.faces.len() * 2);
         for f in &scene.faces {
@@ -56,7 +85,7 @@ impl ObvhsOccluder {
         };
         // Boxes padded by a hair: an axis-aligned wall has a box of zero thickness, which the
         // traversal's slab test can reject for rays that cross it (a corner leak we measured).
-        let pad = Vec3A::splat((PLANE_TOLERANCE * (hi - lo).length()) as f32);
+        let pad = Vec3A::splat((PLANE_TOLERANCE * (hi - lo).length() * scale) as f32);
         let boxes: Vec<Aabb> = tris
             .iter()
             .map(|t| {
@@ -83,6 +112,7 @@ impl ObvhsOccluder {
             exact,
             planes,
             centre,
+            scale,
             plane_tolerance,
         }
     }
@@ -103,9 +133,30 @@ impl ObvhsOccluder {
             .collect()
     }
 
+    /// True when triangle `id` is the face a point `p` (relative to `centre`) with surface
+    /// normal `normal` lies on, or a coincident back face: it cannot block a segment from `p`.
+    #[inline]
+    fn own_face(&self, id: usize, p: DVec3, normal: DVec3) -> bool {
+        let (n, offset) = self.planes[id];
+        (n.dot(p) - offset).abs() <= self.plane_tolerance && n.dot(normal).abs() > PARALLEL
+    }
+
     pub fn triangle_count(&self) -> usize {
         self.exact.len()
     }
+}
+
+/// The power of two that brings a scene diagonal into `(F32_DIAGONAL / 2, F32_DIAGONAL]`
+/// (1 for a diagonal that is zero or not finite).
+fn f32_scale(diagonal: f64) -> f64 {
+    if !(diagonal.is_finite() && diagonal > 0.0) {
+        return 1.0;
+    }
+    let exponent = (F32_DIAGONAL / diagonal)
+        .log2()
+        .floor()
+        .clamp(-900.0, 900.0);
+    2f64.powi(exponent as i32)
 }
 
 impl Occluder for ObvhsOccluder {
@@ -117,27 +168,26 @@ impl Occluder for ObvhsOccluder {
             return false; // a point does not block itself
         }
         let direction = d / length;
-        // The BVH is traversed in f32 over a slightly longer range (culling stays conservative
-        // under rounding); the decision is the exact f64 test over the segment.
-        let slack = 1e-5 * length as f32;
+        // The BVH is traversed in f32 (scaled coordinates, see `F32_DIAGONAL`) over a slightly
+        // longer range (culling stays conservative under rounding); the decision is the exact
+        // f64 test over the segment. obvhs ignores `tmin`; the start is covered by the boxes'
+        // padding. `+ 0.0` turns a -0.0 component (from -0.0 - 0.0, or a tiny negative one
+        // rounded to f32) into +0.0: obvhs picks the slab's near side by `dir < 0` but inverts
+        // -0.0 to a negative number, which made every box test of such a ray fail.
+        let scaled = length * self.scale;
         let ray = Ray::new(
-            Vec3A::from(origin.as_vec3()),
-            Vec3A::from(direction.as_vec3()),
-            -slack,
-            length as f32 + slack,
+            Vec3A::from((origin * self.scale).as_vec3()),
+            Vec3A::from(direction.as_vec3()) + Vec3A::ZERO,
+            0.0,
+            (scaled * (1.0 + 1e-5)) as f32,
         );
         let eps = f64::from(SEGMENT_EPSILON) * length;
         let sheared = ShearedRay::new(origin, direction, eps, length - eps);
-        let tol = self.plane_tolerance;
         !self.bvh.ray_traverse_miss(ray, |_, id| {
             // The face an end point lies on (or a coincident back face) meets the segment only
             // at that end point: skip it, whatever the rounding says. Every other face counts
             // over the whole segment, however close to an end point it is crossed.
-            let (n, offset) = self.planes[id];
-            let own = |p: DVec3, pn: DVec3| {
-                (n.dot(p) - offset).abs() <= tol && n.dot(pn).abs() > PARALLEL
-            };
-            if own(origin, from_normal) || own(target, to_normal) {
+            if self.own_face(id, origin, from_normal) || self.own_face(id, target, to_normal) {
                 return f32::INFINITY;
             }
             let [a, b, c] = self.exact[id];
@@ -160,6 +210,127 @@ mod tests {
     fn block_in_a_room_casts_a_shadow() {
         let scene = fixtures::block_in_a_room();
         fixtures::assert_block_casts_a_shadow(&ObvhsOccluder::build(&scene));
+    }
+
+    /// Two closed rooms of side `size` (inward boxes) touching at zero-thickness walls: the
+    /// second's minimum corner is `offset · size`.
+    fn rooms(size: f64, offset: [f64; 3]) -> Scene {
+        let [x, y, z] = offset.map(|o| o * size);
+        let text = format!(
+            "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
+             [[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0.0, 0.0, 0.0]\n\
+             max = [{size:?}, {size:?}, {size:?}]\ninward = true\n\
+             [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [{x:?}, {y:?}, {z:?}]\n\
+             max = [{:?}, {:?}, {:?}]\ninward = true\n",
+            x + size,
+            y + size,
+            z + size
+        );
+        let d = crate::scene::description::SceneDescription::parse(&text, "t").unwrap();
+        d.build("t", std::path::Path::new(".")).unwrap()
+    }
+
+    /// The answer `occluded` must give: a face the exact test says is crossed that is not the
+    /// own face of either end point (brute force over all triangles).
+    fn expected(
+        occ: &ObvhsOccluder,
+        from: DVec3,
+        fnormal: DVec3,
+        to: DVec3,
+        tnormal: DVec3,
+    ) -> bool {
+        let (origin, target) = (from - occ.centre, to - occ.centre);
+        occ.blockers_brute_force(from, to)
+            .into_iter()
+            .any(|i| !occ.own_face(i, origin, fnormal) && !occ.own_face(i, target, tnormal))
+    }
+
+    #[test]
+    fn walls_crossed_next_to_the_start_are_found() {
+        // Segments starting within 1e-7..1e-4 of the diagonal of a zero-thickness wall (either
+        // side, or exactly on it) and crossing it (or the corner edge) into the other room, the
+        // start's normal never parallel to the wall. Several scales: the traversal's own
+        // epsilon is absolute.
+        let mut state = 0x5eed_u64;
+        let mut next = move || {
+            state = crate::formfactor::sampling::mix(state);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut failures = Vec::new();
+        let mut blocked = 0;
+        let mut total = 0;
+        for size in [0.01, 1.0, 1000.0] {
+            for offset in [[1.0, 0.0, 0.0], [1.0, 1.0, 0.0]] {
+                let scene = rooms(size, offset);
+                let occ = ObvhsOccluder::build(&scene);
+                let diagonal = scene.extent();
+                let inside = |lo: [f64; 3], next: &mut dyn FnMut() -> f64| {
+                    DVec3::from_array(lo.map(|l| (l + 0.05 + 0.9 * next()) * size))
+                };
+                for _ in 0..8000 {
+                    // The start: a point of room a moved onto or next to a shared wall.
+                    let mut from = inside([0.0; 3], &mut next);
+                    let axis = if offset[1] > 0.0 && next() < 0.5 {
+                        1
+                    } else {
+                        0
+                    };
+                    let distance = if next() < 0.125 {
+                        0.0
+                    } else {
+                        diagonal * 10f64.powf(-7.0 + 3.0 * next())
+                    };
+                    let side = if next() < 0.5 { -1.0 } else { 1.0 };
+                    from[axis] = size + side * distance;
+                    // The end: inside the room across the wall.
+                    let to = if side > 0.0 {
+                        inside([0.0; 3], &mut next)
+                    } else {
+                        inside(offset, &mut next)
+                    };
+                    let mut from_normal = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+                    from_normal[axis] = 0.0;
+                    let from_normal = from_normal.normalize_or(DVec3::Z);
+                    let want = expected(&occ, from, from_normal, to, DVec3::Z);
+                    let got = occ.occluded(from, from_normal, to, DVec3::Z);
+                    total += 1;
+                    blocked += usize::from(want);
+                    if got != want {
+                        failures.push((size, offset, from, to, want));
+                    }
+                }
+            }
+        }
+        assert!(blocked > total / 2, "{blocked} of {total} blocked");
+        assert!(
+            failures.is_empty(),
+            "{} of {total} disagree with brute force ({} at size 0.01, {} at 1, {} at 1000), \
+             e.g. {:?}",
+            failures.len(),
+            failures.iter().filter(|f| f.0 == 0.01).count(),
+            failures.iter().filter(|f| f.0 == 1.0).count(),
+            failures.iter().filter(|f| f.0 == 1000.0).count(),
+            &failures[..failures.len().min(5)]
+        );
+    }
+
+    #[test]
+    fn a_negative_zero_direction_component_still_finds_walls() {
+        // A scene centred at x = 0: from x = +0 to x = -0 the direction's x is -0.0.
+        let text = "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
+             [[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [-1, 0, 0]\nmax = [1, 1, 1]\ninward = true\n\
+             [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [-1, 1, 0]\nmax = [1, 2, 1]\ninward = true\n";
+        let d = crate::scene::description::SceneDescription::parse(text, "t").unwrap();
+        let occ = ObvhsOccluder::build(&d.build("t", std::path::Path::new(".")).unwrap());
+        for (x0, x1) in [(0.0, -0.0), (-0.0, 0.0), (0.0, -1e-300), (0.0, 0.0)] {
+            let from = DVec3::new(x0, 0.5, 0.5);
+            let to = DVec3::new(x1, 1.5, 0.3);
+            assert!(expected(&occ, from, DVec3::Z, to, DVec3::Z));
+            assert!(
+                occ.occluded(from, DVec3::Z, to, DVec3::Z),
+                "{x0:?} → {x1:?}"
+            );
+        }
     }
 
     #[test]
