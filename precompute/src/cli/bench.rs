@@ -7,7 +7,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use lrr_runtime::baseline::DenseV;
-use lrr_runtime::{Layout, Operator, Precision, Rgb, RgbMut};
+use lrr_runtime::{Evaluator, Layout, Operator, Precision, Rgb, RgbMut};
 use serde::Serialize;
 
 #[derive(Debug, Args)]
@@ -45,8 +45,8 @@ pub struct RuntimeBench {
     /// Seconds of frames per variant and round.
     #[arg(long, default_value_t = 0.3)]
     pub seconds: f64,
-    /// Rounds; each round times (a), (d), (e), (c), (a) again and (b) back to back; ratios are
-    /// medians of per-round ratios.
+    /// Rounds; each round times (a), (d), (e), (d), (a), (c), (a), (b) back to back; ratios are
+    /// medians of per-round ratios between the measurements around each other.
     #[arg(long, default_value_t = 5)]
     pub rounds: usize,
     /// Skip the Cornell box row (which bakes the bundled scene first).
@@ -220,35 +220,47 @@ fn measure(scene: &str, op: &Operator, threads: usize, b: &RuntimeBench) -> Resu
     let groups = vec![1.0f32; op.light_groups().len()];
     let (mut te, mut roof_groups) = (Vec::new(), Vec::new());
     for _ in 0..b.rounds.max(1) {
-        let a = time_frames(b.seconds, || {
-            Ok(factored.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut radiosity))?)
-        })?;
-        let d = time_frames(b.seconds, || {
-            sink = sink.wrapping_add(factored.read_pass()?);
-            Ok(())
-        })?;
-        if !groups.is_empty() {
-            let e = time_frames(b.seconds, || {
+        let frame = |factored: &mut Evaluator, radiosity: &mut [[f32; 3]]| {
+            time_frames(b.seconds, || {
+                Ok(factored.evaluate(Rgb::triples(&emission), RgbMut::triples(radiosity))?)
+            })
+        };
+        let mut read = |factored: &mut Evaluator| {
+            time_frames(b.seconds, || {
+                sink = sink.wrapping_add(factored.read_pass()?);
+                Ok(())
+            })
+        };
+        // (a) (d) [(e)] (d) (a): symmetric, so whatever drifts within a round (and what the
+        // variant before did to the cache) weighs on (a) and (d) alike.
+        let a = frame(&mut factored, &mut radiosity)?;
+        let d = read(&mut factored)?;
+        let e = if groups.is_empty() {
+            None
+        } else {
+            Some(time_frames(b.seconds, || {
                 Ok(factored.evaluate_groups(&groups, RgbMut::triples(&mut radiosity))?)
-            })?;
+            })?)
+        };
+        let d2 = read(&mut factored)?;
+        let a2 = frame(&mut factored, &mut radiosity)?;
+        if let Some(e) = e {
             te.push(e);
-            roof_groups.push(d / e);
+            roof_groups.push((d + d2) / (2.0 * e));
         }
+        // (c) between two (a), likewise.
         let c = time_frames(b.seconds, || {
             Ok(dense.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut radiosity))?)
         })?;
-        // (a) again after (c) so that the speedup compares neighbours too.
-        let a2 = time_frames(b.seconds, || {
-            Ok(factored.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut radiosity))?)
-        })?;
+        let a3 = frame(&mut factored, &mut radiosity)?;
         tb.push(time_frames(b.seconds, || {
             Ok(plain.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut radiosity))?)
         })?);
-        roof.push(d / a);
-        speedup.push(c / a2);
-        ta.extend([a, a2]);
+        roof.push((d + d2) / (a + a2));
+        speedup.push(2.0 * c / (a2 + a3));
+        ta.extend([a, a2, a3]);
         tc.push(c);
-        td.push(d);
+        td.extend([d, d2]);
     }
     std::hint::black_box(sink);
     let (a, pb, c, d) = (median(ta), median(tb), median(tc), median(td));
