@@ -24,6 +24,7 @@ use obvhs::triangle::Triangle;
 
 use super::watertight::ShearedRay;
 use super::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON};
+use crate::scene::Scene;
 
 /// |cos| above which two faces count as parallel.
 const PARALLEL: f64 = 1.0 - 1e-5;
@@ -44,7 +45,6 @@ const PARALLEL: f64 = 1.0 - 1e-5;
 /// is unchanged (a power of two scales exactly). The faces through the start point (its own
 /// face, a wall it stands on) are now always candidates; the own-face rule answers those.
 const F32_DIAGONAL: f64 = 4096.0;
-use crate::scene::Scene;
 
 pub struct ObvhsOccluder {
     bvh: CwBvh,
