@@ -35,7 +35,7 @@ use embree4_sys as sys;
 use glam::DVec3;
 
 use super::watertight::ShearedRay;
-use super::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON};
+use super::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, relative_segment};
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 
@@ -265,13 +265,10 @@ unsafe extern "C" fn occlusion_filter(args: *const sys::RTCFilterFunctionNArgume
 
 impl Occluder for EmbreeOccluder {
     fn occluded(&self, from: DVec3, from_normal: DVec3, to: DVec3, to_normal: DVec3) -> bool {
-        let (origin, target) = (from - self.centre, to - self.centre);
-        let d = target - origin;
-        let length = d.length();
-        if length.is_nan() || length <= 0.0 {
+        let Some((origin, target, direction, length)) = relative_segment(self.centre, from, to)
+        else {
             return false; // a point does not block itself
-        }
-        let direction = d / length;
+        };
         let slack = SLACK_LENGTH * length + SLACK_EXTENT * self.extent;
         let eps = f64::from(SEGMENT_EPSILON) * length;
         let query = Query {

@@ -113,6 +113,22 @@ pub trait Occluder: Sync {
     }
 }
 
+/// The segment `from → to` relative to `centre`: its start, end, unit direction and length, or
+/// `None` when it is a point or not finite (a point does not block itself).
+pub(crate) fn relative_segment(
+    centre: DVec3,
+    from: DVec3,
+    to: DVec3,
+) -> Option<(DVec3, DVec3, DVec3, f64)> {
+    let (origin, target) = (from - centre, to - centre);
+    let d = target - origin;
+    let length = d.length();
+    if length.is_nan() || length <= 0.0 {
+        return None;
+    }
+    Some((origin, target, d / length, length))
+}
+
 /// A line of sight between a point of an element and a point of a target.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Segment {

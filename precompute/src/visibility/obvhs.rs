@@ -23,7 +23,7 @@ use obvhs::ray::Ray;
 use obvhs::triangle::Triangle;
 
 use super::watertight::ShearedRay;
-use super::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON};
+use super::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, relative_segment};
 use crate::scene::Scene;
 
 /// |cos| above which two faces count as parallel.
@@ -161,13 +161,10 @@ fn f32_scale(diagonal: f64) -> f64 {
 
 impl Occluder for ObvhsOccluder {
     fn occluded(&self, from: DVec3, from_normal: DVec3, to: DVec3, to_normal: DVec3) -> bool {
-        let (origin, target) = (from - self.centre, to - self.centre);
-        let d = target - origin;
-        let length = d.length();
-        if length.is_nan() || length <= 0.0 {
+        let Some((origin, target, direction, length)) = relative_segment(self.centre, from, to)
+        else {
             return false; // a point does not block itself
-        }
-        let direction = d / length;
+        };
         // The BVH is traversed in f32 (scaled coordinates, see `F32_DIAGONAL`) over a slightly
         // longer range (culling stays conservative under rounding); the decision is the exact
         // f64 test over the segment. obvhs ignores `tmin`; the start is covered by the boxes'
