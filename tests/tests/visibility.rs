@@ -233,34 +233,28 @@ mod embree {
 #[test]
 fn scene_cluttered_writes_a_room_with_occluders() {
     let dir = util::temp_dir("cluttered");
+    let write = |path: &std::path::Path| {
+        let out = path.to_str().unwrap();
+        util::lrr(&[
+            "scene",
+            "cluttered",
+            "--grid",
+            "3",
+            "--seed",
+            "7",
+            "-o",
+            out,
+        ])
+        .unwrap();
+    };
     let path = dir.join("cluttered.toml");
-    util::lrr(&[
-        "scene",
-        "cluttered",
-        "--grid",
-        "3",
-        "--seed",
-        "7",
-        "-o",
-        path.to_str().unwrap(),
-    ])
-    .unwrap();
+    write(&path);
     let scene = lrr_precompute::scene::load(&path).unwrap();
     // The room's six walls, the lamp and at least one face per object.
     assert!(scene.faces.len() >= 6 + 1 + 9, "{}", scene.faces.len());
     assert!(!lrr_precompute::visibility::nothing_occludes(&scene));
     let again = dir.join("again.toml");
-    util::lrr(&[
-        "scene",
-        "cluttered",
-        "--grid",
-        "3",
-        "--seed",
-        "7",
-        "-o",
-        again.to_str().unwrap(),
-    ])
-    .unwrap();
+    write(&again);
     assert_eq!(
         std::fs::read(&path).unwrap(),
         std::fs::read(&again).unwrap(),

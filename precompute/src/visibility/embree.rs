@@ -35,12 +35,11 @@ use embree4_sys as sys;
 use glam::DVec3;
 
 use super::watertight::ShearedRay;
-use super::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, relative_segment};
+use super::{
+    Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, own_face, relative_segment, triangle_plane,
+};
 use crate::error::{Error, Result};
 use crate::scene::Scene;
-
-/// |cos| above which two faces count as parallel (as in the obvhs backend).
-const PARALLEL: f64 = 1.0 - 1e-5;
 
 /// Slack added at both ends of a query, relative to the segment's length and, added, to the
 /// scene's extent (f32 rounding of the hit distance grows with the coordinates).
@@ -114,13 +113,7 @@ impl EmbreeOccluder {
                 tris.push([v[0] - centre, v[i] - centre, v[i + 1] - centre]);
             }
         }
-        let planes = tris
-            .iter()
-            .map(|t| {
-                let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
-                (n, n.dot(t[0]))
-            })
-            .collect();
+        let planes = tris.iter().map(triangle_plane).collect();
         let exact = Box::new(Exact {
             tris,
             planes,
@@ -218,13 +211,12 @@ impl Drop for EmbreeOccluder {
 /// Whether a candidate hit of Embree blocks the query: the own-face rule, then, near the end
 /// points, the exact test (see the module documentation).
 fn accept(exact: &Exact, q: &Query, prim: usize, t_hit: f64) -> bool {
-    let (Some(&(n, offset)), Some(&[a, b, c])) = (exact.planes.get(prim), exact.tris.get(prim))
-    else {
+    let (Some(&plane), Some(&[a, b, c])) = (exact.planes.get(prim), exact.tris.get(prim)) else {
         return false;
     };
     let tol = exact.plane_tolerance;
-    let own = |p: DVec3, pn: DVec3| (n.dot(p) - offset).abs() <= tol && n.dot(pn).abs() > PARALLEL;
-    if own(q.origin, q.from_normal) || own(q.target, q.to_normal) {
+    if own_face(plane, tol, q.origin, q.from_normal) || own_face(plane, tol, q.target, q.to_normal)
+    {
         return false;
     }
     if t_hit > q.slack && t_hit < q.length - q.slack {

@@ -113,6 +113,24 @@ pub trait Occluder: Sync {
     }
 }
 
+/// |cos| above which two faces count as parallel (the own-face rule).
+const PARALLEL: f64 = 1.0 - 1e-5;
+
+/// A triangle's plane: unit normal `n` and offset `n · x` of its points.
+pub(crate) fn triangle_plane(t: &[DVec3; 3]) -> (DVec3, f64) {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+    (n, n.dot(t[0]))
+}
+
+/// The own-face rule every backend applies: a face whose `plane` holds the end point `p`
+/// (within `tolerance`) and is parallel to the point's surface (`normal`) is the face the point
+/// lies on, or a coincident back face; it meets the segment only at `p` and never blocks it.
+#[inline]
+pub(crate) fn own_face(plane: (DVec3, f64), tolerance: f64, p: DVec3, normal: DVec3) -> bool {
+    let (n, offset) = plane;
+    (n.dot(p) - offset).abs() <= tolerance && n.dot(normal).abs() > PARALLEL
+}
+
 /// The segment `from → to` relative to `centre`: its start, end, unit direction and length, or
 /// `None` when it is a point or not finite (a point does not block itself).
 pub(crate) fn relative_segment(

@@ -23,11 +23,10 @@ use obvhs::ray::Ray;
 use obvhs::triangle::Triangle;
 
 use super::watertight::ShearedRay;
-use super::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, relative_segment};
+use super::{
+    Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, own_face, relative_segment, triangle_plane,
+};
 use crate::scene::Scene;
-
-/// |cos| above which two faces count as parallel.
-const PARALLEL: f64 = 1.0 - 1e-5;
 
 /// The scene's diagonal in the f32 coordinates of the BVH is scaled (by a power of two) into
 /// `(F32_DIAGONAL / 2, F32_DIAGONAL]`.
@@ -99,13 +98,7 @@ impl ObvhsOccluder {
             .iter()
             .map(|&i| exact_tris[i as usize])
             .collect();
-        let planes = exact
-            .iter()
-            .map(|t| {
-                let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
-                (n, n.dot(t[0]))
-            })
-            .collect();
+        let planes = exact.iter().map(triangle_plane).collect();
         let plane_tolerance = PLANE_TOLERANCE * (hi - lo).length();
         Self {
             bvh,
@@ -137,8 +130,7 @@ impl ObvhsOccluder {
     /// normal `normal` lies on, or a coincident back face: it cannot block a segment from `p`.
     #[inline]
     fn own_face(&self, id: usize, p: DVec3, normal: DVec3) -> bool {
-        let (n, offset) = self.planes[id];
-        (n.dot(p) - offset).abs() <= self.plane_tolerance && n.dot(normal).abs() > PARALLEL
+        own_face(self.planes[id], self.plane_tolerance, p, normal)
     }
 
     pub fn triangle_count(&self) -> usize {
