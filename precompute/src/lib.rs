@@ -19,7 +19,7 @@
 //! // A furnace: a closed cube, uniform reflectance 0.5, uniform emission π.
 //! let scene = procedural::furnace(0.5, 1.0).build("furnace", std::path::Path::new(".")).unwrap();
 //! let baked = bake::bake(&scene, &bake::BakeSettings::default(), &Progress::hidden()).unwrap();
-//! let file = lrr_precompute::output::operator_file(&baked);
+//! let file = lrr_precompute::write::operator_file(&baked);
 //! let op = lrr_runtime::Operator::from_file(file).unwrap();
 //! let b = op.evaluate_baked();
 //! // B = E / (1 - ρ) = 2π everywhere.
@@ -33,15 +33,19 @@ pub mod accuracy;
 pub mod bake;
 pub mod checkpoint;
 pub mod cli;
+pub mod cores;
 pub mod error;
+pub mod exact;
 pub mod formfactor;
+pub mod geometry;
 pub mod memory;
 pub mod mesh;
-pub mod operator;
-pub mod output;
+pub mod patches;
+pub mod pool;
 pub mod progress;
-pub mod reference;
+pub mod radiosity;
 pub mod scene;
 pub mod visibility;
+pub mod write;
 
 pub use error::{Error, Result};

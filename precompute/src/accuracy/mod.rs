@@ -28,15 +28,18 @@ use std::time::Instant;
 
 use lrr_runtime::{Operator, Precision, Rgb, RgbMut};
 
-use crate::bake::{BakeSettings, Prepared, bake, with_threads};
+use crate::bake::{BakeSettings, Prepared, bake};
 use crate::error::{Error, Result};
-use crate::formfactor::kernel::Polygon;
-use crate::mesh::{MeshSizes, PatchMethod};
-use crate::output::{operator_file, store_matrix_as};
+use crate::exact::solve_exact;
+use crate::geometry::Polygon;
+use crate::mesh::MeshSizes;
+use crate::patches::PatchMethod;
+use crate::pool::with_threads;
 use crate::progress::Progress;
-use crate::reference::{ElementData, relative_l2, solve_exact};
+use crate::radiosity::{ElementData, relative_l2};
 use crate::scene::Scene;
 use crate::visibility::Backend;
+use crate::write::{operator_file, store_matrix_as};
 
 pub use plan::{Plan, PlanOptions};
 

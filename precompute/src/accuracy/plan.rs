@@ -7,7 +7,7 @@
 
 use crate::bake::BakeSettings;
 use crate::error::{Error, Result};
-use crate::mesh::PatchMethod;
+use crate::patches::PatchMethod;
 use crate::scene::Scene;
 
 /// The axes of a sweep, in absolute units.

@@ -10,9 +10,10 @@ use clap::Args;
 use serde::Serialize;
 
 use super::{MeshArgs, load_scene, summary};
-use crate::bake::{CheckpointSettings, bake};
+use crate::bake::bake;
 use crate::checkpoint;
-use crate::output;
+use crate::checkpoint::CheckpointSettings;
+use crate::write;
 
 #[derive(Debug, Args)]
 pub struct BakeArgs {
@@ -56,8 +57,8 @@ pub enum LayoutArg {
 }
 
 impl BakeArgs {
-    fn storage(&self) -> output::Storage {
-        output::Storage {
+    fn storage(&self) -> write::Storage {
+        write::Storage {
             precision: match self.precision {
                 PrecisionArg::F32 => lrr_formats::Precision::F32,
                 PrecisionArg::F16 => lrr_formats::Precision::F16,
@@ -111,7 +112,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     });
     let mut baked = bake(&scene, &settings, &progress)?;
     let stage = progress.stage("write", 0);
-    let file = output::write(&baked, &a.output, a.storage())
+    let file = write::write(&baked, &a.output, a.storage())
         .with_context(|| format!("writing the operator file {}", a.output.display()))?;
     if let Some(c) = baked.checkpoint.take() {
         c.remove()?;

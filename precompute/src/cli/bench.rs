@@ -167,13 +167,13 @@ fn cornell_operator() -> Result<Operator> {
         &crate::bake::BakeSettings::default(),
         &crate::progress::Progress::hidden(),
     )?;
-    Ok(Operator::from_file(crate::output::operator_file(&baked))?)
+    Ok(Operator::from_file(crate::write::operator_file(&baked))?)
 }
 
 /// The same operator with F_k stored in another precision.
 fn recast(op: &Operator, p: Precision) -> Result<Operator> {
     let mut file = op.file().clone();
-    crate::output::store_matrix_as(&mut file, p);
+    crate::write::store_matrix_as(&mut file, p);
     Ok(Operator::from_file(file)?)
 }
 

@@ -20,8 +20,10 @@ use clap::Args;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::bake::{DEFAULT_SAMPLES, Prepared, with_threads};
-use crate::mesh::{MeshSizes, PatchMethod};
+use crate::bake::{DEFAULT_SAMPLES, Prepared};
+use crate::mesh::MeshSizes;
+use crate::patches::PatchMethod;
+use crate::pool::with_threads;
 use crate::progress::Progress;
 use crate::scene::{Scene, procedural};
 use crate::visibility::record::{RaySet, record};

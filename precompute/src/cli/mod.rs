@@ -19,7 +19,7 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
 use crate::bake::{BakeSettings, DEFAULT_SAMPLES};
-use crate::mesh::PatchMethod;
+use crate::patches::PatchMethod;
 
 /// Default 2MSC threshold (`--threshold`): the largest estimated share of the scene's
 /// reflected power a patch may get wrong. On the Cornell box it gives k = 154 at a relative

@@ -8,9 +8,12 @@ use clap::Args;
 use serde::Serialize;
 
 use super::{MeshArgs, load_scene};
-use crate::bake::{Prepared, bake, with_threads};
-use crate::mesh::{MeshSizes, PatchMethod};
-use crate::reference::{ElementData, solve_exact};
+use crate::bake::{Prepared, bake};
+use crate::exact::solve_exact;
+use crate::mesh::MeshSizes;
+use crate::patches::PatchMethod;
+use crate::pool::with_threads;
+use crate::radiosity::ElementData;
 use crate::scene::Scene;
 
 #[derive(Debug, Args)]
@@ -82,7 +85,7 @@ pub fn solve(scene: &Scene, a: &MeshArgs, exact: bool) -> Result<Solution> {
         })??
     } else {
         let baked = bake(scene, &settings, &progress)?;
-        let op = lrr_runtime::Operator::from_file(crate::output::operator_file(&baked))?;
+        let op = lrr_runtime::Operator::from_file(crate::write::operator_file(&baked))?;
         let b = op.evaluate_baked();
         let b = b.iter().map(|x| x.map(f64::from)).collect();
         (baked.mesh, b, "low-rank")

@@ -8,8 +8,9 @@ use clap::Args;
 use serde::Serialize;
 
 use super::{MeshArgs, load_scene};
-use crate::bake::{Prepared, with_threads};
+use crate::bake::Prepared;
 use crate::mesh::MeshSizes;
+use crate::pool::with_threads;
 use crate::scene::Scene;
 
 #[derive(Debug, Args)]

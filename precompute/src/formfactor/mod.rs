@@ -13,19 +13,20 @@
 //! Rows are independent and computed in parallel (rayon); every value depends only on the
 //! pair, never on the thread count or scheduling, so bakes are reproducible byte for byte.
 
-pub mod kernel;
-pub mod sampling;
-pub mod target;
+pub mod contour;
+pub mod point;
+pub mod union;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::geometry::Polygon;
+use crate::geometry::Region;
+use crate::geometry::sampling::{Sample, pair_point, quadrature};
 use crate::visibility::{Occluder, Segment};
-use kernel::{Polygon, point_to_polygon};
-use sampling::{Sample, pair_point, quadrature};
-pub use target::Target;
+use contour::point_to_polygon;
 
 /// Counters of one form-factor pass.
 #[derive(Debug, Default)]
@@ -64,14 +65,14 @@ impl<'a> FormFactors<'a> {
     }
 
     /// Fills `out` (rows × targets, row-major) with `F(rows[i] → targets[j])` (a target is one
-    /// polygon or a union of several, [`Target`]).
+    /// polygon or a union of several, [`Region`]).
     /// `row_ids` seed the per-pair sampling (use the element ids). `progress` is called with
     /// the number of rows finished, from worker threads.
     pub fn matrix(
         &self,
         rows: &[Polygon],
         row_ids: &[u32],
-        targets: &[Target],
+        targets: &[Region],
         out: &mut [f64],
         progress: &(dyn Fn(u64) + Sync),
     ) {
@@ -95,7 +96,7 @@ impl<'a> FormFactors<'a> {
         e: &Polygon,
         e_id: u32,
         points: &[Sample],
-        targets: &[Target],
+        targets: &[Region],
         row: &mut [f64],
     ) {
         let mut culled = 0u64;
@@ -104,7 +105,7 @@ impl<'a> FormFactors<'a> {
             *out = 0.0;
             let Some(t) = target.as_single() else {
                 let seed = (u64::from(e_id) << 32) | t_id as u64;
-                match target::multi_part(self.occluder, e, points, target, seed) {
+                match union::multi_part(self.occluder, e, points, target, seed) {
                     None => culled += 1,
                     Some((f, r)) => {
                         *out = f;
@@ -190,11 +191,11 @@ pub(crate) fn visible_fraction(
 pub const ADAPTIVE_FACTOR: u32 = 16;
 
 /// Where a target's pair points lie: one polygon ([`pair_point`]), or a union of parts
-/// ([`Target::pair_point`], parts chosen by area).
+/// ([`Region::pair_point`], parts chosen by area).
 #[derive(Clone, Copy)]
 pub(crate) enum Shape<'a> {
     One(&'a Polygon),
-    Union(&'a Target),
+    Union(&'a Region),
 }
 
 impl Shape<'_> {
@@ -305,7 +306,7 @@ mod tests {
         ff.matrix(
             &[unit_square(0.0, false)],
             &[0],
-            &[Target::single(unit_square(1.0, true))],
+            &[Region::single(unit_square(1.0, true))],
             &mut out,
             &|_| {},
         );
@@ -319,7 +320,7 @@ mod tests {
         ff.matrix(
             &[unit_square(0.0, true)],
             &[0],
-            &[Target::single(unit_square(1.0, false))],
+            &[Region::single(unit_square(1.0, false))],
             &mut out,
             &|_| {},
         );

@@ -11,7 +11,7 @@
 
 use glam::DVec3;
 
-use crate::formfactor::kernel::Polygon;
+use crate::geometry::Polygon;
 use crate::scene::Face;
 
 /// Relative distance under which a vertex counts as lying in a plane.

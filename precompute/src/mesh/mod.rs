@@ -1,31 +1,21 @@
-//! The two meshes (DESIGN.md §2–3): fine elements and coarse patches.
+//! The fine mesh (DESIGN.md §2–3): the elements every output reports a radiosity for.
 //!
 //! Every input face is the root of a subdivision hierarchy (quads split 2×2, or 1×2 when one
-//! side is twice the other; triangles into 4 by edge midpoints). The fine mesh is the set of
-//! nodes whose size (longest edge; a triangle's second-longest) first drops to the element size; the coarse mesh of *2MF* (two
-//! fixed meshes) is the uniform cut where the size first drops to the patch size. A
-//! patch is therefore a convex polygon that contains its elements exactly (inclusion), and the
-//! elements of one patch have equal areas when their face was a parallelogram.
-//!
-//! *2MSC* ([`coherence`]) cuts the same hierarchy adaptively, and surfaces made of many faces
-//! smaller than the patch size get patches by clustering ([`cluster`]): a patch is then a union
-//! of faces. The fine mesh is the same whatever the patch method.
+//! side is twice the other; triangles into 4 by edge midpoints; [`subdivide`]), after faces are
+//! split where others stand on them ([`imprint`]). The fine mesh is the set of nodes whose size
+//! (longest edge; a triangle's second-longest) first drops to the element size. The coarse mesh
+//! is cut from the same hierarchy later ([`crate::patches`]), so the fine mesh is the same
+//! whatever the patch method.
 //!
 //! Elements are numbered in generation order (depth-first, face by face): that is the
-//! *original element id* every output reports. The operator works in *file order*, elements
-//! sorted by patch, described by `order` (file position → element id) and the index vector
-//! `index` (k+1 offsets into file positions).
+//! *original element id* every output reports.
 
-pub mod cluster;
-pub mod coherence;
 pub mod imprint;
 pub mod subdivide;
 
 use crate::error::{Error, Result};
-use crate::formfactor::Target;
-use crate::formfactor::kernel::Polygon;
+use crate::geometry::Polygon;
 use crate::scene::Scene;
-use crate::visibility::Occluder;
 
 pub use subdivide::estimate_elements;
 
@@ -37,41 +27,6 @@ pub struct Element {
     pub face: u32,
     pub surface: u32,
     pub patch: u32,
-}
-
-/// A coarse-mesh patch holding its elements: a convex polygon of one face's subdivision, or
-/// (dense meshes, [`cluster`]) the union of several small pieces of one surface.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Patch {
-    pub shape: Target,
-    /// The face of its (first) part.
-    pub face: u32,
-    pub surface: u32,
-}
-
-/// How the coarse mesh (the patches) is built from the fine one.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub enum PatchMethod {
-    /// 2MF, two fixed meshes: the uniform cut at the patch size.
-    #[default]
-    TwoFixed,
-    /// 2MSC, two meshes with spatial coherence: patches are split while they lack coherence
-    /// (measured against `threshold`) and are larger than `min_patch_area`; `k` is an output.
-    SpatialCoherence {
-        threshold: f64,
-        /// Smallest area a patch is split from, in scene units² [default: chosen by the method].
-        min_patch_area: Option<f64>,
-    },
-}
-
-impl PatchMethod {
-    /// The name files and tables use: `2mf` or `2msc`.
-    pub fn name(&self) -> &'static str {
-        match self {
-            PatchMethod::TwoFixed => "2mf",
-            PatchMethod::SpatialCoherence { .. } => "2msc",
-        }
-    }
 }
 
 /// Mesh sizes, absolute lengths in scene units.
@@ -117,45 +72,8 @@ impl MeshSizes {
     }
 }
 
-#[derive(Debug, Clone)]
-pub struct Mesh {
-    /// Elements by original id.
-    pub elements: Vec<Element>,
-    pub patches: Vec<Patch>,
-    /// File position → original element id (elements sorted by patch).
-    pub order: Vec<u32>,
-    /// k+1 offsets: patch p holds file positions `index[p]..index[p+1]`.
-    pub index: Vec<u32>,
-    /// Per file position: `w = A_e / A_p`.
-    pub weights: Vec<f64>,
-}
-
-/// Checks the 2MSC parameters and fills in the default `A_min`.
-pub fn refinement(
-    sizes: MeshSizes,
-    threshold: f64,
-    min_patch_area: Option<f64>,
-) -> Result<coherence::Refinement> {
-    if !(threshold.is_finite() && threshold > 0.0) {
-        return Err(Error::Settings(format!(
-            "--threshold must be a positive number (the largest relative spread of a patch's \
-             view vectors, e.g. 0.1), got {threshold}"
-        )));
-    }
-    let min_patch_area = min_patch_area.unwrap_or(4.0 * sizes.element_size * sizes.element_size);
-    if !(min_patch_area.is_finite() && min_patch_area >= 0.0) {
-        return Err(Error::Settings(format!(
-            "--min-patch-area must be an area of zero or more (scene units²), got {min_patch_area}"
-        )));
-    }
-    Ok(coherence::Refinement {
-        threshold,
-        min_patch_area,
-    })
-}
-
 /// The fine mesh (independent of the patch method), refused when it would be too large.
-fn fine_mesh(scene: &Scene, sizes: MeshSizes) -> Result<(Vec<Element>, Vec<subdivide::Piece>)> {
+pub fn fine_mesh(scene: &Scene, sizes: MeshSizes) -> Result<(Vec<Element>, Vec<subdivide::Piece>)> {
     let estimate = estimate_elements(scene, sizes.element_size);
     if estimate > MAX_ELEMENTS as f64 {
         return Err(Error::Limits(format!(
@@ -165,267 +83,4 @@ fn fine_mesh(scene: &Scene, sizes: MeshSizes) -> Result<(Vec<Element>, Vec<subdi
         )));
     }
     Ok(subdivide::fine(scene, sizes.element_size))
-}
-
-/// The 2MF patches: the uniform cut of each large piece, clusters of the small pieces of each
-/// surface (a lone small piece is its own patch). Patches are numbered in piece order (a
-/// cluster where its first piece comes), depth-first within a piece; sets `elements[..].patch`.
-fn two_fixed_patches(
-    pieces: &[subdivide::Piece],
-    sizes: MeshSizes,
-    elements: &mut [Element],
-) -> Vec<Patch> {
-    let units: Vec<cluster::Unit> = pieces
-        .iter()
-        .map(|p| cluster::Unit::of(&p.polygon))
-        .collect();
-    let mut cluster_of = vec![usize::MAX; pieces.len()];
-    let mut clusters = Vec::new();
-    for set in subdivide::dense_sets(pieces, sizes) {
-        for c in cluster::by_size(&units, set, sizes.patch_size) {
-            for &p in &c {
-                cluster_of[p] = clusters.len();
-            }
-            clusters.push(c);
-        }
-    }
-    let mut patch_of_cluster: Vec<Option<u32>> = vec![None; clusters.len()];
-    let mut patches = Vec::new();
-    for (i, piece) in pieces.iter().enumerate() {
-        let mut assign = |id: u32, first: u32, count: u32| {
-            for e in &mut elements[first as usize..(first + count) as usize] {
-                e.patch = id;
-            }
-        };
-        if cluster_of[i] == usize::MAX {
-            subdivide::cut(
-                piece.polygon,
-                piece.first,
-                sizes,
-                &mut |polygon, first, count| {
-                    patches.push(Patch {
-                        shape: Target::single(polygon),
-                        face: piece.face,
-                        surface: piece.surface,
-                    });
-                    assign(patches.len() as u32 - 1, first, count);
-                },
-            );
-            continue;
-        }
-        let c = &clusters[cluster_of[i]];
-        let id = *patch_of_cluster[cluster_of[i]].get_or_insert_with(|| {
-            patches.push(Patch {
-                shape: Target::new(c.iter().map(|&p| pieces[p].polygon).collect()),
-                face: piece.face,
-                surface: piece.surface,
-            });
-            patches.len() as u32 - 1
-        });
-        assign(id, piece.first, piece.count);
-    }
-    patches
-}
-
-impl Mesh {
-    /// Builds both meshes with the given patch method. 2MSC probes visibility with `occluder`
-    /// (`None`: nothing occludes).
-    pub fn build(
-        scene: &Scene,
-        sizes: MeshSizes,
-        method: PatchMethod,
-        occluder: Option<&dyn Occluder>,
-    ) -> Result<Self> {
-        match method {
-            PatchMethod::TwoFixed => Self::two_fixed(scene, sizes),
-            PatchMethod::SpatialCoherence {
-                threshold,
-                min_patch_area,
-            } => {
-                let refinement = refinement(sizes, threshold, min_patch_area)?;
-                Self::two_msc(scene, sizes, refinement, occluder)
-            }
-        }
-    }
-
-    /// Builds both meshes by 2MF: uniform subdivision and a uniform cut; small pieces (dense
-    /// meshes) are clustered to the patch size.
-    pub fn two_fixed(scene: &Scene, sizes: MeshSizes) -> Result<Self> {
-        let (mut elements, pieces) = fine_mesh(scene, sizes)?;
-        let patches = two_fixed_patches(&pieces, sizes, &mut elements);
-        Ok(Self::from_parts(elements, patches))
-    }
-
-    /// Builds both meshes by 2MSC ([`coherence`]): the fine mesh of 2MF, adaptive patches
-    /// probed against the 2MF patches at the patch size.
-    pub fn two_msc(
-        scene: &Scene,
-        sizes: MeshSizes,
-        refinement: coherence::Refinement,
-        occluder: Option<&dyn Occluder>,
-    ) -> Result<Self> {
-        let (mut elements, pieces) = fine_mesh(scene, sizes)?;
-        // Probes at half the patch size were tried: 4× the probing cost for the same k at
-        // equal error on the Cornell box.
-        let probe_patches = two_fixed_patches(&pieces, sizes, &mut elements.clone());
-        let material = |face: u32| {
-            let m = &scene.materials[scene.faces[face as usize].material];
-            coherence::Material {
-                reflectance: m.reflectance.iter().sum::<f64>() / 3.0,
-                emission: m.emission.iter().sum::<f64>() / 3.0,
-            }
-        };
-        let (reflectance, emission) = probe_patches
-            .iter()
-            .map(|p| {
-                let m = material(p.face);
-                (m.reflectance, m.emission)
-            })
-            .unzip();
-        let targets = probe_patches.into_iter().map(|p| p.shape).collect();
-        let probes = coherence::Probes::new(targets, reflectance, emission, occluder)?;
-        let materials: Vec<coherence::Material> = pieces.iter().map(|p| material(p.face)).collect();
-        let patches = coherence::two_msc(
-            &pieces,
-            &materials,
-            &mut elements,
-            sizes,
-            refinement,
-            &probes,
-        );
-        Ok(Self::from_parts(elements, patches))
-    }
-
-    /// Sorts elements by patch (stable: generation order within a patch) and computes weights.
-    pub fn from_parts(elements: Vec<Element>, patches: Vec<Patch>) -> Self {
-        let mut order: Vec<u32> = (0..elements.len() as u32).collect();
-        order.sort_by_key(|&e| elements[e as usize].patch);
-        let mut index = vec![0u32; patches.len() + 1];
-        for e in &elements {
-            index[e.patch as usize + 1] += 1;
-        }
-        for p in 0..patches.len() {
-            index[p + 1] += index[p];
-        }
-        let mut patch_area = vec![0.0; patches.len()];
-        for e in &elements {
-            patch_area[e.patch as usize] += e.polygon.area();
-        }
-        let weights = order
-            .iter()
-            .map(|&e| {
-                let e = &elements[e as usize];
-                e.polygon.area() / patch_area[e.patch as usize]
-            })
-            .collect();
-        Self {
-            elements,
-            patches,
-            order,
-            index,
-            weights,
-        }
-    }
-
-    pub fn n(&self) -> usize {
-        self.elements.len()
-    }
-
-    pub fn k(&self) -> usize {
-        self.patches.len()
-    }
-
-    /// The element at a file position.
-    pub fn element_at(&self, position: usize) -> &Element {
-        &self.elements[self.order[position] as usize]
-    }
-
-    /// Invariant checks callable from tests: every element in exactly one patch, weights of a
-    /// patch sum to 1, patch areas equal their elements' total.
-    pub fn validate(&self) -> std::result::Result<(), String> {
-        if self.index.len() != self.k() + 1 || self.index[self.k()] as usize != self.n() {
-            return Err("index vector does not cover all elements".into());
-        }
-        for p in 0..self.k() {
-            let (a, b) = (self.index[p] as usize, self.index[p + 1] as usize);
-            if a >= b {
-                return Err(format!("patch {p} is empty"));
-            }
-            let w: f64 = self.weights[a..b].iter().sum();
-            if (w - 1.0).abs() > 1e-9 {
-                return Err(format!("weights of patch {p} sum to {w}"));
-            }
-            let area: f64 = (a..b).map(|s| self.element_at(s).polygon.area()).sum();
-            let pa = self.patches[p].shape.area();
-            if (area - pa).abs() > 1e-9 * pa {
-                return Err(format!("patch {p} area {pa} but its elements cover {area}"));
-            }
-            if (a..b).any(|s| self.element_at(s).patch as usize != p) {
-                return Err(format!("patch {p} holds an element of another patch"));
-            }
-            let surface = self.patches[p].surface;
-            if (a..b).any(|s| self.element_at(s).surface != surface) {
-                return Err(format!("patch {p} straddles two surfaces"));
-            }
-            let parts = self.patches[p].shape.parts();
-            if let Some(s) = (a..b).find(|&s| {
-                let e = &self.element_at(s).polygon;
-                !parts.iter().any(|part| inside(e, part))
-            }) {
-                return Err(format!(
-                    "element {} lies outside patch {p} (inclusion)",
-                    self.order[s]
-                ));
-            }
-        }
-        Ok(())
-    }
-}
-
-/// True when every vertex of `e` lies in the convex polygon `part` (within a tolerance
-/// relative to the part's size).
-fn inside(e: &Polygon, part: &Polygon) -> bool {
-    let tol = 1e-9 * part.scale;
-    let v = part.vertices();
-    e.vertices().iter().all(|&x| {
-        part.height(x).abs() <= tol
-            && (0..v.len()).all(|i| {
-                let (a, b) = (v[i], v[(i + 1) % v.len()]);
-                (b - a).cross(x - a).dot(part.normal) >= -tol * (b - a).length()
-            })
-    })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::scene::procedural;
-    use std::path::Path;
-
-    #[test]
-    fn furnace_mesh_is_consistent() {
-        let d = procedural::furnace(0.5, 1.0);
-        let scene = d.build("f", Path::new(".")).unwrap();
-        let sizes = MeshSizes {
-            element_size: 0.125,
-            patch_size: 0.25,
-        };
-        let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
-        assert_eq!(mesh.n(), 6 * 64);
-        assert_eq!(mesh.k(), 6 * 16);
-        mesh.validate().unwrap();
-    }
-
-    #[test]
-    fn patch_smaller_than_element_makes_k_equal_n() {
-        let d = procedural::furnace(0.5, 1.0);
-        let scene = d.build("f", Path::new(".")).unwrap();
-        let sizes = MeshSizes {
-            element_size: 0.25,
-            patch_size: 0.1,
-        };
-        let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
-        assert_eq!(mesh.n(), mesh.k());
-        mesh.validate().unwrap();
-    }
 }

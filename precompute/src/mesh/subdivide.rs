@@ -3,7 +3,7 @@
 use glam::DVec3;
 
 use super::{Element, MeshSizes};
-use crate::formfactor::kernel::Polygon;
+use crate::geometry::Polygon;
 use crate::scene::Scene;
 
 /// Splits a node into children: quads 2×2 (or 1×2 along the long side when one side is at

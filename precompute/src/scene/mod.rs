@@ -17,7 +17,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use crate::error::{Error, Result};
-use crate::formfactor::kernel::Polygon;
+use crate::geometry::Polygon;
 
 /// A Lambertian material. `emission` is emitted *exitance* `E = π · Ke` (Ke: MTL radiance).
 #[derive(Debug, Clone, PartialEq)]

@@ -2,7 +2,7 @@
 
 use glam::DVec3;
 
-use crate::formfactor::kernel::{Polygon, area_vector};
+use crate::geometry::{Polygon, area_vector};
 
 /// Relative tolerance for planarity and degeneracy tests (scale-free: relative to edge lengths).
 const PLANAR_TOLERANCE: f64 = 1e-6;

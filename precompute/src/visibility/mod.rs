@@ -19,7 +19,7 @@ pub mod watertight;
 use glam::DVec3;
 
 use crate::error::{Error, Result};
-use crate::formfactor::kernel::Polygon;
+use crate::geometry::Polygon;
 use crate::scene::Scene;
 
 /// Which implementation answers the occlusion queries of a bake (`--visibility`).
@@ -236,7 +236,7 @@ pub(crate) mod fixtures {
     pub fn corner_segments(count: usize) -> impl Iterator<Item = (DVec3, DVec3)> {
         let mut state = 0x9e37_79b9u64;
         let mut next = move || {
-            state = crate::formfactor::sampling::mix(state);
+            state = crate::geometry::hash::mix(state);
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         (0..count).map(move |_| {

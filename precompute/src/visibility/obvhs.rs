@@ -242,7 +242,7 @@ mod tests {
         // epsilon is absolute.
         let mut state = 0x5eed_u64;
         let mut next = move || {
-            state = crate::formfactor::sampling::mix(state);
+            state = crate::geometry::hash::mix(state);
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         let mut failures = Vec::new();

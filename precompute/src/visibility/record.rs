@@ -14,9 +14,9 @@ use rayon::prelude::*;
 
 use super::{Occluder, Segment};
 use crate::bake::Prepared;
-use crate::formfactor::Target;
-use crate::formfactor::kernel::Polygon;
-use crate::formfactor::sampling::quadrature;
+use crate::geometry::Polygon;
+use crate::geometry::Region;
+use crate::geometry::sampling::quadrature;
 
 /// The rays of one element-target pair, as one `occluded_bundle` call received them.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -131,7 +131,7 @@ pub fn record(prepared: &Prepared, samples: u32, min_rays: usize) -> RaySet {
     };
     let ff = crate::formfactor::FormFactors::new(samples, Some(&recorder));
     let n = prepared.mesh.n();
-    let targets: Vec<Target> = prepared
+    let targets: Vec<Region> = prepared
         .mesh
         .patches
         .iter()
@@ -169,7 +169,8 @@ fn gcd(a: usize, b: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{MeshSizes, PatchMethod};
+    use crate::mesh::MeshSizes;
+    use crate::patches::PatchMethod;
     use crate::progress::Progress;
     use crate::visibility::Backend;
 

@@ -57,7 +57,7 @@ fn low_rank_against_exact_on_the_same_fine_mesh() {
     let low_rank = solve(&[]);
     assert_eq!(exact.len(), low_rank.len());
     assert!((1900..=4000).contains(&exact.len()), "n = {}", exact.len());
-    let error = lrr_precompute::reference::relative_l2(&low_rank, &exact);
+    let error = lrr_precompute::radiosity::relative_l2(&low_rank, &exact);
     println!(
         "n = {}, relative L2 error of the low-rank solution: {error:.4}",
         exact.len()

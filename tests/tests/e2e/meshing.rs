@@ -2,7 +2,7 @@
 //! against the exact solve on the same fine mesh.
 
 use crate::util::{bake, cornell, generated_scene, lrr, lrr_json, solve_elements, temp_dir};
-use lrr_precompute::reference::relative_l2;
+use lrr_precompute::radiosity::relative_l2;
 
 fn radiosity(scene: &std::path::Path, extra: &[&str]) -> Vec<[f64; 3]> {
     solve_elements(scene, extra)

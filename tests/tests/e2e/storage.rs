@@ -12,7 +12,7 @@ fn bake(dir: &std::path::Path, name: &str, scene: &std::path::Path, extra: &[&st
 
 fn relative_l2(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     let wide = |v: &[[f32; 3]]| v.iter().map(|x| x.map(f64::from)).collect::<Vec<_>>();
-    lrr_precompute::reference::relative_l2(&wide(a), &wide(b))
+    lrr_precompute::radiosity::relative_l2(&wide(a), &wide(b))
 }
 
 #[test]

@@ -19,103 +19,10 @@
 
 use glam::DVec3;
 
+use crate::geometry::Polygon;
+
 /// Most vertices a clipped polygon can have: a quad clipped by one plane gets at most 5.
 const MAX_CLIPPED: usize = 8;
-
-/// A planar convex polygon (3 or 4 vertices, counter-clockwise around `normal`), with the
-/// quantities the kernel needs precomputed.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Polygon {
-    pub vertices: [DVec3; 4],
-    pub count: usize,
-    pub normal: DVec3,
-    /// Length scale for tolerances: square root of the area.
-    pub scale: f64,
-}
-
-impl Polygon {
-    /// Builds a polygon from 3 or 4 vertices; the normal comes from the vertex order.
-    /// Returns `None` for a degenerate polygon (zero area) or a wrong vertex count.
-    pub fn new(vertices: &[DVec3]) -> Option<Self> {
-        if !(3..=4).contains(&vertices.len()) {
-            return None;
-        }
-        let area_vector = area_vector(vertices);
-        let twice_area = area_vector.length();
-        if twice_area.is_nan() || twice_area <= 0.0 || !twice_area.is_finite() {
-            return None;
-        }
-        let mut v = [DVec3::ZERO; 4];
-        v[..vertices.len()].copy_from_slice(vertices);
-        Some(Self {
-            vertices: v,
-            count: vertices.len(),
-            normal: area_vector / twice_area,
-            scale: (0.5 * twice_area).sqrt(),
-        })
-    }
-
-    pub fn vertices(&self) -> &[DVec3] {
-        &self.vertices[..self.count]
-    }
-
-    pub fn area(&self) -> f64 {
-        0.5 * area_vector(self.vertices()).length()
-    }
-
-    pub fn centroid(&self) -> DVec3 {
-        // Area-weighted centroid of the fan triangles (exact for any planar convex polygon).
-        let v = self.vertices();
-        let mut sum = DVec3::ZERO;
-        let mut weight = 0.0;
-        for i in 1..v.len() - 1 {
-            let a = 0.5 * (v[i] - v[0]).cross(v[i + 1] - v[0]).length();
-            sum += a * (v[0] + v[i] + v[i + 1]) / 3.0;
-            weight += a;
-        }
-        sum / weight
-    }
-
-    /// The size meshing compares with the element and patch sizes: the longest edge of a quad,
-    /// the second-longest edge of a triangle (so the two triangles of a split quad refine like
-    /// the quad, not like its diagonal; a sliver still refines along its length).
-    pub fn size(&self) -> f64 {
-        if self.count == 3 {
-            let v = self.vertices();
-            let mut e = [
-                (v[1] - v[0]).length(),
-                (v[2] - v[1]).length(),
-                (v[0] - v[2]).length(),
-            ];
-            e.sort_by(f64::total_cmp);
-            e[1]
-        } else {
-            self.max_edge()
-        }
-    }
-
-    /// Longest edge.
-    pub fn max_edge(&self) -> f64 {
-        let v = self.vertices();
-        (0..v.len())
-            .map(|i| (v[(i + 1) % v.len()] - v[i]).length())
-            .fold(0.0, f64::max)
-    }
-
-    /// Signed distance of `x` from the polygon's plane (positive in front).
-    pub fn height(&self, x: DVec3) -> f64 {
-        (x - self.vertices[0]).dot(self.normal)
-    }
-}
-
-/// Twice the area times the unit normal (Newell's method, robust for slightly non-planar input).
-pub fn area_vector(v: &[DVec3]) -> DVec3 {
-    let mut s = DVec3::ZERO;
-    for i in 0..v.len() {
-        s += v[i].cross(v[(i + 1) % v.len()]);
-    }
-    s
-}
 
 /// The form factor from a differential area at `x` (unit normal `n`) to the front of `p`.
 pub fn point_to_polygon(x: DVec3, n: DVec3, p: &Polygon) -> f64 {

@@ -57,13 +57,15 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::Patch;
 use super::cluster::{self, Unit};
-use super::subdivide::{self, Piece};
-use super::{Element, MeshSizes, Patch};
 use crate::error::Result;
-use crate::formfactor::Target;
-use crate::formfactor::kernel::{Polygon, point_to_polygon};
-use crate::formfactor::sampling::mix;
+use crate::formfactor::point::point_to_region;
+use crate::geometry::Polygon;
+use crate::geometry::Region;
+use crate::geometry::hash::mix;
+use crate::mesh::subdivide::{self, Piece};
+use crate::mesh::{Element, MeshSizes};
 use crate::visibility::Occluder;
 
 /// Visibility rays from a child's point to each probe.
@@ -92,7 +94,7 @@ pub enum Node {
 
 /// The probe patches (the 2MF patches at the patch size) and a coarse radiosity solve on them.
 pub struct Probes<'a> {
-    pub targets: Vec<Target>,
+    pub targets: Vec<Region>,
     /// Mean reflectance over the channels.
     pub reflectance: Vec<f64>,
     /// Estimated radiosity (mean over the channels): `(I - diag(ρ) F) B = E` on the probes.
@@ -108,7 +110,7 @@ impl<'a> Probes<'a> {
     /// Builds the probes and solves the coarse system with point-to-patch form factors from
     /// each probe's representative point (q² kernel sums, `q² · PROBE_RAYS` rays).
     pub fn new(
-        targets: Vec<Target>,
+        targets: Vec<Region>,
         reflectance: Vec<f64>,
         emission: Vec<f64>,
         occluder: Option<&'a dyn Occluder>,
@@ -130,13 +132,13 @@ impl<'a> Probes<'a> {
         });
         let rho: Vec<[f64; 3]> = probes.reflectance.iter().map(|&r| [r; 3]).collect();
         let e: Vec<[f64; 3]> = emission.iter().map(|&x| [x; 3]).collect();
-        let data = crate::reference::ElementData {
+        let data = crate::radiosity::ElementData {
             reflectance: &rho,
             emission: &e,
         };
-        let b = crate::reference::solve_dense(&f, &data)?;
+        let b = crate::radiosity::solve_dense(&f, &data)?;
         probes.radiosity = b.iter().map(|b| b[0]).collect();
-        let area: f64 = probes.targets.iter().map(Target::area).sum();
+        let area: f64 = probes.targets.iter().map(Region::area).sum();
         probes.total_area = area;
         probes.mean_radiosity = probes
             .targets
@@ -386,7 +388,7 @@ impl Ctx<'_> {
             } => {
                 let p = &self.pieces[*piece as usize];
                 let patch = Patch {
-                    shape: Target::single(*polygon),
+                    shape: Region::single(*polygon),
                     face: p.face,
                     surface: p.surface,
                 };
@@ -400,7 +402,7 @@ impl Ctx<'_> {
                     .map(|&p| (self.pieces[p].first, self.pieces[p].count))
                     .collect();
                 let patch = Patch {
-                    shape: Target::new(parts),
+                    shape: Region::new(parts),
                     face: p0.face,
                     surface: p0.surface,
                 };
@@ -414,59 +416,21 @@ impl Ctx<'_> {
 pub fn view(probes: &Probes, x: DVec3, normal: DVec3, out: &mut [f64]) {
     let seed = mix(x.x.to_bits() ^ mix(x.y.to_bits() ^ mix(x.z.to_bits())));
     for (j, (probe, out)) in probes.targets.iter().zip(out.iter_mut()).enumerate() {
-        let f: f64 = probe
-            .parts()
-            .iter()
-            .map(|part| point_to_polygon(x, normal, part))
-            .sum();
-        *out = 0.0;
-        if f <= 0.0 {
-            continue;
-        }
-        let visible = match probes.occluder {
-            None => 1.0,
-            Some(occ) => visible_fraction(occ, x, normal, probe, seed ^ j as u64),
-        };
-        *out = f * visible;
-    }
-}
-
-/// Kernel-weighted fraction of [`PROBE_RAYS`] unblocked segments from `x` to the probe.
-fn visible_fraction(occ: &dyn Occluder, x: DVec3, normal: DVec3, probe: &Target, seed: u64) -> f64 {
-    let (mut total, mut visible) = (0.0, 0.0);
-    for i in 0..PROBE_RAYS {
-        let (j, s) = probe.pair_point(i, seed);
-        let part_normal = probe.parts()[j].normal;
-        let d = s.point - x;
-        let (cos_x, cos_y) = (d.dot(normal), -d.dot(part_normal));
-        if cos_x <= 0.0 || cos_y <= 0.0 {
-            continue;
-        }
-        let r2 = d.length_squared();
-        let w = s.weight * cos_x * cos_y / (r2 * r2);
-        if !w.is_finite() {
-            continue;
-        }
-        total += w;
-        if !occ.occluded(x, normal, s.point, part_normal) {
-            visible += w;
-        }
-    }
-    if total > 0.0 {
-        return visible / total;
-    }
-    let t = probe.nearest_part(x);
-    if occ.occluded(x, normal, t.centroid(), t.normal) {
-        0.0
-    } else {
-        1.0
+        *out = point_to_region(
+            x,
+            normal,
+            probe,
+            probes.occluder,
+            PROBE_RAYS,
+            seed ^ j as u64,
+        );
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{Mesh, PatchMethod};
+    use crate::patches::{Mesh, PatchMethod};
     use crate::scene::{Scene, procedural};
     use crate::visibility::obvhs::ObvhsOccluder;
     use std::path::Path;

@@ -1,40 +1,24 @@
-//! Form-factor targets made of several convex polygons: the clustered patches of dense meshes.
-//!
-//! A patch built by clustering (see [`crate::mesh::cluster`]) is a union of the small input
-//! faces it groups, not one polygon. Form factors are additive over disjoint parts, so
-//!
-//! ```text
-//! F(e → T) = Σ_parts F_unoccluded(e → part) · visibility(e, T)
-//! ```
-//!
-//! with the closed-form kernel summed over the parts (exact, `S × parts` kernel evaluations per
-//! pair) and one kernel-weighted visibility fraction over the whole target: segment `i` ends on
-//! the part an area-proportional choice picks, so the rays sample the union uniformly by area.
-//! The rays of one pair are grouped by the part they land on and each group is answered by one
-//! [`Occluder::occluded_bundle`] call (a bundle is a coherent set between two polygons).
-//!
-//! A one-part target is handled by the single-polygon code of [`super::FormFactors::row`],
-//! unchanged: 2MF bakes of meshes without clusters give the same bytes as before targets had parts.
+//! Regions of a surface: one convex polygon, or the union of several (a patch built by
+//! clustering the small faces of a dense mesh), with area-proportional sample points.
 
 use glam::DVec3;
 
-use super::kernel::{Polygon, point_to_polygon};
-use super::sampling::{Sample, map_unit_square, mix, r2};
-use super::{Shape, faces_away, visible_fraction};
-use crate::visibility::Occluder;
+use super::Polygon;
+use super::hash::mix;
+use super::sampling::{Sample, map_unit_square, r2};
 
 /// A form-factor target: one convex polygon, or the union of several (a cluster patch).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Target {
+pub struct Region {
     parts: Vec<Polygon>,
     /// Running sums of the parts' areas (`parts.len() + 1` values from 0).
     cumulative: Vec<f64>,
 }
 
-impl Target {
-    /// A target from its parts (at least one; the parts must not overlap).
+impl Region {
+    /// A region from its parts (at least one; the parts must not overlap).
     pub fn new(parts: Vec<Polygon>) -> Self {
-        assert!(!parts.is_empty(), "a target has at least one part");
+        assert!(!parts.is_empty(), "a region has at least one part");
         let mut cumulative = Vec::with_capacity(parts.len() + 1);
         cumulative.push(0.0);
         let mut sum = 0.0;
@@ -53,7 +37,7 @@ impl Target {
         &self.parts
     }
 
-    /// The polygon when the target has exactly one part.
+    /// The polygon when the region has exactly one part.
     pub fn as_single(&self) -> Option<&Polygon> {
         match self.parts.as_slice() {
             [p] => Some(p),
@@ -114,44 +98,9 @@ impl Target {
     }
 }
 
-/// `F(e → target)` for a target of several parts, and the rays cast (`None` when every part
-/// faces away from `e`: a culled pair).
-pub fn multi_part(
-    occluder: Option<&dyn Occluder>,
-    e: &Polygon,
-    points: &[Sample],
-    target: &Target,
-    seed: u64,
-) -> Option<(f64, u64)> {
-    let mut unoccluded = 0.0;
-    let mut any = false;
-    for part in target.parts() {
-        if faces_away(e, part) {
-            continue;
-        }
-        any = true;
-        unoccluded += points
-            .iter()
-            .map(|s| s.weight * point_to_polygon(s.point, e.normal, part))
-            .sum::<f64>();
-    }
-    if !any {
-        return None;
-    }
-    if unoccluded <= 0.0 {
-        return Some((0.0, 0));
-    }
-    let Some(occ) = occluder else {
-        return Some((unoccluded, 0));
-    };
-    let (visible, rays) = visible_fraction(occ, e, Shape::Union(target), points, seed);
-    Some((unoccluded * visible, rays))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::formfactor::FormFactors;
 
     fn square(x0: f64, x1: f64, y0: f64, y1: f64, z: f64, down: bool) -> Polygon {
         let mut v = vec![
@@ -167,28 +116,8 @@ mod tests {
     }
 
     #[test]
-    fn parts_add_up_to_the_whole() {
-        // The unit square split into four quads (and one split into triangles) as a target
-        // must give the same factor as the whole square: the closed form is additive.
-        let e = square(0.0, 1.0, 0.0, 1.0, 0.0, false);
-        let whole = Target::single(square(0.0, 1.0, 0.0, 1.0, 1.0, true));
-        let quarters = Target::new(vec![
-            square(0.0, 0.5, 0.0, 0.5, 1.0, true),
-            square(0.5, 1.0, 0.0, 0.5, 1.0, true),
-            square(0.0, 0.5, 0.5, 1.0, 1.0, true),
-            square(0.5, 1.0, 0.5, 1.0, 1.0, true),
-        ]);
-        assert!((quarters.area() - 1.0).abs() < 1e-12);
-        let ff = FormFactors::new(400, None);
-        let mut out = [0.0; 2];
-        ff.matrix(&[e], &[0], &[whole, quarters], &mut out, &|_| {});
-        assert!((out[0] - 0.199825).abs() < 1e-4, "{}", out[0]);
-        assert!((out[1] - out[0]).abs() < 1e-12, "{} vs {}", out[1], out[0]);
-    }
-
-    #[test]
     fn pair_points_cover_parts_by_area() {
-        let t = Target::new(vec![
+        let t = Region::new(vec![
             square(0.0, 1.0, 0.0, 1.0, 0.0, false),
             square(2.0, 5.0, 0.0, 1.0, 0.0, false),
         ]);

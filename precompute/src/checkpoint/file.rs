@@ -166,7 +166,7 @@ fn read_record(bytes: &[u8], at: usize, shape: Shape) -> Option<(u64, Vec<f64>, 
 }
 
 /// The key of a bake: a hash of everything its form factors depend on.
-pub fn key(parts: &[&[u8]]) -> u64 {
+pub fn hash_parts(parts: &[&[u8]]) -> u64 {
     let mut all = Vec::new();
     for p in parts {
         all.extend_from_slice(&(p.len() as u64).to_le_bytes());

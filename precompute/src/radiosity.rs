@@ -1,56 +1,17 @@
-//! The exact reference (DESIGN.md §5): the full fine-mesh form-factor matrix `F` (n×n, the same
-//! kernel and visibility as the bake) and a dense LU solve of `(I - R F) B = E` per channel.
-//! Used by `lrr solve --exact` and by tests; practical up to n ≈ 10⁴ (memory 8n² bytes per
-//! matrix, checked before allocating).
+//! The dense radiosity system `(I − diag(ρ_c) F) B_c = E_c` (DESIGN.md §1), solved by LU per
+//! channel, and the relative error measure every comparison uses. Any square form-factor
+//! matrix will do: the exact n×n one ([`crate::exact`]) or 2MSC's coarse probe system
+//! ([`crate::patches::coherence`]).
 
 use faer::Mat;
 use faer::linalg::solvers::Solve;
 
 use crate::error::{Error, Result};
-use crate::formfactor::kernel::Polygon;
-use crate::formfactor::{FormFactors, Target};
-use crate::memory;
-use crate::mesh::Mesh;
-
-/// The exact solution, per element in original id order.
-pub struct ExactSolution {
-    pub radiosity: Vec<[f64; 3]>,
-    /// The n×n form-factor matrix (row-major, original ids), kept for checks.
-    pub form_factors: Vec<f64>,
-}
 
 /// Per-element reflectance and emission in original id order.
 pub struct ElementData<'a> {
     pub reflectance: &'a [[f64; 3]],
     pub emission: &'a [[f64; 3]],
-}
-
-/// Computes the full matrix and solves for every channel.
-pub fn solve_exact(
-    mesh: &Mesh,
-    data: &ElementData,
-    ff: &FormFactors,
-    max_memory: Option<u64>,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<ExactSolution> {
-    let n = mesh.n();
-    let bytes = (n as u128) * (n as u128) * 8 * 2;
-    memory::check_with(
-        bytes,
-        max_memory,
-        "the exact solve (two n×n f64 matrices)",
-        "use a larger --element-size",
-    )?;
-    let polygons: Vec<Polygon> = mesh.elements.iter().map(|e| e.polygon).collect();
-    let ids: Vec<u32> = (0..n as u32).collect();
-    let mut f = vec![0.0; n * n];
-    let targets: Vec<Target> = polygons.iter().map(|&p| Target::single(p)).collect();
-    ff.matrix(&polygons, &ids, &targets, &mut f, progress);
-    let radiosity = solve_dense(&f, data)?;
-    Ok(ExactSolution {
-        radiosity,
-        form_factors: f,
-    })
 }
 
 /// Solves `(I - diag(ρ_c) F) B_c = E_c` for c = r, g, b with dense LU.

@@ -12,7 +12,8 @@
 
 use glam::DVec3;
 
-use super::kernel::Polygon;
+use super::Polygon;
+use super::hash::mix;
 
 /// A quadrature point with its weight (weights of one element sum to 1).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -73,16 +74,8 @@ pub fn pair_point(polygon: &Polygon, i: u32, seed: u64) -> Sample {
     s
 }
 
-/// A 64-bit finaliser (SplitMix64) used to derive per-pair shifts.
-pub fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
 /// Maps (u, w) in the unit square onto the polygon; the weight is the local area density.
-pub(crate) fn map_unit_square(v: &[DVec3], u: f64, w: f64) -> Sample {
+pub fn map_unit_square(v: &[DVec3], u: f64, w: f64) -> Sample {
     if v.len() == 3 {
         // Fold the square onto the triangle: area-preserving.
         let (u, w) = if u + w > 1.0 {

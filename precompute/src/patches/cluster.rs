@@ -2,7 +2,7 @@
 //!
 //! A scanned statue or a finely tessellated prop is made of faces smaller than the patch size:
 //! the 2MF cut would make each face its own patch (`k ≈` number of faces). Such *small pieces*
-//! (pieces whose size is at most the patch size, see [`super::subdivide::is_small`]) are
+//! (pieces whose size is at most the patch size, see [`crate::mesh::subdivide::is_small`]) are
 //! instead grouped per surface by recursive bisection: a set is split in two at the median of
 //! its pieces' centroids along the longest axis of their bounding box, until
 //! - (2MF, [`by_size`]) the vertex bounding box of the set has no side longer than the patch
@@ -10,14 +10,14 @@
 //! - (2MSC, [`super::coherence`]) the set is spatially coherent (the same bisection gives the
 //!   children of a cluster node).
 //!
-//! A cluster patch is the union of its pieces (a [`crate::formfactor::Target`] of several
+//! A cluster patch is the union of its pieces (a [`crate::geometry::Region`] of several
 //! parts); it never spans two surfaces. Bisection is deterministic (ties broken by piece
 //! index) and costs O(m log² m) for m pieces. A lone small piece is its own patch, exactly as
 //! the 2MF cut made it, so scenes without dense parts mesh as they did before clustering.
 
 use glam::DVec3;
 
-use crate::formfactor::kernel::Polygon;
+use crate::geometry::Polygon;
 
 /// Largest angle between a piece's normal and its 2MF cluster's mean normal.
 pub const NORMAL_CONE_DEGREES: f64 = 45.0;

@@ -1,11 +1,15 @@
-//! From a bake to the operator file (lrr-formats), written atomically.
+//! From a bake to the operator file (lrr-formats): the sections, the metadata JSON, the light
+//! groups, the stored precision and layout, written atomically.
 
 use std::path::Path;
 
 use lrr_formats::{FkData, Geometry, Layout, OperatorData, OperatorFile, Precision};
 
+use serde::Serialize;
+
 use crate::bake::Baked;
 use crate::error::Result;
+use crate::patches::{Mesh, PatchMethod};
 
 /// Assembles the operator file of a bake (elements in file order).
 pub fn operator_file(b: &Baked) -> OperatorFile {
@@ -34,7 +38,7 @@ pub fn operator_file(b: &Baked) -> OperatorFile {
             .collect::<Vec<f32>>()
     };
     OperatorFile {
-        metadata_json: b.metadata_json(),
+        metadata_json: metadata_json(b),
         n: n as u32,
         k: b.k() as u32,
         channels: b.cores.channels as u32,
@@ -115,4 +119,78 @@ pub fn write(b: &Baked, path: &Path, storage: Storage) -> Result<OperatorFile> {
     let file = stored_file(b, storage)?;
     file.write(path)?;
     Ok(file)
+}
+
+/// What the file's metadata section holds (JSON). Only deterministic values: no timings, no
+/// thread count, so the same inputs give the same bytes.
+#[derive(Debug, Serialize)]
+pub struct Metadata<'a> {
+    pub generator: String,
+    pub scene: &'a str,
+    pub method: &'a str,
+    /// 2MSC only: `--threshold` and the `A_min` used (absent for 2MF, whose files stay as
+    /// they were before 2MSC existed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub threshold: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub min_patch_area: Option<f64>,
+    pub element_size: f64,
+    pub patch_size: f64,
+    pub samples: u32,
+    pub visibility: &'a str,
+    pub condition: &'a [f64],
+    /// Per named surface: ranges `[start, end)` of original element ids.
+    pub surfaces: Vec<SurfaceRanges>,
+}
+
+/// The elements of one named surface, as ranges of original element ids.
+#[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
+pub struct SurfaceRanges {
+    pub name: String,
+    pub elements: Vec<[u32; 2]>,
+}
+
+/// The metadata section's JSON ([`Metadata`]).
+pub fn metadata_json(b: &Baked) -> String {
+    let refinement = match b.method {
+        PatchMethod::TwoFixed => None,
+        PatchMethod::SpatialCoherence {
+            threshold,
+            min_patch_area,
+        } => crate::patches::refinement(b.sizes, threshold, min_patch_area).ok(),
+    };
+    let meta = Metadata {
+        generator: format!("lrr {}", env!("CARGO_PKG_VERSION")),
+        scene: &b.scene_name,
+        method: b.method.name(),
+        threshold: refinement.map(|r| r.threshold),
+        min_patch_area: refinement.map(|r| r.min_patch_area),
+        element_size: b.sizes.element_size,
+        patch_size: b.sizes.patch_size,
+        samples: b.samples,
+        visibility: b.visibility,
+        condition: &b.cores.condition,
+        surfaces: surface_ranges(&b.mesh, &b.surfaces),
+    };
+    serde_json::to_string(&meta).expect("metadata serialises")
+}
+
+/// Ranges of original element ids per surface (elements of a face are consecutive ids).
+pub fn surface_ranges(mesh: &Mesh, surfaces: &[String]) -> Vec<SurfaceRanges> {
+    let mut out: Vec<SurfaceRanges> = surfaces
+        .iter()
+        .map(|s| SurfaceRanges {
+            name: s.clone(),
+            elements: Vec::new(),
+        })
+        .collect();
+    for (id, e) in mesh.elements.iter().enumerate() {
+        let ranges = &mut out[e.surface as usize].elements;
+        let id = id as u32;
+        match ranges.last_mut() {
+            Some(r) if r[1] == id => r[1] = id + 1,
+            _ => ranges.push([id, id + 1]),
+        }
+    }
+    out
 }

@@ -1,0 +1,145 @@
+//! Checkpointed form-factor rows: `F_k` computed block by block, each block saved as soon as it
+//! is done ([`file`]), so `lrr bake --resume` continues a killed bake where it stopped and still
+//! writes the same bytes. A checkpoint carries a [`key`] of everything `F_k` depends on and is
+//! never applied to another bake.
+
+pub mod file;
+
+pub use file::{Checkpoint, path_for};
+
+use crate::error::Result;
+use crate::formfactor::FormFactors;
+use crate::geometry::Polygon;
+use crate::geometry::Region;
+use crate::memory;
+use crate::mesh::MeshSizes;
+use crate::patches::{Mesh, PatchMethod};
+use crate::progress::Progress;
+use crate::scene::Scene;
+
+/// Checkpointing of the form-factor rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckpointSettings {
+    pub path: std::path::PathBuf,
+    /// Continue from an existing checkpoint instead of starting over.
+    pub resume: bool,
+    /// Rows per checkpoint block (default: about 10⁶ element-patch-sample triples).
+    pub block_rows: Option<usize>,
+}
+
+/// What identifies a bake's `F_k` (see [`key`]).
+pub struct Identity<'a> {
+    pub scene: &'a Scene,
+    pub sizes: MeshSizes,
+    pub method: PatchMethod,
+    pub n: usize,
+    pub k: usize,
+    /// The visibility backend's name as the file's metadata records it.
+    pub visibility: &'a str,
+}
+
+/// `F_k`: element-to-patch form factors, n×k row-major in file order, computed in blocks
+/// of rows that are checkpointed when `checkpoint` is given. Returns the open checkpoint,
+/// which the caller removes once the output is safely written. `checkpoint` comes with the
+/// bake's [`key`].
+pub fn element_patch_matrix(
+    mesh: &Mesh,
+    ff: &FormFactors,
+    progress: &Progress,
+    max_memory: Option<u64>,
+    checkpoint: Option<(&CheckpointSettings, u64)>,
+) -> Result<(Vec<f64>, Option<Checkpoint>)> {
+    let (n, k) = (mesh.n(), mesh.k());
+    let bytes = (n as u128) * (k as u128) * 12;
+    memory::check_with(
+        bytes,
+        max_memory,
+        "the element-to-patch matrix",
+        "use a larger --element-size or --patch-size",
+    )?;
+    let rows: Vec<Polygon> = (0..n).map(|s| mesh.element_at(s).polygon).collect();
+    let targets: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
+    let mut fk = vec![0.0; n * k];
+    let stage = progress.stage("form factors", n as u64);
+    let block_rows = checkpoint
+        .and_then(|(c, _)| c.block_rows)
+        .unwrap_or_else(|| (1usize << 20) / (k.max(1) * ff.samples as usize))
+        .clamp(1, n.max(1));
+    let blocks = n.div_ceil(block_rows);
+    let mut done = vec![false; blocks];
+    let mut file = None;
+    if let Some((c, key)) = checkpoint {
+        let shape = file::Shape {
+            key,
+            n: n as u64,
+            k: k as u64,
+            block_rows: block_rows as u64,
+        };
+        file = Some(if c.resume {
+            let (f, saved) = Checkpoint::resume(&c.path, shape)?;
+            for (b, values) in saved {
+                let b = b as usize;
+                fk[b * block_rows * k..b * block_rows * k + values.len()].copy_from_slice(&values);
+                done[b] = true;
+                stage.inc((values.len() / k.max(1)) as u64);
+            }
+            f
+        } else {
+            Checkpoint::create(&c.path, shape)?
+        });
+    }
+    for b in (0..blocks).filter(|&b| !done[b]) {
+        let (r0, r1) = (b * block_rows, ((b + 1) * block_rows).min(n));
+        let out = &mut fk[r0 * k..r1 * k];
+        ff.matrix(&rows[r0..r1], &mesh.order[r0..r1], &targets, out, &|i| {
+            stage.inc(i)
+        });
+        if let Some(f) = &mut file {
+            f.append(b as u64, out)?;
+        }
+    }
+    stage.finish();
+    Ok((fk, file))
+}
+
+/// Key of everything `F_k` depends on: the scene's geometry, the mesh sizes and method,
+/// n, k, the samples, the lrr version and the visibility backend.
+pub fn key(bake: &Identity, samples: u32) -> u64 {
+    let mut geometry = Vec::with_capacity(bake.scene.faces.len() * 4 * 24);
+    for f in &bake.scene.faces {
+        for v in f.polygon.vertices() {
+            for c in v.to_array() {
+                geometry.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
+    let sizes = [
+        bake.sizes.element_size.to_le_bytes(),
+        bake.sizes.patch_size.to_le_bytes(),
+    ]
+    .concat();
+    let counts = [bake.n as u64, bake.k as u64, u64::from(samples)]
+        .map(u64::to_le_bytes)
+        .concat();
+    let method = match bake.method {
+        PatchMethod::TwoFixed => b"2mf".to_vec(),
+        PatchMethod::SpatialCoherence {
+            threshold,
+            min_patch_area,
+        } => [
+            b"2msc".to_vec(),
+            threshold.to_le_bytes().to_vec(),
+            min_patch_area.unwrap_or(-1.0).to_le_bytes().to_vec(),
+        ]
+        .concat(),
+    };
+    file::hash_parts(&[
+        &geometry,
+        &sizes,
+        &counts,
+        &method,
+        env!("CARGO_PKG_VERSION").as_bytes(),
+        // Backends agree on all but grazing rays: never mix their rows in one file.
+        bake.visibility.as_bytes(),
+    ])
+}

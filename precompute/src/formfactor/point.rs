@@ -1,0 +1,77 @@
+//! Point-to-region form factors with visibility: what a surface point sees of a patch.
+//!
+//! The closed-form kernel ([`super::contour`]) summed over the region's parts, times a
+//! kernel-weighted visible fraction of a few rays to area-proportional pair points on the
+//! region. 2MSC ([`crate::patches::coherence`]) describes a candidate patch by these factors
+//! from points inside it to a set of probe patches.
+
+use glam::DVec3;
+
+use super::contour::point_to_polygon;
+use crate::geometry::Region;
+use crate::visibility::Occluder;
+
+/// `F(x → region)` for a point `x` with unit `normal`, visibility from `rays` segments seeded
+/// by `seed` (`occluder` `None`: nothing occludes).
+pub fn point_to_region(
+    x: DVec3,
+    normal: DVec3,
+    region: &Region,
+    occluder: Option<&dyn Occluder>,
+    rays: u32,
+    seed: u64,
+) -> f64 {
+    let f: f64 = region
+        .parts()
+        .iter()
+        .map(|part| point_to_polygon(x, normal, part))
+        .sum();
+    if f <= 0.0 {
+        return 0.0;
+    }
+    let visible = match occluder {
+        None => 1.0,
+        Some(occ) => visible_fraction(occ, x, normal, region, rays, seed),
+    };
+    f * visible
+}
+
+/// Kernel-weighted fraction of `rays` unblocked segments from `x` to pair points on `probe`
+/// (seeded by `seed`); one centroid-to-centroid ray decides when every segment grazed.
+fn visible_fraction(
+    occ: &dyn Occluder,
+    x: DVec3,
+    normal: DVec3,
+    probe: &Region,
+    rays: u32,
+    seed: u64,
+) -> f64 {
+    let (mut total, mut visible) = (0.0, 0.0);
+    for i in 0..rays {
+        let (j, s) = probe.pair_point(i, seed);
+        let part_normal = probe.parts()[j].normal;
+        let d = s.point - x;
+        let (cos_x, cos_y) = (d.dot(normal), -d.dot(part_normal));
+        if cos_x <= 0.0 || cos_y <= 0.0 {
+            continue;
+        }
+        let r2 = d.length_squared();
+        let w = s.weight * cos_x * cos_y / (r2 * r2);
+        if !w.is_finite() {
+            continue;
+        }
+        total += w;
+        if !occ.occluded(x, normal, s.point, part_normal) {
+            visible += w;
+        }
+    }
+    if total > 0.0 {
+        return visible / total;
+    }
+    let t = probe.nearest_part(x);
+    if occ.occluded(x, normal, t.centroid(), t.normal) {
+        0.0
+    } else {
+        1.0
+    }
+}

@@ -1,0 +1,13 @@
+//! The floor every stage stands on: planar convex polygons, regions made of several of them,
+//! deterministic sample points on both, and the hash that seeds them.
+//!
+//! Nothing here knows about scenes, meshes, rays or form factors; every later stage (import,
+//! meshing, visibility, form factors, patches) uses these types.
+
+pub mod hash;
+pub mod polygon;
+pub mod region;
+pub mod sampling;
+
+pub use polygon::{Polygon, area_vector};
+pub use region::Region;
