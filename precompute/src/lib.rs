@@ -29,10 +29,8 @@
 // Indexed loops over RGB channels and matrix entries read like the maths they implement.
 #![allow(clippy::needless_range_loop)]
 
-pub mod accuracy;
 pub mod bake;
 pub mod checkpoint;
-pub mod cli;
 pub mod cores;
 pub mod error;
 pub mod exact;

@@ -72,12 +72,13 @@ fn bench_visibility_rows_cover_the_backends_embree_when_built() {
 #[cfg(feature = "embree")]
 mod embree {
     use super::util::{bake, cornell, lrr, temp_dir};
+    use lrr_cli::record::record;
     use lrr_precompute::bake::{DEFAULT_SAMPLES, Prepared};
-    use lrr_precompute::mesh::{MeshSizes, PatchMethod};
+    use lrr_precompute::mesh::MeshSizes;
+    use lrr_precompute::patches::PatchMethod;
     use lrr_precompute::progress::Progress;
     use lrr_precompute::scene::{Scene, procedural};
     use lrr_precompute::visibility::Backend;
-    use lrr_precompute::visibility::record::record;
 
     /// Largest share of rays on which the backends may differ. Embree decides in f32 what
     /// obvhs decides in f64: rays that graze a triangle's edge within f32 rounding (~1e-7

@@ -4,7 +4,8 @@
 //! answers the same queries through Embree 4 (`lrr bake --visibility embree`). A segment query
 //! asks whether anything blocks the open segment between two surface points: the faces the
 //! points lie on never count (nor coincident back faces), every other face does, at any scale.
-//! [`record`] captures the segments a bake casts, to compare backends on the same rays.
+//! The recorder of a bake's segments (to compare backends on the same rays) lives in the
+//! command line crate (`lrr_cli::record`).
 //!
 //! [`nothing_occludes`] detects scenes where no line of sight can be blocked (every face sees
 //! all others from its front: an empty convex room, two facing squares); those bakes cast no
@@ -13,7 +14,6 @@
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod obvhs;
-pub mod record;
 pub mod watertight;
 
 use glam::DVec3;
@@ -38,17 +38,6 @@ impl Backend {
         match self {
             Backend::Obvhs => "obvhs",
             Backend::Embree => "embree",
-        }
-    }
-
-    /// Parses a `--visibility` value.
-    pub fn parse(name: &str) -> Result<Self> {
-        match name {
-            "obvhs" => Ok(Backend::Obvhs),
-            "embree" => Ok(Backend::Embree),
-            other => Err(Error::Settings(format!(
-                "unknown visibility backend '{other}': use obvhs or embree"
-            ))),
         }
     }
 

@@ -4,7 +4,7 @@
 
 use std::collections::HashMap;
 
-use lrr_precompute::accuracy::analysis;
+use lrr_cli::sweep::analysis;
 
 use crate::util::{cornell, lrr, temp_dir};
 

@@ -1,5 +1,5 @@
 //! End-to-end tests across the crates: scene files in, `lrr` commands (run in-process through
-//! `lrr_precompute::cli::run`), operator files, the runtime.
+//! `lrr_cli::run`), operator files, the runtime.
 
 mod accuracy;
 mod analytic;

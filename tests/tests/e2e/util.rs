@@ -38,7 +38,7 @@ pub fn temp_dir(name: &str) -> PathBuf {
 pub fn lrr(args: &[&str]) -> Result<String, String> {
     let mut out = Vec::new();
     let argv = std::iter::once("lrr").chain(args.iter().copied());
-    match lrr_precompute::cli::run(argv, &mut out) {
+    match lrr_cli::run(argv, &mut out) {
         Ok(()) => Ok(String::from_utf8(out).unwrap()),
         Err(e) => Err(e
             .chain()

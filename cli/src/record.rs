@@ -12,11 +12,11 @@ use std::sync::Mutex;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{Occluder, Segment};
-use crate::bake::Prepared;
-use crate::geometry::Polygon;
-use crate::geometry::Region;
-use crate::geometry::sampling::quadrature;
+use lrr_precompute::bake::Prepared;
+use lrr_precompute::geometry::Polygon;
+use lrr_precompute::geometry::Region;
+use lrr_precompute::geometry::sampling::quadrature;
+use lrr_precompute::visibility::{Occluder, Segment};
 
 /// The rays of one element-target pair, as one `occluded_bundle` call received them.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -129,7 +129,7 @@ pub fn record(prepared: &Prepared, samples: u32, min_rays: usize) -> RaySet {
         inner: occ,
         set: Mutex::new(RaySet::default()),
     };
-    let ff = crate::formfactor::FormFactors::new(samples, Some(&recorder));
+    let ff = lrr_precompute::formfactor::FormFactors::new(samples, Some(&recorder));
     let n = prepared.mesh.n();
     let targets: Vec<Region> = prepared
         .mesh
@@ -169,16 +169,16 @@ fn gcd(a: usize, b: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::MeshSizes;
-    use crate::patches::PatchMethod;
-    use crate::progress::Progress;
-    use crate::visibility::Backend;
+    use lrr_precompute::mesh::MeshSizes;
+    use lrr_precompute::patches::PatchMethod;
+    use lrr_precompute::progress::Progress;
+    use lrr_precompute::visibility::Backend;
 
     #[test]
     fn recorded_rays_are_the_bakes_and_answers_replay() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../scenes/cornell-box/cornell-box.toml");
-        let scene = crate::scene::load(&path).unwrap();
+        let scene = lrr_precompute::scene::load(&path).unwrap();
         let sizes = MeshSizes::resolve(&scene, None, None).unwrap();
         let p = Prepared::new(
             &scene,

@@ -7,11 +7,11 @@ use anyhow::Result;
 use clap::Args;
 use serde::Serialize;
 
-use super::{MeshArgs, load_scene};
-use crate::bake::Prepared;
-use crate::mesh::MeshSizes;
-use crate::pool::with_threads;
-use crate::scene::Scene;
+use crate::{MeshArgs, load_scene};
+use lrr_precompute::bake::Prepared;
+use lrr_precompute::mesh::MeshSizes;
+use lrr_precompute::pool::with_threads;
+use lrr_precompute::scene::Scene;
 
 #[derive(Debug, Args)]
 pub struct ViewFactorsArgs {

@@ -24,7 +24,7 @@ pub enum BenchKind {
     Runtime(RuntimeBench),
     /// Occlusion rays/s of the visibility backends (Embree, obvhs, the default path) on the
     /// form-factor rays of the Cornell box and a cluttered room, one thread and all cores.
-    Visibility(super::bench_visibility::VisibilityBench),
+    Visibility(crate::bench_visibility::VisibilityBench),
 }
 
 #[derive(Debug, Args)]
@@ -87,7 +87,7 @@ pub struct Row {
 pub fn run(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
     let b = match &a.what {
         BenchKind::Runtime(b) => b,
-        BenchKind::Visibility(v) => return super::bench_visibility::run(v, out),
+        BenchKind::Visibility(v) => return crate::bench_visibility::run(v, out),
     };
     let threads = b
         .threads
@@ -161,19 +161,21 @@ fn parse_size(s: &str) -> Result<(usize, usize)> {
 fn cornell_operator() -> Result<Operator> {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../scenes/cornell-box/cornell-box.toml");
-    let scene = crate::scene::load(&path)?;
-    let baked = crate::bake::bake(
+    let scene = lrr_precompute::scene::load(&path)?;
+    let baked = lrr_precompute::bake::bake(
         &scene,
-        &crate::bake::BakeSettings::default(),
-        &crate::progress::Progress::hidden(),
+        &lrr_precompute::bake::BakeSettings::default(),
+        &lrr_precompute::progress::Progress::hidden(),
     )?;
-    Ok(Operator::from_file(crate::write::operator_file(&baked))?)
+    Ok(Operator::from_file(lrr_precompute::write::operator_file(
+        &baked,
+    ))?)
 }
 
 /// The same operator with F_k stored in another precision.
 fn recast(op: &Operator, p: Precision) -> Result<Operator> {
     let mut file = op.file().clone();
-    crate::write::store_matrix_as(&mut file, p);
+    lrr_precompute::write::store_matrix_as(&mut file, p);
     Ok(Operator::from_file(file)?)
 }
 

@@ -18,7 +18,7 @@ use plotters::prelude::*;
 use super::Row;
 use super::analysis;
 use super::report::user_error;
-use crate::error::{Error, Result};
+use lrr_precompute::error::{Error, Result};
 
 /// Where fonts are looked for when `LRR_FONT` is not set.
 pub const FONT_PATHS: [&str; 6] = [

@@ -2,7 +2,7 @@
 //! form-factor rays, measured side by side in one run.
 //!
 //! Per scene (the bundled Cornell box; the generated cluttered room), the rays a default bake
-//! casts are recorded once ([`crate::visibility::record`]), then answered by
+//! casts are recorded once ([`crate::record`]), then answered by
 //! - `embree`: Embree 4, one `rtcOccluded1` per ray (only in builds with the feature `embree`);
 //! - `obvhs`: the project's obvhs BVH, one [`Occluder::occluded`] per ray;
 //! - `default`: the occluder a plain bake builds, through [`Occluder::occluded_bundle`] per
@@ -20,14 +20,14 @@ use clap::Args;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::bake::{DEFAULT_SAMPLES, Prepared};
-use crate::mesh::MeshSizes;
-use crate::patches::PatchMethod;
-use crate::pool::with_threads;
-use crate::progress::Progress;
-use crate::scene::{Scene, procedural};
-use crate::visibility::record::{RaySet, record};
-use crate::visibility::{Backend, Occluder, obvhs::ObvhsOccluder};
+use crate::record::{RaySet, record};
+use lrr_precompute::bake::{DEFAULT_SAMPLES, Prepared};
+use lrr_precompute::mesh::MeshSizes;
+use lrr_precompute::patches::PatchMethod;
+use lrr_precompute::pool::with_threads;
+use lrr_precompute::progress::Progress;
+use lrr_precompute::scene::{Scene, procedural};
+use lrr_precompute::visibility::{Backend, Occluder, obvhs::ObvhsOccluder};
 
 #[derive(Debug, Args)]
 pub struct VisibilityBench {
@@ -109,10 +109,10 @@ fn load(name: &str) -> Result<Scene> {
         "cornell" => {
             let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
                 .join("../scenes/cornell-box/cornell-box.toml");
-            crate::scene::load(&path)?
+            lrr_precompute::scene::load(&path)?
         }
         "cluttered" => procedural::cluttered(4, 1).build("cluttered", std::path::Path::new("."))?,
-        path => crate::scene::load(std::path::Path::new(path)).with_context(|| {
+        path => lrr_precompute::scene::load(std::path::Path::new(path)).with_context(|| {
             format!("--scenes: '{path}' is neither cornell, cluttered nor a scene file")
         })?,
     })

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 
-use crate::scene::procedural;
+use lrr_precompute::scene::procedural;
 
 #[derive(Debug, Args)]
 pub struct SceneArgs {

@@ -9,11 +9,11 @@ use anyhow::{Context, Result};
 use clap::Args;
 use serde::Serialize;
 
-use super::{MeshArgs, load_scene, summary};
-use crate::bake::bake;
-use crate::checkpoint;
-use crate::checkpoint::CheckpointSettings;
-use crate::write;
+use crate::{MeshArgs, load_scene, summary};
+use lrr_precompute::bake::bake;
+use lrr_precompute::checkpoint;
+use lrr_precompute::checkpoint::CheckpointSettings;
+use lrr_precompute::write;
 
 #[derive(Debug, Args)]
 pub struct BakeArgs {

@@ -8,7 +8,7 @@ use clap::Args;
 use lrr_formats::Precision;
 use lrr_runtime::Operator;
 
-use super::summary;
+use crate::summary;
 
 #[derive(Debug, Args)]
 pub struct InfoArgs {

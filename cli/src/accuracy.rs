@@ -6,8 +6,8 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 
-use super::load_scene;
-use crate::accuracy::{self, FrameTiming, PlanOptions, plot, report};
+use crate::load_scene;
+use crate::sweep::{self, FrameTiming, PlanOptions, plot, report};
 
 /// Default 2MSC thresholds of the full sweep (smaller: more patches).
 pub const FULL_THRESHOLDS: [f64; 7] = [3e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5];
@@ -71,7 +71,7 @@ pub struct AccuracyArgs {
 }
 
 impl AccuracyArgs {
-    fn options(&self, scene: &crate::scene::Scene) -> PlanOptions {
+    fn options(&self, scene: &lrr_precompute::scene::Scene) -> PlanOptions {
         let mut o = if self.quick {
             PlanOptions::quick(scene, &QUICK_THRESHOLDS)
         } else {
@@ -175,7 +175,7 @@ pub fn run(a: &AccuracyArgs, out: &mut dyn Write) -> Result<()> {
         }
     };
     log(&format!("{} bakes to run", plan.points.len()));
-    let rows = accuracy::run(&scene, &plan, a.threads, timing, &mut log)?;
+    let rows = sweep::run(&scene, &plan, a.threads, timing, &mut log)?;
     if let Some(path) = &a.csv {
         lrr_formats::write_atomic(path, report::csv(&rows).as_bytes())
             .with_context(|| format!("writing the CSV {}", path.display()))?;

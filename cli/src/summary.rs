@@ -5,7 +5,7 @@ use std::io::Write;
 use anyhow::Result;
 use serde::Serialize;
 
-use crate::write::SurfaceRanges;
+use lrr_precompute::write::SurfaceRanges;
 use lrr_runtime::Operator;
 
 #[derive(Debug, Clone, Serialize)]

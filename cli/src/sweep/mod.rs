@@ -4,7 +4,7 @@
 //!
 //! - `rel_error`: relative L2 error of the runtime's `B~` against the exact solve of
 //!   `(I - R F) B = E` on the same fine mesh with the same samples per pair
-//!   ([`crate::reference`]). It isolates the low-rank error: at `k = n` (a 2MF bake whose
+//!   ([`lrr_precompute::exact`]). It isolates the low-rank error: at `k = n` (a 2MF bake whose
 //!   patches are its elements) `F_k` is `F` pair for pair (same seeds) and only f32/f16
 //!   rounding is left.
 //! - `rel_error_ref`: the same against an exact solve with `ref_samples` samples per pair, so
@@ -28,18 +28,18 @@ use std::time::Instant;
 
 use lrr_runtime::{Operator, Precision, Rgb, RgbMut};
 
-use crate::bake::{BakeSettings, Prepared, bake};
-use crate::error::{Error, Result};
-use crate::exact::solve_exact;
-use crate::geometry::Polygon;
-use crate::mesh::MeshSizes;
-use crate::patches::PatchMethod;
-use crate::pool::with_threads;
-use crate::progress::Progress;
-use crate::radiosity::{ElementData, relative_l2};
-use crate::scene::Scene;
-use crate::visibility::Backend;
-use crate::write::{operator_file, store_matrix_as};
+use lrr_precompute::bake::{BakeSettings, Prepared, bake};
+use lrr_precompute::error::{Error, Result};
+use lrr_precompute::exact::solve_exact;
+use lrr_precompute::geometry::Polygon;
+use lrr_precompute::mesh::MeshSizes;
+use lrr_precompute::patches::PatchMethod;
+use lrr_precompute::pool::with_threads;
+use lrr_precompute::progress::Progress;
+use lrr_precompute::radiosity::{ElementData, relative_l2};
+use lrr_precompute::scene::Scene;
+use lrr_precompute::visibility::Backend;
+use lrr_precompute::write::{operator_file, store_matrix_as};
 
 pub use plan::{Plan, PlanOptions};
 

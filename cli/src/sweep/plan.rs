@@ -5,10 +5,10 @@
 //! probed at the middle patch size and threshold only (they cost as much as the main curve
 //! each), the other element sizes (fine-mesh sizes `n`) over every patch size and threshold.
 
-use crate::bake::BakeSettings;
-use crate::error::{Error, Result};
-use crate::patches::PatchMethod;
-use crate::scene::Scene;
+use lrr_precompute::bake::BakeSettings;
+use lrr_precompute::error::{Error, Result};
+use lrr_precompute::patches::PatchMethod;
+use lrr_precompute::scene::Scene;
 
 /// The axes of a sweep, in absolute units.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,5 +1,14 @@
-//! The `lrr` command line (clap). [`run`] takes the arguments and an output stream so tests
-//! can call every command in-process; `main.rs` only prints the error chain and sets the exit code.
+//! # lrr-cli: the `lrr` command line
+//!
+//! A thin binary over the bake library ([`lrr_precompute`]) and the runtime ([`lrr_runtime`]):
+//! one file per command, parsed with clap. [`run`] takes the arguments and an output stream so
+//! tests can call every command in-process; `main.rs` only prints the error chain and sets the
+//! exit code. What only the command line needs lives here, not in the library: the accuracy
+//! sweep and its plots ([`sweep`], plotters), the benchmarks, and the recorder of bake rays
+//! ([`record`]).
+
+// Indexed loops over RGB channels read like the maths they implement.
+#![allow(clippy::needless_range_loop)]
 
 mod accuracy;
 mod bake;
@@ -7,9 +16,11 @@ mod bench;
 mod bench_visibility;
 mod info;
 mod probe;
+pub mod record;
 mod scene;
 mod solve;
 mod summary;
+pub mod sweep;
 mod view_factors;
 
 use std::ffi::OsString;
@@ -18,14 +29,10 @@ use std::io::Write;
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
-use crate::bake::{BakeSettings, DEFAULT_SAMPLES};
-use crate::patches::PatchMethod;
-
-/// Default 2MSC threshold (`--threshold`): the largest estimated share of the scene's
-/// reflected power a patch may get wrong. On the Cornell box it gives k = 154 at a relative
-/// L2 error of 0.0015 against the exact solve, where 2MF's default gives k = 242 at 0.0018
-/// (docs/MESHING.md).
-pub const DEFAULT_COHERENCE_THRESHOLD: f64 = 1e-4;
+use lrr_precompute::bake::{BakeSettings, DEFAULT_SAMPLES};
+use lrr_precompute::patches::PatchMethod;
+use lrr_precompute::patches::coherence::DEFAULT_THRESHOLD as DEFAULT_COHERENCE_THRESHOLD;
+use lrr_precompute::visibility::Backend;
 
 /// lrr: low-rank radiosity. Bake a lighting operator from a scene, inspect it, probe it.
 #[derive(Debug, Parser)]
@@ -73,8 +80,8 @@ pub struct MeshArgs {
     pub patch_size: Option<f64>,
     /// How patches are built: `2mf` (uniform cut at the patch size) or `2msc` (adaptive:
     /// split while a patch lacks spatial coherence; `k` is an output).
-    #[arg(long, value_name = "METHOD", default_value = "2mf", value_parser = ["2mf", "2msc"])]
-    pub method: String,
+    #[arg(long, value_name = "METHOD", value_enum, default_value_t = MethodArg::TwoFixed)]
+    pub method: MethodArg,
     /// 2MSC: largest estimated error share of a patch (docs/MESHING.md); smaller gives more
     /// patches.
     #[arg(long, value_name = "T", default_value_t = DEFAULT_COHERENCE_THRESHOLD)]
@@ -88,8 +95,8 @@ pub struct MeshArgs {
     pub samples: u32,
     /// Occlusion backend: `obvhs` (pure Rust, exact f64 triangle test) or `embree` (Embree 4,
     /// builds with the cargo feature `embree` only; see scripts/setup-embree.sh).
-    #[arg(long, value_name = "BACKEND", default_value = "obvhs", value_parser = ["obvhs", "embree"])]
-    pub visibility: String,
+    #[arg(long, value_name = "BACKEND", value_enum, default_value_t = VisibilityArg::Obvhs)]
+    pub visibility: VisibilityArg,
     /// Worker threads [default: all cores]. Results do not depend on it.
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
@@ -100,6 +107,35 @@ pub struct MeshArgs {
     /// No progress bars.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+/// `--method`: how patches are built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MethodArg {
+    /// Two fixed meshes: the uniform cut at the patch size.
+    #[value(name = "2mf")]
+    TwoFixed,
+    /// Two meshes with spatial coherence: adaptive patches, `k` is an output.
+    #[value(name = "2msc")]
+    SpatialCoherence,
+}
+
+/// `--visibility`: which occlusion backend a bake builds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum VisibilityArg {
+    /// The pure-Rust BVH (obvhs) with the exact f64 triangle test.
+    Obvhs,
+    /// Embree 4 (cargo feature `embree`).
+    Embree,
+}
+
+impl From<VisibilityArg> for Backend {
+    fn from(v: VisibilityArg) -> Self {
+        match v {
+            VisibilityArg::Obvhs => Backend::Obvhs,
+            VisibilityArg::Embree => Backend::Embree,
+        }
+    }
 }
 
 /// Parses "1000", "512M", "2G" (binary multiples).
@@ -129,7 +165,7 @@ impl MeshArgs {
             patch_size: self.patch_size,
             method: self.method(),
             samples: self.samples,
-            visibility: crate::visibility::Backend::parse(&self.visibility).unwrap_or_default(),
+            visibility: self.visibility.into(),
             threads: self.threads,
             max_memory: self.max_memory,
             checkpoint: None,
@@ -138,18 +174,18 @@ impl MeshArgs {
 
     /// The patch method the flags name.
     pub fn method(&self) -> PatchMethod {
-        match self.method.as_str() {
-            "2msc" => PatchMethod::SpatialCoherence {
+        match self.method {
+            MethodArg::SpatialCoherence => PatchMethod::SpatialCoherence {
                 threshold: self.threshold,
                 min_patch_area: self.min_patch_area,
             },
-            _ => PatchMethod::TwoFixed,
+            MethodArg::TwoFixed => PatchMethod::TwoFixed,
         }
     }
 
-    pub fn progress(&self) -> crate::progress::Progress {
+    pub fn progress(&self) -> lrr_precompute::progress::Progress {
         use std::io::IsTerminal;
-        crate::progress::Progress::new(!self.quiet && std::io::stderr().is_terminal())
+        lrr_precompute::progress::Progress::new(!self.quiet && std::io::stderr().is_terminal())
     }
 }
 
@@ -185,8 +221,8 @@ where
 }
 
 /// Loads a scene, printing its import warnings to stderr.
-pub fn load_scene(path: &std::path::Path) -> Result<crate::scene::Scene> {
-    let scene = crate::scene::load(path)?;
+pub fn load_scene(path: &std::path::Path) -> Result<lrr_precompute::scene::Scene> {
+    let scene = lrr_precompute::scene::load(path)?;
     for w in &scene.warnings {
         eprintln!("lrr: warning: {w}");
     }

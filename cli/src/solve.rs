@@ -7,14 +7,14 @@ use anyhow::Result;
 use clap::Args;
 use serde::Serialize;
 
-use super::{MeshArgs, load_scene};
-use crate::bake::{Prepared, bake};
-use crate::exact::solve_exact;
-use crate::mesh::MeshSizes;
-use crate::patches::PatchMethod;
-use crate::pool::with_threads;
-use crate::radiosity::ElementData;
-use crate::scene::Scene;
+use crate::{MeshArgs, load_scene};
+use lrr_precompute::bake::{Prepared, bake};
+use lrr_precompute::exact::solve_exact;
+use lrr_precompute::mesh::MeshSizes;
+use lrr_precompute::patches::PatchMethod;
+use lrr_precompute::pool::with_threads;
+use lrr_precompute::radiosity::ElementData;
+use lrr_precompute::scene::Scene;
 
 #[derive(Debug, Args)]
 pub struct SolveArgs {
@@ -85,7 +85,7 @@ pub fn solve(scene: &Scene, a: &MeshArgs, exact: bool) -> Result<Solution> {
         })??
     } else {
         let baked = bake(scene, &settings, &progress)?;
-        let op = lrr_runtime::Operator::from_file(crate::write::operator_file(&baked))?;
+        let op = lrr_runtime::Operator::from_file(lrr_precompute::write::operator_file(&baked))?;
         let b = op.evaluate_baked();
         let b = b.iter().map(|x| x.map(f64::from)).collect();
         (baked.mesh, b, "low-rank")
