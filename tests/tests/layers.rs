@@ -28,7 +28,6 @@ use std::fs;
 use std::path::Path;
 
 #[test]
-#[ignore = "enabled once the #12 restructuring lands"]
 fn no_cycles_and_no_upward_imports() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let doc = fs::read_to_string(root.join("ARCHITECTURE.md")).expect("ARCHITECTURE.md");

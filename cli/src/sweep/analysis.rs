@@ -1,7 +1,7 @@
 //! What the sweep's rows say: the Pareto front of cost against error, the error curve of each
 //! method over `k`, and the `k` each method needs at equal error (log-log interpolation).
 
-use super::Row;
+use super::row::Row;
 
 pub fn median(mut v: Vec<f64>) -> f64 {
     if v.is_empty() {

@@ -15,9 +15,9 @@ use std::sync::OnceLock;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::Row;
 use super::analysis;
 use super::report::user_error;
+use super::row::Row;
 use lrr_precompute::error::{Error, Result};
 
 /// Where fonts are looked for when `LRR_FONT` is not set.

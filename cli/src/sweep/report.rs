@@ -3,8 +3,8 @@
 
 use std::fmt::Write as _;
 
-use super::Row;
 use super::analysis::{self, CurveKey};
+use super::row::Row;
 
 /// CSV columns, in order (the first eight are the ones the issue asks for).
 pub const COLUMNS: [&str; 19] = [

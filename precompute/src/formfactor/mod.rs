@@ -4,9 +4,9 @@
 //! - `F_unoccluded = Σ_s w_s F(x_s → t)`: quadrature over `S` points `x_s` of the element of
 //!   the closed-form point-to-polygon kernel ([`kernel`]), exact for touching polygons;
 //! - `visibility` is the kernel-weighted fraction of `S` segments `x_s → y_s` (with `y_s` on
-//!   the target, [`sampling::pair_point`]) that nothing blocks. Segments whose ends cannot
+//!   the target, [`crate::geometry::sampling::pair_point`]) that nothing blocks. Segments whose ends cannot
 //!   exchange light (one behind the other's tangent plane) are not counted. Pairs found
-//!   partly visible get [`ADAPTIVE_FACTOR`] times more rays: only they carry sampling noise.
+//!   partly visible get [`visible::ADAPTIVE_FACTOR`] times more rays: only they carry sampling noise.
 //!
 //! Pairs that face away from each other cost neither kernel evaluations nor rays; when no
 //! occluder exists ([`crate::visibility::nothing_occludes`]) no rays are cast at all.
@@ -16,17 +16,18 @@
 pub mod contour;
 pub mod point;
 pub mod union;
+pub mod visible;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::geometry::Polygon;
 use crate::geometry::Region;
-use crate::geometry::sampling::{Sample, pair_point, quadrature};
-use crate::visibility::{Occluder, Segment};
+use crate::geometry::sampling::{Sample, quadrature};
+use crate::visibility::Occluder;
 use contour::point_to_polygon;
+use visible::{Shape, faces_away, visible_fraction};
 
 /// Counters of one form-factor pass.
 #[derive(Debug, Default)]
@@ -144,146 +145,10 @@ impl<'a> FormFactors<'a> {
     }
 }
 
-/// True when the pair cannot exchange light: the target lies entirely behind (or in) the
-/// element's plane, or the element entirely behind (or in) the target's plane.
-pub(crate) fn faces_away(e: &Polygon, t: &Polygon) -> bool {
-    let eps_t = 1e-12 * t.scale;
-    let eps_e = 1e-12 * e.scale;
-    t.vertices().iter().all(|v| e.height(*v) <= eps_e)
-        || e.vertices().iter().all(|v| t.height(*v) <= eps_t)
-}
-
-/// Kernel-weighted fraction of unblocked segments between the element's points and
-/// pair-specific points on the target, and the number of rays cast.
-///
-/// Each segment is weighted by the point-to-point kernel `cos θx cos θy / r²`, so the ratio
-/// converges to `∫∫ K V / ∫∫ K`, the visibility that multiplies the exact unoccluded factor.
-/// An unweighted fraction (tried first) converges to the *area*-weighted visibility instead:
-/// biased by ~1% on Cornell-box surface pairs at any sample count, which broke reciprocity.
-pub(crate) fn visible_fraction(
-    occ: &dyn Occluder,
-    e: &Polygon,
-    t: Shape<'_>,
-    points: &[Sample],
-    seed: u64,
-) -> (f64, u64) {
-    let mut acc = Visibility::default();
-    let first = points.len() as u32;
-    acc.cast(occ, e, t, points, seed, 0..first);
-    if acc.visible > 0.0 && acc.visible < acc.total {
-        // A shadow boundary crosses the pair: binary visibility is noisy here, so refine.
-        acc.cast(occ, e, t, points, seed, first..first * ADAPTIVE_FACTOR);
-    }
-    if acc.total <= 0.0 {
-        // Every sampled segment was grazing: fall back to one ray between the element's
-        // centroid and that of the (nearest part of the) target.
-        let t = t.nearest_part(e.centroid());
-        let blocked = occ.occluded(e.centroid(), e.normal, t.centroid(), t.normal);
-        return (if blocked { 0.0 } else { 1.0 }, acc.rays + 1);
-    }
-    (acc.visible / acc.total, acc.rays)
-}
-
-/// Rays per pair, as a multiple of `--samples`, where a pair is partly visible after the first
-/// `--samples` rays. Only pairs crossed by a shadow boundary pay for it (measured on the
-/// Cornell box: 16× there cut the surface-level reciprocity error from 0.5% to ~0.1% for
-/// about twice the rays).
-pub const ADAPTIVE_FACTOR: u32 = 16;
-
-/// Where a target's pair points lie: one polygon ([`pair_point`]), or a union of parts
-/// ([`Region::pair_point`], parts chosen by area).
-#[derive(Clone, Copy)]
-pub(crate) enum Shape<'a> {
-    One(&'a Polygon),
-    Union(&'a Region),
-}
-
-impl Shape<'_> {
-    fn part(&self, j: usize) -> &Polygon {
-        match self {
-            Shape::One(t) => t,
-            Shape::Union(t) => &t.parts()[j],
-        }
-    }
-
-    /// The `i`-th pair point and the index of the part it lies on.
-    fn pair_point(&self, i: u32, seed: u64) -> (usize, Sample) {
-        match self {
-            Shape::One(t) => (0, pair_point(t, i, seed)),
-            Shape::Union(t) => t.pair_point(i, seed),
-        }
-    }
-
-    fn nearest_part(&self, x: DVec3) -> &Polygon {
-        match self {
-            Shape::One(t) => t,
-            Shape::Union(t) => t.nearest_part(x),
-        }
-    }
-}
-
-#[derive(Default)]
-struct Visibility {
-    total: f64,
-    visible: f64,
-    rays: u64,
-}
-
-impl Visibility {
-    /// Casts rays `i` in `range`: from quadrature point `i mod S` to the `i`-th pair point,
-    /// answered per part by one bundle each (parts in order, rays in order within a part).
-    fn cast(
-        &mut self,
-        occ: &dyn Occluder,
-        e: &Polygon,
-        t: Shape<'_>,
-        points: &[Sample],
-        seed: u64,
-        range: std::ops::Range<u32>,
-    ) {
-        let mut rays: Vec<(usize, Segment, f64)> = Vec::with_capacity(range.len());
-        for i in range {
-            let s = &points[i as usize % points.len()];
-            let (j, far) = t.pair_point(i, seed);
-            let d = far.point - s.point;
-            let cos_x = d.dot(e.normal);
-            let cos_y = -d.dot(t.part(j).normal);
-            if cos_x <= 0.0 || cos_y <= 0.0 {
-                continue; // this pair of points exchanges no light
-            }
-            let r2 = d.length_squared();
-            let weight = s.weight * far.weight * cos_x * cos_y / (r2 * r2);
-            if !weight.is_finite() {
-                continue;
-            }
-            let segment = Segment {
-                from: s.point,
-                to: far.point,
-            };
-            rays.push((j, segment, weight));
-        }
-        rays.sort_by_key(|&(j, _, _)| j); // stable: ray order kept within a part
-        let (mut segments, mut blocked) = (Vec::new(), Vec::new());
-        for group in rays.chunk_by(|a, b| a.0 == b.0) {
-            segments.clear();
-            segments.extend(group.iter().map(|g| g.1));
-            blocked.clear();
-            blocked.resize(segments.len(), false);
-            occ.occluded_bundle(e, t.part(group[0].0), &segments, &mut blocked);
-            self.rays += segments.len() as u64;
-            for ((_, _, w), b) in group.iter().zip(&blocked) {
-                self.total += w;
-                if !b {
-                    self.visible += w;
-                }
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
 
     fn unit_square(z: f64, down: bool) -> Polygon {
         let mut v = vec![

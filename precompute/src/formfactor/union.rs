@@ -19,7 +19,7 @@
 use crate::geometry::Region;
 
 use super::contour::point_to_polygon;
-use super::{Shape, faces_away, visible_fraction};
+use super::visible::{Shape, faces_away, visible_fraction};
 use crate::geometry::Polygon;
 use crate::geometry::sampling::Sample;
 use crate::visibility::Occluder;

@@ -10,67 +10,17 @@
 //! Elements are numbered in generation order (depth-first, face by face): that is the
 //! *original element id* every output reports.
 
+pub mod element;
 pub mod imprint;
 pub mod subdivide;
 
 use crate::error::{Error, Result};
-use crate::geometry::Polygon;
 use crate::scene::Scene;
 
+pub use element::{
+    DEFAULT_ELEMENT_FRACTION, DEFAULT_PATCH_FRACTION, Element, MAX_ELEMENTS, MeshSizes,
+};
 pub use subdivide::estimate_elements;
-
-/// A fine-mesh element.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Element {
-    pub polygon: Polygon,
-    /// Index of the scene face it came from.
-    pub face: u32,
-    pub surface: u32,
-    pub patch: u32,
-}
-
-/// Mesh sizes, absolute lengths in scene units.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MeshSizes {
-    pub element_size: f64,
-    pub patch_size: f64,
-}
-
-/// Default sizes as fractions of the scene's bounding-box diagonal, so a scaled scene meshes
-/// identically. For the Cornell box (diagonal ≈ 961 mm) they give n = 1 920 elements, k = 128.
-pub const DEFAULT_ELEMENT_FRACTION: f64 = 1.0 / 20.0;
-pub const DEFAULT_PATCH_FRACTION: f64 = 1.0 / 6.0;
-
-/// Most elements a bake may create before meshing is refused.
-pub const MAX_ELEMENTS: usize = 20_000_000;
-
-impl MeshSizes {
-    /// Explicit sizes win over the scene's hints, which win over the relative defaults.
-    pub fn resolve(
-        scene: &Scene,
-        element_size: Option<f64>,
-        patch_size: Option<f64>,
-    ) -> Result<Self> {
-        let extent = scene.extent();
-        let element_size = element_size
-            .or(scene.hints.element_size)
-            .unwrap_or(extent * DEFAULT_ELEMENT_FRACTION);
-        let patch_size = patch_size
-            .or(scene.hints.patch_size)
-            .unwrap_or(extent * DEFAULT_PATCH_FRACTION);
-        for (name, v) in [("element size", element_size), ("patch size", patch_size)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(Error::Settings(format!(
-                    "the {name} must be a positive length, got {v}"
-                )));
-            }
-        }
-        Ok(Self {
-            element_size,
-            patch_size,
-        })
-    }
-}
 
 /// The fine mesh (independent of the patch method), refused when it would be too large.
 pub fn fine_mesh(scene: &Scene, sizes: MeshSizes) -> Result<(Vec<Element>, Vec<subdivide::Piece>)> {

@@ -2,7 +2,7 @@
 
 use glam::DVec3;
 
-use super::{Element, MeshSizes};
+use super::element::{Element, MeshSizes};
 use crate::geometry::Polygon;
 use crate::scene::Scene;
 

@@ -57,8 +57,8 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::Patch;
 use super::cluster::{self, Unit};
+use super::patch::Patch;
 use crate::error::Result;
 use crate::formfactor::point::point_to_region;
 use crate::geometry::Polygon;

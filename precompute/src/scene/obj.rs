@@ -11,7 +11,7 @@ use std::path::Path;
 
 use glam::DVec3;
 
-use super::{Material, Scene};
+use super::model::{Material, Scene};
 use crate::error::{Error, Result};
 
 /// Reflectance used for faces without a material (with a warning).

@@ -34,10 +34,10 @@ use std::ptr::null_mut;
 use embree4_sys as sys;
 use glam::DVec3;
 
-use super::watertight::ShearedRay;
-use super::{
+use super::occluder::{
     Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, own_face, relative_segment, triangle_plane,
 };
+use super::watertight::ShearedRay;
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 

@@ -14,13 +14,13 @@
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod obvhs;
+pub mod occluder;
 pub mod watertight;
 
-use glam::DVec3;
-
 use crate::error::{Error, Result};
-use crate::geometry::Polygon;
 use crate::scene::Scene;
+
+pub use occluder::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, Segment};
 
 /// Which implementation answers the occlusion queries of a bake (`--visibility`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -65,83 +65,6 @@ impl Backend {
 pub const EMBREE_MISSING: &str = "--visibility embree: this lrr was built without Embree; \
     run scripts/setup-embree.sh, then rebuild with `cargo build --release --features embree` \
     (or use the default --visibility obvhs)";
-
-/// Fraction of a segment excluded at each end: only a guard against a zero parameter. The
-/// faces the end points lie on are skipped by plane and orientation instead (see
-/// [`PLANE_TOLERANCE`]). Excluding a relative 1e-4 of each end (the first design) let a point
-/// sampled within 1e-4 of a wall's foot see through the wall: a 5e-5 leak into a closed room
-/// behind a zero-thickness wall.
-pub const SEGMENT_EPSILON: f32 = 1e-9;
-
-/// Distance, relative to the scene's bounding-box diagonal, under which a segment's end point
-/// counts as lying in the plane of a face parallel to its own surface: that face is its own
-/// (or a coincident back face) and cannot block the segment.
-pub const PLANE_TOLERANCE: f64 = 1e-6;
-
-/// Answers "is the segment between two surface points blocked?". The normals are those of
-/// the surfaces the points lie on.
-pub trait Occluder: Sync {
-    fn occluded(&self, from: DVec3, from_normal: DVec3, to: DVec3, to_normal: DVec3) -> bool;
-
-    /// Answers [`Occluder::occluded`] for a bundle of segments from points of polygon `e` to
-    /// points of polygon `t` (the rays of one element-target pair: short of the polygons' own
-    /// faces, a coherent bundle inside the shaft between them). `blocked[i]` answers
-    /// `segments[i]`. A backend may exploit the bundle (shaft culling, packets); its answers
-    /// must equal the single queries'. The default asks them one by one.
-    fn occluded_bundle(
-        &self,
-        e: &Polygon,
-        t: &Polygon,
-        segments: &[Segment],
-        blocked: &mut [bool],
-    ) {
-        debug_assert_eq!(segments.len(), blocked.len());
-        for (s, b) in segments.iter().zip(blocked.iter_mut()) {
-            *b = self.occluded(s.from, e.normal, s.to, t.normal);
-        }
-    }
-}
-
-/// |cos| above which two faces count as parallel (the own-face rule).
-const PARALLEL: f64 = 1.0 - 1e-5;
-
-/// A triangle's plane: unit normal `n` and offset `n · x` of its points.
-pub(crate) fn triangle_plane(t: &[DVec3; 3]) -> (DVec3, f64) {
-    let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
-    (n, n.dot(t[0]))
-}
-
-/// The own-face rule every backend applies: a face whose `plane` holds the end point `p`
-/// (within `tolerance`) and is parallel to the point's surface (`normal`) is the face the point
-/// lies on, or a coincident back face; it meets the segment only at `p` and never blocks it.
-#[inline]
-pub(crate) fn own_face(plane: (DVec3, f64), tolerance: f64, p: DVec3, normal: DVec3) -> bool {
-    let (n, offset) = plane;
-    (n.dot(p) - offset).abs() <= tolerance && n.dot(normal).abs() > PARALLEL
-}
-
-/// The segment `from → to` relative to `centre`: its start, end, unit direction and length, or
-/// `None` when it is a point or not finite (a point does not block itself).
-pub(crate) fn relative_segment(
-    centre: DVec3,
-    from: DVec3,
-    to: DVec3,
-) -> Option<(DVec3, DVec3, DVec3, f64)> {
-    let (origin, target) = (from - centre, to - centre);
-    let d = target - origin;
-    let length = d.length();
-    if length.is_nan() || length <= 0.0 {
-        return None;
-    }
-    Some((origin, target, d / length, length))
-}
-
-/// A line of sight between a point of an element and a point of a target.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Segment {
-    pub from: DVec3,
-    pub to: DVec3,
-}
 
 /// Most faces for which the quadratic convexity test is run; larger scenes are assumed to
 /// have occluders.

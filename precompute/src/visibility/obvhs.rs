@@ -22,10 +22,10 @@ use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::ray::Ray;
 use obvhs::triangle::Triangle;
 
-use super::watertight::ShearedRay;
-use super::{
+use super::occluder::{
     Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, own_face, relative_segment, triangle_plane,
 };
+use super::watertight::ShearedRay;
 use crate::scene::Scene;
 
 /// The scene's diagonal in the f32 coordinates of the BVH is scaled (by a power of two) into

@@ -1,0 +1,147 @@
+//! Visibility of an element-target pair: the kernel-weighted fraction of unblocked segments
+//! between the element's quadrature points and pair-specific points on the target, refined
+//! where a shadow boundary crosses the pair, and the back-face test that culls a pair without
+//! any ray.
+
+use glam::DVec3;
+
+use crate::geometry::sampling::{Sample, pair_point};
+use crate::geometry::{Polygon, Region};
+use crate::visibility::{Occluder, Segment};
+
+/// True when the pair cannot exchange light: the target lies entirely behind (or in) the
+/// element's plane, or the element entirely behind (or in) the target's plane.
+pub(crate) fn faces_away(e: &Polygon, t: &Polygon) -> bool {
+    let eps_t = 1e-12 * t.scale;
+    let eps_e = 1e-12 * e.scale;
+    t.vertices().iter().all(|v| e.height(*v) <= eps_e)
+        || e.vertices().iter().all(|v| t.height(*v) <= eps_t)
+}
+
+/// Kernel-weighted fraction of unblocked segments between the element's points and
+/// pair-specific points on the target, and the number of rays cast.
+///
+/// Each segment is weighted by the point-to-point kernel `cos θx cos θy / r²`, so the ratio
+/// converges to `∫∫ K V / ∫∫ K`, the visibility that multiplies the exact unoccluded factor.
+/// An unweighted fraction (tried first) converges to the *area*-weighted visibility instead:
+/// biased by ~1% on Cornell-box surface pairs at any sample count, which broke reciprocity.
+pub(crate) fn visible_fraction(
+    occ: &dyn Occluder,
+    e: &Polygon,
+    t: Shape<'_>,
+    points: &[Sample],
+    seed: u64,
+) -> (f64, u64) {
+    let mut acc = Visibility::default();
+    let first = points.len() as u32;
+    acc.cast(occ, e, t, points, seed, 0..first);
+    if acc.visible > 0.0 && acc.visible < acc.total {
+        // A shadow boundary crosses the pair: binary visibility is noisy here, so refine.
+        acc.cast(occ, e, t, points, seed, first..first * ADAPTIVE_FACTOR);
+    }
+    if acc.total <= 0.0 {
+        // Every sampled segment was grazing: fall back to one ray between the element's
+        // centroid and that of the (nearest part of the) target.
+        let t = t.nearest_part(e.centroid());
+        let blocked = occ.occluded(e.centroid(), e.normal, t.centroid(), t.normal);
+        return (if blocked { 0.0 } else { 1.0 }, acc.rays + 1);
+    }
+    (acc.visible / acc.total, acc.rays)
+}
+
+/// Rays per pair, as a multiple of `--samples`, where a pair is partly visible after the first
+/// `--samples` rays. Only pairs crossed by a shadow boundary pay for it (measured on the
+/// Cornell box: 16× there cut the surface-level reciprocity error from 0.5% to ~0.1% for
+/// about twice the rays).
+pub const ADAPTIVE_FACTOR: u32 = 16;
+
+/// Where a target's pair points lie: one polygon ([`pair_point`]), or a union of parts
+/// ([`Region::pair_point`], parts chosen by area).
+#[derive(Clone, Copy)]
+pub(crate) enum Shape<'a> {
+    One(&'a Polygon),
+    Union(&'a Region),
+}
+
+impl Shape<'_> {
+    fn part(&self, j: usize) -> &Polygon {
+        match self {
+            Shape::One(t) => t,
+            Shape::Union(t) => &t.parts()[j],
+        }
+    }
+
+    /// The `i`-th pair point and the index of the part it lies on.
+    fn pair_point(&self, i: u32, seed: u64) -> (usize, Sample) {
+        match self {
+            Shape::One(t) => (0, pair_point(t, i, seed)),
+            Shape::Union(t) => t.pair_point(i, seed),
+        }
+    }
+
+    fn nearest_part(&self, x: DVec3) -> &Polygon {
+        match self {
+            Shape::One(t) => t,
+            Shape::Union(t) => t.nearest_part(x),
+        }
+    }
+}
+
+#[derive(Default)]
+struct Visibility {
+    total: f64,
+    visible: f64,
+    rays: u64,
+}
+
+impl Visibility {
+    /// Casts rays `i` in `range`: from quadrature point `i mod S` to the `i`-th pair point,
+    /// answered per part by one bundle each (parts in order, rays in order within a part).
+    fn cast(
+        &mut self,
+        occ: &dyn Occluder,
+        e: &Polygon,
+        t: Shape<'_>,
+        points: &[Sample],
+        seed: u64,
+        range: std::ops::Range<u32>,
+    ) {
+        let mut rays: Vec<(usize, Segment, f64)> = Vec::with_capacity(range.len());
+        for i in range {
+            let s = &points[i as usize % points.len()];
+            let (j, far) = t.pair_point(i, seed);
+            let d = far.point - s.point;
+            let cos_x = d.dot(e.normal);
+            let cos_y = -d.dot(t.part(j).normal);
+            if cos_x <= 0.0 || cos_y <= 0.0 {
+                continue; // this pair of points exchanges no light
+            }
+            let r2 = d.length_squared();
+            let weight = s.weight * far.weight * cos_x * cos_y / (r2 * r2);
+            if !weight.is_finite() {
+                continue;
+            }
+            let segment = Segment {
+                from: s.point,
+                to: far.point,
+            };
+            rays.push((j, segment, weight));
+        }
+        rays.sort_by_key(|&(j, _, _)| j); // stable: ray order kept within a part
+        let (mut segments, mut blocked) = (Vec::new(), Vec::new());
+        for group in rays.chunk_by(|a, b| a.0 == b.0) {
+            segments.clear();
+            segments.extend(group.iter().map(|g| g.1));
+            blocked.clear();
+            blocked.resize(segments.len(), false);
+            occ.occluded_bundle(e, t.part(group[0].0), &segments, &mut blocked);
+            self.rays += segments.len() as u64;
+            for ((_, _, w), b) in group.iter().zip(&blocked) {
+                self.total += w;
+                if !b {
+                    self.visible += w;
+                }
+            }
+        }
+    }
+}

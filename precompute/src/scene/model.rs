@@ -1,0 +1,213 @@
+//! The scene model: materials, faces (planar convex polygons of 3 or 4 vertices, one-sided)
+//! and named surfaces, built face by face by the importers.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use super::polygon;
+use crate::error::{Error, Result};
+use crate::geometry::Polygon;
+
+/// A Lambertian material. `emission` is emitted *exitance* `E = π · Ke` (Ke: MTL radiance).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub reflectance: [f64; 3],
+    pub emission: [f64; 3],
+}
+
+impl Material {
+    /// Checks the reflectance is in [0, 1) and the emission is finite and non-negative.
+    pub fn validate(&self, location: &str) -> Result<()> {
+        for (c, &r) in self.reflectance.iter().enumerate() {
+            if !r.is_finite() || r < 0.0 {
+                return Err(Error::scene(
+                    location,
+                    format!(
+                        "material '{}': reflectance channel {c} is {r}; reflectance must be in [0, 1)",
+                        self.name
+                    ),
+                ));
+            }
+            if r >= 1.0 {
+                return Err(Error::scene(
+                    location,
+                    format!(
+                        "material '{}': reflectance channel {c} is {r}; a reflectance of 1 or more \
+                         never lets light decay (the radiosity system of a closed scene is singular); \
+                         use a value below 1, e.g. 0.999",
+                        self.name
+                    ),
+                ));
+            }
+        }
+        for (c, &e) in self.emission.iter().enumerate() {
+            if !e.is_finite() || e < 0.0 {
+                return Err(Error::scene(
+                    location,
+                    format!(
+                        "material '{}': emission channel {c} is {e}; emission must be finite and >= 0",
+                        self.name
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One planar convex face of the scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Face {
+    pub polygon: Polygon,
+    pub material: usize,
+    pub surface: usize,
+}
+
+/// Mesh sizes a scene description may suggest (absolute lengths in scene units).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SizeHints {
+    pub element_size: Option<f64>,
+    pub patch_size: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default)]
+pub struct Scene {
+    pub name: String,
+    pub materials: Vec<Material>,
+    pub surfaces: Vec<String>,
+    pub faces: Vec<Face>,
+    /// Non-fatal problems found while importing (each names file and line).
+    pub warnings: Vec<String>,
+    pub hints: SizeHints,
+    /// Exact-duplicate detection: sorted quantised vertices → face index.
+    seen: HashMap<Vec<[i64; 3]>, usize>,
+}
+
+impl Scene {
+    pub fn new(name: impl Into<String>) -> Self {
+        Self {
+            name: name.into(),
+            ..Self::default()
+        }
+    }
+
+    /// Index of a surface, added if new.
+    pub fn surface(&mut self, name: &str) -> usize {
+        match self.surfaces.iter().position(|s| s == name) {
+            Some(i) => i,
+            None => {
+                self.surfaces.push(name.to_string());
+                self.surfaces.len() - 1
+            }
+        }
+    }
+
+    /// Adds a material (validated); `location` names where it was defined.
+    pub fn add_material(&mut self, material: Material, location: &str) -> Result<usize> {
+        material.validate(location)?;
+        self.materials.push(material);
+        Ok(self.materials.len() - 1)
+    }
+
+    /// Adds a polygon (any vertex count, counter-clockwise front), splitting it into planar
+    /// convex pieces of 3 or 4 vertices. Non-finite coordinates are an error; degenerate and
+    /// duplicate faces are dropped with a warning.
+    pub fn add_polygon(
+        &mut self,
+        vertices: &[DVec3],
+        material: usize,
+        surface: usize,
+        location: &str,
+    ) -> Result<()> {
+        if let Some(bad) = vertices.iter().find(|v| !v.is_finite()) {
+            return Err(Error::scene(
+                location,
+                format!("vertex coordinates must be finite numbers, found {bad}"),
+            ));
+        }
+        let pieces = match polygon::split_convex(vertices) {
+            Some(p) => p,
+            None => {
+                self.warnings.push(format!(
+                    "{location}: degenerate face (zero area or fewer than 3 distinct vertices) dropped"
+                ));
+                return Ok(());
+            }
+        };
+        for piece in pieces {
+            let Some(polygon) = Polygon::new(&piece) else {
+                self.warnings
+                    .push(format!("{location}: degenerate face piece dropped"));
+                continue;
+            };
+            let key = polygon::duplicate_key(&polygon);
+            if let Some(&other) = self.seen.get(&key) {
+                self.warnings.push(format!(
+                    "{location}: face duplicates face #{other} (same vertices, same side) and was dropped"
+                ));
+                continue;
+            }
+            self.seen.insert(key, self.faces.len());
+            self.faces.push(Face {
+                polygon,
+                material,
+                surface,
+            });
+        }
+        Ok(())
+    }
+
+    /// Axis-aligned bounding box of all faces.
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for f in &self.faces {
+            for v in f.polygon.vertices() {
+                lo = lo.min(*v);
+                hi = hi.max(*v);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Length of the bounding box diagonal: the scale all default sizes are relative to.
+    pub fn extent(&self) -> f64 {
+        let (lo, hi) = self.bounds();
+        (hi - lo).length()
+    }
+
+    /// Checks the scene can be baked: at least one face, materials valid.
+    pub fn validate(&self, location: &str) -> Result<()> {
+        if self.faces.is_empty() {
+            return Err(Error::scene(
+                location,
+                "the scene has no faces (nothing to bake); check the file holds 'f' lines or polygons",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Multiplies every coordinate by `s` (for scale tests and unit conversion).
+    pub fn scale(&mut self, s: f64) {
+        for f in &mut self.faces {
+            let v: Vec<DVec3> = f.polygon.vertices().iter().map(|v| *v * s).collect();
+            f.polygon = Polygon::new(&v).expect("scaling keeps a valid polygon valid");
+        }
+        if let Some(e) = &mut self.hints.element_size {
+            *e *= s;
+        }
+        if let Some(p) = &mut self.hints.patch_size {
+            *p *= s;
+        }
+    }
+
+    /// True when every reflectance is grey (r = g = b): the bake then needs one channel.
+    pub fn is_grey(&self) -> bool {
+        self.faces.iter().all(|f| {
+            let r = self.materials[f.material].reflectance;
+            r[0] == r[1] && r[1] == r[2]
+        })
+    }
+}
