@@ -169,6 +169,12 @@ pub fn gather(
     }
 }
 
+/// Mirror of `read_matrix` (`wgsl/read.wgsl`): the XOR of every 32-bit word of `words`, the value the
+/// pass compares before its one store. Lanes and order do not matter to XOR.
+pub fn read_matrix(words: &[u32]) -> u32 {
+    words.iter().fold(0, |acc, w| acc ^ w)
+}
+
 /// `((a0 b0 + a1 b1) + a2 b2) + a3 b3`: one order a GPU's `dot` may use.
 fn dot4(a: &[f32], b: &[f32]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]

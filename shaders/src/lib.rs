@@ -18,6 +18,9 @@
 //! | [`Pass::CoreProduct`] | `core_product.wgsl` | `Z_c = M_c X_c` | O(k²) |
 //! | [`Pass::Gather`] | `gather.wgsl` + a loader `fk_*.wgsl` + a reduction `reduce_*.wgsl` | `W = F_k Z`, `B = E + ρ ⊙ W` (plain: `B = E - Y X`) | O(nk) |
 //!
+//! [`Pass::Read`] (`read.wgsl`) is not a step of a frame: it reads the gather's bytes and
+//! nothing else, the roofline the benchmark compares the gather with.
+//!
 //! The gather reads the stored matrix once for all three channels. `common.wgsl` holds what the
 //! passes share: [`Params`] (the uniform at binding 0), `KP`, `reduce_lanes`.
 //!
@@ -116,6 +119,8 @@ pub const LIGHT_GROUPS: &str = include_str!("../wgsl/light_groups.wgsl");
 pub const CORE_PRODUCT: &str = include_str!("../wgsl/core_product.wgsl");
 /// The body of [`Pass::Gather`].
 pub const GATHER: &str = include_str!("../wgsl/gather.wgsl");
+/// [`Pass::Read`].
+pub const READ: &str = include_str!("../wgsl/read.wgsl");
 /// [`Storage::F32`] loader.
 pub const FK_F32: &str = include_str!("../wgsl/fk_f32.wgsl");
 /// [`Storage::F16`] loader (native `f16`; starts with `enable f16;`).
@@ -165,6 +170,9 @@ pub enum Pass {
     CoreProduct,
     /// `B = E + ρ ⊙ F_k Z` (or `E - Y X`): mirror [`cpu::gather`].
     Gather(Storage, Reduce),
+    /// Not a step of a frame: the gather's read roofline over the same bytes, mirror
+    /// [`cpu::read_matrix`].
+    Read,
 }
 
 /// How a pass accesses one binding.
@@ -240,10 +248,11 @@ const GATHER_BINDINGS: &[Binding] = &[
     bind(5, "order", Read),
     bind(6, "radiosity", ReadWrite),
 ];
+const READ_BINDINGS: &[Binding] = &[bind(1, "fk", Read), bind(2, "sink", ReadWrite)];
 
 impl Pass {
     /// Every pass and variant.
-    pub const ALL: [Pass; 12] = [
+    pub const ALL: [Pass; 13] = [
         Pass::SegmentSums,
         Pass::GroupSums,
         Pass::GroupEmission,
@@ -256,6 +265,7 @@ impl Pass {
         Pass::Gather(Storage::F16Unpack, Reduce::Workgroup),
         Pass::Gather(Storage::F16Bits, Reduce::Subgroup),
         Pass::Gather(Storage::F16Bits, Reduce::Workgroup),
+        Pass::Read,
     ];
 
     /// The compute entry point's name (also the CPU mirror's).
@@ -266,6 +276,7 @@ impl Pass {
             Pass::GroupEmission => "group_emission",
             Pass::CoreProduct => "core_product",
             Pass::Gather(..) => "gather",
+            Pass::Read => "read_matrix",
         }
     }
 
@@ -276,6 +287,7 @@ impl Pass {
             Pass::SegmentSums => vec![COMMON, SEGMENT_SUMS],
             Pass::GroupSums | Pass::GroupEmission => vec![COMMON, LIGHT_GROUPS],
             Pass::CoreProduct => vec![COMMON, CORE_PRODUCT],
+            Pass::Read => vec![COMMON, READ],
             Pass::Gather(storage, reduce) => {
                 let loader = match storage {
                     Storage::F32 => FK_F32,
@@ -301,6 +313,7 @@ impl Pass {
             Pass::GroupEmission => GROUP_EMISSION_BINDINGS,
             Pass::CoreProduct => CORE_PRODUCT_BINDINGS,
             Pass::Gather(..) => GATHER_BINDINGS,
+            Pass::Read => READ_BINDINGS,
         }
     }
 
