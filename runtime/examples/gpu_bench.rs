@@ -38,14 +38,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("{}", gpu.describe());
     println!(
         "{:>8} {:>5} {:>9} {:>10} {:>10} {:>9} {:>9} {:>9} {:>8} {:>8}",
-        "n", "k", "precision", "MB/frame", "gpu fps", "e2e fps", "read/frm", "cpu fps", "x gpu",
+        "n",
+        "k",
+        "precision",
+        "MB/frame",
+        "gpu fps",
+        "e2e fps",
+        "read/frm",
+        "cpu fps",
+        "x gpu",
         "x e2e"
     );
     for size in sizes.split(',') {
         let (n, k) = size.split_once('x').ok_or("sizes look like 221184x216")?;
         let (n, k): (usize, usize) = (n.parse()?, k.parse()?);
         for p in precisions.split(',') {
-            let precision = if p == "f16" { Precision::F16 } else { Precision::F32 };
+            let precision = if p == "f16" {
+                Precision::F16
+            } else {
+                Precision::F32
+            };
             let op = synthetic::operator(n, k, 3, precision, Layout::Factored, 1)?;
             let b = bench_operator(&gpu, &op, frames)?;
             let opt = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:.2}"));

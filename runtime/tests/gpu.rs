@@ -22,7 +22,9 @@ fn open(options: &GpuOptions) -> Gpu {
     let gpu = Gpu::new(options).unwrap_or_else(|e| panic!("{e}"));
     if let Ok(want) = std::env::var("LRR_EXPECT_ADAPTER") {
         assert!(
-            gpu.adapter_name().to_lowercase().contains(&want.to_lowercase()),
+            gpu.adapter_name()
+                .to_lowercase()
+                .contains(&want.to_lowercase()),
             "LRR_EXPECT_ADAPTER={want}, but the adapter is {}; adapters found: {:?}",
             gpu.describe(),
             gpu::adapters()
@@ -185,12 +187,15 @@ fn operators_over_128_mib_are_chunked_and_match_the_cpu() {
         assert!(op.matrix_bytes() > 128 << 20);
         let eval = GpuEvaluator::new(gpu(), &op).unwrap();
         let limit = gpu().device().limits().max_storage_buffer_binding_size;
-        if u64::from(limit) < op.matrix_bytes() as u64 {
+        if limit < op.matrix_bytes() as u64 {
             assert!(eval.chunks() >= 2, "{}", eval.describe());
         }
         drop(eval);
         let w = compare(gpu(), &op, 12);
-        eprintln!("n = {n}, {precision:?}, {} MiB: worst {w:.1e}", op.matrix_bytes() >> 20);
+        eprintln!(
+            "n = {n}, {precision:?}, {} MiB: worst {w:.1e}",
+            op.matrix_bytes() >> 20
+        );
     }
 }
 
@@ -227,7 +232,12 @@ fn bad_input_gets_the_cpu_errors_and_writes_nothing() {
     let want = cpu.evaluate_groups(&[1.0], RgbMut::triples(&mut out));
     assert_eq!(got, Err(GpuError::Runtime(want.unwrap_err())));
     let short = eval.evaluate(Rgb::triples(&e[1..]), RgbMut::triples(&mut out));
-    assert!(short.unwrap_err().to_string().contains("must hold 3 values"));
+    assert!(
+        short
+            .unwrap_err()
+            .to_string()
+            .contains("must hold 3 values")
+    );
 }
 
 /// A renderer's path: frames submitted without readback; the storage buffer holds the last.
@@ -272,7 +282,11 @@ fn timings_are_reported() {
         .unwrap();
     let t = eval.last_timing().unwrap();
     assert!(t.end_to_end.as_nanos() > 0);
-    if gpu().device().features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+    if gpu()
+        .device()
+        .features()
+        .contains(wgpu::Features::TIMESTAMP_QUERY)
+    {
         let g = t.gpu.expect("timestamps on an adapter that has them");
         assert!(g <= t.end_to_end, "{t:?}");
         assert!(eval.read_pass().unwrap().gpu.is_some());
@@ -289,6 +303,9 @@ fn a_missing_adapter_is_an_error_listing_the_adapters_found() {
     let GpuError::NoAdapter(message) = &e else {
         panic!("{e:?}");
     };
-    assert!(message.contains("apt-get install mesa-vulkan-drivers libvulkan1"), "{message}");
+    assert!(
+        message.contains("apt-get install mesa-vulkan-drivers libvulkan1"),
+        "{message}"
+    );
     assert!(message.contains(gpu().adapter_name()), "{message}");
 }

@@ -40,13 +40,7 @@ pub fn segment_sums(
 
 /// Mirror of `group_sums` (`wgsl/light_groups.wgsl`): `x[t] = Σ_g a_g group_x[g·3·kp + t]` for
 /// `t < 3·kp`, groups in order.
-pub fn group_sums(
-    params: &Params,
-    kp: usize,
-    intensities: &[f32],
-    group_x: &[f32],
-    x: &mut [f32],
-) {
+pub fn group_sums(params: &Params, kp: usize, intensities: &[f32], group_x: &[f32], x: &mut [f32]) {
     for (t, xt) in x[..3 * kp].iter_mut().enumerate() {
         let mut sum = 0.0f32;
         for g in 0..params.groups as usize {

@@ -100,9 +100,10 @@ fn specialised_passes_compile_to_spirv() {
                 }
             }
             let entry = Some((ShaderStage::Compute, pass.entry_point()));
-            let (module, info) =
-                naga::back::pipeline_constants::process_overrides(&module, &info, entry, &constants)
-                    .unwrap_or_else(|e| panic!("{pass:?} kp {kp}: {e:?}"));
+            let (module, info) = naga::back::pipeline_constants::process_overrides(
+                &module, &info, entry, &constants,
+            )
+            .unwrap_or_else(|e| panic!("{pass:?} kp {kp}: {e:?}"));
             let options = naga::back::spv::Options {
                 capabilities: None,
                 ..Default::default()

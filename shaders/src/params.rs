@@ -147,7 +147,11 @@ mod tests {
     fn size_is_32_bytes_and_fields_are_packed_u32() {
         assert_eq!(size_of::<Params>(), Params::SIZE);
         assert_eq!(align_of::<Params>(), 4);
-        assert_eq!(Params::SIZE % 16, 0, "uniform buffers want 16-byte multiples");
+        assert_eq!(
+            Params::SIZE % 16,
+            0,
+            "uniform buffers want 16-byte multiples"
+        );
         for (i, &(_, offset)) in Params::FIELDS.iter().enumerate() {
             assert_eq!(offset, 4 * i);
         }
@@ -178,7 +182,10 @@ mod tests {
         for kp in (8..5000).step_by(8) {
             for max in [1, 4, 8, 16, 32, 64, 128] {
                 let l = GatherConstants::row_lanes_for(kp, max);
-                assert!(l.is_power_of_two() && l <= 32 && l <= max.max(1), "{kp} {max}: {l}");
+                assert!(
+                    l.is_power_of_two() && l <= 32 && l <= max.max(1),
+                    "{kp} {max}: {l}"
+                );
             }
         }
         assert_eq!(GatherConstants::row_lanes_for(216, 32), 8);

@@ -81,7 +81,12 @@ pub(super) fn storage<T: Pod>(
 }
 
 /// A zeroed storage buffer of `floats` f32.
-pub(super) fn zeros(gpu: &Gpu, label: &str, floats: usize, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+pub(super) fn zeros(
+    gpu: &Gpu,
+    label: &str,
+    floats: usize,
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
     gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: (4 * floats).max(16) as u64,
@@ -117,7 +122,9 @@ impl OperatorBuffers {
         let cores = match &file.operator {
             OperatorData::Factored { cores, .. } => padded_cores(cores, file.channels, k, kp)
                 .map(|c| storage(gpu, "core", &c, wgpu::BufferUsages::COPY_DST)),
-            OperatorData::PlainYk { .. } => [0; 3].map(|_| zeros(gpu, "core", 0, wgpu::BufferUsages::empty())),
+            OperatorData::PlainYk { .. } => {
+                [0; 3].map(|_| zeros(gpu, "core", 0, wgpu::BufferUsages::empty()))
+            }
         };
         let reflectance = if factored { &file.reflectance[..] } else { &[] };
         let (chunks, matrix_bytes) = chunks(gpu, file.operator.matrix(), &params, blocks * n, kp)?;
@@ -131,13 +138,23 @@ impl OperatorBuffers {
             index: storage(gpu, "index", &file.index, wgpu::BufferUsages::empty()),
             weights: storage(gpu, "weights", &file.weights, wgpu::BufferUsages::empty()),
             order: storage(gpu, "order", &file.order, wgpu::BufferUsages::empty()),
-            reflectance: storage(gpu, "reflectance", reflectance, wgpu::BufferUsages::COPY_DST),
+            reflectance: storage(
+                gpu,
+                "reflectance",
+                reflectance,
+                wgpu::BufferUsages::COPY_DST,
+            ),
             cores,
             chunks,
             x: zeros(gpu, "x", 3 * kp as usize, wgpu::BufferUsages::empty()),
             z: zeros(gpu, "z", 3 * kp as usize, wgpu::BufferUsages::empty()),
             groups,
-            radiosity: zeros(gpu, "radiosity", 3 * n as usize, wgpu::BufferUsages::COPY_SRC),
+            radiosity: zeros(
+                gpu,
+                "radiosity",
+                3 * n as usize,
+                wgpu::BufferUsages::COPY_SRC,
+            ),
             sink: zeros(gpu, "sink", 4, wgpu::BufferUsages::empty()),
             matrix_bytes,
         })
@@ -149,7 +166,8 @@ impl OperatorBuffers {
         for (buffer, core) in self.cores.iter().zip(&padded) {
             gpu.queue.write_buffer(buffer, 0, bytes_of(core));
         }
-        gpu.queue.write_buffer(&self.reflectance, 0, bytes_of(reflectance));
+        gpu.queue
+            .write_buffer(&self.reflectance, 0, bytes_of(reflectance));
     }
 }
 
@@ -193,7 +211,14 @@ fn chunks(
     let mut first = 0;
     while first < rows {
         let count = per_chunk.min(rows - first);
-        let buffer = upload_rows(gpu, m, base.k as usize, kp as usize, first as usize, count as usize);
+        let buffer = upload_rows(
+            gpu,
+            m,
+            base.k as usize,
+            kp as usize,
+            first as usize,
+            count as usize,
+        );
         let params = Params {
             first_row: first,
             row_count: count,
@@ -211,7 +236,14 @@ fn chunks(
 
 /// Rows `first .. first + count` of `m` (`k` entries each) in a new buffer, padded to `kp`
 /// entries, written through a mapping in blocks of about 1 MiB (no whole-chunk host copy).
-fn upload_rows(gpu: &Gpu, m: &FkData, k: usize, kp: usize, first: usize, count: usize) -> wgpu::Buffer {
+fn upload_rows(
+    gpu: &Gpu,
+    m: &FkData,
+    k: usize,
+    kp: usize,
+    first: usize,
+    count: usize,
+) -> wgpu::Buffer {
     let size = m.precision().size();
     let row_bytes = kp * size;
     let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {

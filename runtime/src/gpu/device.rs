@@ -45,7 +45,11 @@ impl std::fmt::Display for AdapterSummary {
             self.backend,
             self.device_type,
             self.driver,
-            if self.usable { "" } else { ", no compute shaders" }
+            if self.usable {
+                ""
+            } else {
+                ", no compute shaders"
+            }
         )
     }
 }
@@ -61,7 +65,9 @@ fn summary(adapter: &wgpu::Adapter) -> AdapterSummary {
         name: info.name,
         backend: format!("{:?}", info.backend),
         device_type: format!("{:?}", info.device_type),
-        driver: format!("{} {}", info.driver, info.driver_info).trim().to_owned(),
+        driver: format!("{} {}", info.driver, info.driver_info)
+            .trim()
+            .to_owned(),
         usable: flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS),
     }
 }
@@ -113,9 +119,8 @@ impl Gpu {
             })
             .min_by_key(|a| rank(a.get_info().device_type))
             .ok_or_else(|| no_adapter(&found, options.adapter.as_deref()))?;
-        let wanted_features = wgpu::Features::TIMESTAMP_QUERY
-            | wgpu::Features::SHADER_F16
-            | wgpu::Features::SUBGROUP;
+        let wanted_features =
+            wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::SHADER_F16 | wgpu::Features::SUBGROUP;
         let descriptor = wgpu::DeviceDescriptor {
             label: Some("lrr"),
             required_features: adapter.features() & wanted_features,
@@ -181,13 +186,18 @@ impl Gpu {
 
     /// The binary16 loader: the option, or the best the adapter allows.
     pub(super) fn f16_loader(&self) -> Storage {
-        self.options.f16_loader.unwrap_or(if self.has(wgpu::Features::SHADER_F16) {
-            Storage::F16
-        } else if self.downlevel.contains(wgpu::DownlevelFlags::SHADER_F16_IN_F32) {
-            Storage::F16Unpack
-        } else {
-            Storage::F16Bits
-        })
+        self.options
+            .f16_loader
+            .unwrap_or(if self.has(wgpu::Features::SHADER_F16) {
+                Storage::F16
+            } else if self
+                .downlevel
+                .contains(wgpu::DownlevelFlags::SHADER_F16_IN_F32)
+            {
+                Storage::F16Unpack
+            } else {
+                Storage::F16Bits
+            })
     }
 
     /// The row reduction: the option, or subgroups when present.
@@ -203,7 +213,7 @@ impl Gpu {
 
     /// The largest chunk of the stored matrix one buffer and binding may hold, in bytes.
     pub(super) fn max_chunk_bytes(&self) -> u64 {
-        let binding = u64::from(self.limits.max_storage_buffer_binding_size);
+        let binding = self.limits.max_storage_buffer_binding_size;
         let limit = binding.min(self.limits.max_buffer_size);
         self.options.max_chunk_bytes.map_or(limit, |m| m.min(limit)) & !3
     }

@@ -88,7 +88,11 @@ impl std::fmt::Debug for GpuEvaluator {
     }
 }
 
-fn bind(gpu: &Gpu, pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]) -> wgpu::BindGroup {
+fn bind(
+    gpu: &Gpu,
+    pipeline: &wgpu::ComputePipeline,
+    entries: &[(u32, &wgpu::Buffer)],
+) -> wgpu::BindGroup {
     let entries: Vec<wgpu::BindGroupEntry> = entries
         .iter()
         .map(|&(binding, buffer)| wgpu::BindGroupEntry {
@@ -113,17 +117,27 @@ impl GpuEvaluator {
             FkData::F32(_) => Storage::F32,
             FkData::F16(_) => gpu.f16_loader(),
         };
-        let pipelines = Pipelines::new(gpu, buffers.kp, storage, buffers.factored, buffers.per_block);
+        let pipelines = Pipelines::new(
+            gpu,
+            buffers.kp,
+            storage,
+            buffers.factored,
+            buffers.per_block,
+        );
         let slots = [0, 1].map(|_| Self::slot(gpu, &buffers, &pipelines));
         let b = &buffers;
-        let core_product = bind(gpu, &pipelines.core_product, &[
-            (0, &b.params),
-            (1, &b.cores[0]),
-            (2, &b.cores[1]),
-            (3, &b.cores[2]),
-            (4, &b.x),
-            (5, &b.z),
-        ]);
+        let core_product = bind(
+            gpu,
+            &pipelines.core_product,
+            &[
+                (0, &b.params),
+                (1, &b.cores[0]),
+                (2, &b.cores[1]),
+                (3, &b.cores[2]),
+                (4, &b.x),
+                (5, &b.z),
+            ],
+        );
         let read = (b.chunks.iter())
             .map(|c| bind(gpu, &pipelines.read, &[(1, &c.buffer), (2, &b.sink)]))
             .collect();
@@ -133,7 +147,9 @@ impl GpuEvaluator {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let timestamps = gpu.has(wgpu::Features::TIMESTAMP_QUERY).then(|| timestamps(gpu));
+        let timestamps = gpu
+            .has(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| timestamps(gpu));
         Ok(GpuEvaluator {
             gpu: gpu.clone(),
             file,
@@ -152,8 +168,18 @@ impl GpuEvaluator {
 
     fn slot(gpu: &Gpu, b: &OperatorBuffers, p: &Pipelines) -> Slot {
         let none = wgpu::BufferUsages::empty();
-        let emission = zeros(gpu, "emission", 3 * b.n as usize, wgpu::BufferUsages::COPY_DST);
-        let intensities = storage(gpu, "intensities", &vec![0.0f32; b.groups.count], wgpu::BufferUsages::COPY_DST);
+        let emission = zeros(
+            gpu,
+            "emission",
+            3 * b.n as usize,
+            wgpu::BufferUsages::COPY_DST,
+        );
+        let intensities = storage(
+            gpu,
+            "intensities",
+            &vec![0.0f32; b.groups.count],
+            wgpu::BufferUsages::COPY_DST,
+        );
         let _ = none;
         let g = &b.groups;
         // Plain: the gather reads X (there is no Z) and no reflectance.
@@ -161,43 +187,59 @@ impl GpuEvaluator {
         let gather = |e: &wgpu::Buffer| -> Vec<wgpu::BindGroup> {
             (b.chunks.iter())
                 .map(|c| {
-                    bind(gpu, &p.gather, &[
-                        (0, &c.params),
-                        (1, &c.buffer),
-                        (2, z),
-                        (3, e),
-                        (4, &b.reflectance),
-                        (5, &b.order),
-                        (6, &b.radiosity),
-                    ])
+                    bind(
+                        gpu,
+                        &p.gather,
+                        &[
+                            (0, &c.params),
+                            (1, &c.buffer),
+                            (2, z),
+                            (3, e),
+                            (4, &b.reflectance),
+                            (5, &b.order),
+                            (6, &b.radiosity),
+                        ],
+                    )
                 })
                 .collect()
         };
         Slot {
-            segment_sums: bind(gpu, &p.segment_sums, &[
-                (0, &b.params),
-                (1, &b.index),
-                (2, &b.weights),
-                (3, &b.order),
-                (4, &emission),
-                (5, &b.x),
-            ]),
-            group_sums: bind(gpu, &p.group_sums, &[
-                (0, &b.params),
-                (1, &intensities),
-                (2, &g.group_x),
-                (8, &b.x),
-            ]),
-            group_emission: bind(gpu, &p.group_emission, &[
-                (0, &b.params),
-                (1, &intensities),
-                (3, &g.position),
-                (4, &g.starts),
-                (5, &g.members),
-                (6, &g.member_emission),
-                (7, &b.order),
-                (9, &g.emission),
-            ]),
+            segment_sums: bind(
+                gpu,
+                &p.segment_sums,
+                &[
+                    (0, &b.params),
+                    (1, &b.index),
+                    (2, &b.weights),
+                    (3, &b.order),
+                    (4, &emission),
+                    (5, &b.x),
+                ],
+            ),
+            group_sums: bind(
+                gpu,
+                &p.group_sums,
+                &[
+                    (0, &b.params),
+                    (1, &intensities),
+                    (2, &g.group_x),
+                    (8, &b.x),
+                ],
+            ),
+            group_emission: bind(
+                gpu,
+                &p.group_emission,
+                &[
+                    (0, &b.params),
+                    (1, &intensities),
+                    (3, &g.position),
+                    (4, &g.starts),
+                    (5, &g.members),
+                    (6, &g.member_emission),
+                    (7, &b.order),
+                    (9, &g.emission),
+                ],
+            ),
             gather: gather(&emission),
             gather_groups: gather(&g.emission),
             emission,
@@ -219,7 +261,11 @@ impl GpuEvaluator {
     /// Radiosity for light-group intensities (one per [`Operator::light_groups`] entry, finite
     /// and non-negative), as [`Evaluator::evaluate_groups`](crate::Evaluator::evaluate_groups):
     /// `X = Σ_g a_g x_g` and the groups' emission on the GPU, no O(n) pass over an emission.
-    pub fn evaluate_groups(&mut self, intensities: &[f32], mut out: RgbMut<'_>) -> Result<(), GpuError> {
+    pub fn evaluate_groups(
+        &mut self,
+        intensities: &[f32],
+        mut out: RgbMut<'_>,
+    ) -> Result<(), GpuError> {
         let start = Instant::now();
         out.check(self.buffers.n as usize, "output")?;
         let source = self.upload_groups(intensities)?;
@@ -267,8 +313,12 @@ impl GpuEvaluator {
     /// the operator and other evaluators are not affected.
     pub fn set_reflectance(&mut self, rho: &[[f32; 3]]) -> Result<(), GpuError> {
         let edit = crate::albedo::rebuild(&self.file, rho)?;
-        self.buffers
-            .set_albedo(&self.gpu, &edit.cores, edit.channels as u32, &edit.reflectance);
+        self.buffers.set_albedo(
+            &self.gpu,
+            &edit.cores,
+            edit.channels as u32,
+            &edit.reflectance,
+        );
         Ok(())
     }
 
@@ -283,7 +333,9 @@ impl GpuEvaluator {
             pass.set_pipeline(&self.pipelines.read);
             for (bind, chunk) in self.read.iter().zip(&self.buffers.chunks) {
                 let quads = chunk.buffer.size() / 16;
-                let groups = quads.div_ceil(u64::from(LANES)).min(u64::from(GATHER_MAX_GROUPS * 4));
+                let groups = quads
+                    .div_ceil(u64::from(LANES))
+                    .min(u64::from(GATHER_MAX_GROUPS * 4));
                 pass.set_bind_group(0, bind, &[]);
                 pass.dispatch_workgroups(groups as u32, 1, 1);
             }
@@ -327,7 +379,11 @@ impl GpuEvaluator {
             if c.z_shared { "workgroup" } else { "storage" },
             self.buffers.chunks.len(),
             self.gpu.max_chunk_bytes() >> 20,
-            if self.gpu.options.bounds_checks { "on" } else { "off where proven" },
+            if self.gpu.options.bounds_checks {
+                "on"
+            } else {
+                "off where proven"
+            },
         )
     }
 
@@ -379,11 +435,14 @@ impl GpuEvaluator {
     fn pass_descriptor(&self, label: &'static str) -> wgpu::ComputePassDescriptor<'_> {
         wgpu::ComputePassDescriptor {
             label: Some(label),
-            timestamp_writes: self.timestamps.as_ref().map(|t| wgpu::ComputePassTimestampWrites {
-                query_set: &t.set,
-                beginning_of_pass_write_index: Some(0),
-                end_of_pass_write_index: Some(1),
-            }),
+            timestamp_writes: self
+                .timestamps
+                .as_ref()
+                .map(|t| wgpu::ComputePassTimestampWrites {
+                    query_set: &t.set,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }),
         }
     }
 
@@ -456,7 +515,9 @@ impl GpuEvaluator {
                 RgbMut::Interleaved(v) => bytes_of_mut(v).copy_from_slice(&view),
                 RgbMut::Planar(_) => {
                     for (i, rgb) in view.chunks_exact(12).enumerate() {
-                        let c = |j: usize| f32::from_le_bytes(rgb[4 * j..4 * j + 4].try_into().unwrap_or_default());
+                        let c = |j: usize| {
+                            f32::from_le_bytes(rgb[4 * j..4 * j + 4].try_into().unwrap_or_default())
+                        };
                         out.set(i, [c(0), c(1), c(2)]);
                     }
                 }
@@ -525,6 +586,8 @@ fn map(gpu: &Gpu, buffer: &wgpu::Buffer) -> Result<(), GpuError> {
     match rx.recv() {
         Ok(Ok(())) => Ok(()),
         Ok(Err(e)) => Err(GpuError::Device(format!("GPU: reading back a frame: {e}"))),
-        Err(_) => Err(GpuError::Device("GPU: a frame's readback never completed".into())),
+        Err(_) => Err(GpuError::Device(
+            "GPU: a frame's readback never completed".into(),
+        )),
     }
 }

@@ -74,7 +74,7 @@ impl Case {
         // Identity plus signed noise: the mirrors must not rely on non-negative cores.
         let core = |rng: &mut Rng| {
             padded(rng, k, &|rng: &mut Rng, i: usize| {
-                f32::from(u8::from(i % (k + 1) == 0)) + (rng.unit() - 0.3) / k as f32
+                f32::from(u8::from(i.is_multiple_of(k + 1))) + (rng.unit() - 0.3) / k as f32
             })
         };
         let r = core(&mut rng);
@@ -260,7 +260,8 @@ fn mirrors_match_f64_within_the_rounding_bound() {
     for (i, &(n, k)) in shapes.iter().enumerate() {
         for channels in [1, 3] {
             for row_lanes in [1, 8, 32] {
-                let case = Case::random(0x5EED + i as u64 * 7 + u64::from(channels), n, k, channels);
+                let case =
+                    Case::random(0x5EED + i as u64 * 7 + u64::from(channels), n, k, channels);
                 let b = case.mirrors(&Rows::F32(&case.fk), row_lanes);
                 let worst = case.assert_within_bound(&b, row_lanes);
                 let bound = case.depth(row_lanes) as f64 * 2f64.powi(-24);
@@ -279,7 +280,15 @@ fn empty_segments_sum_to_zero() {
     assert_eq!(case.index[1], case.index[2], "patch 1 is empty");
     let mut x = vec![f32::NAN; 3 * case.kp];
     let (p, kp) = (&case.params, case.kp);
-    segment_sums(p, kp, &case.index, &case.weights, &case.order, &case.emission, &mut x);
+    segment_sums(
+        p,
+        kp,
+        &case.index,
+        &case.weights,
+        &case.order,
+        &case.emission,
+        &mut x,
+    );
     assert_eq!([x[1], x[kp + 1], x[2 * kp + 1]], [0.0; 3]);
 }
 
@@ -350,9 +359,17 @@ fn plain_blocks_give_one_channel_each() {
     let kp = case.kp;
     let mut rng = Rng(52);
     let y: Vec<f32> = (0..3 * n * kp)
-        .map(|i| if i % kp < k { rng.unit() / k as f32 } else { 0.0 })
+        .map(|i| {
+            if i % kp < k {
+                rng.unit() / k as f32
+            } else {
+                0.0
+            }
+        })
         .collect();
-    let x: Vec<f32> = (0..3 * kp).map(|i| if i % kp < k { rng.unit() } else { 0.0 }).collect();
+    let x: Vec<f32> = (0..3 * kp)
+        .map(|i| if i % kp < k { rng.unit() } else { 0.0 })
+        .collect();
     let params = Params {
         row_count: 3 * n as u32,
         ..case.params
@@ -387,15 +404,24 @@ fn light_groups_sum_intensities() {
     let group_x: Vec<f32> = (0..2 * 3 * kp).map(|i| i as f32).collect();
     let mut x = vec![0.0; 3 * kp];
     group_sums(&params, kp, &a, &group_x, &mut x);
-    for t in 0..3 * kp {
-        assert_eq!(x[t], 2.0 * t as f32 + 0.5 * (3 * kp + t) as f32);
+    for (t, &xt) in x.iter().enumerate() {
+        assert_eq!(xt, 2.0 * t as f32 + 0.5 * (3 * kp + t) as f32);
     }
     // Position 4 lit by both groups, 6 by group 0, 9 by group 1.
     let (position, starts, members) = ([4, 6, 9], [0, 2, 3, 4], [0, 1, 0, 1]);
     let member_emission = [[1.0, 2.0, 3.0], [4.0, 0.0, 0.0], [1.0; 3], [0.0, 0.0, 8.0]];
     let order: Vec<u32> = (0..n as u32).rev().collect();
     let mut e = vec![[0.0; 3]; n];
-    group_emission(&params, &a, &position, &starts, &members, &member_emission, &order, &mut e);
+    group_emission(
+        &params,
+        &a,
+        &position,
+        &starts,
+        &members,
+        &member_emission,
+        &order,
+        &mut e,
+    );
     assert_eq!(e[5], [4.0, 4.0, 6.0]);
     assert_eq!(e[3], [2.0; 3]);
     assert_eq!(e[0], [0.0, 0.0, 4.0]);
