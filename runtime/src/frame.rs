@@ -157,7 +157,7 @@ fn dot_f64(row: &[f64], x: &[[f64; 3]], c: usize) -> f64 {
 }
 
 /// Refuses intensities that do not fit the file's light groups.
-fn check_intensities(f: &OperatorFile, a: &[f32]) -> Result<(), RuntimeError> {
+pub(crate) fn check_intensities(f: &OperatorFile, a: &[f32]) -> Result<(), RuntimeError> {
     if a.len() != f.lights.len() {
         let names: Vec<&str> = f.lights.iter().map(|g| g.name.as_str()).collect();
         return Err(input(format!(

@@ -67,6 +67,7 @@
 //! - `kernel/`: the pass over the matrix (safe scalar twin and AVX2), the read roofline.
 //! - `albedo.rs`, `lu.rs`: new cores for new reflectance.
 //! - [`baseline`], [`synthetic`], [`reference`](mod@reference): for benchmarks and tests.
+//! - `gpu` (cargo feature `gpu`): the same frames on a GPU through wgpu.
 
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
@@ -78,6 +79,8 @@ pub mod baseline;
 mod error;
 mod evaluator;
 mod frame;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 mod kernel;
 mod locate;
 mod lu;

@@ -1,129 +1,190 @@
 //! CPU mirrors of the passes, one function per WGSL entry point, with the same name.
 //!
-//! Plain f32 arithmetic in the shaders' order: every sum is split over [`LANES`] lanes (lane `l`
-//! adds terms `l, l + LANES, …` in turn), then the lanes are added by the same binary tree as
-//! `reduce_lanes` in `wgsl/common.wgsl`. A GPU result can still differ in the last bits, as a
-//! GPU compiler may fuse a multiply and an add into one FMA (one rounding instead of two); the
-//! rounding-error bound in the tests below covers both.
+//! Plain f32 arithmetic in the shaders' order: every sum is split over the same lanes (lane `l`
+//! adds terms `l, l + lanes, …` in turn), then the lanes are added by the same binary tree as
+//! `reduce_lanes` (`wgsl/common.wgsl`) and `row_sum` (`wgsl/reduce_*.wgsl`). A GPU result can
+//! still differ in the last bits: a GPU compiler may fuse a multiply and an add (one rounding
+//! instead of two) and `dot` adds its four products in an order of its choosing; the
+//! rounding-error bound of the tests covers all of these.
 //!
-//! Buffers are the shaders' (see the crate docs), RGB entries as `[f32; 3]`, all in file order.
-//! A buffer too short for [`Params`] is a programming mistake and panics.
+//! Buffers are the shaders' (see the crate docs): per-element RGB as `[f32; 3]`, per-patch
+//! quantities as three planes of `kp` floats. A buffer too short for [`Params`] is a
+//! programming mistake and panics.
 
-use crate::{LANES, Params};
+use lrr_formats::f16_to_f32;
 
-pub use crate::half::f16_to_f32;
+use crate::{GatherConstants, LANES, Params};
 
-/// Mirror of `segment_sums` (`wgsl/segment_sums.wgsl`): `x[p][c] = Σ_{s=I[p]}^{I[p+1]-1} w[s]
-/// e[s][c]` for the `params.k` patches.
+/// Mirror of `segment_sums` (`wgsl/segment_sums.wgsl`): `x[c·kp + p] = Σ_{s=I[p]}^{I[p+1]-1}
+/// w[s] e[order[s]][c]` for the `params.k` patches.
 pub fn segment_sums(
     params: &Params,
+    kp: usize,
     index: &[u32],
     weights: &[f32],
+    order: &[u32],
     emission: &[[f32; 3]],
-    x: &mut [[f32; 3]],
+    x: &mut [f32],
 ) {
-    let k = params.k as usize;
-    for (p, xp) in x[..k].iter_mut().enumerate() {
+    for p in 0..params.k as usize {
         let (begin, end) = (index[p] as usize, index[p + 1] as usize);
-        *xp = reduce_lanes(end.saturating_sub(begin), |i| {
+        let total = reduce_lanes(LANES as usize, end.saturating_sub(begin), |i| {
             let s = begin + i;
-            emission[s].map(|e| weights[s] * e)
+            emission[order[s] as usize].map(|e| weights[s] * e)
         });
-    }
-}
-
-/// Mirror of `core_product` (`wgsl/core_product.wgsl`): `z[p][c] = Σ_q M_c[p][q] x[q][c]`,
-/// with `cores` holding `params.channels` (1 or 3) `k × k` row-major matrices; a single core
-/// serves all three channels.
-pub fn core_product(params: &Params, cores: &[f32], x: &[[f32; 3]], z: &mut [[f32; 3]]) {
-    assert!(
-        matches!(params.channels, 1 | 3),
-        "channels must be 1 or 3, not {}",
-        params.channels
-    );
-    let k = params.k as usize;
-    let core_stride = if params.channels == 3 { k * k } else { 0 };
-    for (p, zp) in z[..k].iter_mut().enumerate() {
-        *zp = reduce_lanes(k, |q| {
-            let i = p * k + q;
-            let m = [cores[i], cores[i + core_stride], cores[i + 2 * core_stride]];
-            [m[0] * x[q][0], m[1] * x[q][1], m[2] * x[q][2]]
-        });
-    }
-}
-
-/// Mirror of `gather` with f32 `F_k` (`wgsl/fk_f32.wgsl` + `wgsl/gather.wgsl`): for the rows
-/// `s = row_offset + r`, `r < row_count`, with `fk` the bound view (row `row_offset` at entry
-/// `fk_offset`):
-///
-/// ```text
-/// W[s][c] = Σ_q F_k[s][q] z[q][c]        radiosity[s][c] = emission[s][c] + reflectance[s][c] W[s][c]
-/// ```
-///
-/// Rows outside the range are left as they are.
-pub fn gather(
-    params: &Params,
-    fk: &[f32],
-    z: &[[f32; 3]],
-    emission: &[[f32; 3]],
-    reflectance: &[[f32; 3]],
-    radiosity: &mut [[f32; 3]],
-) {
-    gather_with(params, |i| fk[i], z, emission, reflectance, radiosity);
-}
-
-/// Mirror of `gather` with binary16 `F_k` (`wgsl/fk_f16.wgsl` + `wgsl/gather.wgsl`): as
-/// [`gather`], with entry `i` of the view the binary16 in half `i & 1` of word `fk[i >> 1]`
-/// (see [`pack_f16`](crate::pack_f16)), widened by [`f16_to_f32`]. Gives exactly what
-/// [`gather`] gives on the widened values.
-pub fn gather_f16(
-    params: &Params,
-    fk: &[u32],
-    z: &[[f32; 3]],
-    emission: &[[f32; 3]],
-    reflectance: &[[f32; 3]],
-    radiosity: &mut [[f32; 3]],
-) {
-    // Mirror of `load_fk` in wgsl/fk_f16.wgsl.
-    let load = |i: usize| f16_to_f32((fk[i >> 1] >> (16 * (i & 1))) as u16);
-    gather_with(params, load, z, emission, reflectance, radiosity);
-}
-
-/// The body of `gather`, with `load_fk` as the storage-specific loader (`wgsl/fk_*.wgsl`).
-fn gather_with(
-    params: &Params,
-    load_fk: impl Fn(usize) -> f32,
-    z: &[[f32; 3]],
-    emission: &[[f32; 3]],
-    reflectance: &[[f32; 3]],
-    radiosity: &mut [[f32; 3]],
-) {
-    let k = params.k as usize;
-    for r in 0..params.row_count as usize {
-        let row = params.fk_offset as usize + r * k;
-        let w = reduce_lanes(k, |q| {
-            let f = load_fk(row + q);
-            z[q].map(|zq| f * zq)
-        });
-        let s = params.row_offset as usize + r;
         for c in 0..3 {
-            radiosity[s][c] = emission[s][c] + reflectance[s][c] * w[c];
+            x[c * kp + p] = total[c];
         }
     }
 }
 
-/// Mirror of the lane split plus `reduce_lanes` (`wgsl/common.wgsl`): the sum of `term(i)` for
-/// `i < len`, lane `l` adding `i = l, l + LANES, …` in turn, then a binary tree over the lanes
-/// (strides 32, 16, …, 1).
-fn reduce_lanes(len: usize, term: impl Fn(usize) -> [f32; 3]) -> [f32; 3] {
-    const L: usize = LANES as usize;
-    let mut partial = [[0.0f32; 3]; L];
+/// Mirror of `group_sums` (`wgsl/light_groups.wgsl`): `x[t] = Σ_g a_g group_x[g·3·kp + t]` for
+/// `t < 3·kp`, groups in order.
+pub fn group_sums(params: &Params, kp: usize, intensities: &[f32], group_x: &[f32], x: &mut [f32]) {
+    for (t, xt) in x[..3 * kp].iter_mut().enumerate() {
+        let mut sum = 0.0f32;
+        for g in 0..params.groups as usize {
+            sum += intensities[g] * group_x[g * 3 * kp + t];
+        }
+        *xt = sum;
+    }
+}
+
+/// Mirror of `group_emission` (`wgsl/light_groups.wgsl`): for each lit position `u`,
+/// `emission[order[position[u]]] = Σ_{m ∈ starts[u]..starts[u+1]} a_{members[m]}
+/// member_emission[m]`. Other elements are left as they are (zero on the GPU).
+#[allow(clippy::too_many_arguments)] // the pass's bindings, one argument each
+pub fn group_emission(
+    params: &Params,
+    intensities: &[f32],
+    position: &[u32],
+    starts: &[u32],
+    members: &[u32],
+    member_emission: &[[f32; 3]],
+    order: &[u32],
+    emission: &mut [[f32; 3]],
+) {
+    for u in 0..params.positions as usize {
+        let mut sum = [0.0f32; 3];
+        for m in starts[u] as usize..starts[u + 1] as usize {
+            let a = intensities[members[m] as usize];
+            for c in 0..3 {
+                sum[c] += a * member_emission[m][c];
+            }
+        }
+        emission[order[position[u] as usize] as usize] = sum;
+    }
+}
+
+/// Mirror of `core_product` (`wgsl/core_product.wgsl`): `z[c·kp + p] = Σ_q M_c[p][q]
+/// x[c·kp + q]`, each core `k` rows of `kp` entries (zero past `k`).
+pub fn core_product(params: &Params, kp: usize, cores: [&[f32]; 3], x: &[f32], z: &mut [f32]) {
+    for p in 0..params.k as usize {
+        // Lane l takes the vec4 groups j = l, l + LANES, …: 4 consecutive entries each.
+        let total = reduce_lanes(LANES as usize, kp / 4, |j| {
+            std::array::from_fn(|c| {
+                let row = &cores[c][p * kp + 4 * j..p * kp + 4 * j + 4];
+                dot4(row, &x[c * kp + 4 * j..c * kp + 4 * j + 4])
+            })
+        });
+        for c in 0..3 {
+            z[c * kp + p] = total[c];
+        }
+    }
+}
+
+/// A chunk of whole stored rows (`row_count · kp` entries), as the gather's loader reads it.
+#[derive(Clone, Copy, Debug)]
+pub enum Rows<'a> {
+    /// `f32` entries (`wgsl/fk_f32.wgsl`).
+    F32(&'a [f32]),
+    /// binary16 bits (`wgsl/fk_f16*.wgsl`), widened exactly by [`lrr_formats::f16_to_f32`].
+    F16(&'a [u16]),
+}
+
+impl Rows<'_> {
+    fn get(&self, i: usize) -> f32 {
+        match self {
+            Rows::F32(v) => v[i],
+            Rows::F16(v) => f16_to_f32(v[i]),
+        }
+    }
+}
+
+/// Mirror of `gather` (`wgsl/gather.wgsl` with any loader and reduction): for the chunk's rows
+/// `r < row_count`, stored row `first_row + r` (block `c`, element `s` in file order):
+///
+/// ```text
+/// W[s][c] = Σ_q rows[r·kp + q] z[c·kp + q]
+/// factored: B[order[s]][c] = E[order[s]][c] + ρ[s][c] W[s][c]     plain: B = E - W
+/// ```
+///
+/// With `per_block` (plain RGB) a row of block `c` gives channel `c` alone. Rows outside the
+/// chunk are left as they are.
+#[allow(clippy::too_many_arguments)] // the pass's bindings, one argument each
+pub fn gather(
+    params: &Params,
+    constants: &GatherConstants,
+    rows: &Rows<'_>,
+    z: &[f32],
+    emission: &[[f32; 3]],
+    reflectance: &[[f32; 3]],
+    order: &[u32],
+    radiosity: &mut [[f32; 3]],
+) {
+    let kp = constants.kp as usize;
+    let n = params.n as usize;
+    for r in 0..params.row_count as usize {
+        let stored = params.first_row as usize + r;
+        let block = if constants.per_block { stored / n } else { 0 };
+        let s = stored - block * n;
+        // Lane l takes octets j = l, l + ROW_LANES, …: 8 entries, as two 4-entry dots.
+        let octet = |j: usize, c: usize| {
+            let f: [f32; 8] = std::array::from_fn(|i| rows.get(r * kp + 8 * j + i));
+            let zc = &z[c * kp + 8 * j..c * kp + 8 * j + 8];
+            dot4(&f[..4], &zc[..4]) + dot4(&f[4..], &zc[4..])
+        };
+        let w = reduce_lanes(constants.row_lanes as usize, kp / 8, |j| {
+            if constants.per_block {
+                [octet(j, block), 0.0, 0.0]
+            } else {
+                std::array::from_fn(|c| octet(j, c))
+            }
+        });
+        let id = order[s] as usize;
+        let (e, b) = (emission[id], &mut radiosity[id]);
+        if constants.per_block {
+            b[block] = e[block] - w[0];
+        } else if constants.factored {
+            *b = std::array::from_fn(|c| e[c] + reflectance[s][c] * w[c]);
+        } else {
+            *b = std::array::from_fn(|c| e[c] - w[c]);
+        }
+    }
+}
+
+/// Mirror of `read_matrix` (`wgsl/read.wgsl`): the XOR of every 32-bit word of `words`, the value the
+/// pass compares before its one store. Lanes and order do not matter to XOR.
+pub fn read_matrix(words: &[u32]) -> u32 {
+    words.iter().fold(0, |acc, w| acc ^ w)
+}
+
+/// `((a0 b0 + a1 b1) + a2 b2) + a3 b3`: one order a GPU's `dot` may use.
+fn dot4(a: &[f32], b: &[f32]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+}
+
+/// Mirror of the lane split plus the tree of `reduce_lanes` / `row_sum`: the sum of `term(i)`
+/// for `i < len`, lane `l < lanes` adding `i = l, l + lanes, …` in turn, then a binary tree
+/// over the lanes (strides `lanes/2, …, 1`). `lanes` is a power of two.
+pub fn reduce_lanes(lanes: usize, len: usize, term: impl Fn(usize) -> [f32; 3]) -> [f32; 3] {
+    let mut partial = vec![[0.0f32; 3]; lanes];
     for (lane, sum) in partial.iter_mut().enumerate() {
-        for i in (lane..len).step_by(L) {
+        for i in (lane..len).step_by(lanes) {
             *sum = add(*sum, term(i));
         }
     }
-    let mut stride = L / 2;
+    let mut stride = lanes / 2;
     while stride > 0 {
         for lane in 0..stride {
             partial[lane] = add(partial[lane], partial[lane + stride]);

@@ -1,4 +1,6 @@
-//! WGSL sources of lrr's per-frame evaluation, with their CPU mirrors.
+//! WGSL sources of lrr's per-frame evaluation, their contracts (bindings, pipeline constants,
+//! the shared uniform) and their CPU mirrors. The runtime's `gpu` feature
+//! (`lrr_runtime::gpu`) executes exactly these sources.
 //!
 //! A frame relights the scene with the factored low-rank operator (DESIGN.md §2, "RGB without
 //! tripling the operator"):
@@ -7,159 +9,170 @@
 //! B = E + ρ ⊙ F_k M (Vᵀ E)        per channel c:  B_c = E_c + ρ_c ⊙ F_k M_c Vᵀ E_c
 //! ```
 //!
-//! in three passes, each a WGSL file under `shaders/wgsl/` and a function of the same name in
-//! [`cpu`]:
+//! in passes, each a WGSL file under `shaders/wgsl/` and a function of the same name in [`cpu`]:
 //!
-//! | pass | computes | cost |
-//! |---|---|---|
-//! | [`Pass::SegmentSums`] | `X[p][c] = Σ_{s=I[p]}^{I[p+1]-1} w[s] E[s][c]` (`X = Vᵀ E`, sparse `V`) | O(n) |
-//! | [`Pass::CoreProduct`] | `Z[p][c] = Σ_q M_c[p][q] X[q][c]` (`Z_c = M_c X_c`) | O(k²) |
-//! | [`Pass::Gather`] | `W[s][c] = Σ_q F_k[s][q] Z[q][c]`, `B[s][c] = E[s][c] + ρ[s][c] W[s][c]` | O(nk) |
-//! | [`Pass::GatherF16`] | the same with `F_k` stored as IEEE binary16 | O(nk) |
+//! | pass | file | computes | cost |
+//! |---|---|---|---|
+//! | [`Pass::SegmentSums`] | `segment_sums.wgsl` | `X_c[p] = Σ_{s=I[p]}^{I[p+1]-1} w[s] E[order[s]][c]` | O(n) |
+//! | [`Pass::GroupSums`], [`Pass::GroupEmission`] | `light_groups.wgsl` | `X = Σ_g a_g x_g`, `E = Σ_g a_g E_g` on the lit elements | O(kG + lit) |
+//! | [`Pass::CoreProduct`] | `core_product.wgsl` | `Z_c = M_c X_c` | O(k²) |
+//! | [`Pass::Gather`] | `gather.wgsl` + a loader `fk_*.wgsl` + a reduction `reduce_*.wgsl` | `W = F_k Z`, `B = E + ρ ⊙ W` (plain: `B = E - Y X`) | O(nk) |
 //!
-//! The gather reads `F_k` once for all three channels: the bytes a frame reads are those of one
-//! `F_k`, not three `Y_k`.
+//! [`Pass::Read`] (`read.wgsl`) is not a step of a frame: it reads the gather's bytes and
+//! nothing else, the roofline the benchmark compares the gather with.
+//!
+//! The gather reads the stored matrix once for all three channels. `common.wgsl` holds what the
+//! passes share: [`Params`] (the uniform at binding 0), `KP`, `reduce_lanes`.
 //!
 //! # Buffer layouts
 //!
-//! Everything is in file order (elements sorted by patch), little-endian, tightly packed:
+//! - Emission `E` and radiosity `B`: 3 `f32` per element in **original id** order (the caller's
+//!   `[[f32; 3]]`, uploaded and read back as they are); the passes go through `order` (file
+//!   position → id, a permutation).
+//! - Reflectance `ρ`, weights `w`, index `I`: file order, as in the operator file.
+//! - Per patch (`X`, `Z`, `x_g`): three planes of [`padded_k`]`(k)` = `KP` floats, channel `c` at
+//!   `c·KP`, zero past `k`.
+//! - Stored matrices (`F_k`, plain `Y_k` blocks, cores): rows of `KP` entries, `k` values then
+//!   zeros, so every row is whole 32-byte octets and vector loads need no tail; `f32` or
+//!   binary16 (entry `2m` in the low half of word `m`: the file's little-endian `u16` array).
+//!   The rows of `F_k` (and the `blocks · n` rows of a plain `Y_k`) come in chunks of whole rows,
+//!   each its own buffer and binding ([`Params::first_row`], [`Params::row_count`]), so an
+//!   operator larger than the device's binding or buffer limit still runs.
 //!
-//! - RGB quantities (`E`, `ρ`, `B` per element; `X`, `Z` per patch) are 3 consecutive `f32` per
-//!   entry, entry `s` at `3s..3s + 3`: the layout of `[[f32; 3]]` and of the file's reflectance,
-//!   which therefore upload as they are. (`array<vec3<f32>>` would have a 16-byte stride; a
-//!   `vec4` padding would cost a repack of every emission upload.)
-//! - `I`: `k + 1` `u32` offsets, non-decreasing, `I[0] = 0`, `I[k] = n`; `w`: `n` `f32`.
-//! - Cores: `channels` (1 or 3) `k × k` row-major `f32` matrices, core `c` at `c·k²`; with one
-//!   core it serves all three channels. The file stores the cores as `f64`: narrow them once at
-//!   load.
-//! - `F_k`: `n × k` row-major `f32`, or binary16 packed two per `u32` (see [`Pass::GatherF16`]).
+//! # Variants and pipeline constants
 //!
-//! # Bindings
-//!
-//! All in group 0; binding 0 of every pass is the [`Params`] uniform. [`Pass::bindings`] lists
-//! them (a test checks the list against the parsed WGSL):
-//!
-//! | binding | segment_sums | core_product | gather, gather_f16 |
-//! |---|---|---|---|
-//! | 0 | `params` (uniform) | `params` | `params` |
-//! | 1 | `index` `I` | `cores` `M` | `fk` `F_k` (`array<f32>` or `array<u32>`) |
-//! | 2 | `weights` `w` | `x` `X` | `z` `Z` |
-//! | 3 | `emission` `E` | `z` `Z` (read_write) | `emission` `E` |
-//! | 4 | `x` `X` (read_write) | | `reflectance` `ρ` |
-//! | 5 | | | `radiosity` `B` (read_write) |
-//!
-//! Every pass runs [`LANES`] invocations per workgroup and one workgroup per patch (segment_sums,
-//! core_product) or per row of `F_k` (gather): lane `l` sums terms `l, l + LANES, …` (so a
-//! workgroup reads its row in consecutive runs), then a binary tree adds the lanes. Dispatch
-//! [`workgroups`]`(k)` or [`workgroups`]`(row_count)`.
-//!
-//! # F_k in row chunks
-//!
-//! lavapipe binds at most 128 MiB per storage buffer, less than `F_k` of a large scene. The
-//! gather then runs once per chunk of rows with [`Params::rows`]: `row_offset` and `row_count`
-//! say which rows of `B` the dispatch writes, `fk_offset` where the first of those rows starts
-//! inside the bound view of `F_k` (the binding offset must be a multiple of the device's
-//! `min_storage_buffer_offset_alignment`, so a chunk need not start on a binding boundary).
-//! `E`, `ρ` and `B` (12 bytes per element) stay bound whole.
-//!
-//! # Why binary16 is packed in `u32`
-//!
-//! The file may store `F_k` as binary16, halving the bytes of the O(nk) pass. WGSL's `f16`
-//! needs `enable f16;` (the optional `shader-f16` feature, missing on many adapters), and storage
-//! buffers are arrays of 32-bit words, so the gather reads `u32` words: entry `2j` in the low
-//! half of word `j`, entry `2j + 1` in the high half. That is exactly the file's little-endian
-//! `u16` array read as words (padded with a zero half to a whole word; [`pack_f16`] does it for
-//! a `&[u16]`).
-//!
-//! The shader widens a half with integer operations ([`cpu::f16_to_f32`] mirrors them), not
-//! with `unpack2x16float`: naga accepts that builtin only with the `SHADER_FLOAT16_IN_FLOAT32`
-//! capability, which wgpu grants from `DownlevelFlags::SHADER_F16_IN_F32`, documented as missing
-//! on Mesa's Vulkan drivers (lavapipe among them) without `shader-f16`. The widening is exact,
-//! subnormal halves included (they are normal f32s, out of reach of any flush-to-zero mode), so
-//! every pass validates with no naga capability at all.
+//! Pipelines are specialised by WGSL `override` constants ([`GatherConstants`], `KP`), not by
+//! string templates. What an adapter may lack is a separate file instead, because naga
+//! validates a whole module: the binary16 loader (`fk_f16.wgsl` native `f16`,
+//! `fk_f16_unpack.wgsl` `unpack2x16float`, `fk_f16_bits.wgsl` integer widening) and the row
+//! reduction (`reduce_subgroup.wgsl` shuffles, `reduce_workgroup.wgsl` workgroup memory).
 //!
 //! # Example
 //!
-//! The CPU mirrors run the passes on the host, with the shaders' arithmetic and summation order:
+//! The CPU mirrors run the passes on the host, with the shaders' summation order:
 //!
 //! ```
-//! use lrr_shaders::{Params, cpu};
+//! use lrr_shaders::{GatherConstants, Params, cpu, padded_k};
 //!
 //! // Two elements in one patch (w = 1/2 each), a 1 x 1 core M = [2], grey ρ = 0.5.
-//! let params = Params::new(2, 1, 1);
-//! let (index, weights) = ([0, 2], [0.5, 0.5]);
+//! let (n, k) = (2, 1);
+//! let kp = padded_k(k) as usize;
+//! let params = Params { n: n as u32, k: k as u32, row_count: n as u32, ..Params::default() };
+//! let (index, weights, order) = ([0, 2], [0.5, 0.5], [0, 1]);
 //! let emission = [[1.0, 0.0, 0.0], [3.0, 0.0, 0.0]];
-//! let (cores, fk) = ([2.0], [0.25, 0.5]);
+//! let mut core = vec![0.0; kp];
+//! core[0] = 2.0;
+//! let mut fk = vec![0.0; n * kp];
+//! (fk[0], fk[kp]) = (0.25, 0.5);
 //! let rho = [[0.5; 3]; 2];
 //!
-//! let mut x = [[0.0; 3]; 1];
-//! cpu::segment_sums(&params, &index, &weights, &emission, &mut x);
-//! let mut z = [[0.0; 3]; 1];
-//! cpu::core_product(&params, &cores, &x, &mut z);
+//! let mut x = vec![0.0; 3 * kp];
+//! cpu::segment_sums(&params, kp, &index, &weights, &order, &emission, &mut x);
+//! let mut z = vec![0.0; 3 * kp];
+//! cpu::core_product(&params, kp, [&core, &core, &core], &x, &mut z);
 //! let mut b = [[0.0; 3]; 2];
-//! cpu::gather(&params, &fk, &z, &emission, &rho, &mut b);
+//! let gather = GatherConstants::new(kp as u32, true, false);
+//! cpu::gather(&params, &gather, &cpu::Rows::F32(&fk), &z, &emission, &rho, &order, &mut b);
 //!
-//! assert_eq!(x[0][0], 2.0); // (1 + 3) / 2
-//! assert_eq!(z[0][0], 4.0); // 2 * 2
+//! assert_eq!(x[0], 2.0); // (1 + 3) / 2
+//! assert_eq!(z[0], 4.0); // 2 * 2
 //! assert_eq!(b[0][0], 1.5); // 1 + 0.5 * 0.25 * 4
 //! assert_eq!(b[1][0], 4.0); // 3 + 0.5 * 0.5 * 4
 //! ```
 //!
-//! Getting a pass's source for `wgpu::ShaderSource::Wgsl`:
+//! # Why this is its own crate
 //!
-//! ```
-//! use lrr_shaders::{Pass, source};
-//! let wgsl = source(Pass::Gather);
-//! assert!(wgsl.contains("struct Params"));
-//! assert!(wgsl.contains("fn gather("));
-//! ```
+//! The runtime's `gpu` module is the only code that executes these sources, yet they live
+//! here: the sources, their Rust twins and their mirrors form one contract that is tested on
+//! any machine by `cargo test -p lrr-shaders` (naga parses and validates every variant; the
+//! mirrors run against f64) without building wgpu or finding an adapter, and the default
+//! runtime build stays free of them. The crate has no third-party dependency.
 
 #![forbid(unsafe_code)]
 
 pub mod cpu;
-mod half;
 mod params;
 
 #[cfg(test)]
 mod naga_tests;
 
-pub use half::pack_f16;
-pub use params::Params;
+pub use params::{GatherConstants, Params};
 
-/// Invocations per workgroup in every pass. Mirrored by `LANES` in `wgsl/common.wgsl` (a test
-/// checks they agree); the CPU mirrors reduce over the same lanes in the same order.
+/// Invocations per workgroup in segment_sums, core_product and the light-group passes.
+/// Mirrored by `LANES` in `wgsl/common.wgsl` (a test checks they agree).
 pub const LANES: u32 = 64;
+
+/// Invocations per workgroup of the gather. Mirrored by `GATHER_SIZE` in `wgsl/gather.wgsl`.
+pub const GATHER_SIZE: u32 = 256;
 
 /// The most workgroups a dispatch may have in one dimension (WebGPU's default
 /// `max_compute_workgroups_per_dimension`; also lavapipe's).
 pub const MAX_WORKGROUPS_PER_DIMENSION: u32 = 65535;
 
-/// Shared declarations, in front of every pass.
+/// Shared declarations: [`Params`], `KP`, `LANES`, `reduce_lanes`.
 pub const COMMON: &str = include_str!("../wgsl/common.wgsl");
-/// [`Pass::SegmentSums`] body.
+/// [`Pass::SegmentSums`].
 pub const SEGMENT_SUMS: &str = include_str!("../wgsl/segment_sums.wgsl");
-/// [`Pass::CoreProduct`] body.
+/// [`Pass::GroupSums`] and [`Pass::GroupEmission`].
+pub const LIGHT_GROUPS: &str = include_str!("../wgsl/light_groups.wgsl");
+/// [`Pass::CoreProduct`].
 pub const CORE_PRODUCT: &str = include_str!("../wgsl/core_product.wgsl");
-/// `F_k` binding and loader for f32 storage ([`Pass::Gather`]).
-pub const FK_F32: &str = include_str!("../wgsl/fk_f32.wgsl");
-/// `F_k` binding and loader for packed binary16 storage ([`Pass::GatherF16`]).
-pub const FK_F16: &str = include_str!("../wgsl/fk_f16.wgsl");
-/// The gather body, shared by [`Pass::Gather`] and [`Pass::GatherF16`].
+/// The body of [`Pass::Gather`].
 pub const GATHER: &str = include_str!("../wgsl/gather.wgsl");
+/// [`Pass::Read`].
+pub const READ: &str = include_str!("../wgsl/read.wgsl");
+/// [`Storage::F32`] loader.
+pub const FK_F32: &str = include_str!("../wgsl/fk_f32.wgsl");
+/// [`Storage::F16`] loader (native `f16`; starts with `enable f16;`).
+pub const FK_F16: &str = include_str!("../wgsl/fk_f16.wgsl");
+/// [`Storage::F16Unpack`] loader.
+pub const FK_F16_UNPACK: &str = include_str!("../wgsl/fk_f16_unpack.wgsl");
+/// [`Storage::F16Bits`] loader.
+pub const FK_F16_BITS: &str = include_str!("../wgsl/fk_f16_bits.wgsl");
+/// [`Reduce::Subgroup`] row sums.
+pub const REDUCE_SUBGROUP: &str = include_str!("../wgsl/reduce_subgroup.wgsl");
+/// [`Reduce::Workgroup`] row sums.
+pub const REDUCE_WORKGROUP: &str = include_str!("../wgsl/reduce_workgroup.wgsl");
 
-/// One compute pass of the per-frame evaluation.
+/// How the gather reads the stored matrix.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Storage {
+    /// `f32` (`fk_f32.wgsl`).
+    F32,
+    /// binary16 as WGSL `f16` (`fk_f16.wgsl`): needs the adapter's `SHADER_F16`.
+    F16,
+    /// binary16 widened by `unpack2x16float` (`fk_f16_unpack.wgsl`): needs
+    /// `DownlevelFlags::SHADER_F16_IN_F32`.
+    F16Unpack,
+    /// binary16 widened with integer operations (`fk_f16_bits.wgsl`): needs nothing.
+    F16Bits,
+}
+
+/// How the gather adds a row's partial sums across its lanes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Reduce {
+    /// Subgroup shuffles (`reduce_subgroup.wgsl`): needs the adapter's `SUBGROUP`.
+    Subgroup,
+    /// Workgroup memory and barriers (`reduce_workgroup.wgsl`): needs nothing.
+    Workgroup,
+}
+
+/// One compute pass (entry point) of the per-frame evaluation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Pass {
-    /// `X = Vᵀ E`: `wgsl/segment_sums.wgsl`, mirror [`cpu::segment_sums`].
+    /// `X = Vᵀ E`: mirror [`cpu::segment_sums`].
     SegmentSums,
-    /// `Z_c = M_c X_c`: `wgsl/core_product.wgsl`, mirror [`cpu::core_product`].
+    /// `X = Σ_g a_g x_g`: mirror [`cpu::group_sums`].
+    GroupSums,
+    /// `E = Σ_g a_g E_g` on the lit elements: mirror [`cpu::group_emission`].
+    GroupEmission,
+    /// `Z_c = M_c X_c`: mirror [`cpu::core_product`].
     CoreProduct,
-    /// `B = E + ρ ⊙ F_k Z`, `F_k` in f32: `wgsl/fk_f32.wgsl` + `wgsl/gather.wgsl`, mirror
-    /// [`cpu::gather`].
-    Gather,
-    /// `B = E + ρ ⊙ F_k Z`, `F_k` in binary16 packed two per `u32`: `wgsl/fk_f16.wgsl` +
-    /// `wgsl/gather.wgsl`, mirror [`cpu::gather_f16`].
-    GatherF16,
+    /// `B = E + ρ ⊙ F_k Z` (or `E - Y X`): mirror [`cpu::gather`].
+    Gather(Storage, Reduce),
+    /// Not a step of a frame: the gather's read roofline over the same bytes, mirror
+    /// [`cpu::read_matrix`].
+    Read,
 }
 
 /// How a pass accesses one binding.
@@ -192,84 +205,148 @@ const fn bind(binding: u32, name: &'static str, access: Access) -> Binding {
     }
 }
 
+use Access::{Read, ReadWrite, Uniform};
+
+const SEGMENT_SUMS_BINDINGS: &[Binding] = &[
+    bind(0, "params", Uniform),
+    bind(1, "index", Read),
+    bind(2, "weights", Read),
+    bind(3, "order", Read),
+    bind(4, "emission", Read),
+    bind(5, "x", ReadWrite),
+];
+const GROUP_SUMS_BINDINGS: &[Binding] = &[
+    bind(0, "params", Uniform),
+    bind(1, "intensities", Read),
+    bind(2, "group_x", Read),
+    bind(8, "x", ReadWrite),
+];
+const GROUP_EMISSION_BINDINGS: &[Binding] = &[
+    bind(0, "params", Uniform),
+    bind(1, "intensities", Read),
+    bind(3, "position", Read),
+    bind(4, "starts", Read),
+    bind(5, "members", Read),
+    bind(6, "member_emission", Read),
+    bind(7, "order", Read),
+    bind(9, "emission", ReadWrite),
+];
+const CORE_PRODUCT_BINDINGS: &[Binding] = &[
+    bind(0, "params", Uniform),
+    bind(1, "core_r", Read),
+    bind(2, "core_g", Read),
+    bind(3, "core_b", Read),
+    bind(4, "x", Read),
+    bind(5, "z", ReadWrite),
+];
+const GATHER_BINDINGS: &[Binding] = &[
+    bind(0, "params", Uniform),
+    bind(1, "fk", Read),
+    bind(2, "z", Read),
+    bind(3, "emission", Read),
+    bind(4, "reflectance", Read),
+    bind(5, "order", Read),
+    bind(6, "radiosity", ReadWrite),
+];
+const READ_BINDINGS: &[Binding] = &[bind(1, "fk", Read), bind(2, "sink", ReadWrite)];
+
 impl Pass {
-    /// Every pass, in dispatch order (one of the two gathers runs).
-    pub const ALL: [Pass; 4] = [
+    /// Every pass and variant.
+    pub const ALL: [Pass; 13] = [
         Pass::SegmentSums,
+        Pass::GroupSums,
+        Pass::GroupEmission,
         Pass::CoreProduct,
-        Pass::Gather,
-        Pass::GatherF16,
+        Pass::Gather(Storage::F32, Reduce::Subgroup),
+        Pass::Gather(Storage::F32, Reduce::Workgroup),
+        Pass::Gather(Storage::F16, Reduce::Subgroup),
+        Pass::Gather(Storage::F16, Reduce::Workgroup),
+        Pass::Gather(Storage::F16Unpack, Reduce::Subgroup),
+        Pass::Gather(Storage::F16Unpack, Reduce::Workgroup),
+        Pass::Gather(Storage::F16Bits, Reduce::Subgroup),
+        Pass::Gather(Storage::F16Bits, Reduce::Workgroup),
+        Pass::Read,
     ];
 
-    /// The compute entry point's name.
+    /// The compute entry point's name (also the CPU mirror's).
     pub fn entry_point(self) -> &'static str {
         match self {
             Pass::SegmentSums => "segment_sums",
+            Pass::GroupSums => "group_sums",
+            Pass::GroupEmission => "group_emission",
             Pass::CoreProduct => "core_product",
-            Pass::Gather | Pass::GatherF16 => "gather",
+            Pass::Gather(..) => "gather",
+            Pass::Read => "read_matrix",
         }
     }
 
-    /// The files concatenated into this pass's source, in order.
-    pub fn parts(self) -> &'static [&'static str] {
+    /// The files concatenated into this pass's source, in order. A loader comes first: it may
+    /// carry `enable f16;`, which must precede every declaration.
+    pub fn parts(self) -> Vec<&'static str> {
         match self {
-            Pass::SegmentSums => &[COMMON, SEGMENT_SUMS],
-            Pass::CoreProduct => &[COMMON, CORE_PRODUCT],
-            Pass::Gather => &[COMMON, FK_F32, GATHER],
-            Pass::GatherF16 => &[COMMON, FK_F16, GATHER],
+            Pass::SegmentSums => vec![COMMON, SEGMENT_SUMS],
+            Pass::GroupSums | Pass::GroupEmission => vec![COMMON, LIGHT_GROUPS],
+            Pass::CoreProduct => vec![COMMON, CORE_PRODUCT],
+            Pass::Read => vec![COMMON, READ],
+            Pass::Gather(storage, reduce) => {
+                let loader = match storage {
+                    Storage::F32 => FK_F32,
+                    Storage::F16 => FK_F16,
+                    Storage::F16Unpack => FK_F16_UNPACK,
+                    Storage::F16Bits => FK_F16_BITS,
+                };
+                let reduce = match reduce {
+                    Reduce::Subgroup => REDUCE_SUBGROUP,
+                    Reduce::Workgroup => REDUCE_WORKGROUP,
+                };
+                vec![loader, COMMON, GATHER, reduce]
+            }
         }
     }
 
-    /// The pass's bindings (all in group 0), by binding number.
+    /// The bindings the entry point uses (all in group 0), by binding number. The light-group
+    /// entry points share one file and use a part of its bindings each.
     pub fn bindings(self) -> &'static [Binding] {
-        use Access::{Read, ReadWrite, Uniform};
         match self {
-            Pass::SegmentSums => {
-                const {
-                    &[
-                        bind(0, "params", Uniform),
-                        bind(1, "index", Read),
-                        bind(2, "weights", Read),
-                        bind(3, "emission", Read),
-                        bind(4, "x", ReadWrite),
-                    ]
-                }
-            }
-            Pass::CoreProduct => {
-                const {
-                    &[
-                        bind(0, "params", Uniform),
-                        bind(1, "cores", Read),
-                        bind(2, "x", Read),
-                        bind(3, "z", ReadWrite),
-                    ]
-                }
-            }
-            Pass::Gather | Pass::GatherF16 => {
-                const {
-                    &[
-                        bind(0, "params", Uniform),
-                        bind(1, "fk", Read),
-                        bind(2, "z", Read),
-                        bind(3, "emission", Read),
-                        bind(4, "reflectance", Read),
-                        bind(5, "radiosity", ReadWrite),
-                    ]
-                }
-            }
+            Pass::SegmentSums => SEGMENT_SUMS_BINDINGS,
+            Pass::GroupSums => GROUP_SUMS_BINDINGS,
+            Pass::GroupEmission => GROUP_EMISSION_BINDINGS,
+            Pass::CoreProduct => CORE_PRODUCT_BINDINGS,
+            Pass::Gather(..) => GATHER_BINDINGS,
+            Pass::Read => READ_BINDINGS,
         }
+    }
+
+    /// Whether the pass needs the adapter's `SHADER_F16` feature.
+    pub fn needs_f16(self) -> bool {
+        matches!(self, Pass::Gather(Storage::F16, _))
+    }
+
+    /// Whether the pass needs `DownlevelFlags::SHADER_F16_IN_F32`.
+    pub fn needs_f16_in_f32(self) -> bool {
+        matches!(self, Pass::Gather(Storage::F16Unpack, _))
+    }
+
+    /// Whether the pass needs the adapter's `SUBGROUP` feature.
+    pub fn needs_subgroups(self) -> bool {
+        matches!(self, Pass::Gather(_, Reduce::Subgroup))
     }
 }
 
-/// The complete WGSL source of `pass`: `common.wgsl` followed by the pass's own files.
+/// The complete WGSL source of `pass`: its parts joined.
 pub fn source(pass: Pass) -> String {
     pass.parts().join("\n")
 }
 
-/// The dispatch size for `count` workgroups (patches or rows): `[count, 1, 1]` while that fits
+/// `KP`: the padded row length of the stored matrices and the plane stride of `X` and `Z`, for
+/// `k` patches: `k` rounded up to a multiple of 8 (one octet: 32 bytes of f32, 16 of binary16).
+pub fn padded_k(k: u32) -> u32 {
+    k.next_multiple_of(8)
+}
+
+/// The dispatch size for `count` workgroups (patches): `[count, 1, 1]` while that fits
 /// [`MAX_WORKGROUPS_PER_DIMENSION`], else a 2D grid whose surplus groups (at most one row's
-/// worth) return at once. Covers up to 65535² ≈ 4.29e9 groups (`y` would pass the limit
-/// beyond, for the last 131070 values of `u32`).
+/// worth) return at once. Covers up to 65535² ≈ 4.29e9 groups.
 pub fn workgroups(count: u32) -> [u32; 3] {
     if count <= MAX_WORKGROUPS_PER_DIMENSION {
         [count, 1, 1]
@@ -306,11 +383,19 @@ mod tests {
     }
 
     #[test]
-    fn sources_start_with_the_common_declarations() {
+    fn sources_hold_common_and_their_entry_point() {
         for pass in Pass::ALL {
             let wgsl = source(pass);
-            assert!(wgsl.starts_with(COMMON), "{pass:?}");
+            assert!(wgsl.contains(COMMON), "{pass:?}");
             assert!(wgsl.contains(&format!("fn {}(", pass.entry_point())));
         }
+    }
+
+    #[test]
+    fn padding_is_whole_octets() {
+        assert_eq!(padded_k(1), 8);
+        assert_eq!(padded_k(8), 8);
+        assert_eq!(padded_k(216), 216);
+        assert_eq!(padded_k(217), 224);
     }
 }

@@ -1,13 +1,16 @@
-//! Every pass parsed and validated by naga (the front end wgpu 30 uses), so a broken shader
-//! fails here, on a machine without a GPU; and the Rust twins of WGSL declarations checked
-//! against the parsed module.
+//! Every pass and variant parsed and validated by naga (the front end wgpu 30 uses), its
+//! pipeline constants applied and compiled to SPIR-V, so a broken shader fails here, on a
+//! machine without a GPU; and the Rust twins of WGSL declarations checked against the parsed
+//! module.
 
-use naga::valid::{Capabilities, ModuleInfo, ValidationFlags, Validator};
-use naga::{
-    AddressSpace, Expression, Literal, Module, ShaderStage, Statement, StorageAccess, TypeInner,
+use naga::back::PipelineConstants;
+use naga::proc::Layouter;
+use naga::valid::{
+    Capabilities, ModuleInfo, ShaderStages, SubgroupOperationSet, ValidationFlags, Validator,
 };
+use naga::{AddressSpace, Expression, Literal, Module, ShaderStage, StorageAccess, TypeInner};
 
-use crate::{Access, LANES, Params, Pass, source};
+use crate::{Access, GATHER_SIZE, GatherConstants, LANES, Params, Pass, source};
 
 fn parse(pass: Pass) -> Module {
     let wgsl = source(pass);
@@ -15,10 +18,29 @@ fn parse(pass: Pass) -> Module {
         .unwrap_or_else(|e| panic!("{pass:?} does not parse:\n{}", e.emit_to_string(&wgsl)))
 }
 
-/// Validation with every check and no optional capability: stricter than
-/// `Capabilities::all()`, it shows the passes need nothing a WebGPU adapter may lack.
+/// The naga capabilities wgpu grants from the adapter features a pass needs, and no more.
+fn capabilities(pass: Pass) -> Capabilities {
+    let mut caps = Capabilities::empty();
+    caps.set(Capabilities::SHADER_FLOAT16, pass.needs_f16());
+    caps.set(
+        Capabilities::SHADER_FLOAT16_IN_FLOAT32,
+        pass.needs_f16_in_f32(),
+    );
+    caps.set(Capabilities::SUBGROUP, pass.needs_subgroups());
+    caps
+}
+
+fn validator(caps: Capabilities) -> Validator {
+    let mut v = Validator::new(ValidationFlags::all(), caps);
+    if caps.contains(Capabilities::SUBGROUP) {
+        v.subgroup_stages(ShaderStages::COMPUTE)
+            .subgroup_operations(SubgroupOperationSet::all());
+    }
+    v
+}
+
 fn validate(pass: Pass, module: &Module) -> ModuleInfo {
-    Validator::new(ValidationFlags::all(), Capabilities::empty())
+    validator(capabilities(pass))
         .validate(module)
         .unwrap_or_else(|e| {
             panic!(
@@ -29,69 +51,131 @@ fn validate(pass: Pass, module: &Module) -> ModuleInfo {
 }
 
 #[test]
-fn every_pass_parses_and_validates() {
+fn every_pass_parses_and_validates_with_only_what_it_declares() {
     for pass in Pass::ALL {
         validate(pass, &parse(pass));
     }
 }
 
+/// The variants exist because an adapter may lack a feature: each needs its capability.
 #[test]
-fn no_pass_needs_an_extension() {
+fn optional_variants_fail_without_their_capability() {
     for pass in Pass::ALL {
-        let wgsl = source(pass);
-        let directives = wgsl
-            .lines()
-            .filter(|line| line.trim_start().starts_with("enable") || line.contains("requires"));
-        assert_eq!(
-            directives.count(),
-            0,
-            "{pass:?}: `enable f16;` and subgroups are not portable"
-        );
+        let caps = capabilities(pass);
+        if caps.is_empty() {
+            continue;
+        }
+        let module = naga::front::wgsl::parse_str(&source(pass));
+        let valid = module.map(|m| validator(Capabilities::empty()).validate(&m).is_ok());
+        assert!(!matches!(valid, Ok(true)), "{pass:?} needs {caps:?}");
     }
 }
 
+/// Applies the pipeline constants the runtime passes and compiles to SPIR-V (what lavapipe and
+/// every Vulkan driver receive), so override-sized workgroup arrays and override-driven
+/// branches are exercised without a GPU.
 #[test]
-fn each_pass_has_its_one_compute_entry_point() {
+fn specialised_passes_compile_to_spirv() {
     for pass in Pass::ALL {
         let module = parse(pass);
-        let [entry] = &module.entry_points[..] else {
-            panic!("{pass:?}: {} entry points", module.entry_points.len());
-        };
-        assert_eq!(entry.name, pass.entry_point(), "{pass:?}");
-        assert_eq!(entry.stage, ShaderStage::Compute, "{pass:?}");
-        assert_eq!(entry.workgroup_size, [LANES, 1, 1], "{pass:?}");
-    }
-}
-
-/// Barriers must be reached by the whole workgroup. naga 30 tracks that requirement but does not
-/// reject a violation (a `reduce_lanes` moved under `if lane < 3u` still validates), so this
-/// checks the one shape the passes use: `reduce_lanes` called once, from the entry point's
-/// top-level block, where only a workgroup-uniform early return can come before it.
-#[test]
-fn barriers_run_in_uniform_control_flow() {
-    for pass in Pass::ALL {
-        let module = parse(pass);
-        let entry = &module.entry_points[0];
-        let is_reduce = |s: &Statement| match *s {
-            Statement::Call { function, .. } => {
-                module.functions[function].name.as_deref() == Some("reduce_lanes")
+        let info = validate(pass, &module);
+        for (kp, shared, factored, per_block) in [
+            (8, true, true, false),
+            (216, true, false, true),
+            (3744, false, true, false),
+        ] {
+            let mut constants = PipelineConstants::default();
+            match pass {
+                Pass::Gather(..) => {
+                    let c = GatherConstants {
+                        z_shared: shared,
+                        ..GatherConstants::new(kp, factored, per_block)
+                    };
+                    for (name, value) in c.constants() {
+                        constants.insert(name.to_owned(), value);
+                    }
+                }
+                _ => {
+                    constants.insert("KP".to_owned(), f64::from(kp));
+                }
             }
-            _ => false,
-        };
-        let top_level = entry.function.body.iter().filter(|s| is_reduce(s)).count();
-        assert_eq!(top_level, 1, "{pass:?}: reduce_lanes at the top level");
-        let calls = source(pass).matches("reduce_lanes(").count();
-        assert_eq!(calls, 2, "{pass:?}: one definition and one call");
+            let entry = Some((ShaderStage::Compute, pass.entry_point()));
+            let (module, info) = naga::back::pipeline_constants::process_overrides(
+                &module, &info, entry, &constants,
+            )
+            .unwrap_or_else(|e| panic!("{pass:?} kp {kp}: {e:?}"));
+            let options = naga::back::spv::Options {
+                capabilities: None,
+                ..Default::default()
+            };
+            let pipeline = naga::back::spv::PipelineOptions {
+                shader_stage: ShaderStage::Compute,
+                entry_point: pass.entry_point().to_owned(),
+            };
+            naga::back::spv::write_vec(&module, &info, &options, Some(&pipeline))
+                .unwrap_or_else(|e| panic!("{pass:?} kp {kp}: {e:?}"));
+        }
     }
 }
 
+/// Every override a pass declares is set by the runtime, by the names it uses.
+#[test]
+fn overrides_are_the_ones_the_host_sets() {
+    for pass in Pass::ALL {
+        let module = parse(pass);
+        let mut declared: Vec<String> = module
+            .overrides
+            .iter()
+            .filter_map(|(_, o)| o.name.clone())
+            .collect();
+        declared.sort();
+        let mut set: Vec<String> = match pass {
+            Pass::Gather(..) => GatherConstants::new(8, true, false)
+                .constants()
+                .iter()
+                .map(|(name, _)| (*name).to_owned())
+                .collect(),
+            _ => vec!["KP".to_owned()],
+        };
+        set.sort();
+        assert_eq!(declared, set, "{pass:?}");
+    }
+}
+
+#[test]
+fn each_pass_has_its_compute_entry_point() {
+    for pass in Pass::ALL {
+        let module = parse(pass);
+        let entry = module
+            .entry_points
+            .iter()
+            .find(|e| e.name == pass.entry_point())
+            .unwrap_or_else(|| panic!("{pass:?}: no {}", pass.entry_point()));
+        assert_eq!(entry.stage, ShaderStage::Compute, "{pass:?}");
+        let size = match pass {
+            Pass::Gather(..) => GATHER_SIZE,
+            _ => LANES,
+        };
+        assert_eq!(entry.workgroup_size, [size, 1, 1], "{pass:?}");
+    }
+}
+
+/// The bindings each entry point uses, against [`Pass::bindings`] (what the host binds).
 #[test]
 fn bindings_are_as_documented() {
     for pass in Pass::ALL {
         let module = parse(pass);
+        let info = validate(pass, &module);
+        let index = module
+            .entry_points
+            .iter()
+            .position(|e| e.name == pass.entry_point())
+            .unwrap();
+        let used = info.get_entry_point(index);
         let mut found: Vec<(u32, String, Access)> = module
             .global_variables
             .iter()
+            .filter(|(handle, _)| !used[*handle].is_empty())
             .filter_map(|(_, var)| {
                 let binding = var.binding.as_ref()?;
                 assert_eq!(binding.group, 0, "{pass:?}");
@@ -120,46 +204,54 @@ fn bindings_are_as_documented() {
     }
 }
 
-#[test]
-fn lanes_constant_matches() {
-    let module = parse(Pass::SegmentSums);
-    let (_, lanes) = module
+fn constant(module: &Module, name: &str) -> u32 {
+    let (_, c) = module
         .constants
         .iter()
-        .find(|(_, c)| c.name.as_deref() == Some("LANES"))
-        .expect("common.wgsl declares LANES");
-    match module.global_expressions[lanes.init] {
-        Expression::Literal(Literal::U32(value)) => assert_eq!(value, LANES),
-        ref other => panic!("LANES = {other:?}"),
+        .find(|(_, c)| c.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no const {name}"));
+    match module.global_expressions[c.init] {
+        Expression::Literal(Literal::U32(value)) => value,
+        ref other => panic!("{name} = {other:?}"),
     }
 }
 
-/// `struct Params` in common.wgsl against the `#[repr(C)]` Rust struct: same field names, same
-/// order, same offsets, same size, every field a `u32`.
+#[test]
+fn workgroup_sizes_match() {
+    assert_eq!(constant(&parse(Pass::SegmentSums), "LANES"), LANES);
+    let gather = parse(Pass::ALL[4]);
+    assert_eq!(constant(&gather, "GATHER_SIZE"), GATHER_SIZE);
+}
+
+/// `struct Params` in common.wgsl against the `#[repr(C)]` Rust struct: naga's layouter (the
+/// one its backends use) gives the same field names, order, offsets and size as `offset_of!`,
+/// every field a `u32`.
 #[test]
 fn params_struct_matches_its_rust_twin() {
-    let module = parse(Pass::Gather);
-    let (_, ty) = module
-        .types
-        .iter()
-        .find(|(_, ty)| ty.name.as_deref() == Some("Params"))
-        .expect("common.wgsl declares Params");
-    let TypeInner::Struct { members, span } = &ty.inner else {
-        panic!("Params is {:?}", ty.inner);
-    };
-    let wgsl: Vec<(&str, usize)> = members
-        .iter()
-        .map(|m| (m.name.as_deref().unwrap_or("?"), m.offset as usize))
-        .collect();
-    assert_eq!(wgsl, Params::FIELDS);
-    assert_eq!(*span as usize, Params::SIZE);
-    for member in members {
-        let inner = &module.types[member.ty].inner;
-        assert_eq!(
-            *inner,
-            TypeInner::Scalar(naga::Scalar::U32),
-            "{:?}",
-            member.name
-        );
+    for pass in Pass::ALL {
+        let module = parse(pass);
+        let mut layouter = Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        let (handle, ty) = module
+            .types
+            .iter()
+            .find(|(_, ty)| ty.name.as_deref() == Some("Params"))
+            .expect("common.wgsl declares Params");
+        let TypeInner::Struct { members, .. } = &ty.inner else {
+            panic!("Params is {:?}", ty.inner);
+        };
+        let mut offset = 0;
+        let mut wgsl = Vec::new();
+        for m in members {
+            let layout = layouter[m.ty];
+            offset = layout.alignment.round_up(offset);
+            assert_eq!(offset, m.offset, "{:?}", m.name);
+            wgsl.push((m.name.as_deref().unwrap_or("?"), offset as usize));
+            offset += layout.size;
+            let inner = &module.types[m.ty].inner;
+            assert_eq!(*inner, TypeInner::Scalar(naga::Scalar::U32), "{:?}", m.name);
+        }
+        assert_eq!(wgsl, Params::FIELDS, "{pass:?}");
+        assert_eq!(layouter[handle].size as usize, Params::SIZE, "{pass:?}");
     }
 }

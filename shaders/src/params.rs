@@ -1,8 +1,9 @@
 //! The per-dispatch uniform shared by every pass.
 //!
 //! Mirrored by `struct Params` in `wgsl/common.wgsl`: same fields, same order, all `u32`, so the
-//! offsets agree without padding rules. `naga_tests.rs` parses the WGSL struct and compares its
-//! member names and offsets with [`Params::FIELDS`].
+//! offsets agree without padding rules. `naga_tests.rs` lays the WGSL struct out with naga and
+//! compares its member names, offsets and size with [`Params::FIELDS`] (`offset_of!`). Also the
+//! gather's pipeline constants, [`GatherConstants`].
 
 /// Declares the `#[repr(C)]` struct and its field table from one list, so the names the layout
 /// test compares are the Rust field names themselves.
@@ -32,15 +33,15 @@ gpu_struct! {
         pub n: u32,
         /// Patches: columns of `F_k`, rows of the cores, entries of `X` and `Z`.
         pub k: u32,
-        /// `k × k` cores: 1 (serving all three channels) or 3 (one per channel).
-        pub channels: u32,
-        /// Gather: the first element (row of `F_k`) this dispatch writes.
-        pub row_offset: u32,
-        /// Gather: how many rows this dispatch writes, from `row_offset` on.
+        /// Gather: the first stored row of the chunk bound to the dispatch (plain RGB `Y_k`:
+        /// rows run over the three blocks, block `c` holding rows `c·n .. c·n + n`).
+        pub first_row: u32,
+        /// Gather: the rows of that chunk.
         pub row_count: u32,
-        /// Gather: the index, in entries of the bound `F_k` view (halves for binary16), where row
-        /// `row_offset` starts. 0 when the view starts at that row.
-        pub fk_offset: u32,
+        /// Light-group passes: the number of groups.
+        pub groups: u32,
+        /// `group_emission`: distinct file positions lit by some group.
+        pub positions: u32,
         /// Zero.
         pub reserved0: u32,
         /// Zero.
@@ -52,50 +53,91 @@ impl Params {
     /// Size in bytes, on the host and in WGSL.
     pub const SIZE: usize = 32;
 
-    /// Parameters for the whole operator: the gather covers rows `0..n` with `F_k` bound whole.
-    pub fn new(n: u32, k: u32, channels: u32) -> Self {
-        Params {
-            n,
-            k,
-            channels,
-            row_count: n,
-            ..Params::default()
-        }
-    }
-
-    /// The same operator, for a gather over rows `row_offset..row_offset + row_count` whose
-    /// first row starts at entry `fk_offset` of the bound `F_k` view.
-    pub fn rows(self, row_offset: u32, row_count: u32, fk_offset: u32) -> Self {
-        Params {
-            row_offset,
-            row_count,
-            fk_offset,
-            ..self
-        }
-    }
-
-    /// The bytes to upload: the fields in order, in the host's byte order (what the GPU reads on
-    /// every wgpu target, all little-endian).
+    /// The bytes to upload: the fields in order, little-endian (what the GPU reads on every
+    /// wgpu target).
     pub fn to_bytes(&self) -> [u8; Self::SIZE] {
         let fields = [
             self.n,
             self.k,
-            self.channels,
-            self.row_offset,
+            self.first_row,
             self.row_count,
-            self.fk_offset,
+            self.groups,
+            self.positions,
             self.reserved0,
             self.reserved1,
         ];
         let mut bytes = [0; Self::SIZE];
         for (chunk, field) in bytes.chunks_exact_mut(4).zip(fields) {
-            chunk.copy_from_slice(&field.to_ne_bytes());
+            chunk.copy_from_slice(&field.to_le_bytes());
         }
         bytes
     }
 }
 
 const _: () = assert!(size_of::<Params>() == Params::SIZE);
+
+/// The gather's pipeline constants (`override` declarations in `wgsl/gather.wgsl`, plus `KP`
+/// from `wgsl/common.wgsl`). A test checks the names against the parsed WGSL.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct GatherConstants {
+    /// `KP`: padded row length, a multiple of 8 (see [`padded_k`](crate::padded_k)).
+    pub kp: u32,
+    /// `ROW_LANES`: lanes per row, a power of two from 1 to 32 (at most the adapter's smallest
+    /// subgroup with [`Reduce::Subgroup`](crate::Reduce::Subgroup)).
+    pub row_lanes: u32,
+    /// `Z_SHARED`: copy `Z` into workgroup memory (`12·KP` bytes of it).
+    pub z_shared: bool,
+    /// `FACTORED`: `B = E + ρ W`; else `B = E - W` (plain `Y_k`).
+    pub factored: bool,
+    /// `PER_BLOCK`: plain RGB, stored row block `c` serves channel `c` alone.
+    pub per_block: bool,
+}
+
+impl GatherConstants {
+    /// Constants for rows of `kp` entries: Z shared, [`row_lanes_for`](Self::row_lanes_for)
+    /// with subgroups of 32.
+    pub fn new(kp: u32, factored: bool, per_block: bool) -> Self {
+        GatherConstants {
+            kp,
+            row_lanes: Self::row_lanes_for(kp, 32),
+            z_shared: true,
+            factored,
+            per_block,
+        }
+    }
+
+    /// Lanes per row for rows of `kp` entries: about four octets per lane (enough independent
+    /// loads in flight, few idle lanes at a row's end), a power of two up to
+    /// `min(32, max_lanes)`.
+    pub fn row_lanes_for(kp: u32, max_lanes: u32) -> u32 {
+        let cap = max_lanes.clamp(1, 32);
+        (kp / 8 / 4).max(1).next_power_of_two().min(cap)
+    }
+
+    /// `ZS_QUADS`: the vec4s of the workgroup copy of `Z` (1 when not shared).
+    pub fn zs_quads(&self) -> u32 {
+        if self.z_shared { 3 * self.kp / 4 } else { 1 }
+    }
+
+    /// Bytes of workgroup memory the gather declares: `Z` and the workgroup reduction's
+    /// partial sums (16 bytes per invocation, counted for both reductions).
+    pub fn workgroup_bytes(&self) -> u32 {
+        16 * self.zs_quads() + 16 * crate::GATHER_SIZE
+    }
+
+    /// The `(name, value)` pairs for `wgpu::PipelineCompilationOptions::constants`.
+    pub fn constants(&self) -> [(&'static str, f64); 6] {
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
+        [
+            ("KP", f64::from(self.kp)),
+            ("ROW_LANES", f64::from(self.row_lanes)),
+            ("Z_SHARED", flag(self.z_shared)),
+            ("ZS_QUADS", f64::from(self.zs_quads())),
+            ("FACTORED", flag(self.factored)),
+            ("PER_BLOCK", flag(self.per_block)),
+        ]
+    }
+}
 
 #[cfg(test)]
 mod tests {
@@ -104,7 +146,6 @@ mod tests {
     #[test]
     fn size_is_32_bytes_and_fields_are_packed_u32() {
         assert_eq!(size_of::<Params>(), Params::SIZE);
-        assert_eq!(Params::SIZE, 32);
         assert_eq!(align_of::<Params>(), 4);
         assert_eq!(
             Params::SIZE % 16,
@@ -119,12 +160,35 @@ mod tests {
 
     #[test]
     fn bytes_follow_the_field_order() {
-        let p = Params::new(10, 3, 1).rows(4, 6, 2);
+        let p = Params {
+            n: 10,
+            k: 3,
+            first_row: 4,
+            row_count: 6,
+            groups: 2,
+            positions: 5,
+            ..Params::default()
+        };
         let words: Vec<u32> = p
             .to_bytes()
             .chunks_exact(4)
-            .map(|c| u32::from_ne_bytes(c.try_into().unwrap()))
+            .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
             .collect();
-        assert_eq!(words, [10, 3, 1, 4, 6, 2, 0, 0]);
+        assert_eq!(words, [10, 3, 4, 6, 2, 5, 0, 0]);
+    }
+
+    #[test]
+    fn row_lanes_are_powers_of_two_within_the_subgroup() {
+        for kp in (8..5000).step_by(8) {
+            for max in [1, 4, 8, 16, 32, 64, 128] {
+                let l = GatherConstants::row_lanes_for(kp, max);
+                assert!(
+                    l.is_power_of_two() && l <= 32 && l <= max.max(1),
+                    "{kp} {max}: {l}"
+                );
+            }
+        }
+        assert_eq!(GatherConstants::row_lanes_for(216, 32), 8);
+        assert_eq!(GatherConstants::row_lanes_for(3744, 32), 32);
     }
 }

@@ -1,16 +1,22 @@
 // core_product.wgsl: Z_c = M_c X_c for the three channels c, with M_c the k x k cores
-// (I_k - Vᵀ diag(rho_c) F_k)^-1 in f32, row-major, core c at c * k * k. With
-// params.channels == 1 the single core serves all three channels.
-//     Z[p][c] = sum over q of M_c[p][q] * X[q][c]
-// One workgroup per row p; lane l sums q = l, l + LANES, ..., then `reduce_lanes`.
-// CPU mirror: `lrr_shaders::cpu::core_product`. Needs common.wgsl in front.
+// (I_k - Vᵀ diag(rho_c) F_k)^-1 in f32, each in its own buffer as k rows of KP entries (zero
+// padding). A grey operator has one core: the host binds it three times.
+//     Z[c][p] = sum over q of M_c[p][q] * X[c][q]
+// One workgroup per row p; lane l sums the vec4 groups j = l, l + LANES, ... of the row (four
+// entries each), then `reduce_lanes`.
+// CPU mirror: `lrr_shaders::cpu::core_product`. Needs common.wgsl.
+//
+// Indices: p < k (checked below), j < KP / 4: every load is inside the k * KP / 4 vec4s of a
+// core and the 3 KP / 4 of X, as the host sizes them.
 
-// channels x k x k cores, row-major.
-@group(0) @binding(1) var<storage, read> cores: array<f32>;
-// k x 3 input X (from segment_sums).
-@group(0) @binding(2) var<storage, read> x: array<f32>;
-// k x 3 output Z.
-@group(0) @binding(3) var<storage, read_write> z: array<f32>;
+// k x KP core of each channel, row-major.
+@group(0) @binding(1) var<storage, read> core_r: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> core_g: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> core_b: array<vec4<f32>>;
+// 3 planes of KP: input X (from segment_sums or group_sums).
+@group(0) @binding(4) var<storage, read> x: array<vec4<f32>>;
+// 3 planes of KP: output Z.
+@group(0) @binding(5) var<storage, read_write> z: array<f32>;
 
 @compute @workgroup_size(LANES)
 fn core_product(
@@ -19,22 +25,23 @@ fn core_product(
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
     let p = group_index(group, groups);
-    let k = params.k;
-    if p >= k {
+    if p >= params.k {
         return;
     }
-    // Distance between the cores of consecutive channels: 0 when one core serves all three.
-    let core_stride = select(0u, k * k, params.channels == 3u);
+    let quads = KP / 4u;
+    let row = p * quads;
     var sum = vec3<f32>(0.0);
-    for (var q = lane; q < k; q = q + LANES) {
-        let i = p * k + q;
-        let m = vec3<f32>(cores[i], cores[i + core_stride], cores[i + 2u * core_stride]);
-        sum = sum + m * vec3<f32>(x[3u * q], x[3u * q + 1u], x[3u * q + 2u]);
+    for (var j = lane; j < quads; j = j + LANES) {
+        sum = sum + vec3<f32>(
+            dot(core_r[row + j], x[j]),
+            dot(core_g[row + j], x[quads + j]),
+            dot(core_b[row + j], x[2u * quads + j]),
+        );
     }
     let total = reduce_lanes(lane, sum);
     if lane == 0u {
-        z[3u * p] = total.x;
-        z[3u * p + 1u] = total.y;
-        z[3u * p + 2u] = total.z;
+        z[p] = total.x;
+        z[KP + p] = total.y;
+        z[2u * KP + p] = total.z;
     }
 }

@@ -1,0 +1,98 @@
+//! Frame rates of the GPU path against a plain read of the same bytes and the CPU path, all
+//! measured in one run (for `lrr bench runtime --device gpu` and `examples/gpu_bench.rs`).
+
+use std::time::{Duration, Instant};
+
+use super::{FrameTiming, Gpu, GpuError, GpuEvaluator};
+use crate::operator::Operator;
+use crate::rgb::{Rgb, RgbMut};
+
+/// One operator's measurements: medians over the frames.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GpuBench {
+    /// Elements and patches.
+    pub n: usize,
+    /// Patches.
+    pub k: usize,
+    /// Bytes of the stored matrix a frame reads on the GPU (rows padded to whole octets).
+    pub matrix_bytes: u64,
+    /// A frame by timestamp queries (`None` without `TIMESTAMP_QUERY`).
+    pub gpu_frame: Option<Duration>,
+    /// A frame from the caller's emission to the caller's radiosity: upload, passes, readback.
+    pub end_to_end: Duration,
+    /// The read kernel over the same bytes, by timestamp queries.
+    pub gpu_read: Option<Duration>,
+    /// A frame of the CPU [`Evaluator`](crate::Evaluator) with every core.
+    pub cpu_frame: Duration,
+    /// The kernels in use ([`GpuEvaluator::describe`]).
+    pub kernels: String,
+}
+
+impl GpuBench {
+    /// Frames per second by GPU time.
+    pub fn gpu_fps(&self) -> Option<f64> {
+        self.gpu_frame.map(|t| 1.0 / t.as_secs_f64())
+    }
+
+    /// Frames per second end to end.
+    pub fn end_to_end_fps(&self) -> f64 {
+        1.0 / self.end_to_end.as_secs_f64()
+    }
+
+    /// Read kernel time / frame time on the GPU: 1 is a frame as fast as reading its bytes.
+    pub fn read_fraction(&self) -> Option<f64> {
+        Some(self.gpu_read?.as_secs_f64() / self.gpu_frame?.as_secs_f64())
+    }
+
+    /// CPU frame time / GPU frame time (GPU time; end to end if there are no timestamps).
+    pub fn speedup(&self) -> f64 {
+        self.cpu_frame.as_secs_f64() / self.gpu_frame.unwrap_or(self.end_to_end).as_secs_f64()
+    }
+
+    /// CPU frame time / GPU end-to-end time.
+    pub fn speedup_end_to_end(&self) -> f64 {
+        self.cpu_frame.as_secs_f64() / self.end_to_end.as_secs_f64()
+    }
+}
+
+fn median(mut v: Vec<Duration>) -> Duration {
+    v.sort();
+    v[v.len() / 2]
+}
+
+/// Measures `frames` (at least 1) frames of `op` with its baked emission: GPU frames, read
+/// passes and CPU frames alternate, so all see the same machine; one warm-up of each first.
+pub fn bench_operator(gpu: &Gpu, op: &Operator, frames: usize) -> Result<GpuBench, GpuError> {
+    let mut eval = GpuEvaluator::new(gpu, op)?;
+    let mut cpu = op.evaluator(0)?;
+    let e = op.baked_emission();
+    let mut out = vec![[0.0f32; 3]; op.n()];
+    let mut frame = |eval: &mut GpuEvaluator| -> Result<FrameTiming, GpuError> {
+        eval.evaluate(Rgb::triples(&e), RgbMut::triples(&mut out))?;
+        Ok(eval.last_timing().expect("set by evaluate"))
+    };
+    frame(&mut eval)?;
+    eval.read_pass()?;
+    let (mut gpu_t, mut e2e, mut read, mut cpu_t) = (vec![], vec![], vec![], vec![]);
+    let mut cpu_out = vec![[0.0f32; 3]; op.n()];
+    for _ in 0..frames.max(1) {
+        let t = frame(&mut eval)?;
+        gpu_t.extend(t.gpu);
+        e2e.push(t.end_to_end);
+        read.extend(eval.read_pass()?.gpu);
+        let start = Instant::now();
+        cpu.evaluate(Rgb::triples(&e), RgbMut::triples(&mut cpu_out))?;
+        cpu_t.push(start.elapsed());
+    }
+    let some = |v: Vec<Duration>| (!v.is_empty()).then(|| median(v));
+    Ok(GpuBench {
+        n: op.n(),
+        k: op.k(),
+        matrix_bytes: eval.matrix_bytes(),
+        gpu_frame: some(gpu_t),
+        end_to_end: median(e2e),
+        gpu_read: some(read),
+        cpu_frame: median(cpu_t),
+        kernels: eval.describe(),
+    })
+}

@@ -1,0 +1,593 @@
+//! [`GpuEvaluator`]: frames of one operator on the GPU, with the CPU evaluator's inputs and
+//! outputs, or left on the GPU for a renderer.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use lrr_formats::{FkData, OperatorFile};
+use lrr_shaders::{GATHER_SIZE, LANES, Pass, Storage, workgroups};
+
+use super::buffers::{OperatorBuffers, storage, zeros};
+use super::pipelines::Pipelines;
+use super::{Gpu, GpuError, bytes_of, bytes_of_mut};
+use crate::error::input;
+use crate::operator::Operator;
+use crate::rgb::{Rgb, RgbMut};
+
+/// The most workgroups of one gather dispatch: 4096 × 256 invocations keep every SM of a
+/// large GPU busy several times over; more rows are walked by each workgroup's grid-stride
+/// loop, which amortises its copy of `Z`.
+const GATHER_MAX_GROUPS: u32 = 4096;
+
+/// How long a frame took.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameTiming {
+    /// From the first pass's start to the last one's end, by timestamp queries; `None` when the
+    /// adapter has no `TIMESTAMP_QUERY`.
+    pub gpu: Option<Duration>,
+    /// Wall time of the call: validation, upload, the passes, readback.
+    pub end_to_end: Duration,
+}
+
+/// Where a frame's emission comes from.
+#[derive(Clone, Copy)]
+enum Source {
+    /// The caller's emission, in upload slot `i`.
+    Slot(usize),
+    /// Light-group intensities, in upload slot `i`.
+    Groups(usize),
+}
+
+/// One of the two upload slots: its buffers and the bind groups that read them.
+struct Slot {
+    emission: wgpu::Buffer,
+    intensities: wgpu::Buffer,
+    segment_sums: wgpu::BindGroup,
+    group_sums: wgpu::BindGroup,
+    group_emission: wgpu::BindGroup,
+    /// One per chunk, reading this slot's emission.
+    gather: Vec<wgpu::BindGroup>,
+    /// One per chunk, reading the light groups' emission.
+    gather_groups: Vec<wgpu::BindGroup>,
+}
+
+struct Timestamps {
+    set: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    period_ns: f32,
+}
+
+/// Evaluates frames of one operator on a GPU: the same inputs and outputs as
+/// [`Evaluator`](crate::Evaluator) (emission and radiosity per element in original id order,
+/// interleaved or planar; light-group intensities; albedo edits), the same errors for bad
+/// input. See the [module docs](super) for what a frame does.
+///
+/// Everything is allocated and uploaded by [`new`](Self::new); a frame writes the emission (or
+/// the intensities) into the next of two upload slots, submits one command buffer and, for
+/// [`evaluate`](Self::evaluate), reads `B` back.
+pub struct GpuEvaluator {
+    gpu: Gpu,
+    file: Arc<OperatorFile>,
+    buffers: OperatorBuffers,
+    pipelines: Pipelines,
+    slots: [Slot; 2],
+    next: usize,
+    core_product: wgpu::BindGroup,
+    read: Vec<wgpu::BindGroup>,
+    readback: wgpu::Buffer,
+    timestamps: Option<Timestamps>,
+    /// Planar emission interleaved for upload.
+    scratch: Vec<f32>,
+    timing: Option<FrameTiming>,
+}
+
+impl std::fmt::Debug for GpuEvaluator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.describe())
+    }
+}
+
+fn bind(
+    gpu: &Gpu,
+    pipeline: &wgpu::ComputePipeline,
+    entries: &[(u32, &wgpu::Buffer)],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = entries
+        .iter()
+        .map(|&(binding, buffer)| wgpu::BindGroupEntry {
+            binding,
+            resource: buffer.as_entire_binding(),
+        })
+        .collect();
+    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
+impl GpuEvaluator {
+    /// Uploads `op` (its current albedo) to `gpu` and builds the pipelines. Errors when a row
+    /// of the stored matrix exceeds the adapter's binding limit.
+    pub fn new(gpu: &Gpu, op: &Operator) -> Result<Self, GpuError> {
+        let file = Arc::clone(op.shared());
+        let buffers = OperatorBuffers::new(gpu, &file)?;
+        let storage = match file.operator.matrix() {
+            FkData::F32(_) => Storage::F32,
+            FkData::F16(_) => gpu.f16_loader(),
+        };
+        let pipelines = Pipelines::new(
+            gpu,
+            buffers.kp,
+            storage,
+            buffers.factored,
+            buffers.per_block,
+        );
+        let slots = [0, 1].map(|_| Self::slot(gpu, &buffers, &pipelines));
+        let b = &buffers;
+        let core_product = bind(
+            gpu,
+            &pipelines.core_product,
+            &[
+                (0, &b.params),
+                (1, &b.cores[0]),
+                (2, &b.cores[1]),
+                (3, &b.cores[2]),
+                (4, &b.x),
+                (5, &b.z),
+            ],
+        );
+        let read = (b.chunks.iter())
+            .map(|c| bind(gpu, &pipelines.read, &[(1, &c.buffer), (2, &b.sink)]))
+            .collect();
+        let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("radiosity readback"),
+            size: 12 * u64::from(b.n),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let timestamps = gpu
+            .has(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| timestamps(gpu));
+        Ok(GpuEvaluator {
+            gpu: gpu.clone(),
+            file,
+            buffers,
+            pipelines,
+            slots,
+            next: 0,
+            core_product,
+            read,
+            readback,
+            timestamps,
+            scratch: Vec::new(),
+            timing: None,
+        })
+    }
+
+    fn slot(gpu: &Gpu, b: &OperatorBuffers, p: &Pipelines) -> Slot {
+        let none = wgpu::BufferUsages::empty();
+        let emission = zeros(
+            gpu,
+            "emission",
+            3 * b.n as usize,
+            wgpu::BufferUsages::COPY_DST,
+        );
+        let intensities = storage(
+            gpu,
+            "intensities",
+            &vec![0.0f32; b.groups.count],
+            wgpu::BufferUsages::COPY_DST,
+        );
+        let _ = none;
+        let g = &b.groups;
+        // Plain: the gather reads X (there is no Z) and no reflectance.
+        let z = if b.factored { &b.z } else { &b.x };
+        let gather = |e: &wgpu::Buffer| -> Vec<wgpu::BindGroup> {
+            (b.chunks.iter())
+                .map(|c| {
+                    bind(
+                        gpu,
+                        &p.gather,
+                        &[
+                            (0, &c.params),
+                            (1, &c.buffer),
+                            (2, z),
+                            (3, e),
+                            (4, &b.reflectance),
+                            (5, &b.order),
+                            (6, &b.radiosity),
+                        ],
+                    )
+                })
+                .collect()
+        };
+        Slot {
+            segment_sums: bind(
+                gpu,
+                &p.segment_sums,
+                &[
+                    (0, &b.params),
+                    (1, &b.index),
+                    (2, &b.weights),
+                    (3, &b.order),
+                    (4, &emission),
+                    (5, &b.x),
+                ],
+            ),
+            group_sums: bind(
+                gpu,
+                &p.group_sums,
+                &[
+                    (0, &b.params),
+                    (1, &intensities),
+                    (2, &g.group_x),
+                    (8, &b.x),
+                ],
+            ),
+            group_emission: bind(
+                gpu,
+                &p.group_emission,
+                &[
+                    (0, &b.params),
+                    (1, &intensities),
+                    (3, &g.position),
+                    (4, &g.starts),
+                    (5, &g.members),
+                    (6, &g.member_emission),
+                    (7, &b.order),
+                    (9, &g.emission),
+                ],
+            ),
+            gather: gather(&emission),
+            gather_groups: gather(&g.emission),
+            emission,
+            intensities,
+        }
+    }
+
+    /// Radiosity `out` for the per-element `emission` (original id order, interleaved or
+    /// planar), as [`Evaluator::evaluate`](crate::Evaluator::evaluate): emission must be finite
+    /// and non-negative, and on an error nothing is written.
+    pub fn evaluate(&mut self, emission: Rgb<'_>, mut out: RgbMut<'_>) -> Result<(), GpuError> {
+        let start = Instant::now();
+        out.check(self.buffers.n as usize, "output")?;
+        let source = self.upload(&emission)?;
+        self.run(source, true);
+        self.read_back(&mut out, start)
+    }
+
+    /// Radiosity for light-group intensities (one per [`Operator::light_groups`] entry, finite
+    /// and non-negative), as [`Evaluator::evaluate_groups`](crate::Evaluator::evaluate_groups):
+    /// `X = Σ_g a_g x_g` and the groups' emission on the GPU, no O(n) pass over an emission.
+    pub fn evaluate_groups(
+        &mut self,
+        intensities: &[f32],
+        mut out: RgbMut<'_>,
+    ) -> Result<(), GpuError> {
+        let start = Instant::now();
+        out.check(self.buffers.n as usize, "output")?;
+        let source = self.upload_groups(intensities)?;
+        self.run(source, true);
+        self.read_back(&mut out, start)
+    }
+
+    /// Computes a frame into [`radiosity_buffer`](Self::radiosity_buffer) without reading it
+    /// back and without waiting for it: the call returns once the work is submitted. Frames
+    /// alternate between two upload buffers, so the next frame's upload does not wait for
+    /// this one's passes.
+    pub fn submit(&mut self, emission: Rgb<'_>) -> Result<(), GpuError> {
+        let source = self.upload(&emission)?;
+        self.run(source, false);
+        Ok(())
+    }
+
+    /// [`submit`](Self::submit) for light-group intensities.
+    pub fn submit_groups(&mut self, intensities: &[f32]) -> Result<(), GpuError> {
+        let source = self.upload_groups(intensities)?;
+        self.run(source, false);
+        Ok(())
+    }
+
+    /// Waits until every submitted frame is done.
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.gpu.wait()
+    }
+
+    /// The radiosity of the last frame: `3 n` f32, element `i` (original id) at `3i..3i + 3`,
+    /// usage `STORAGE | COPY_SRC`. Bind it read-only in a renderer on the same device
+    /// ([`Gpu::device`]); work submitted after a frame sees that frame's values.
+    pub fn radiosity_buffer(&self) -> &wgpu::Buffer {
+        &self.buffers.radiosity
+    }
+
+    /// Timing of the last [`evaluate`](Self::evaluate) or
+    /// [`evaluate_groups`](Self::evaluate_groups).
+    pub fn last_timing(&self) -> Option<FrameTiming> {
+        self.timing
+    }
+
+    /// Changes the reflectance (one RGB value per element, original ids, in [0, 1)) and
+    /// uploads new cores, as [`Evaluator::set_reflectance`](crate::Evaluator::set_reflectance);
+    /// the operator and other evaluators are not affected.
+    pub fn set_reflectance(&mut self, rho: &[[f32; 3]]) -> Result<(), GpuError> {
+        let edit = crate::albedo::rebuild(&self.file, rho)?;
+        self.buffers.set_albedo(
+            &self.gpu,
+            &edit.cores,
+            edit.channels as u32,
+            &edit.reflectance,
+        );
+        Ok(())
+    }
+
+    /// The read roofline: reads every byte of the stored matrix a frame reads (a plain read
+    /// kernel, one dispatch per chunk, in the same run of the device) and waits. For
+    /// benchmarks: compare its [`FrameTiming::gpu`] with a frame's.
+    pub fn read_pass(&mut self) -> Result<FrameTiming, GpuError> {
+        let start = Instant::now();
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&self.pass_descriptor("read"));
+            pass.set_pipeline(&self.pipelines.read);
+            for (bind, chunk) in self.read.iter().zip(&self.buffers.chunks) {
+                let quads = chunk.buffer.size() / 16;
+                let groups = quads
+                    .div_ceil(u64::from(LANES))
+                    .min(u64::from(GATHER_MAX_GROUPS * 4));
+                pass.set_bind_group(0, bind, &[]);
+                pass.dispatch_workgroups(groups as u32, 1, 1);
+            }
+        }
+        self.resolve_timestamps(&mut encoder);
+        self.gpu.queue.submit([encoder.finish()]);
+        let gpu = self.read_timestamps()?;
+        Ok(FrameTiming {
+            gpu,
+            end_to_end: start.elapsed(),
+        })
+    }
+
+    /// Bytes of the stored matrix on the GPU (rows padded to whole octets).
+    pub fn matrix_bytes(&self) -> u64 {
+        self.buffers.matrix_bytes
+    }
+
+    /// Chunks the stored matrix is split into.
+    pub fn chunks(&self) -> usize {
+        self.buffers.chunks.len()
+    }
+
+    /// The adapter and the kernels in use, in one line.
+    pub fn describe(&self) -> String {
+        let c = &self.pipelines.constants;
+        let (storage, reduce) = match self.pipelines.gather_pass {
+            Pass::Gather(s, r) => (s, r),
+            _ => unreachable!("the gather pipeline is a gather"),
+        };
+        format!(
+            "{}: n = {}, k = {} (rows of {}), {:?} storage, {:?} row sums, {} lanes per row, Z in \
+             {} memory, {} chunk(s) of at most {} MiB, bounds checks {}",
+            self.gpu.adapter_name(),
+            self.buffers.n,
+            self.buffers.k,
+            c.kp,
+            storage,
+            reduce,
+            c.row_lanes,
+            if c.z_shared { "workgroup" } else { "storage" },
+            self.buffers.chunks.len(),
+            self.gpu.max_chunk_bytes() >> 20,
+            if self.gpu.options.bounds_checks {
+                "on"
+            } else {
+                "off where proven"
+            },
+        )
+    }
+
+    /// Validates the emission and writes it into the next upload slot.
+    fn upload(&mut self, emission: &Rgb<'_>) -> Result<Source, GpuError> {
+        let n = self.buffers.n as usize;
+        emission.check(n, "emission")?;
+        let slot = self.next;
+        let values: &[f32] = match *emission {
+            Rgb::Interleaved(v) => v,
+            Rgb::Planar(_) => {
+                self.scratch.clear();
+                self.scratch.extend((0..n).flat_map(|i| emission.at(i)));
+                &self.scratch
+            }
+        };
+        if let Some(bad) = values.iter().position(|&v| !crate::kernel::emission_ok(v)) {
+            let id = bad / 3;
+            return Err(input(format!(
+                "emission of element {id} is {:?}: emission must be finite and non-negative",
+                emission.at(id)
+            ))
+            .into());
+        }
+        self.next = 1 - slot;
+        self.gpu
+            .queue
+            .write_buffer(&self.slots[slot].emission, 0, bytes_of(values));
+        Ok(Source::Slot(slot))
+    }
+
+    fn upload_groups(&mut self, intensities: &[f32]) -> Result<Source, GpuError> {
+        crate::frame::check_intensities(&self.file, intensities)?;
+        let slot = self.take_slot();
+        if !intensities.is_empty() {
+            self.gpu
+                .queue
+                .write_buffer(&self.slots[slot].intensities, 0, bytes_of(intensities));
+        }
+        Ok(Source::Groups(slot))
+    }
+
+    fn take_slot(&mut self) -> usize {
+        let slot = self.next;
+        self.next = 1 - slot;
+        slot
+    }
+
+    fn pass_descriptor(&self, label: &'static str) -> wgpu::ComputePassDescriptor<'_> {
+        wgpu::ComputePassDescriptor {
+            label: Some(label),
+            timestamp_writes: self
+                .timestamps
+                .as_ref()
+                .map(|t| wgpu::ComputePassTimestampWrites {
+                    query_set: &t.set,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }),
+        }
+    }
+
+    /// Encodes and submits the passes of a frame; with `readback`, also the copy of `B` into
+    /// the mappable buffer and the timestamps.
+    fn run(&mut self, source: Source, readback: bool) {
+        let b = &self.buffers;
+        let p = &self.pipelines;
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&self.pass_descriptor("frame"));
+            let dispatch = |pass: &mut wgpu::ComputePass, count: u32| {
+                let [x, y, z] = workgroups(count);
+                pass.dispatch_workgroups(x, y, z);
+            };
+            let slot = match source {
+                Source::Slot(i) => {
+                    let slot = &self.slots[i];
+                    pass.set_pipeline(&p.segment_sums);
+                    pass.set_bind_group(0, &slot.segment_sums, &[]);
+                    dispatch(&mut pass, b.k);
+                    &slot.gather
+                }
+                Source::Groups(i) => {
+                    let slot = &self.slots[i];
+                    pass.set_pipeline(&p.group_sums);
+                    pass.set_bind_group(0, &slot.group_sums, &[]);
+                    dispatch(&mut pass, (3 * b.kp).div_ceil(LANES));
+                    if b.groups.positions > 0 {
+                        pass.set_pipeline(&p.group_emission);
+                        pass.set_bind_group(0, &slot.group_emission, &[]);
+                        dispatch(&mut pass, b.groups.positions.div_ceil(LANES));
+                    }
+                    &slot.gather_groups
+                }
+            };
+            if b.factored {
+                pass.set_pipeline(&p.core_product);
+                pass.set_bind_group(0, &self.core_product, &[]);
+                dispatch(&mut pass, b.k);
+            }
+            pass.set_pipeline(&p.gather);
+            let rows_per_group = GATHER_SIZE / p.constants.row_lanes;
+            for (bind, chunk) in slot.iter().zip(&b.chunks) {
+                pass.set_bind_group(0, bind, &[]);
+                let groups = chunk.rows.div_ceil(rows_per_group).min(GATHER_MAX_GROUPS);
+                pass.dispatch_workgroups(groups, 1, 1);
+            }
+        }
+        if readback {
+            encoder.copy_buffer_to_buffer(&b.radiosity, 0, &self.readback, 0, 12 * u64::from(b.n));
+            self.resolve_timestamps(&mut encoder);
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+    }
+
+    fn resolve_timestamps(&self, encoder: &mut wgpu::CommandEncoder) {
+        if let Some(t) = &self.timestamps {
+            encoder.resolve_query_set(&t.set, 0..2, &t.resolve, 0);
+            encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.readback, 0, 16);
+        }
+    }
+
+    /// Waits for the frame, copies `B` into `out`, records the timing.
+    fn read_back(&mut self, out: &mut RgbMut<'_>, start: Instant) -> Result<(), GpuError> {
+        map(&self.gpu, &self.readback)?;
+        {
+            let view = self.readback.get_mapped_range(..).map_err(mapping)?;
+            match out {
+                RgbMut::Interleaved(v) => bytes_of_mut(v).copy_from_slice(&view),
+                RgbMut::Planar(_) => {
+                    for (i, rgb) in view.chunks_exact(12).enumerate() {
+                        let c = |j: usize| {
+                            f32::from_le_bytes(rgb[4 * j..4 * j + 4].try_into().unwrap_or_default())
+                        };
+                        out.set(i, [c(0), c(1), c(2)]);
+                    }
+                }
+            }
+        }
+        self.readback.unmap();
+        let gpu = self.read_timestamps()?;
+        self.timing = Some(FrameTiming {
+            gpu,
+            end_to_end: start.elapsed(),
+        });
+        Ok(())
+    }
+
+    fn read_timestamps(&self) -> Result<Option<Duration>, GpuError> {
+        let Some(t) = &self.timestamps else {
+            self.gpu.wait()?;
+            return Ok(None);
+        };
+        map(&self.gpu, &t.readback)?;
+        let ticks: Vec<u64> = {
+            let view = t.readback.get_mapped_range(..).map_err(mapping)?;
+            view.chunks_exact(8)
+                .map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default()))
+                .collect()
+        };
+        t.readback.unmap();
+        let ns = ticks[1].saturating_sub(ticks[0]) as f64 * f64::from(t.period_ns);
+        Ok(Some(Duration::from_nanos(ns as u64)))
+    }
+}
+
+fn timestamps(gpu: &Gpu) -> Timestamps {
+    let buffer = |label, usage| {
+        gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: 16,
+            usage,
+            mapped_at_creation: false,
+        })
+    };
+    use wgpu::BufferUsages as U;
+    Timestamps {
+        set: gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("frame timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 2,
+        }),
+        resolve: buffer("timestamps", U::QUERY_RESOLVE | U::COPY_SRC),
+        readback: buffer("timestamps readback", U::MAP_READ | U::COPY_DST),
+        period_ns: gpu.queue.get_timestamp_period(),
+    }
+}
+
+fn mapping(e: wgpu::MapRangeError) -> GpuError {
+    GpuError::Device(format!("GPU: reading back a frame: {e}"))
+}
+
+/// Maps `buffer` for reading and waits for the mapping (and so for the work before it).
+fn map(gpu: &Gpu, buffer: &wgpu::Buffer) -> Result<(), GpuError> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    gpu.wait()?;
+    match rx.recv() {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(e)) => Err(GpuError::Device(format!("GPU: reading back a frame: {e}"))),
+        Err(_) => Err(GpuError::Device(
+            "GPU: a frame's readback never completed".into(),
+        )),
+    }
+}

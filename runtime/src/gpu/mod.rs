@@ -1,0 +1,142 @@
+//! GPU evaluation through wgpu (cargo feature `gpu`): the same frames as the CPU
+//! [`Evaluator`](crate::Evaluator), computed by the WGSL passes of `lrr-shaders`.
+//!
+//! ```no_run
+//! use lrr_runtime::gpu::{Gpu, GpuEvaluator, GpuOptions};
+//! use lrr_runtime::{Operator, Rgb, RgbMut};
+//!
+//! let op = Operator::load("cornell.lrr".as_ref())?;
+//! let gpu = Gpu::new(&GpuOptions::default())?; // the best adapter, or an error listing them
+//! let mut eval = GpuEvaluator::new(&gpu, &op)?; // uploads the operator once
+//! let mut b = vec![[0.0f32; 3]; op.n()];
+//! eval.evaluate(Rgb::triples(&op.baked_emission()), RgbMut::triples(&mut b))?;
+//! let timing = eval.last_timing(); // GPU time (timestamp queries) and end-to-end time
+//!
+//! // For a renderer: no readback, the radiosity stays in a storage buffer.
+//! eval.submit(Rgb::triples(&op.baked_emission()))?;
+//! let radiosity: &wgpu::Buffer = eval.radiosity_buffer(); // 3 f32 per element, original ids
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! # A frame on the GPU
+//!
+//! 1. The emission (original id order, interleaved as the caller's `[[f32; 3]]`; planar input is
+//!    interleaved on the host) is written into one of two upload buffers, alternately, so a
+//!    frame's upload never waits for the previous frame's passes to release its buffer.
+//! 2. `segment_sums` (`X = Vᵀ E` through the element order), or for light groups `group_sums` +
+//!    `group_emission` (stored `Vᵀ E_g`, no O(n) pass over an emission).
+//! 3. `core_product` (`Z_c = M_c X_c`; the plain layout skips it).
+//! 4. `gather` over the stored matrix, one dispatch per chunk of rows: `B = E + ρ ⊙ F_k Z`.
+//! 5. For [`GpuEvaluator::evaluate`]: `B` copied into a mapped buffer and read back.
+//!
+//! All four passes run in one compute pass whose timestamps (when the adapter has
+//! `TIMESTAMP_QUERY`) give [`FrameTiming::gpu`].
+//!
+//! # Chunks
+//!
+//! The stored matrix is uploaded as rows of `KP` entries (`k` rounded up to a multiple of 8,
+//! zero padding) in chunks of whole rows, each its own buffer no larger than the adapter's
+//! `max_storage_buffer_binding_size` and `max_buffer_size` (lavapipe: 128 MiB per binding;
+//! an H100 under Vulkan: 2 GiB − 4 per binding, 4 GiB per buffer), or
+//! [`GpuOptions::max_chunk_bytes`].
+//!
+//! # Bounds checks
+//!
+//! naga inserts a bounds check on every storage access unless told otherwise, which costs
+//! 17–40% in tight loops. The gather, segment sums and core product are built with
+//! `create_shader_module_trusted` and `ShaderRuntimeChecks::unchecked()` (the one `unsafe` of
+//! this module): every index they compute is proven by the file's validation (the index vector
+//! is non-decreasing and ends at `n`, `order` is a permutation) and by the buffer sizes this
+//! module allocates (each WGSL file lists its argument). The light-group passes index through
+//! tables built here and stay checked. [`GpuOptions::bounds_checks`] builds everything checked,
+//! to measure the difference.
+
+mod bench;
+mod buffers;
+mod device;
+mod evaluator;
+mod pipelines;
+
+pub use bench::{GpuBench, bench_operator};
+pub use device::{AdapterSummary, Gpu, GpuOptions, adapters};
+pub use evaluator::{FrameTiming, GpuEvaluator};
+pub use lrr_shaders::{Reduce, Storage};
+/// The wgpu this module was built with, for a renderer binding [`GpuEvaluator::radiosity_buffer`].
+pub use wgpu;
+
+use std::fmt;
+use std::future::Future;
+use std::pin::pin;
+use std::sync::Arc;
+use std::task::{Context, Poll, Wake, Waker};
+
+use crate::error::RuntimeError;
+
+/// An error of the GPU path.
+#[derive(Debug, Clone, PartialEq)]
+pub enum GpuError {
+    /// No usable adapter; the message lists the adapters found and how to install a driver.
+    NoAdapter(String),
+    /// The adapter or device cannot do what is asked (a limit, a failed request, a lost device).
+    Device(String),
+    /// The call or the file, as on the CPU path.
+    Runtime(RuntimeError),
+}
+
+impl fmt::Display for GpuError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GpuError::NoAdapter(m) | GpuError::Device(m) => f.write_str(m),
+            GpuError::Runtime(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for GpuError {}
+
+impl From<RuntimeError> for GpuError {
+    fn from(e: RuntimeError) -> Self {
+        GpuError::Runtime(e)
+    }
+}
+
+/// Runs a future to completion on this thread. wgpu's native futures are ready at once or
+/// woken by `Device::poll`; this parks until woken, without an executor crate.
+fn block_on<F: Future>(future: F) -> F::Output {
+    struct Unpark(std::thread::Thread);
+    impl Wake for Unpark {
+        fn wake(self: Arc<Self>) {
+            self.0.unpark();
+        }
+    }
+    let waker = Waker::from(Arc::new(Unpark(std::thread::current())));
+    let mut cx = Context::from_waker(&waker);
+    let mut future = pin!(future);
+    loop {
+        match future.as_mut().poll(&mut cx) {
+            Poll::Ready(v) => return v,
+            Poll::Pending => std::thread::park(),
+        }
+    }
+}
+
+/// Plain numbers whose bytes the GPU reads as they are.
+trait Pod: Copy {}
+impl Pod for f32 {}
+impl Pod for u32 {}
+impl Pod for u16 {}
+
+/// The bytes of `v` (little-endian on every wgpu target).
+#[allow(unsafe_code)]
+fn bytes_of<T: Pod>(v: &[T]) -> &[u8] {
+    // SAFETY: f32, u32 and u16 have no padding and no invalid bit patterns; u8 has alignment 1;
+    // the length is the slice's size in bytes.
+    unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<u8>(), size_of_val(v)) }
+}
+
+/// The bytes of `v`, writable: any bytes are a valid f32.
+#[allow(unsafe_code)]
+fn bytes_of_mut(v: &mut [f32]) -> &mut [u8] {
+    // SAFETY: as in `bytes_of`; every bit pattern is a valid f32, so any write is sound.
+    unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<u8>(), size_of_val(v)) }
+}
