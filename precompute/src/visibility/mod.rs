@@ -17,7 +17,7 @@ pub mod obvhs;
 pub mod occluder;
 pub mod watertight;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::scene::Scene;
 
 pub use occluder::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, Segment};
@@ -56,7 +56,7 @@ impl Backend {
             #[cfg(feature = "embree")]
             Backend::Embree => Ok(Box::new(embree::EmbreeOccluder::build(scene)?)),
             #[cfg(not(feature = "embree"))]
-            Backend::Embree => Err(Error::Settings(EMBREE_MISSING.into())),
+            Backend::Embree => Err(crate::error::Error::Settings(EMBREE_MISSING.into())),
         }
     }
 }
