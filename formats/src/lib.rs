@@ -105,7 +105,7 @@
 //! # Example
 //!
 //! ```
-//! use lrr_formats::{FkData, Geometry, Layout, OperatorData, OperatorFile, Precision};
+//! use lrr_formats::{Geometry, Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
 //!
 //! // Two triangles forming one patch, the first one emitting.
 //! let mut file = OperatorFile {
@@ -118,7 +118,7 @@
 //!     index: vec![0, 2],
 //!     weights: vec![0.5, 0.5],
 //!     operator: OperatorData::Factored {
-//!         fk: FkData::F32(vec![0.0, 0.0]),
+//!         fk: StoredMatrix::F32(vec![0.0, 0.0]),
 //!         cores: vec![1.0],
 //!     },
 //!     reflectance: vec![0.5; 6],
@@ -169,10 +169,10 @@ mod codec;
 mod container;
 mod convert;
 mod error;
+mod file;
 mod half;
 pub mod kind;
 mod lights;
-mod operator;
 #[cfg(test)]
 mod testdata;
 mod validate;
@@ -184,8 +184,11 @@ pub use container::{
     ALIGN, Container, FLAG_REQUIRED, HEADER_CHECKSUM_OFFSET, HEADER_LEN, SECTION_ENTRY_LEN, Section,
 };
 pub use error::{ErrorKind, FormatError};
+pub use file::{
+    Geometry, Layout, LightGroup, MAX_CONDITION, OperatorData, OperatorFile, Precision,
+    StoredMatrix,
+};
 pub use half::{f16_to_f32, f32_to_f16};
-pub use operator::{FkData, Geometry, Layout, LightGroup, OperatorData, OperatorFile, Precision};
 pub use writer::ContainerWriter;
 
 /// The first 8 bytes of every operator file: `\x89LRR\r\n\x1a\n`.

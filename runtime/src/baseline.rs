@@ -11,7 +11,7 @@
 //! The `Y_k` pass uses the [`Evaluator`](crate::Evaluator)'s kernels; the `V_k` pass is an f32
 //! axpy per row that the compiler vectorises, flushed to f64 every 256 rows.
 
-use lrr_formats::{FkData, OperatorData};
+use lrr_formats::{OperatorData, StoredMatrix};
 
 use crate::error::{RuntimeError, input};
 use crate::kernel::{self, Backend, Gather, Rows};
@@ -52,8 +52,8 @@ impl DenseV {
             }
         };
         let y = match file.operator.matrix() {
-            FkData::F32(v) => v.clone(),
-            m @ FkData::F16(_) => m.to_f32(),
+            StoredMatrix::F32(v) => v.clone(),
+            m @ StoredMatrix::F16(_) => m.to_f32(),
         };
         let mut v = vec![0.0f32; n * k];
         for p in 0..k {

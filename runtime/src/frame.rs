@@ -12,7 +12,7 @@
 use std::ops::Range;
 use std::sync::Arc;
 
-use lrr_formats::{FkData, OperatorData, OperatorFile};
+use lrr_formats::{OperatorData, OperatorFile, StoredMatrix};
 
 use crate::albedo::Albedo;
 use crate::error::{RuntimeError, input};
@@ -177,11 +177,11 @@ fn check_intensities(f: &OperatorFile, a: &[f32]) -> Result<(), RuntimeError> {
 }
 
 /// The rows `rows` of the stored matrix of channel block `c` (plain RGB) or of the only block.
-fn block<'a>(m: &'a FkData, n: usize, k: usize, c: usize, rows: &Range<usize>) -> Rows<'a> {
+fn block<'a>(m: &'a StoredMatrix, n: usize, k: usize, c: usize, rows: &Range<usize>) -> Rows<'a> {
     let (start, end) = ((c * n + rows.start) * k, (c * n + rows.end) * k);
     match m {
-        FkData::F32(v) => Rows::F32(&v[start..end]),
-        FkData::F16(v) => Rows::F16(&v[start..end]),
+        StoredMatrix::F32(v) => Rows::F32(&v[start..end]),
+        StoredMatrix::F16(v) => Rows::F16(&v[start..end]),
     }
 }
 

@@ -189,7 +189,7 @@ impl Operator {
 
 #[cfg(test)]
 mod tests {
-    use lrr_formats::{FkData, Geometry, OperatorData, OperatorFile, Precision};
+    use lrr_formats::{Geometry, OperatorData, OperatorFile, Precision, StoredMatrix};
 
     use crate::Operator;
 
@@ -209,7 +209,7 @@ mod tests {
             index: vec![0, 1, 2],
             weights: vec![1.0, 1.0],
             operator: OperatorData::Factored {
-                fk: FkData::F32(vec![0.0, 1.0, 1.0, 0.0]),
+                fk: StoredMatrix::F32(vec![0.0, 1.0, 1.0, 0.0]),
                 cores: vec![4.0 / 3.0, 2.0 / 3.0, 2.0 / 3.0, 4.0 / 3.0],
             },
             reflectance: vec![0.5; 6],
