@@ -5,14 +5,10 @@
 //! f64, O(k³) per channel. A system whose 1-norm condition number `‖A‖₁ ‖A⁻¹‖₁` exceeds
 //! [`MAX_CONDITION`] is refused, as the bake refuses it.
 
-use lrr_formats::{OperatorData, OperatorFile, StoredMatrix, f16_to_f32};
+use lrr_formats::{MAX_CONDITION, OperatorData, OperatorFile, StoredMatrix, f16_to_f32};
 
 use crate::error::{RuntimeError, input};
 use crate::lu::{Lu, norm1};
-
-/// Largest condition number accepted (the bake's limit): beyond it the cores lose too many
-/// digits.
-pub const MAX_CONDITION: f64 = 1e12;
 
 /// The result of an edit: what a frame reads besides the shared matrix.
 #[derive(Debug, Clone)]

@@ -88,10 +88,9 @@ mod rgb;
 mod runs;
 pub mod synthetic;
 
-pub use albedo::MAX_CONDITION;
 pub use error::RuntimeError;
 pub use evaluator::Evaluator;
 pub use kernel::Backend;
-pub use lrr_formats::{FormatError, Layout, OperatorFile, Precision};
+pub use lrr_formats::{FormatError, Layout, MAX_CONDITION, OperatorFile, Precision};
 pub use operator::Operator;
 pub use rgb::{Rgb, RgbMut};
