@@ -181,7 +181,8 @@ mod writer;
 pub use atomic::write_atomic;
 pub use checksum::checksum;
 pub use container::{
-    ALIGN, Container, FLAG_REQUIRED, HEADER_CHECKSUM_OFFSET, HEADER_LEN, SECTION_ENTRY_LEN, Section,
+    ALIGN, Container, FLAG_REQUIRED, HEADER_CHECKSUM_OFFSET, HEADER_LEN, MAGIC, SECTION_ENTRY_LEN,
+    Section, VERSION_MAJOR, VERSION_MINOR,
 };
 pub use error::{ErrorKind, FormatError};
 pub use file::{
@@ -190,10 +191,3 @@ pub use file::{
 };
 pub use half::{f16_to_f32, f32_to_f16};
 pub use writer::ContainerWriter;
-
-/// The first 8 bytes of every operator file: `\x89LRR\r\n\x1a\n`.
-pub const MAGIC: [u8; 8] = *b"\x89LRR\r\n\x1a\n";
-/// The major format version this crate reads and writes; files of another major are refused.
-pub const VERSION_MAJOR: u16 = 1;
-/// The minor format version this crate writes; files of any minor version are read.
-pub const VERSION_MINOR: u16 = 1;
