@@ -7,7 +7,8 @@
 
 use std::time::{Duration, Instant};
 
-use lrr_runtime::{Backend, Evaluator, Layout, Precision, Rgb, RgbMut, synthetic};
+use lrr_runtime::testkit::synthetic;
+use lrr_runtime::{Backend, Evaluator, Layout, Precision, Rgb, RgbMut};
 
 fn time(f: impl FnOnce()) -> Duration {
     let t = Instant::now();

@@ -156,6 +156,51 @@ impl Evaluator {
     }
 }
 
+/// The evaluator and the one-call evaluations of an [`Operator`], defined here so that
+/// `operator.rs` stays below this file.
+impl Operator {
+    /// A persistent evaluator with `threads` threads in all (the caller's included; 0 = one per
+    /// available core). See [`Evaluator`].
+    pub fn evaluator(&self, threads: usize) -> Result<Evaluator, RuntimeError> {
+        Evaluator::new(self, threads)
+    }
+
+    /// Radiosity for the baked emission, per element in original id order.
+    pub fn evaluate_baked(&self) -> Vec<[f32; 3]> {
+        let e = self.baked_emission();
+        let mut out = vec![[0.0; 3]; self.n()];
+        self.evaluate(&e, &mut out)
+            .expect("the baked emission is valid by construction");
+        out
+    }
+
+    /// Radiosity for an RGB emission per element (original id order) into `out` (same order),
+    /// on this thread. Emission must be finite and non-negative; on an error nothing is written.
+    /// Allocates scratch per call: for frames, use an [`Evaluator`].
+    pub fn evaluate(
+        &self,
+        emission: &[[f32; 3]],
+        out: &mut [[f32; 3]],
+    ) -> Result<(), RuntimeError> {
+        self.evaluate_rgb(Rgb::triples(emission), RgbMut::triples(out))
+    }
+
+    /// [`evaluate`](Self::evaluate) with interleaved or planar buffers.
+    pub fn evaluate_rgb(&self, emission: Rgb<'_>, out: RgbMut<'_>) -> Result<(), RuntimeError> {
+        Evaluator::new(self, 1)?.evaluate(emission, out)
+    }
+
+    /// Radiosity for light-group intensities (one per [`light_groups`](Self::light_groups)
+    /// entry), on this thread: `E = Σ_g a_g E_g`, `Vᵀ E = Σ_g a_g x_g` without an O(n) pass.
+    pub fn evaluate_groups(
+        &self,
+        intensities: &[f32],
+        out: RgbMut<'_>,
+    ) -> Result<(), RuntimeError> {
+        Evaluator::new(self, 1)?.evaluate_groups(intensities, out)
+    }
+}
+
 /// Chunk bounds: about eight chunks per thread (so a thread the OS preempts delays the frame by
 /// one chunk at most), at least 512 rows each, on multiples of 8 rows so the SIMD kernel rarely
 /// takes its 1-row path; one chunk for one thread.

@@ -22,8 +22,8 @@ use std::time::Duration;
 use lrr_formats::OperatorFile;
 
 use crate::error::RuntimeError;
-use crate::frame;
 use crate::kernel::Backend;
+use crate::pass;
 
 /// What a frame computes per chunk.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -50,8 +50,8 @@ impl Chunk {
     fn run(&mut self, task: Task, file: &OperatorFile, z: &[f32], kp: usize, backend: Backend) {
         let rows = self.rows.clone();
         match task {
-            Task::Gather => frame::gather_rows(file, rows, z, kp, &mut self.w, backend),
-            Task::Read => self.sum = frame::read_rows(file, rows, backend),
+            Task::Gather => pass::gather_rows(file, rows, z, kp, &mut self.w, backend),
+            Task::Read => self.sum = pass::read_rows(file, rows, backend),
         }
     }
 

@@ -223,7 +223,7 @@ fn finish_contiguous(w: &[f32], rho: Option<&[f32]>, e: Option<&[f32]>, out: &mu
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synthetic;
+    use crate::testkit::synthetic;
     use lrr_formats::{Layout, Precision};
 
     #[test]

@@ -5,8 +5,9 @@ mod common;
 
 use common::{emission, to_f16, worst_relative};
 use lrr_formats::{Layout, OperatorFile, Precision};
-use lrr_runtime::baseline::DenseV;
-use lrr_runtime::{Backend, Evaluator, Operator, Rgb, RgbMut, reference, synthetic};
+use lrr_runtime::testkit::baseline::DenseV;
+use lrr_runtime::testkit::{reference, synthetic};
+use lrr_runtime::{Backend, Evaluator, Operator, Rgb, RgbMut};
 
 /// The bound the crate documents for f32 storage (tests demand it with margin: 1e-5).
 const F32_BOUND: f64 = 1e-5;

@@ -5,7 +5,8 @@ mod common;
 
 use common::{emission, worst_relative};
 use lrr_formats::{Geometry, Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
-use lrr_runtime::{Operator, Rgb, RgbMut, RuntimeError, reference, synthetic};
+use lrr_runtime::testkit::{reference, synthetic};
+use lrr_runtime::{Operator, Rgb, RgbMut, RuntimeError};
 
 /// `(I - Vᵀ diag(ρ_c) F_k)⁻¹` the long way: dense V, dense products, Gauss–Jordan with full
 /// pivoting. `rho` in file order.

@@ -4,7 +4,8 @@ mod common;
 
 use common::{emission, worst_relative};
 use lrr_formats::{Layout, Precision, StoredMatrix};
-use lrr_runtime::{Operator, Rgb, RgbMut, RuntimeError, reference, synthetic};
+use lrr_runtime::testkit::{reference, synthetic};
+use lrr_runtime::{Operator, Rgb, RgbMut, RuntimeError};
 
 fn op() -> Operator {
     synthetic::operator(600, 20, 3, Precision::F32, Layout::Factored, 2).unwrap()
