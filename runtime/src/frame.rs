@@ -16,7 +16,7 @@ use lrr_formats::{OperatorData, OperatorFile};
 
 use crate::albedo::Albedo;
 use crate::error::{RuntimeError, input};
-use crate::kernel::Backend;
+use crate::kernel::SimdLevel;
 use crate::pool::Chunk;
 use crate::rgb::{Rgb, RgbMut};
 use crate::runs::Runs;
@@ -74,9 +74,9 @@ impl Frame {
         &self,
         e: &Rgb<'_>,
         x: &mut [[f64; 3]],
-        backend: Backend,
+        simd: SimdLevel,
     ) -> Result<(), RuntimeError> {
-        self.runs.segment_sums(&self.file.weights, e, x, backend)
+        self.runs.segment_sums(&self.file.weights, e, x, simd)
     }
 
     /// `X = Σ_g a_g x_g`, refusing a wrong count or a non-finite or negative intensity.

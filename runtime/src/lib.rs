@@ -62,7 +62,7 @@
 //! # Modules
 //!
 //! Bottom first:
-//! - `kernel/`: the hot loops (safe scalar twin and AVX2, [`Backend`]): the gather over the
+//! - `kernel/`: the hot loops (safe scalar twin and AVX2, [`SimdLevel`]): the gather over the
 //!   stored matrix, its read roofline, the segment sums of `X = Vᵀ E`.
 //! - `lu.rs`, `albedo.rs`: new cores for new reflectance.
 //! - [`Operator`] (`operator.rs`): load, inspect, edit albedo; `locate.rs` the element under a
@@ -97,7 +97,7 @@ pub mod testkit;
 
 pub use error::RuntimeError;
 pub use evaluator::Evaluator;
-pub use kernel::Backend;
+pub use kernel::SimdLevel;
 pub use lrr_formats::{FormatError, Layout, MAX_CONDITION, OperatorFile, Precision};
 pub use operator::Operator;
 pub use rgb::{Rgb, RgbMut};

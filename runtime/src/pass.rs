@@ -6,7 +6,7 @@ use std::ops::Range;
 
 use lrr_formats::{OperatorData, OperatorFile, StoredMatrix};
 
-use crate::kernel::{self, Backend, Gather, Rows};
+use crate::kernel::{self, Gather, Rows, SimdLevel};
 
 /// The rows `rows` of the stored matrix of channel block `c` (plain RGB) or of the only block.
 fn block<'a>(m: &'a StoredMatrix, n: usize, k: usize, c: usize, rows: &Range<usize>) -> Rows<'a> {
@@ -25,7 +25,7 @@ pub(crate) fn gather_rows(
     z: &[f32],
     kp: usize,
     w: &mut [f32],
-    backend: Backend,
+    simd: SimdLevel,
 ) {
     let (n, k) = (file.n as usize, file.k as usize);
     let matrix = file.operator.matrix();
@@ -39,7 +39,7 @@ pub(crate) fn gather_rows(
                 kp,
                 offset: c,
             };
-            kernel::gather::<1>(backend, &g, w);
+            kernel::gather::<1>(simd, &g, w);
         }
     } else {
         let g = Gather {
@@ -49,18 +49,18 @@ pub(crate) fn gather_rows(
             kp,
             offset: 0,
         };
-        kernel::gather::<3>(backend, &g, w);
+        kernel::gather::<3>(simd, &g, w);
     }
 }
 
 /// The memory-read roofline of [`gather_rows`]: reads the same bytes, returns a sum of them.
-pub(crate) fn read_rows(file: &OperatorFile, rows: Range<usize>, backend: Backend) -> u64 {
+pub(crate) fn read_rows(file: &OperatorFile, rows: Range<usize>, simd: SimdLevel) -> u64 {
     let (n, k) = (file.n as usize, file.k as usize);
     let blocks = match file.operator {
         OperatorData::PlainYk { .. } => file.channels as usize,
         OperatorData::Factored { .. } => 1,
     };
     (0..blocks)
-        .map(|c| kernel::read_sum(backend, block(file.operator.matrix(), n, k, c, &rows)))
+        .map(|c| kernel::read_sum(simd, block(file.operator.matrix(), n, k, c, &rows)))
         .fold(0, u64::wrapping_add)
 }
