@@ -18,7 +18,7 @@ pub const MAX_CONDITION: f64 = 1e12;
 pub enum Precision {
     /// 4-byte IEEE single precision (DIMS code 0).
     F32,
-    /// 2-byte IEEE binary16, see [`f32_to_f16`](crate::f32_to_f16) (DIMS code 1).
+    /// 2-byte IEEE binary16, see [`f32_to_f16`] (DIMS code 1).
     F16,
 }
 

@@ -2,7 +2,7 @@
 //! dependencies either way): an application needs none of them.
 //!
 //! - [`synthetic`]: generated operators, valid and deterministic, of any size;
-//! - [`reference`]: the f64 evaluation of a file, the yardstick of the fast paths;
+//! - [`reference`](mod@reference): the f64 evaluation of a file, the yardstick of the fast paths;
 //! - [`baseline`]: the papers' dense-`V_k` evaluation, for `lrr bench runtime`.
 
 pub mod baseline;
