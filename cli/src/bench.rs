@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
-use lrr_runtime::baseline::DenseV;
+use lrr_runtime::testkit::baseline::DenseV;
 use lrr_runtime::{Evaluator, Layout, Operator, Precision, Rgb, RgbMut};
 use serde::Serialize;
 
@@ -108,7 +108,7 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
     for size in &b.sizes {
         let (n, k) = parse_size(size)?;
         for p in precisions(&b.precisions)? {
-            let op = lrr_runtime::synthetic::operator(n, k, 3, p, Layout::Factored, 7)?;
+            let op = lrr_runtime::testkit::synthetic::operator(n, k, 3, p, Layout::Factored, 7)?;
             rows.push(measure("synthetic", &op, threads, b)?);
             report_progress(rows.last().expect("just pushed"));
         }

@@ -1,67 +1,62 @@
-//! Section payloads <-> [`OperatorFile`] fields.
+//! Section payloads <-> [`OperatorFile`] fields, and the file's reading and writing.
+//!
+//! [`OperatorFile::from_bytes`] runs the container checks, then checks each payload length
+//! against the dimensions, then [`validate`](OperatorFile::validate): a value that comes back
+//! from `from_bytes` satisfies every invariant documented on the fields.
 //!
 //! Decoding checks every payload length against DIMS with overflow-checked arithmetic *before*
 //! decoding it, so no vector is larger than the bytes it comes from. Values are checked later, by
-//! [`validate`](crate::validate).
+//! [`validate`](OperatorFile::validate).
 
+use std::path::Path;
+
+use crate::atomic::write_atomic;
 use crate::bytes::{self, checked_product};
 use crate::container::Container;
 use crate::error::{ErrorKind, FormatError};
+use crate::file::{Geometry, Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
 use crate::kind;
 use crate::lights;
-use crate::operator::{FkData, Geometry, Layout, OperatorData, OperatorFile, Precision};
+use crate::validate::{Sizes, check_dims};
 use crate::writer::ContainerWriter;
 
 /// Bytes in the DIMS payload: n, k, channels, precision, layout, 3 reserved, all u32.
 pub(crate) const DIMS_LEN: usize = 32;
 
-/// Value counts of every array, from `n`, `k` and `channels`, overflow-checked.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) struct Sizes {
-    /// `n`: order, weights, vertex counts.
-    pub n: usize,
-    /// `k + 1`: index.
-    pub index: usize,
-    /// `n * k`: F_k.
-    pub fk: usize,
-    /// `channels * k * k`: cores.
-    pub cores: usize,
-    /// `channels * n * k`: plain Y_k.
-    pub yk: usize,
-    /// `n * 3`: reflectance, emission, normals.
-    pub rgb: usize,
-    /// `n * 12`: vertices.
-    pub vertices: usize,
-}
+impl OperatorFile {
+    /// Encodes the file. Runs [`validate`](Self::validate) first: an inconsistent struct gives an
+    /// `Invalid` error and no bytes.
+    pub fn to_bytes(&self) -> Result<Vec<u8>, FormatError> {
+        self.validate()?;
+        Ok(encode(self))
+    }
 
-impl Sizes {
-    pub(crate) fn new(n: u32, k: u32, channels: u32) -> Result<Self, FormatError> {
-        let (n64, k64, c64) = (u64::from(n), u64::from(k), u64::from(channels));
-        Ok(Sizes {
-            n: checked_product("section ORDER (n)", &[n64])?,
-            index: checked_product("section INDEX (k + 1)", &[k64 + 1])?,
-            fk: checked_product("section FK (n * k)", &[n64, k64])?,
-            cores: checked_product("section CORES (channels * k * k)", &[c64, k64, k64])?,
-            yk: checked_product("section YK (channels * n * k)", &[c64, n64, k64])?,
-            rgb: checked_product("section REFLECTANCE (n * 3)", &[n64, 3])?,
-            vertices: checked_product("section GEOMETRY (n * 12)", &[n64, 12])?,
-        })
+    /// Decodes and validates a file. Never panics, never reads out of bounds, and allocates about
+    /// the size of `bytes` at most, whatever the bytes are.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self, FormatError> {
+        let container = Container::parse(bytes)?;
+        let file = decode(&container)?;
+        file.validate()?;
+        Ok(file)
     }
-}
 
-/// The checks on DIMS that do not need the other sections.
-pub(crate) fn check_dims(n: u32, k: u32, channels: u32) -> Result<(), FormatError> {
-    if channels != 1 && channels != 3 {
-        return Err(FormatError::invalid(format!(
-            "section DIMS: channels = {channels}, must be 1 (grey) or 3 (RGB)"
-        )));
+    /// Reads and decodes the file at `path`; every error message starts with the path.
+    pub fn read(path: &Path) -> Result<Self, FormatError> {
+        let bytes = std::fs::read(path).map_err(|e| {
+            FormatError::new(
+                ErrorKind::Io,
+                format!("cannot read {}: {e}", path.display()),
+            )
+        })?;
+        Self::from_bytes(&bytes).map_err(|e| e.context(path.display()))
     }
-    if k == 0 || k > n {
-        return Err(FormatError::invalid(format!(
-            "section DIMS: k = {k} patches for n = {n} elements: need 1 <= k <= n"
-        )));
+
+    /// Validates, encodes and writes the file atomically (see [`write_atomic`]): readers see the
+    /// old file or the new one, never a mix.
+    pub fn write(&self, path: &Path) -> Result<(), FormatError> {
+        let bytes = self.to_bytes().map_err(|e| e.context(path.display()))?;
+        write_atomic(path, &bytes)
     }
-    Ok(())
 }
 
 /// Builds the container; `file` has been validated.
@@ -91,11 +86,11 @@ pub(crate) fn encode(file: &OperatorFile) -> Vec<u8> {
     w.to_bytes()
 }
 
-fn matrix_payload(m: &FkData) -> Vec<u8> {
+fn matrix_payload(m: &StoredMatrix) -> Vec<u8> {
     let mut out = Vec::new();
     match m {
-        FkData::F32(v) => bytes::put_f32s(&mut out, v),
-        FkData::F16(v) => bytes::put_u16s(&mut out, v),
+        StoredMatrix::F32(v) => bytes::put_f32s(&mut out, v),
+        StoredMatrix::F16(v) => bytes::put_u16s(&mut out, v),
     }
     out
 }
@@ -204,12 +199,12 @@ fn decode_operator(
                 .join(" and ")
         )));
     }
-    let matrix = |kind, count, formula| -> Result<FkData, FormatError> {
+    let matrix = |kind, count, formula| -> Result<StoredMatrix, FormatError> {
         let size = precision.size() as u64;
         let payload = exact(c, kind, count, size, formula)?;
         Ok(match precision {
-            Precision::F32 => FkData::F32(bytes::f32s(payload)),
-            Precision::F16 => FkData::F16(bytes::u16s(payload)),
+            Precision::F32 => StoredMatrix::F32(bytes::f32s(payload)),
+            Precision::F16 => StoredMatrix::F16(bytes::u16s(payload)),
         })
     };
     Ok(match layout {
@@ -333,17 +328,5 @@ mod tests {
             err.message,
             "section WEIGHTS (kind 5): expected 24 bytes (n = 6 values of 4 bytes), found 20"
         );
-    }
-
-    #[test]
-    #[cfg(target_pointer_width = "64")]
-    fn sizes_overflow_is_limits() {
-        // n * k fits in 64 bits, its byte size does not.
-        let sizes = Sizes::new(u32::MAX, u32::MAX, 1).unwrap();
-        let err = checked_product("section FK", &[sizes.fk as u64, 4]).unwrap_err();
-        assert_eq!(err.kind, ErrorKind::Limits);
-        let err = Sizes::new(u32::MAX, u32::MAX, 3).unwrap_err();
-        assert_eq!(err.kind, ErrorKind::Limits);
-        assert!(err.message.contains("CORES"), "{err}");
     }
 }

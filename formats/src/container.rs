@@ -8,11 +8,16 @@ use crate::bytes::{align_up, u16_at, u32_at, u64_at};
 use crate::checksum::checksum;
 use crate::error::{ErrorKind, FormatError};
 use crate::kind;
-use crate::{MAGIC, VERSION_MAJOR, VERSION_MINOR};
 
 #[cfg(test)]
 use crate::writer::ContainerWriter;
 
+/// The first 8 bytes of every operator file: `\x89LRR\r\n\x1a\n`.
+pub const MAGIC: [u8; 8] = *b"\x89LRR\r\n\x1a\n";
+/// The major format version this crate reads and writes; files of another major are refused.
+pub const VERSION_MAJOR: u16 = 1;
+/// The minor format version this crate writes; files of any minor version are read.
+pub const VERSION_MINOR: u16 = 1;
 /// Bytes in the header.
 pub const HEADER_LEN: usize = 64;
 /// Bytes per section table entry.

@@ -7,8 +7,8 @@
 use std::num::NonZeroUsize;
 
 use crate::error::FormatError;
+use crate::file::{OperatorData, OperatorFile, Precision, StoredMatrix};
 use crate::half::f32_to_f16;
-use crate::operator::{FkData, OperatorData, OperatorFile, Precision};
 
 impl OperatorFile {
     /// The same operator in the plain layout ([`Layout::PlainYk`](crate::Layout::PlainYk)):
@@ -54,8 +54,8 @@ impl OperatorFile {
             }
         });
         let yk = match self.precision {
-            Precision::F32 => FkData::F32(yk),
-            Precision::F16 => FkData::F16(to_f16(&yk, n, k)?),
+            Precision::F32 => StoredMatrix::F32(yk),
+            Precision::F16 => StoredMatrix::F16(to_f16(&yk, n, k)?),
         };
         Ok(OperatorFile {
             channels: channels as u32,
@@ -76,7 +76,7 @@ impl OperatorFile {
             index: self.index.clone(),
             weights: self.weights.clone(),
             operator: OperatorData::PlainYk {
-                yk: FkData::F32(Vec::new()),
+                yk: StoredMatrix::F32(Vec::new()),
             },
             reflectance: self.reflectance.clone(),
             emission: self.emission.clone(),
@@ -88,7 +88,7 @@ impl OperatorFile {
 
 /// What every thread reads.
 struct Plan<'a> {
-    fk: &'a FkData,
+    fk: &'a StoredMatrix,
     cores: &'a [f64],
     core_channels: usize,
     reflectance: &'a [f32],

@@ -105,7 +105,7 @@
 //! # Example
 //!
 //! ```
-//! use lrr_formats::{FkData, Geometry, Layout, OperatorData, OperatorFile, Precision};
+//! use lrr_formats::{Geometry, Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
 //!
 //! // Two triangles forming one patch, the first one emitting.
 //! let mut file = OperatorFile {
@@ -118,7 +118,7 @@
 //!     index: vec![0, 2],
 //!     weights: vec![0.5, 0.5],
 //!     operator: OperatorData::Factored {
-//!         fk: FkData::F32(vec![0.0, 0.0]),
+//!         fk: StoredMatrix::F32(vec![0.0, 0.0]),
 //!         cores: vec![1.0],
 //!     },
 //!     reflectance: vec![0.5; 6],
@@ -169,10 +169,10 @@ mod codec;
 mod container;
 mod convert;
 mod error;
+mod file;
 mod half;
 pub mod kind;
 mod lights;
-mod operator;
 #[cfg(test)]
 mod testdata;
 mod validate;
@@ -181,16 +181,13 @@ mod writer;
 pub use atomic::write_atomic;
 pub use checksum::checksum;
 pub use container::{
-    ALIGN, Container, FLAG_REQUIRED, HEADER_CHECKSUM_OFFSET, HEADER_LEN, SECTION_ENTRY_LEN, Section,
+    ALIGN, Container, FLAG_REQUIRED, HEADER_CHECKSUM_OFFSET, HEADER_LEN, MAGIC, SECTION_ENTRY_LEN,
+    Section, VERSION_MAJOR, VERSION_MINOR,
 };
 pub use error::{ErrorKind, FormatError};
+pub use file::{
+    Geometry, Layout, LightGroup, MAX_CONDITION, OperatorData, OperatorFile, Precision,
+    StoredMatrix,
+};
 pub use half::{f16_to_f32, f32_to_f16};
-pub use operator::{FkData, Geometry, Layout, LightGroup, OperatorData, OperatorFile, Precision};
 pub use writer::ContainerWriter;
-
-/// The first 8 bytes of every operator file: `\x89LRR\r\n\x1a\n`.
-pub const MAGIC: [u8; 8] = *b"\x89LRR\r\n\x1a\n";
-/// The major format version this crate reads and writes; files of another major are refused.
-pub const VERSION_MAJOR: u16 = 1;
-/// The minor format version this crate writes; files of any minor version are read.
-pub const VERSION_MINOR: u16 = 1;

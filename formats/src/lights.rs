@@ -7,7 +7,7 @@
 
 use crate::bytes::{self, u32_at};
 use crate::error::FormatError;
-use crate::operator::{LightGroup, OperatorFile};
+use crate::file::{LightGroup, OperatorFile};
 
 /// Bytes before the first record.
 const HEAD: usize = 8;
@@ -289,7 +289,7 @@ impl OperatorFile {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::operator::Precision;
+    use crate::file::Precision;
     use crate::testdata::sample;
 
     fn lamp() -> LightGroup {

@@ -1,8 +1,8 @@
 //! A small valid operator for unit tests (tests/corrupt.rs keeps its own copy: it sees only the
 //! public API).
 
+use crate::file::{Geometry, OperatorData, OperatorFile, Precision, StoredMatrix};
 use crate::half::f32_to_f16;
-use crate::operator::{FkData, Geometry, OperatorData, OperatorFile, Precision};
 
 /// n = 6 elements in k = 2 patches of 3; elements 1, 3 are triangles, the others quads.
 pub(crate) fn sample(precision: Precision, channels: u32) -> OperatorFile {
@@ -27,8 +27,8 @@ pub(crate) fn sample(precision: Precision, channels: u32) -> OperatorFile {
         weights: vec![0.5, 0.25, 0.25, 0.2, 0.3, 0.5],
         operator: OperatorData::Factored {
             fk: match precision {
-                Precision::F32 => FkData::F32(fk.to_vec()),
-                Precision::F16 => FkData::F16(fk.iter().map(|&v| f32_to_f16(v)).collect()),
+                Precision::F32 => StoredMatrix::F32(fk.to_vec()),
+                Precision::F16 => StoredMatrix::F16(fk.iter().map(|&v| f32_to_f16(v)).collect()),
             },
             cores: (0..channels * 4)
                 .map(|i| 1.0 + f64::from(i) / 8.0)
@@ -52,7 +52,7 @@ pub(crate) fn plain_sample(precision: Precision, channels: u32) -> OperatorFile 
         channels,
         precision,
         operator: OperatorData::PlainYk {
-            yk: FkData::from_f32(&yk, precision),
+            yk: StoredMatrix::from_f32(&yk, precision),
         },
         ..sample(precision, channels)
     }

@@ -4,49 +4,103 @@
 //! the position and the rule. The runtime relies on these (an index inside `0..n`, no NaN in a
 //! product), so [`OperatorFile::from_bytes`] runs them on every file it returns.
 
-use crate::codec::{Sizes, check_dims};
+use crate::bytes::checked_product;
 use crate::error::FormatError;
+use crate::file::{OperatorData, OperatorFile, StoredMatrix};
 use crate::half::f16_to_f32;
 use crate::lights;
-use crate::operator::{FkData, OperatorData, OperatorFile};
 
 /// How far a stored normal's length may be from 1.
 const NORMAL_TOLERANCE: f64 = 1e-3;
 
 const RGB: [&str; 3] = ["r", "g", "b"];
 
-pub(crate) fn check(f: &OperatorFile) -> Result<(), FormatError> {
-    check_dims(f.n, f.k, f.channels)?;
-    let matrix = f.operator.matrix();
-    if matrix.precision() != f.precision {
+/// Value counts of every array, from `n`, `k` and `channels`, overflow-checked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Sizes {
+    /// `n`: order, weights, vertex counts.
+    pub n: usize,
+    /// `k + 1`: index.
+    pub index: usize,
+    /// `n * k`: F_k.
+    pub fk: usize,
+    /// `channels * k * k`: cores.
+    pub cores: usize,
+    /// `channels * n * k`: plain Y_k.
+    pub yk: usize,
+    /// `n * 3`: reflectance, emission, normals.
+    pub rgb: usize,
+    /// `n * 12`: vertices.
+    pub vertices: usize,
+}
+
+impl Sizes {
+    pub(crate) fn new(n: u32, k: u32, channels: u32) -> Result<Self, FormatError> {
+        let (n64, k64, c64) = (u64::from(n), u64::from(k), u64::from(channels));
+        Ok(Sizes {
+            n: checked_product("section ORDER (n)", &[n64])?,
+            index: checked_product("section INDEX (k + 1)", &[k64 + 1])?,
+            fk: checked_product("section FK (n * k)", &[n64, k64])?,
+            cores: checked_product("section CORES (channels * k * k)", &[c64, k64, k64])?,
+            yk: checked_product("section YK (channels * n * k)", &[c64, n64, k64])?,
+            rgb: checked_product("section REFLECTANCE (n * 3)", &[n64, 3])?,
+            vertices: checked_product("section GEOMETRY (n * 12)", &[n64, 12])?,
+        })
+    }
+}
+
+/// The checks on DIMS that do not need the other sections.
+pub(crate) fn check_dims(n: u32, k: u32, channels: u32) -> Result<(), FormatError> {
+    if channels != 1 && channels != 3 {
         return Err(FormatError::invalid(format!(
-            "section {}: DIMS says precision {:?} but the data is {:?}",
-            matrix_section(f),
-            f.precision,
-            matrix.precision()
+            "section DIMS: channels = {channels}, must be 1 (grey) or 3 (RGB)"
         )));
     }
-    let sizes = Sizes::new(f.n, f.k, f.channels)?;
-    check_lengths(f, &sizes)?;
-    check_order(&f.order)?;
-    check_index(&f.index, f.n)?;
-    check_weights(&f.weights)?;
-    match &f.operator {
-        OperatorData::Factored { fk, cores } => {
-            check_fk(fk, f.k as usize)?;
-            check_cores(cores, f.k as usize)?;
-        }
-        OperatorData::PlainYk { yk } => check_yk(yk, f.n as usize, f.k as usize)?,
+    if k == 0 || k > n {
+        return Err(FormatError::invalid(format!(
+            "section DIMS: k = {k} patches for n = {n} elements: need 1 <= k <= n"
+        )));
     }
-    check_rgb(
-        "REFLECTANCE",
-        &f.reflectance,
-        |v| (0.0..=1.0).contains(&v),
-        "in [0, 1]",
-    )?;
-    check_rgb("EMISSION", &f.emission, |v| v >= 0.0, ">= 0")?;
-    check_geometry(f)?;
-    lights::check(f)
+    Ok(())
+}
+
+impl OperatorFile {
+    /// Checks every invariant documented on the fields. Messages name the section, the index and
+    /// the problem, e.g. `section FK: element 4, patch 1: value NaN must be finite and >= 0`.
+    pub fn validate(&self) -> Result<(), FormatError> {
+        let f = self;
+        check_dims(f.n, f.k, f.channels)?;
+        let matrix = f.operator.matrix();
+        if matrix.precision() != f.precision {
+            return Err(FormatError::invalid(format!(
+                "section {}: DIMS says precision {:?} but the data is {:?}",
+                matrix_section(f),
+                f.precision,
+                matrix.precision()
+            )));
+        }
+        let sizes = Sizes::new(f.n, f.k, f.channels)?;
+        check_lengths(f, &sizes)?;
+        check_order(&f.order)?;
+        check_index(&f.index, f.n)?;
+        check_weights(&f.weights)?;
+        match &f.operator {
+            OperatorData::Factored { fk, cores } => {
+                check_fk(fk, f.k as usize)?;
+                check_cores(cores, f.k as usize)?;
+            }
+            OperatorData::PlainYk { yk } => check_yk(yk, f.n as usize, f.k as usize)?,
+        }
+        check_rgb(
+            "REFLECTANCE",
+            &f.reflectance,
+            |v| (0.0..=1.0).contains(&v),
+            "in [0, 1]",
+        )?;
+        check_rgb("EMISSION", &f.emission, |v| v >= 0.0, ">= 0")?;
+        check_geometry(f)?;
+        lights::check(f)
+    }
 }
 
 fn matrix_section(f: &OperatorFile) -> &'static str {
@@ -153,15 +207,15 @@ fn check_weights(weights: &[f32]) -> Result<(), FormatError> {
     }
 }
 
-fn check_fk(fk: &FkData, k: usize) -> Result<(), FormatError> {
+fn check_fk(fk: &StoredMatrix, k: usize) -> Result<(), FormatError> {
     let ok = |v: f32| v.is_finite() && v >= 0.0;
     let bad = match fk {
-        FkData::F32(v) => v.iter().position(|&x| !ok(x)),
-        FkData::F16(v) => v.iter().position(|&h| !ok(f16_to_f32(h))),
+        StoredMatrix::F32(v) => v.iter().position(|&x| !ok(x)),
+        StoredMatrix::F16(v) => v.iter().position(|&h| !ok(f16_to_f32(h))),
     };
     match (bad, fk) {
-        (Some(i), FkData::F32(v)) => Err(fk_error(i, k, &format!("{}", v[i]))),
-        (Some(i), FkData::F16(v)) => {
+        (Some(i), StoredMatrix::F32(v)) => Err(fk_error(i, k, &format!("{}", v[i]))),
+        (Some(i), StoredMatrix::F16(v)) => {
             let value = format!("{} (f16 {:#06x})", f16_to_f32(v[i]), v[i]);
             Err(fk_error(i, k, &value))
         }
@@ -178,10 +232,10 @@ fn fk_error(i: usize, k: usize, value: &str) -> FormatError {
 }
 
 /// `Y_c` values may have either sign; they must be finite.
-fn check_yk(yk: &FkData, n: usize, k: usize) -> Result<(), FormatError> {
+fn check_yk(yk: &StoredMatrix, n: usize, k: usize) -> Result<(), FormatError> {
     let bad = match yk {
-        FkData::F32(v) => v.iter().position(|x| !x.is_finite()),
-        FkData::F16(v) => v.iter().position(|&h| !f16_to_f32(h).is_finite()),
+        StoredMatrix::F32(v) => v.iter().position(|x| !x.is_finite()),
+        StoredMatrix::F16(v) => v.iter().position(|&h| !f16_to_f32(h).is_finite()),
     };
     match bad {
         Some(i) => Err(FormatError::invalid(format!(
@@ -265,7 +319,7 @@ fn check_geometry(f: &OperatorFile) -> Result<(), FormatError> {
 mod tests {
     use super::*;
     use crate::error::ErrorKind;
-    use crate::operator::Precision;
+    use crate::file::Precision;
     use crate::testdata::{plain_sample, sample};
 
     fn message(edit: impl FnOnce(&mut OperatorFile)) -> String {
@@ -287,7 +341,10 @@ mod tests {
     #[test]
     fn plain_yk_messages() {
         let mut f = plain_sample(Precision::F32, 3);
-        if let OperatorData::PlainYk { yk: FkData::F32(v) } = &mut f.operator {
+        if let OperatorData::PlainYk {
+            yk: StoredMatrix::F32(v),
+        } = &mut f.operator
+        {
             v[2 * 12 + 5] = f32::INFINITY;
         }
         let e = f.validate().unwrap_err();
@@ -366,7 +423,7 @@ mod tests {
                     let OperatorData::Factored { fk, .. } = &mut f.operator else {
                         unreachable!()
                     };
-                    *fk = FkData::F32(vec![
+                    *fk = StoredMatrix::F32(vec![
                         0.1,
                         0.2,
                         0.0,
@@ -429,5 +486,17 @@ mod tests {
                 "got {got:?}, expected {expected:?}"
             );
         }
+    }
+
+    #[test]
+    #[cfg(target_pointer_width = "64")]
+    fn sizes_overflow_is_limits() {
+        // n * k fits in 64 bits, its byte size does not.
+        let sizes = Sizes::new(u32::MAX, u32::MAX, 1).unwrap();
+        let err = checked_product("section FK", &[sizes.fk as u64, 4]).unwrap_err();
+        assert_eq!(err.kind, ErrorKind::Limits);
+        let err = Sizes::new(u32::MAX, u32::MAX, 3).unwrap_err();
+        assert_eq!(err.kind, ErrorKind::Limits);
+        assert!(err.message.contains("CORES"), "{err}");
     }
 }

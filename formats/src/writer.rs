@@ -2,10 +2,10 @@
 
 use crate::checksum::checksum;
 use crate::container::{
-    ALIGN, FLAG_REQUIRED, HEADER_CHECKSUM_OFFSET, HEADER_LEN, SECTION_ENTRY_LEN, header_checksum,
+    ALIGN, FLAG_REQUIRED, HEADER_CHECKSUM_OFFSET, HEADER_LEN, MAGIC, SECTION_ENTRY_LEN,
+    VERSION_MAJOR, VERSION_MINOR, header_checksum,
 };
 use crate::kind;
-use crate::{MAGIC, VERSION_MAJOR, VERSION_MINOR};
 
 /// Builds a container: payloads are laid out in the order they are added.
 #[derive(Debug, Clone)]

@@ -8,11 +8,9 @@
 
 use faer::Mat;
 use faer::linalg::solvers::DenseSolveCore;
+use lrr_formats::MAX_CONDITION;
 
 use crate::error::{Error, Result};
-
-/// Largest condition number accepted: beyond it the f64 solution has fewer than ~4 correct digits.
-pub const MAX_CONDITION: f64 = 1e12;
 
 /// The per-channel cores.
 #[derive(Debug, Clone, PartialEq)]

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use lrr_formats::{FkData, Geometry, Layout, OperatorData, OperatorFile, Precision};
+use lrr_formats::{Geometry, Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
 
 use serde::Serialize;
 
@@ -47,7 +47,7 @@ pub fn operator_file(b: &Baked) -> OperatorFile {
         index: b.mesh.index.clone(),
         weights: b.mesh.weights.iter().map(|&w| w as f32).collect(),
         operator: OperatorData::Factored {
-            fk: FkData::F32(b.fk.iter().map(|&f| f as f32).collect()),
+            fk: StoredMatrix::F32(b.fk.iter().map(|&f| f as f32).collect()),
             cores: b.cores.m.clone(),
         },
         reflectance: flat(&b.reflectance),
@@ -109,7 +109,7 @@ fn add_light_groups(b: &Baked, file: &mut OperatorFile) -> Result<()> {
 /// Stores a factored file's `F_k` in `precision` (rounding once from its current values).
 pub fn store_matrix_as(file: &mut OperatorFile, precision: Precision) {
     if let OperatorData::Factored { fk, .. } = &mut file.operator {
-        *fk = FkData::from_f32(&fk.to_f32(), precision);
+        *fk = StoredMatrix::from_f32(&fk.to_f32(), precision);
     }
     file.precision = precision;
 }

@@ -12,7 +12,8 @@
 //! only. Operators are synthetic (factored, RGB).
 
 use lrr_runtime::gpu::{self, Gpu, GpuOptions, bench_operator};
-use lrr_runtime::{Layout, Precision, synthetic};
+use lrr_runtime::testkit::synthetic;
+use lrr_runtime::{Layout, Precision};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();

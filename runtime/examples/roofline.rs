@@ -7,7 +7,8 @@
 
 use std::time::{Duration, Instant};
 
-use lrr_runtime::{Backend, Evaluator, Layout, Precision, Rgb, RgbMut, synthetic};
+use lrr_runtime::testkit::synthetic;
+use lrr_runtime::{Evaluator, Layout, Precision, Rgb, RgbMut, SimdLevel};
 
 fn time(f: impl FnOnce()) -> Duration {
     let t = Instant::now();
@@ -32,9 +33,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "n = {n}, k = {k}, {precision:?}, {threads} threads, {:.1} MB per frame",
         gb * 1e3
     );
-    let backends = [Backend::Avx2, Backend::Scalar];
-    for backend in backends.into_iter().filter(|b| b.supported()) {
-        let mut eval = Evaluator::with_backend(&op, threads, backend)?;
+    let levels = [SimdLevel::Avx2, SimdLevel::Scalar];
+    for simd in levels.into_iter().filter(|b| b.supported()) {
+        let mut eval = Evaluator::with_simd(&op, threads, simd)?;
         let mut sum = 0u64;
         let (mut reads, mut frames_t, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
         for _ in 0..frames {
@@ -53,7 +54,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!(
             "{:14} frame {:7.2} ms ({:5.1} GB/s, {:6.1} fps) | read {:7.2} ms ({:5.1} GB/s) | \
              best read / best frame = {:.2}, median of pairs = {:.2}   [{sum:x}]",
-            backend.name(),
+            simd.name(),
             frame * 1e3,
             gb / frame,
             1.0 / frame,

@@ -5,14 +5,10 @@
 //! f64, O(k³) per channel. A system whose 1-norm condition number `‖A‖₁ ‖A⁻¹‖₁` exceeds
 //! [`MAX_CONDITION`] is refused, as the bake refuses it.
 
-use lrr_formats::{FkData, OperatorData, OperatorFile, f16_to_f32};
+use lrr_formats::{MAX_CONDITION, OperatorData, OperatorFile, StoredMatrix, f16_to_f32};
 
 use crate::error::{RuntimeError, input};
 use crate::lu::{Lu, norm1};
-
-/// Largest condition number accepted (the bake's limit): beyond it the cores lose too many
-/// digits.
-pub const MAX_CONDITION: f64 = 1e12;
 
 /// The result of an edit: what a frame reads besides the shared matrix.
 #[derive(Debug, Clone)]
@@ -83,7 +79,7 @@ fn to_file_order(file: &OperatorFile, rho: &[[f32; 3]]) -> Result<Vec<f32>, Runt
 /// `A_c` for each channel, row-major; one pass over `F_k`.
 fn system_matrices(
     file: &OperatorFile,
-    fk: &FkData,
+    fk: &StoredMatrix,
     reflectance: &[f32],
     channels: usize,
 ) -> Vec<Vec<f64>> {
@@ -99,11 +95,11 @@ fn system_matrices(
     for p in 0..k {
         for s in file.index[p] as usize..file.index[p + 1] as usize {
             match fk {
-                FkData::F32(v) => row
+                StoredMatrix::F32(v) => row
                     .iter_mut()
                     .zip(&v[s * k..(s + 1) * k])
                     .for_each(|(r, f)| *r = f64::from(*f)),
-                FkData::F16(v) => row
+                StoredMatrix::F16(v) => row
                     .iter_mut()
                     .zip(&v[s * k..(s + 1) * k])
                     .for_each(|(r, &h)| *r = f64::from(f16_to_f32(h))),

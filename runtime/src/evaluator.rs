@@ -6,7 +6,7 @@ use std::sync::Arc;
 use crate::albedo;
 use crate::error::RuntimeError;
 use crate::frame::Frame;
-use crate::kernel::{self, Backend, LANES};
+use crate::kernel::{self, LANES, SimdLevel};
 use crate::operator::Operator;
 use crate::pool::{Pool, Task};
 use crate::rgb::{Rgb, RgbMut};
@@ -24,7 +24,7 @@ use crate::rgb::{Rgb, RgbMut};
 pub struct Evaluator {
     /// The shared file and this evaluator's albedo.
     frame: Frame,
-    backend: Backend,
+    simd: SimdLevel,
     kp: usize,
     x: Vec<[f64; 3]>,
     /// `3 * kp`: the planes of `z`, copied to every worker.
@@ -38,7 +38,7 @@ impl std::fmt::Debug for Evaluator {
             .field("n", &self.frame.file.n)
             .field("k", &self.frame.file.k)
             .field("threads", &self.threads())
-            .field("backend", &self.backend)
+            .field("simd", &self.simd)
             .finish()
     }
 }
@@ -46,18 +46,14 @@ impl std::fmt::Debug for Evaluator {
 impl Evaluator {
     /// An evaluator of `op` with `threads` threads in all, the caller's included (0 = one per
     /// available core; more threads than elements are not started). The kernel implementation
-    /// is the fastest this CPU supports ([`Backend::detect`]).
+    /// is the fastest this CPU supports ([`SimdLevel::detect`]).
     pub fn new(op: &Operator, threads: usize) -> Result<Self, RuntimeError> {
-        Self::with_backend(op, threads, Backend::detect())
+        Self::with_simd(op, threads, SimdLevel::detect())
     }
 
-    /// [`new`](Self::new) with a chosen kernel implementation (e.g. [`Backend::Scalar`] to
-    /// compare); an unsupported one falls back to the scalar kernels.
-    pub fn with_backend(
-        op: &Operator,
-        threads: usize,
-        backend: Backend,
-    ) -> Result<Self, RuntimeError> {
+    /// [`new`](Self::new) with a chosen instruction set (e.g. [`SimdLevel::Scalar`] to compare);
+    /// an unsupported one falls back to the scalar kernels.
+    pub fn with_simd(op: &Operator, threads: usize, simd: SimdLevel) -> Result<Self, RuntimeError> {
         let file = Arc::clone(op.shared());
         let (n, k) = (file.n as usize, file.k as usize);
         let threads = match threads {
@@ -67,10 +63,10 @@ impl Evaluator {
         .clamp(1, n);
         let kp = kernel::padded(k);
         let bounds = chunk_bounds(n, threads);
-        let pool = Pool::start(&file, &bounds, threads - 1, kp, backend)?;
+        let pool = Pool::start(&file, &bounds, threads - 1, kp, simd)?;
         Ok(Evaluator {
             frame: Frame::new(file, &bounds),
-            backend,
+            simd,
             kp,
             x: vec![[0.0; 3]; k],
             z: vec![0.0; 3 * kp],
@@ -83,9 +79,9 @@ impl Evaluator {
         self.pool.threads()
     }
 
-    /// The kernel implementation in use.
-    pub fn backend(&self) -> Backend {
-        self.backend
+    /// The instruction set the kernels of this evaluator run on.
+    pub fn simd(&self) -> SimdLevel {
+        self.simd
     }
 
     /// Bytes allocated by [`new`](Self::new) and reused by every frame: `W` (`3n` f32 over all
@@ -102,8 +98,7 @@ impl Evaluator {
         let n = self.frame.file.n as usize;
         emission.check(n, "emission")?;
         out.check(n, "output")?;
-        self.frame
-            .segment_sums(&emission, &mut self.x, self.backend)?;
+        self.frame.segment_sums(&emission, &mut self.x, self.simd)?;
         self.gather_and_finish(Some(&emission), &mut out)
     }
 
@@ -153,6 +148,51 @@ impl Evaluator {
         let frame = &self.frame;
         self.pool
             .run(Task::Gather, &self.z, |chunk| frame.finish(chunk, e, out))
+    }
+}
+
+/// The evaluator and the one-call evaluations of an [`Operator`], defined here so that
+/// `operator.rs` stays below this file.
+impl Operator {
+    /// A persistent evaluator with `threads` threads in all (the caller's included; 0 = one per
+    /// available core). See [`Evaluator`].
+    pub fn evaluator(&self, threads: usize) -> Result<Evaluator, RuntimeError> {
+        Evaluator::new(self, threads)
+    }
+
+    /// Radiosity for the baked emission, per element in original id order.
+    pub fn evaluate_baked(&self) -> Vec<[f32; 3]> {
+        let e = self.baked_emission();
+        let mut out = vec![[0.0; 3]; self.n()];
+        self.evaluate(&e, &mut out)
+            .expect("the baked emission is valid by construction");
+        out
+    }
+
+    /// Radiosity for an RGB emission per element (original id order) into `out` (same order),
+    /// on this thread. Emission must be finite and non-negative; on an error nothing is written.
+    /// Allocates scratch per call: for frames, use an [`Evaluator`].
+    pub fn evaluate(
+        &self,
+        emission: &[[f32; 3]],
+        out: &mut [[f32; 3]],
+    ) -> Result<(), RuntimeError> {
+        self.evaluate_rgb(Rgb::triples(emission), RgbMut::triples(out))
+    }
+
+    /// [`evaluate`](Self::evaluate) with interleaved or planar buffers.
+    pub fn evaluate_rgb(&self, emission: Rgb<'_>, out: RgbMut<'_>) -> Result<(), RuntimeError> {
+        Evaluator::new(self, 1)?.evaluate(emission, out)
+    }
+
+    /// Radiosity for light-group intensities (one per [`light_groups`](Self::light_groups)
+    /// entry), on this thread: `E = Σ_g a_g E_g`, `Vᵀ E = Σ_g a_g x_g` without an O(n) pass.
+    pub fn evaluate_groups(
+        &self,
+        intensities: &[f32],
+        out: RgbMut<'_>,
+    ) -> Result<(), RuntimeError> {
+        Evaluator::new(self, 1)?.evaluate_groups(intensities, out)
     }
 }
 

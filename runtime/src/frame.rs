@@ -4,19 +4,19 @@
 //! 1. `X = Vᵀ E`: weighted segment sums over the index vector, f64 (a patch may hold thousands
 //!    of elements), or `X = Σ_g a_g x_g` from the light groups: O(n) or O(k G), caller thread;
 //! 2. `z_c = M_c X_c` (factored, O(k²) per channel) or `z = X` (plain), rounded to f32;
-//! 3. the gather `W = M z` over the stored matrix: the O(nk) pass, rows split over threads;
+//! 3. the gather `W = M z` over the stored matrix: the O(nk) pass, rows split over threads
+//!    (`pass.rs`, run per chunk by the pool);
 //! 4. `B_c = E_c + ρ_c ⊙ W_c` (factored) or `B_c = E_c - W_c` (plain), per original id.
 //!
 //! Steps 1 and 4 walk the caller's buffers in original id order: see [`Runs`].
 
-use std::ops::Range;
 use std::sync::Arc;
 
-use lrr_formats::{FkData, OperatorData, OperatorFile};
+use lrr_formats::{OperatorData, OperatorFile};
 
 use crate::albedo::Albedo;
 use crate::error::{RuntimeError, input};
-use crate::kernel::{self, Backend, Gather, Rows};
+use crate::kernel::SimdLevel;
 use crate::pool::Chunk;
 use crate::rgb::{Rgb, RgbMut};
 use crate::runs::Runs;
@@ -74,9 +74,9 @@ impl Frame {
         &self,
         e: &Rgb<'_>,
         x: &mut [[f64; 3]],
-        backend: Backend,
+        simd: SimdLevel,
     ) -> Result<(), RuntimeError> {
-        self.runs.segment_sums(&self.file.weights, e, x, backend)
+        self.runs.segment_sums(&self.file.weights, e, x, simd)
     }
 
     /// `X = Σ_g a_g x_g`, refusing a wrong count or a non-finite or negative intensity.
@@ -174,61 +174,4 @@ pub(crate) fn check_intensities(f: &OperatorFile, a: &[f32]) -> Result<(), Runti
         )));
     }
     Ok(())
-}
-
-/// The rows `rows` of the stored matrix of channel block `c` (plain RGB) or of the only block.
-fn block<'a>(m: &'a FkData, n: usize, k: usize, c: usize, rows: &Range<usize>) -> Rows<'a> {
-    let (start, end) = ((c * n + rows.start) * k, (c * n + rows.end) * k);
-    match m {
-        FkData::F32(v) => Rows::F32(&v[start..end]),
-        FkData::F16(v) => Rows::F16(&v[start..end]),
-    }
-}
-
-/// Step 3 for the rows `rows`: `w[3 (s - rows.start) + c] = W_c(s)`. One pass over the rows
-/// for all channels (factored, or plain grey); three passes over three matrices for plain RGB.
-pub(crate) fn gather_rows(
-    file: &OperatorFile,
-    rows: Range<usize>,
-    z: &[f32],
-    kp: usize,
-    w: &mut [f32],
-    backend: Backend,
-) {
-    let (n, k) = (file.n as usize, file.k as usize);
-    let matrix = file.operator.matrix();
-    let three_blocks = matches!(file.operator, OperatorData::PlainYk { .. }) && file.channels == 3;
-    if three_blocks {
-        for c in 0..3 {
-            let g = Gather {
-                m: block(matrix, n, k, c, &rows),
-                k,
-                z: &z[c * kp..],
-                kp,
-                offset: c,
-            };
-            kernel::gather::<1>(backend, &g, w);
-        }
-    } else {
-        let g = Gather {
-            m: block(matrix, n, k, 0, &rows),
-            k,
-            z,
-            kp,
-            offset: 0,
-        };
-        kernel::gather::<3>(backend, &g, w);
-    }
-}
-
-/// The memory-read roofline of [`gather_rows`]: reads the same bytes, returns a sum of them.
-pub(crate) fn read_rows(file: &OperatorFile, rows: Range<usize>, backend: Backend) -> u64 {
-    let (n, k) = (file.n as usize, file.k as usize);
-    let blocks = match file.operator {
-        OperatorData::PlainYk { .. } => file.channels as usize,
-        OperatorData::Factored { .. } => 1,
-    };
-    (0..blocks)
-        .map(|c| kernel::read_sum(backend, block(file.operator.matrix(), n, k, c, &rows)))
-        .fold(0, u64::wrapping_add)
 }

@@ -18,11 +18,11 @@
 //! # Embedding
 //!
 //! ```
-//! use lrr_runtime::{Operator, Rgb, RgbMut, synthetic};
-//! use lrr_formats::{Layout, Precision};
+//! use lrr_runtime::{Operator, Rgb, RgbMut};
+//! # use lrr_runtime::{Layout, Precision, testkit::synthetic};
+//! # let bytes = synthetic::file(1000, 40, 3, Precision::F32, Layout::Factored, 7)?.to_bytes()?;
 //!
-//! // Bytes the application already holds (here a synthetic operator, usually a baked file).
-//! let bytes = synthetic::file(1000, 40, 3, Precision::F32, Layout::Factored, 7)?.to_bytes()?;
+//! // `bytes`: an operator file the application already holds, e.g. std::fs::read("cornell.lrr")?
 //! let op = Operator::from_bytes(&bytes)?;
 //!
 //! // A persistent evaluator: 2 threads in all, every buffer allocated here, none per frame.
@@ -53,7 +53,7 @@
 //! `X` and `Z` are computed in f64; the pass over the stored matrix sums in f32 lanes over blocks
 //! of 256 columns and adds the blocks in f64, so with the non-negative terms of a physical
 //! operator a value is within about 2.5e-6 relative of an f64 evaluation of the same file
-//! ([`reference::evaluate`]), for any n and k (tested below 1e-5 for every layout, precision,
+//! (`testkit::reference::evaluate`), for any n and k (tested below 1e-5 for every layout, precision,
 //! thread count and buffer form, and at n = 10⁶). Storing `F_k` in f16 adds the rounding of the
 //! stored values: at most 2⁻¹¹ ≈ 4.9e-4 relative per entry in the normal range, hence at most
 //! 4.9e-4 relative on `ρ W` and on `B` against the f32 file (plus `k · 2⁻²⁵ max z` for entries
@@ -61,12 +61,19 @@
 //!
 //! # Modules
 //!
-//! - [`Operator`] (`operator.rs`): load, inspect, evaluate once, edit albedo.
-//! - [`Evaluator`] (`evaluator.rs`, `pool.rs`, `frame.rs`, `runs.rs`): frames with a persistent
-//!   pool taking chunks of rows from a queue.
-//! - `kernel/`: the pass over the matrix (safe scalar twin and AVX2), the read roofline.
-//! - `albedo.rs`, `lu.rs`: new cores for new reflectance.
-//! - [`baseline`], [`synthetic`], [`reference`](mod@reference): for benchmarks and tests.
+//! Bottom first:
+//! - `kernel/`: the hot loops (safe scalar twin and AVX2, [`SimdLevel`]): the gather over the
+//!   stored matrix, its read roofline, the segment sums of `X = Vᵀ E`.
+//! - `lu.rs`, `albedo.rs`: new cores for new reflectance.
+//! - [`Operator`] (`operator.rs`): load, inspect, edit albedo; `locate.rs` the element under a
+//!   surface point.
+//! - `runs.rs` (the permutation as runs of ids), `pass.rs` (step 3 of a frame per block of
+//!   rows), `pool.rs` (persistent threads taking chunks of rows from a queue), `frame.rs` (the
+//!   other steps of a frame).
+//! - [`Evaluator`] (`evaluator.rs`): frames over the pool; the one-call evaluations of
+//!   [`Operator`] stand there too.
+//! - `testkit` (cargo feature `testkit`): synthetic operators, the f64 reference evaluation and
+//!   the papers' dense-`V_k` baseline, for tests and benchmarks.
 //! - `gpu` (cargo feature `gpu`): the same frames on a GPU through wgpu.
 
 #![deny(unsafe_code)]
@@ -75,7 +82,6 @@
 #![allow(clippy::needless_range_loop)]
 
 mod albedo;
-pub mod baseline;
 mod error;
 mod evaluator;
 mod frame;
@@ -85,16 +91,16 @@ mod kernel;
 mod locate;
 mod lu;
 mod operator;
+mod pass;
 mod pool;
-pub mod reference;
 mod rgb;
 mod runs;
-pub mod synthetic;
+#[cfg(feature = "testkit")]
+pub mod testkit;
 
-pub use albedo::MAX_CONDITION;
 pub use error::RuntimeError;
 pub use evaluator::Evaluator;
-pub use kernel::Backend;
-pub use lrr_formats::{FormatError, Layout, OperatorFile, Precision};
+pub use kernel::SimdLevel;
+pub use lrr_formats::{FormatError, Layout, MAX_CONDITION, OperatorFile, Precision};
 pub use operator::Operator;
 pub use rgb::{Rgb, RgbMut};

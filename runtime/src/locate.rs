@@ -1,6 +1,6 @@
 //! Finding the element under a surface point (for probes).
 
-use crate::Operator;
+use crate::operator::Operator;
 
 impl Operator {
     /// The original id of the element whose surface holds `point`: the closest element among

@@ -7,8 +7,6 @@ use lrr_formats::{Layout, OperatorData, OperatorFile, Precision};
 
 use crate::albedo;
 use crate::error::RuntimeError;
-use crate::evaluator::Evaluator;
-use crate::rgb::{Rgb, RgbMut};
 
 /// A loaded operator, ready to evaluate frames.
 ///
@@ -38,12 +36,6 @@ impl Operator {
         Ok(Self {
             file: Arc::new(file),
         })
-    }
-
-    /// A persistent evaluator with `threads` threads in all (the caller's included; 0 = one per
-    /// available core). See [`Evaluator`].
-    pub fn evaluator(&self, threads: usize) -> Result<Evaluator, RuntimeError> {
-        Evaluator::new(self, threads)
     }
 
     /// Number of elements.
@@ -129,41 +121,6 @@ impl Operator {
         out
     }
 
-    /// Radiosity for the baked emission, per element in original id order.
-    pub fn evaluate_baked(&self) -> Vec<[f32; 3]> {
-        let e = self.baked_emission();
-        let mut out = vec![[0.0; 3]; self.n()];
-        self.evaluate(&e, &mut out)
-            .expect("the baked emission is valid by construction");
-        out
-    }
-
-    /// Radiosity for an RGB emission per element (original id order) into `out` (same order),
-    /// on this thread. Emission must be finite and non-negative; on an error nothing is written.
-    /// Allocates scratch per call: for frames, use an [`Evaluator`].
-    pub fn evaluate(
-        &self,
-        emission: &[[f32; 3]],
-        out: &mut [[f32; 3]],
-    ) -> Result<(), RuntimeError> {
-        self.evaluate_rgb(Rgb::triples(emission), RgbMut::triples(out))
-    }
-
-    /// [`evaluate`](Self::evaluate) with interleaved or planar buffers.
-    pub fn evaluate_rgb(&self, emission: Rgb<'_>, out: RgbMut<'_>) -> Result<(), RuntimeError> {
-        Evaluator::new(self, 1)?.evaluate(emission, out)
-    }
-
-    /// Radiosity for light-group intensities (one per [`light_groups`](Self::light_groups)
-    /// entry), on this thread: `E = Σ_g a_g E_g`, `Vᵀ E = Σ_g a_g x_g` without an O(n) pass.
-    pub fn evaluate_groups(
-        &self,
-        intensities: &[f32],
-        out: RgbMut<'_>,
-    ) -> Result<(), RuntimeError> {
-        Evaluator::new(self, 1)?.evaluate_groups(intensities, out)
-    }
-
     /// Changes the reflectance (one RGB value per element, original ids, each channel in
     /// [0, 1)) and rebuilds the cores, O(nk + k³), without a re-bake. The operator then has 1
     /// channel if the new reflectance is grey, else 3.
@@ -174,7 +131,8 @@ impl Operator {
     /// the message). On an error nothing changes.
     ///
     /// Evaluators made before the edit keep the old albedo (they share the old file, which this
-    /// copies once); edit them with [`Evaluator::set_reflectance`] or make new ones.
+    /// copies once); edit them with [`Evaluator::set_reflectance`](crate::Evaluator::set_reflectance)
+    /// or make new ones.
     pub fn set_reflectance(&mut self, rho: &[[f32; 3]]) -> Result<(), RuntimeError> {
         let edit = albedo::rebuild(&self.file, rho)?;
         let file = Arc::make_mut(&mut self.file);
@@ -189,7 +147,7 @@ impl Operator {
 
 #[cfg(test)]
 mod tests {
-    use lrr_formats::{FkData, Geometry, OperatorData, OperatorFile, Precision};
+    use lrr_formats::{Geometry, OperatorData, OperatorFile, Precision, StoredMatrix};
 
     use crate::Operator;
 
@@ -209,7 +167,7 @@ mod tests {
             index: vec![0, 1, 2],
             weights: vec![1.0, 1.0],
             operator: OperatorData::Factored {
-                fk: FkData::F32(vec![0.0, 1.0, 1.0, 0.0]),
+                fk: StoredMatrix::F32(vec![0.0, 1.0, 1.0, 0.0]),
                 cores: vec![4.0 / 3.0, 2.0 / 3.0, 2.0 / 3.0, 4.0 / 3.0],
             },
             reflectance: vec![0.5; 6],

@@ -22,8 +22,8 @@ use std::time::Duration;
 use lrr_formats::OperatorFile;
 
 use crate::error::RuntimeError;
-use crate::frame;
-use crate::kernel::Backend;
+use crate::kernel::SimdLevel;
+use crate::pass;
 
 /// What a frame computes per chunk.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -47,16 +47,16 @@ pub(crate) struct Chunk {
 }
 
 impl Chunk {
-    fn run(&mut self, task: Task, file: &OperatorFile, z: &[f32], kp: usize, backend: Backend) {
+    fn run(&mut self, task: Task, file: &OperatorFile, z: &[f32], kp: usize, simd: SimdLevel) {
         let rows = self.rows.clone();
         match task {
-            Task::Gather => frame::gather_rows(file, rows, z, kp, &mut self.w, backend),
-            Task::Read => self.sum = frame::read_rows(file, rows, backend),
+            Task::Gather => pass::gather_rows(file, rows, z, kp, &mut self.w, simd),
+            Task::Read => self.sum = pass::read_rows(file, rows, simd),
         }
     }
 
     /// [`run`](Self::run), recording a panic instead of unwinding.
-    fn run_caught(&mut self, task: Task, file: &OperatorFile, z: &[f32], kp: usize, b: Backend) {
+    fn run_caught(&mut self, task: Task, file: &OperatorFile, z: &[f32], kp: usize, b: SimdLevel) {
         let run = AssertUnwindSafe(|| self.run(task, file, z, kp, b));
         self.failed = catch_unwind(run).is_err();
     }
@@ -93,7 +93,7 @@ pub(crate) struct Pool {
     done: Receiver<Done>,
     file: Arc<OperatorFile>,
     kp: usize,
-    backend: Backend,
+    simd: SimdLevel,
 }
 
 impl Pool {
@@ -108,7 +108,7 @@ impl Pool {
         bounds: &[usize],
         workers: usize,
         kp: usize,
-        backend: Backend,
+        simd: SimdLevel,
     ) -> Result<Self, RuntimeError> {
         let chunks: Vec<Option<Chunk>> = bounds
             .windows(2)
@@ -134,7 +134,7 @@ impl Pool {
             done,
             file: Arc::clone(file),
             kp,
-            backend,
+            simd,
         };
         for i in 0..workers {
             let worker = pool.spawn(i, done_tx.clone())?;
@@ -149,7 +149,7 @@ impl Pool {
     fn spawn(&self, i: usize, done: SyncSender<Done>) -> Result<Worker, RuntimeError> {
         let (to, from) = sync_channel::<Job>(1);
         let (file, queue) = (Arc::clone(&self.file), Arc::clone(&self.queue));
-        let (kp, backend) = (self.kp, self.backend);
+        let (kp, simd) = (self.kp, self.simd);
         let thread = std::thread::Builder::new()
             .name(format!("lrr-eval-{i}"))
             .spawn(move || {
@@ -160,7 +160,7 @@ impl Pool {
                 }
                 while let Ok(job) = from.recv() {
                     while let Some(mut chunk) = take(&queue) {
-                        chunk.run_caught(job.task, &file, &job.z, kp, backend);
+                        chunk.run_caught(job.task, &file, &job.z, kp, simd);
                         if done.send(Done::Chunk(chunk)).is_err() {
                             return;
                         }
@@ -222,7 +222,7 @@ impl Pool {
         let (mut chunks_out, mut jobs_out) = (self.chunks.len(), self.workers.len());
         let mut failed = false;
         while let Some(mut chunk) = take(&self.queue) {
-            chunk.run_caught(task, &self.file, z, self.kp, self.backend);
+            chunk.run_caught(task, &self.file, z, self.kp, self.simd);
             failed |= self.home(chunk, &mut finished);
             chunks_out -= 1;
             // B of the chunks the workers finished meanwhile.

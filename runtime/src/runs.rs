@@ -19,7 +19,7 @@ use std::ops::Range;
 use lrr_formats::OperatorFile;
 
 use crate::error::{RuntimeError, input};
-use crate::kernel::{self, Backend};
+use crate::kernel::{self, SimdLevel};
 use crate::rgb::{Rgb, RgbMut};
 
 /// Ids `id..id + len` are file positions `pos..pos + len`, all in `patch` and in the rows of
@@ -109,7 +109,7 @@ impl Runs {
         weights: &[f32],
         e: &Rgb<'_>,
         x: &mut [[f64; 3]],
-        backend: Backend,
+        simd: SimdLevel,
     ) -> Result<(), RuntimeError> {
         x.fill([0.0; 3]);
         let mut valid = true;
@@ -118,11 +118,11 @@ impl Runs {
             let w = &weights[s..s + len];
             let (sum, ok) = match *e {
                 Rgb::Interleaved(v) => {
-                    kernel::sums_interleaved(backend, w, &v[3 * id..3 * (id + len)])
+                    kernel::sums_interleaved(simd, w, &v[3 * id..3 * (id + len)])
                 }
                 Rgb::Planar([pr, pg, pb]) => {
                     let planes = [&pr[id..id + len], &pg[id..id + len], &pb[id..id + len]];
-                    kernel::sums_planar(backend, w, planes)
+                    kernel::sums_planar(simd, w, planes)
                 }
             };
             let xp = &mut x[r.patch as usize];
@@ -223,7 +223,7 @@ fn finish_contiguous(w: &[f32], rho: Option<&[f32]>, e: Option<&[f32]>, out: &mu
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synthetic;
+    use crate::testkit::synthetic;
     use lrr_formats::{Layout, Precision};
 
     #[test]

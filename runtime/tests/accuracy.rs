@@ -5,8 +5,9 @@ mod common;
 
 use common::{emission, to_f16, worst_relative};
 use lrr_formats::{Layout, OperatorFile, Precision};
-use lrr_runtime::baseline::DenseV;
-use lrr_runtime::{Backend, Evaluator, Operator, Rgb, RgbMut, reference, synthetic};
+use lrr_runtime::testkit::baseline::DenseV;
+use lrr_runtime::testkit::{reference, synthetic};
+use lrr_runtime::{Evaluator, Operator, Rgb, RgbMut, SimdLevel};
 
 /// The bound the crate documents for f32 storage (tests demand it with margin: 1e-5).
 const F32_BOUND: f64 = 1e-5;
@@ -87,11 +88,11 @@ fn every_layout_precision_thread_count_and_form_matches_f64() {
         let e = emission(op.n(), 3);
         let want = reference::evaluate(op.file(), &e).unwrap();
         for threads in [1, 2, 3] {
-            let backends = [Backend::Avx2, Backend::Scalar];
-            for backend in backends.into_iter().filter(|b| b.supported()) {
-                let mut eval = Evaluator::with_backend(&op, threads, backend).unwrap();
+            let levels = [SimdLevel::Avx2, SimdLevel::Scalar];
+            for simd in levels.into_iter().filter(|b| b.supported()) {
+                let mut eval = Evaluator::with_simd(&op, threads, simd).unwrap();
                 assert_eq!(eval.threads(), threads);
-                let what = format!("{name}, {threads} threads, {backend:?}");
+                let what = format!("{name}, {threads} threads, {simd:?}");
                 check_forms(&mut eval, &e, &want, F32_BOUND, &what);
             }
         }

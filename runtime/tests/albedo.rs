@@ -4,8 +4,9 @@
 mod common;
 
 use common::{emission, worst_relative};
-use lrr_formats::{FkData, Geometry, Layout, OperatorData, OperatorFile, Precision};
-use lrr_runtime::{Operator, Rgb, RgbMut, RuntimeError, reference, synthetic};
+use lrr_formats::{Geometry, Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
+use lrr_runtime::testkit::{reference, synthetic};
+use lrr_runtime::{Operator, Rgb, RgbMut, RuntimeError};
 
 /// `(I - Vᵀ diag(ρ_c) F_k)⁻¹` the long way: dense V, dense products, Gauss–Jordan with full
 /// pivoting. `rho` in file order.
@@ -195,7 +196,7 @@ fn two_patches(f: [f32; 2]) -> Operator {
         index: vec![0, 1, 3],
         weights: vec![1.0, 0.5, 0.5],
         operator: OperatorData::Factored {
-            fk: FkData::F32(vec![0.0, 0.0, 0.0, f[0], 0.0, f[1]]),
+            fk: StoredMatrix::F32(vec![0.0, 0.0, 0.0, f[0], 0.0, f[1]]),
             cores: vec![1.0, 0.0, 0.0, 1.0],
         },
         reflectance: vec![0.0; 9],

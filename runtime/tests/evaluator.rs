@@ -3,8 +3,9 @@
 mod common;
 
 use common::{emission, worst_relative};
-use lrr_formats::{FkData, Layout, Precision};
-use lrr_runtime::{Operator, Rgb, RgbMut, RuntimeError, reference, synthetic};
+use lrr_formats::{Layout, Precision, StoredMatrix};
+use lrr_runtime::testkit::{reference, synthetic};
+use lrr_runtime::{Operator, Rgb, RgbMut, RuntimeError};
 
 fn op() -> Operator {
     synthetic::operator(600, 20, 3, Precision::F32, Layout::Factored, 2).unwrap()
@@ -90,11 +91,11 @@ fn the_read_pass_reads_every_stored_word_whatever_the_threads() {
             // The lanes wrap at the word size: the sum modulo 2^32 (f32) or 2^16 (f16) is the
             // same for any split.
             let (expected, modulus) = match op.file().operator.matrix() {
-                FkData::F32(v) => (
+                StoredMatrix::F32(v) => (
                     v.iter().fold(0u64, |a, x| a + u64::from(x.to_bits())),
                     1u64 << 32,
                 ),
-                FkData::F16(v) => (v.iter().fold(0u64, |a, &h| a + u64::from(h)), 1 << 16),
+                StoredMatrix::F16(v) => (v.iter().fold(0u64, |a, &h| a + u64::from(h)), 1 << 16),
             };
             for threads in [1, 2, 3] {
                 let sum = op.evaluator(threads).unwrap().read_pass().unwrap();

@@ -15,7 +15,8 @@ use std::sync::OnceLock;
 
 use common::emission;
 use lrr_runtime::gpu::{self, Gpu, GpuError, GpuEvaluator, GpuOptions, Reduce, Storage, wgpu};
-use lrr_runtime::{Layout, Operator, Precision, Rgb, RgbMut, synthetic};
+use lrr_runtime::testkit::synthetic;
+use lrr_runtime::{Layout, Operator, Precision, Rgb, RgbMut};
 
 /// A device with `options`; fails loudly without an adapter, or on the wrong one.
 fn open(options: &GpuOptions) -> Gpu {

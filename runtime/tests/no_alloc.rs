@@ -5,7 +5,8 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use lrr_formats::{Layout as OperatorLayout, Precision};
-use lrr_runtime::{Rgb, RgbMut, synthetic};
+use lrr_runtime::testkit::synthetic;
+use lrr_runtime::{Rgb, RgbMut};
 
 struct Counting;
 

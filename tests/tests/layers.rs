@@ -20,7 +20,7 @@
 //! child while the child takes `super::` items is one). Check 2: a file imports only files of its
 //! own layer or lower ones. Each `allow` pair is exempt from both.
 //!
-//! Run: `cargo test --release -p lrr-tests --test layers -- --include-ignored`.
+//! Run: `cargo test --release -p lrr-tests --test layers`.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::fmt::Write as _;

@@ -5,8 +5,8 @@
 #![allow(dead_code)] // each test binary uses a different part
 
 use lrr_formats::{
-    ALIGN, Container, ContainerWriter, FkData, Geometry, HEADER_CHECKSUM_OFFSET, HEADER_LEN,
-    OperatorData, OperatorFile, Precision, SECTION_ENTRY_LEN, checksum,
+    ALIGN, Container, ContainerWriter, Geometry, HEADER_CHECKSUM_OFFSET, HEADER_LEN, OperatorData,
+    OperatorFile, Precision, SECTION_ENTRY_LEN, StoredMatrix, checksum,
 };
 
 /// n = 6 elements in k = 2 patches; elements 1, 3, 5 are triangles, the others quads.
@@ -31,7 +31,7 @@ pub fn sample(precision: Precision, channels: u32) -> OperatorFile {
         index: vec![0, 3, 6],
         weights: vec![0.5, 0.25, 0.25, 0.2, 0.3, 0.5],
         operator: OperatorData::Factored {
-            fk: FkData::from_f32(&fk, precision),
+            fk: StoredMatrix::from_f32(&fk, precision),
             cores: (0..channels * 4)
                 .map(|i| 1.0 + f64::from(i) / 8.0)
                 .collect(),
@@ -54,7 +54,7 @@ pub fn plain_sample(precision: Precision, channels: u32) -> OperatorFile {
         .collect();
     OperatorFile {
         operator: OperatorData::PlainYk {
-            yk: FkData::from_f32(&yk, precision),
+            yk: StoredMatrix::from_f32(&yk, precision),
         },
         ..sample(precision, channels)
     }

@@ -37,6 +37,7 @@
 //! The header is written by hand; `tests/header.rs` checks that it declares exactly the
 //! functions and codes defined here, with the same parameter types.
 
+#![warn(missing_docs)]
 // Every unsafe block states why it is sound.
 #![deny(clippy::undocumented_unsafe_blocks)]
 

@@ -3,7 +3,9 @@
 
 use std::time::{Duration, Instant};
 
-use super::{FrameTiming, Gpu, GpuError, GpuEvaluator};
+use super::common::GpuError;
+use super::device::Gpu;
+use super::evaluator::{FrameTiming, GpuEvaluator};
 use crate::operator::Operator;
 use crate::rgb::{Rgb, RgbMut};
 

@@ -1,11 +1,12 @@
 //! The operator on the GPU: every buffer a frame reads, uploaded once, sized as the passes'
 //! bounds-check-free indexing assumes (see the WGSL files' headers).
 
-use lrr_formats::{FkData, OperatorData, OperatorFile};
+use lrr_formats::{OperatorData, OperatorFile, StoredMatrix};
 use lrr_shaders::Params;
 use wgpu::util::DeviceExt;
 
-use super::{Gpu, GpuError, Pod, bytes_of};
+use super::common::{GpuError, Pod, bytes_of};
+use super::device::Gpu;
 
 /// A chunk of whole rows of the stored matrix: its own buffer and its own uniform.
 pub(super) struct Chunk {
@@ -191,7 +192,7 @@ fn padded_cores(cores: &[f64], channels: u32, k: u32, kp: u32) -> [Vec<f32>; 3] 
 /// no larger than the device allows. Returns the chunks and their total bytes.
 fn chunks(
     gpu: &Gpu,
-    m: &FkData,
+    m: &StoredMatrix,
     base: &Params,
     rows: u32,
     kp: u32,
@@ -238,7 +239,7 @@ fn chunks(
 /// entries, written through a mapping in blocks of about 1 MiB (no whole-chunk host copy).
 fn upload_rows(
     gpu: &Gpu,
-    m: &FkData,
+    m: &StoredMatrix,
     k: usize,
     kp: usize,
     first: usize,
@@ -264,8 +265,8 @@ fn upload_rows(
             for (i, dst) in out.chunks_exact_mut(row_bytes).enumerate() {
                 let start = (first + r + i) * k;
                 let src = match m {
-                    FkData::F32(v) => bytes_of(&v[start..start + k]),
-                    FkData::F16(v) => bytes_of(&v[start..start + k]),
+                    StoredMatrix::F32(v) => bytes_of(&v[start..start + k]),
+                    StoredMatrix::F16(v) => bytes_of(&v[start..start + k]),
                 };
                 dst[..src.len()].copy_from_slice(src);
             }

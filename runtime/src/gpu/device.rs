@@ -1,6 +1,7 @@
 //! Adapters and the device: which GPUs wgpu finds, which one is used, what it can do.
 
-use super::{GpuError, Reduce, Storage, block_on};
+use super::common::{GpuError, block_on};
+use lrr_shaders::{Reduce, Storage};
 
 /// What to ask of the GPU. `Default`: the best adapter, every fast path the adapter allows.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]

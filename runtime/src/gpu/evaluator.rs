@@ -4,12 +4,13 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use lrr_formats::{FkData, OperatorFile};
+use lrr_formats::{OperatorFile, StoredMatrix};
 use lrr_shaders::{GATHER_SIZE, LANES, Pass, Storage, workgroups};
 
 use super::buffers::{OperatorBuffers, storage, zeros};
+use super::common::{GpuError, bytes_of, bytes_of_mut};
+use super::device::Gpu;
 use super::pipelines::Pipelines;
-use super::{Gpu, GpuError, bytes_of, bytes_of_mut};
 use crate::error::input;
 use crate::operator::Operator;
 use crate::rgb::{Rgb, RgbMut};
@@ -114,8 +115,8 @@ impl GpuEvaluator {
         let file = Arc::clone(op.shared());
         let buffers = OperatorBuffers::new(gpu, &file)?;
         let storage = match file.operator.matrix() {
-            FkData::F32(_) => Storage::F32,
-            FkData::F16(_) => gpu.f16_loader(),
+            StoredMatrix::F32(_) => Storage::F32,
+            StoredMatrix::F16(_) => gpu.f16_loader(),
         };
         let pipelines = Pipelines::new(
             gpu,

@@ -53,6 +53,7 @@
 
 mod bench;
 mod buffers;
+mod common;
 mod device;
 mod evaluator;
 mod pipelines;
@@ -64,79 +65,4 @@ pub use lrr_shaders::{Reduce, Storage};
 /// The wgpu this module was built with, for a renderer binding [`GpuEvaluator::radiosity_buffer`].
 pub use wgpu;
 
-use std::fmt;
-use std::future::Future;
-use std::pin::pin;
-use std::sync::Arc;
-use std::task::{Context, Poll, Wake, Waker};
-
-use crate::error::RuntimeError;
-
-/// An error of the GPU path.
-#[derive(Debug, Clone, PartialEq)]
-pub enum GpuError {
-    /// No usable adapter; the message lists the adapters found and how to install a driver.
-    NoAdapter(String),
-    /// The adapter or device cannot do what is asked (a limit, a failed request, a lost device).
-    Device(String),
-    /// The call or the file, as on the CPU path.
-    Runtime(RuntimeError),
-}
-
-impl fmt::Display for GpuError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            GpuError::NoAdapter(m) | GpuError::Device(m) => f.write_str(m),
-            GpuError::Runtime(e) => write!(f, "{e}"),
-        }
-    }
-}
-
-impl std::error::Error for GpuError {}
-
-impl From<RuntimeError> for GpuError {
-    fn from(e: RuntimeError) -> Self {
-        GpuError::Runtime(e)
-    }
-}
-
-/// Runs a future to completion on this thread. wgpu's native futures are ready at once or
-/// woken by `Device::poll`; this parks until woken, without an executor crate.
-fn block_on<F: Future>(future: F) -> F::Output {
-    struct Unpark(std::thread::Thread);
-    impl Wake for Unpark {
-        fn wake(self: Arc<Self>) {
-            self.0.unpark();
-        }
-    }
-    let waker = Waker::from(Arc::new(Unpark(std::thread::current())));
-    let mut cx = Context::from_waker(&waker);
-    let mut future = pin!(future);
-    loop {
-        match future.as_mut().poll(&mut cx) {
-            Poll::Ready(v) => return v,
-            Poll::Pending => std::thread::park(),
-        }
-    }
-}
-
-/// Plain numbers whose bytes the GPU reads as they are.
-trait Pod: Copy {}
-impl Pod for f32 {}
-impl Pod for u32 {}
-impl Pod for u16 {}
-
-/// The bytes of `v` (little-endian on every wgpu target).
-#[allow(unsafe_code)]
-fn bytes_of<T: Pod>(v: &[T]) -> &[u8] {
-    // SAFETY: f32, u32 and u16 have no padding and no invalid bit patterns; u8 has alignment 1;
-    // the length is the slice's size in bytes.
-    unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<u8>(), size_of_val(v)) }
-}
-
-/// The bytes of `v`, writable: any bytes are a valid f32.
-#[allow(unsafe_code)]
-fn bytes_of_mut(v: &mut [f32]) -> &mut [u8] {
-    // SAFETY: as in `bytes_of`; every bit pattern is a valid f32, so any write is sound.
-    unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<u8>(), size_of_val(v)) }
-}
+pub use common::GpuError;

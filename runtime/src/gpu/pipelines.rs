@@ -3,7 +3,7 @@
 
 use lrr_shaders::{GatherConstants, Pass, Storage, source};
 
-use super::Gpu;
+use super::device::Gpu;
 
 /// Every pipeline a frame of this operator uses, built once.
 pub(super) struct Pipelines {

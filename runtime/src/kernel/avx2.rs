@@ -35,7 +35,7 @@ use std::arch::x86_64::{
     _mm256_setr_epi32, _mm256_setzero_ps, _mm256_setzero_si256,
 };
 
-use super::{BLOCK, Gather, LANES, Rows, SUM_STEPS};
+use super::shared::{BLOCK, Gather, LANES, Rows, SUM_STEPS};
 
 /// Whether this CPU has AVX2, FMA and F16C (std caches the answer).
 pub(crate) fn supported() -> bool {

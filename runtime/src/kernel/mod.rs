@@ -23,49 +23,29 @@
 //! `(BLOCK / 8 + 4) · 2⁻²⁴ ≈ 2.2e-6`, whatever k is.
 
 pub(crate) mod scalar;
+pub(crate) mod shared;
+
+pub(crate) use shared::{Gather, LANES, Rows, emission_ok, padded};
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod avx2;
 
-/// Columns summed in f32 before the partial sum is added in f64.
-pub(crate) const BLOCK: usize = 256;
-
-/// f32 lanes of the accumulators (one AVX2 register).
-pub(crate) const LANES: usize = 8;
-
-/// A block of whole rows of the stored matrix, `rows × k` values, row-major.
-#[derive(Debug, Clone, Copy)]
-pub(crate) enum Rows<'a> {
-    F32(&'a [f32]),
-    F16(&'a [u16]),
-}
-
-impl Rows<'_> {
-    /// Number of values.
-    pub(crate) fn len(&self) -> usize {
-        match self {
-            Rows::F32(v) => v.len(),
-            Rows::F16(v) => v.len(),
-        }
-    }
-}
-
-/// Which implementation runs the kernels.
+/// The instruction set the kernels run on: the safe scalar loops or the AVX2 intrinsics.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Backend {
+pub enum SimdLevel {
     /// Safe Rust on any CPU.
     Scalar,
     /// x86-64 AVX2 + FMA + F16C intrinsics.
     Avx2,
 }
 
-impl Backend {
+impl SimdLevel {
     /// The fastest implementation this CPU supports.
     pub fn detect() -> Self {
-        if Backend::Avx2.supported() {
-            Backend::Avx2
+        if SimdLevel::Avx2.supported() {
+            SimdLevel::Avx2
         } else {
-            Backend::Scalar
+            SimdLevel::Scalar
         }
     }
 
@@ -73,9 +53,9 @@ impl Backend {
     /// kernels).
     pub fn supported(self) -> bool {
         match self {
-            Backend::Scalar => true,
+            SimdLevel::Scalar => true,
             #[cfg(target_arch = "x86_64")]
-            Backend::Avx2 => avx2::supported(),
+            SimdLevel::Avx2 => avx2::supported(),
             #[cfg(not(target_arch = "x86_64"))]
             _ => false,
         }
@@ -84,54 +64,30 @@ impl Backend {
     /// A short name for reports: `"avx2+fma+f16c"` or `"scalar"`.
     pub fn name(self) -> &'static str {
         match self {
-            Backend::Scalar => "scalar",
-            Backend::Avx2 => "avx2+fma+f16c",
+            SimdLevel::Scalar => "scalar",
+            SimdLevel::Avx2 => "avx2+fma+f16c",
         }
     }
 }
 
-/// The shape of one gather: `C` channels from `z` (`C` planes of `kp >= k` values, zero past
-/// `k`) into `w[3 r + offset + c]` for every row `r` of `m`.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Gather<'a> {
-    pub m: Rows<'a>,
-    pub k: usize,
-    pub z: &'a [f32],
-    pub kp: usize,
-    pub offset: usize,
-}
-
-impl Gather<'_> {
-    /// Rows of `m`.
-    pub(crate) fn rows(&self) -> usize {
-        self.m.len() / self.k
-    }
-}
-
 /// `w[3 r + offset + c] = Σ_q m(r, q) z[c kp + q]` for `c < C` (1 or 3).
-pub(crate) fn gather<const C: usize>(backend: Backend, g: &Gather<'_>, w: &mut [f32]) {
+pub(crate) fn gather<const C: usize>(simd: SimdLevel, g: &Gather<'_>, w: &mut [f32]) {
     debug_assert!(g.z.len() >= C * g.kp && g.kp >= g.k && w.len() >= 3 * g.rows());
-    match backend {
+    match simd {
         #[cfg(target_arch = "x86_64")]
-        Backend::Avx2 => avx2::gather::<C>(g, w),
+        SimdLevel::Avx2 => avx2::gather::<C>(g, w),
         _ => scalar::gather::<C>(g, w),
     }
 }
 
 /// A wrapping sum of every stored word of `m` (f32 bits modulo 2³², or binary16 bits modulo
 /// 2¹⁶), so that nothing can be skipped: the memory-read roofline of a gather over the same rows.
-pub(crate) fn read_sum(backend: Backend, m: Rows<'_>) -> u64 {
-    match backend {
+pub(crate) fn read_sum(simd: SimdLevel, m: Rows<'_>) -> u64 {
+    match simd {
         #[cfg(target_arch = "x86_64")]
-        Backend::Avx2 => avx2::read_sum(m),
+        SimdLevel::Avx2 => avx2::read_sum(m),
         _ => scalar::read_sum(m),
     }
-}
-
-/// Whether an emission value is allowed: finite and >= 0 (false for NaN).
-#[inline(always)]
-pub(crate) fn emission_ok(v: f32) -> bool {
-    (0.0..=f32::MAX).contains(&v)
 }
 
 /// `Σ_j w_j e_j` per channel over one run of interleaved emission (`e.len() == 3 * w.len()`),
@@ -139,32 +95,23 @@ pub(crate) fn emission_ok(v: f32) -> bool {
 /// Accuracy: the AVX2 version sums [`SUM_STEPS`] products per f32 lane before adding in f64,
 /// so with non-negative weights and emission a sum's relative error is at most about
 /// `(SUM_STEPS + 1) · 2⁻²⁴ ≈ 2e-6`; the scalar twin sums in f64.
-pub(crate) fn sums_interleaved(backend: Backend, w: &[f32], e: &[f32]) -> ([f64; 3], bool) {
+pub(crate) fn sums_interleaved(simd: SimdLevel, w: &[f32], e: &[f32]) -> ([f64; 3], bool) {
     debug_assert_eq!(e.len(), 3 * w.len());
-    match backend {
+    match simd {
         #[cfg(target_arch = "x86_64")]
-        Backend::Avx2 => avx2::sums_interleaved(w, e),
+        SimdLevel::Avx2 => avx2::sums_interleaved(w, e),
         _ => scalar::sums_interleaved(w, e),
     }
 }
 
 /// [`sums_interleaved`] over three planes, each as long as `w`.
-pub(crate) fn sums_planar(backend: Backend, w: &[f32], e: [&[f32]; 3]) -> ([f64; 3], bool) {
+pub(crate) fn sums_planar(simd: SimdLevel, w: &[f32], e: [&[f32]; 3]) -> ([f64; 3], bool) {
     debug_assert!(e.iter().all(|p| p.len() == w.len()));
-    match backend {
+    match simd {
         #[cfg(target_arch = "x86_64")]
-        Backend::Avx2 => avx2::sums_planar(w, e),
+        SimdLevel::Avx2 => avx2::sums_planar(w, e),
         _ => scalar::sums_planar(w, e),
     }
-}
-
-/// Vector steps (of [`LANES`] products per lane) summed in f32 before a segment sum adds them
-/// in f64.
-pub(crate) const SUM_STEPS: usize = 32;
-
-/// `kp`: `k` rounded up to whole lanes (the padded length of a `z` plane).
-pub(crate) fn padded(k: usize) -> usize {
-    k.next_multiple_of(LANES)
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! The kernels in safe Rust: the reference for [`avx2`](super::avx2) and the fallback on every
 //! other CPU. Same arithmetic: 8 f32 lanes per block of [`BLOCK`] columns, block sums in f64.
 
-use super::{BLOCK, Gather, LANES, Rows};
+use super::shared::{BLOCK, Gather, LANES, Rows};
 
 /// The f32 value of the binary16 bits `h`, for finite values only (stored matrices are validated
 /// finite): branch-free so that it vectorises. Normals move the exponent bias from 15 to 127;
@@ -31,14 +31,14 @@ pub(crate) fn sums_interleaved(w: &[f32], e: &[f32]) -> ([f64; 3], bool) {
         for (j, sum) in sums.iter_mut().enumerate() {
             for c in 0..3 {
                 let x = v[3 * j + c];
-                ok &= super::emission_ok(x);
+                ok &= super::shared::emission_ok(x);
                 sum[c] += f64::from(w[j]) * f64::from(x);
             }
         }
     }
     for (v, &w) in tail.chunks_exact(3).zip(tail_w) {
         for c in 0..3 {
-            ok &= super::emission_ok(v[c]);
+            ok &= super::shared::emission_ok(v[c]);
             sums[0][c] += f64::from(w) * f64::from(v[c]);
         }
     }
@@ -53,7 +53,7 @@ pub(crate) fn sums_planar(w: &[f32], e: [&[f32]; 3]) -> ([f64; 3], bool) {
     for (c, plane) in e.into_iter().enumerate() {
         let mut pair = [0.0f64; 2];
         for (j, (&x, &w)) in plane.iter().zip(w).enumerate() {
-            ok &= super::emission_ok(x);
+            ok &= super::shared::emission_ok(x);
             pair[j % 2] += f64::from(w) * f64::from(x);
         }
         sums[c] = pair[0] + pair[1];

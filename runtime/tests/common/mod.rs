@@ -2,7 +2,7 @@
 
 #![allow(dead_code)] // each test binary uses a different part
 
-use lrr_formats::{FkData, OperatorData, OperatorFile, Precision};
+use lrr_formats::{OperatorData, OperatorFile, Precision, StoredMatrix};
 
 /// The largest `|got - want| / want` over every element and channel (`want >= 0`: the operators
 /// here are physical, every term non-negative).
@@ -27,7 +27,7 @@ pub fn to_f16(file: &OperatorFile) -> OperatorFile {
     out.precision = Precision::F16;
     match &mut out.operator {
         OperatorData::Factored { fk: m, .. } | OperatorData::PlainYk { yk: m } => {
-            *m = FkData::from_f32(&m.to_f32(), Precision::F16);
+            *m = StoredMatrix::from_f32(&m.to_f32(), Precision::F16);
         }
     }
     out

@@ -91,7 +91,12 @@ pub fn file(
 }
 
 /// Rows of random non-negative values, about a third zero, each summing to [0.3, 0.9).
-fn form_factors(n: usize, k: usize, precision: Precision, rng: &mut Rng) -> lrr_formats::FkData {
+fn form_factors(
+    n: usize,
+    k: usize,
+    precision: Precision,
+    rng: &mut Rng,
+) -> lrr_formats::StoredMatrix {
     let mut row = vec![0.0f32; k];
     let mut all = Vec::with_capacity(n * k);
     for _ in 0..n {
@@ -108,7 +113,7 @@ fn form_factors(n: usize, k: usize, precision: Precision, rng: &mut Rng) -> lrr_
         };
         all.extend(row.iter().map(|&v| (f64::from(v) * scale) as f32));
     }
-    lrr_formats::FkData::from_f32(&all, precision)
+    lrr_formats::StoredMatrix::from_f32(&all, precision)
 }
 
 /// Random areas in [0.5, 1.5) normalised per patch: `w = A_e / A_p` in (0, 1].

@@ -11,10 +11,10 @@
 //! The `Y_k` pass uses the [`Evaluator`](crate::Evaluator)'s kernels; the `V_k` pass is an f32
 //! axpy per row that the compiler vectorises, flushed to f64 every 256 rows.
 
-use lrr_formats::{FkData, OperatorData};
+use lrr_formats::{OperatorData, StoredMatrix};
 
 use crate::error::{RuntimeError, input};
-use crate::kernel::{self, Backend, Gather, Rows};
+use crate::kernel::{self, Gather, Rows, SimdLevel};
 use crate::operator::Operator;
 use crate::rgb::{Rgb, RgbMut};
 
@@ -34,7 +34,7 @@ pub struct DenseV {
     y: Vec<f32>,
     order: Vec<u32>,
     threads: usize,
-    backend: Backend,
+    simd: SimdLevel,
 }
 
 impl DenseV {
@@ -52,8 +52,8 @@ impl DenseV {
             }
         };
         let y = match file.operator.matrix() {
-            FkData::F32(v) => v.clone(),
-            m @ FkData::F16(_) => m.to_f32(),
+            StoredMatrix::F32(v) => v.clone(),
+            m @ StoredMatrix::F16(_) => m.to_f32(),
         };
         let mut v = vec![0.0f32; n * k];
         for p in 0..k {
@@ -74,7 +74,7 @@ impl DenseV {
             y,
             order: file.order.clone(),
             threads,
-            backend: Backend::detect(),
+            simd: SimdLevel::detect(),
         })
     }
 
@@ -177,7 +177,7 @@ impl DenseV {
                 kp,
                 offset: 0,
             };
-            kernel::gather::<3>(self.backend, &g, w);
+            kernel::gather::<3>(self.simd, &g, w);
         } else {
             for c in 0..3 {
                 let g = Gather {
@@ -187,7 +187,7 @@ impl DenseV {
                     kp,
                     offset: c,
                 };
-                kernel::gather::<1>(self.backend, &g, w);
+                kernel::gather::<1>(self.simd, &g, w);
             }
         }
     }

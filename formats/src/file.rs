@@ -1,24 +1,24 @@
-//! The decoded operator file and its reading and writing.
+//! The typed operator file: every section decoded into plain data.
 //!
-//! [`OperatorFile`] owns every section, decoded. `from_bytes` runs the container checks, then
-//! checks each payload length against the dimensions, then [`validate`](OperatorFile::validate):
-//! a value that comes back from `from_bytes` satisfies every invariant documented on the fields.
+//! [`OperatorFile`] owns every section; the invariants documented on its fields are checked by
+//! [`validate`](OperatorFile::validate) (`validate.rs`), the bytes are read and written by
+//! `codec.rs` ([`OperatorFile::from_bytes`], [`OperatorFile::to_bytes`]). This module holds the
+//! types alone and imports nothing of the crate but the binary16 conversions.
 
-use std::path::Path;
-
-use crate::atomic::write_atomic;
-use crate::codec;
-use crate::container::Container;
-use crate::error::{ErrorKind, FormatError};
 use crate::half::{f16_to_f32, f32_to_f16};
-use crate::validate;
+
+/// The largest 1-norm condition number `‖A‖₁ ‖A⁻¹‖₁` of a system `A = I - Vᵀ diag(ρ_c) F_k`
+/// whose inverse may become a core: beyond it the f64 inverse has fewer than about 4 correct
+/// digits. The bake and the runtime's albedo edit refuse such systems as numerically singular;
+/// the reader cannot check it (the file holds the inverse, not the system).
+pub const MAX_CONDITION: f64 = 1e12;
 
 /// How `F_k` is stored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Precision {
     /// 4-byte IEEE single precision (DIMS code 0).
     F32,
-    /// 2-byte IEEE binary16, see [`f32_to_f16`](crate::f32_to_f16) (DIMS code 1).
+    /// 2-byte IEEE binary16, see [`f32_to_f16`] (DIMS code 1).
     F16,
 }
 
@@ -83,19 +83,19 @@ impl Layout {
 /// (n x k, row-major: row = element in file order, column = patch), or the `channels` n x k
 /// blocks of `Y_k` of the plain layout, one after the other.
 #[derive(Debug, Clone, PartialEq)]
-pub enum FkData {
+pub enum StoredMatrix {
     /// Single precision.
     F32(Vec<f32>),
     /// binary16 bits.
     F16(Vec<u16>),
 }
 
-impl FkData {
+impl StoredMatrix {
     /// Number of values.
     pub fn len(&self) -> usize {
         match self {
-            FkData::F32(v) => v.len(),
-            FkData::F16(v) => v.len(),
+            StoredMatrix::F32(v) => v.len(),
+            StoredMatrix::F16(v) => v.len(),
         }
     }
 
@@ -107,32 +107,32 @@ impl FkData {
     /// The precision the values are stored in.
     pub fn precision(&self) -> Precision {
         match self {
-            FkData::F32(_) => Precision::F32,
-            FkData::F16(_) => Precision::F16,
+            StoredMatrix::F32(_) => Precision::F32,
+            StoredMatrix::F16(_) => Precision::F16,
         }
     }
 
     /// Value `i` as f32 (exact for both precisions), `None` past the end.
     pub fn get(&self, i: usize) -> Option<f32> {
         match self {
-            FkData::F32(v) => v.get(i).copied(),
-            FkData::F16(v) => v.get(i).map(|&h| f16_to_f32(h)),
+            StoredMatrix::F32(v) => v.get(i).copied(),
+            StoredMatrix::F16(v) => v.get(i).map(|&h| f16_to_f32(h)),
         }
     }
 
     /// All values as f32.
     pub fn to_f32(&self) -> Vec<f32> {
         match self {
-            FkData::F32(v) => v.clone(),
-            FkData::F16(v) => v.iter().map(|&h| f16_to_f32(h)).collect(),
+            StoredMatrix::F32(v) => v.clone(),
+            StoredMatrix::F16(v) => v.iter().map(|&h| f16_to_f32(h)).collect(),
         }
     }
 
     /// `values` stored in `precision` (rounded to nearest for binary16).
     pub fn from_f32(values: &[f32], precision: Precision) -> Self {
         match precision {
-            Precision::F32 => FkData::F32(values.to_vec()),
-            Precision::F16 => FkData::F16(values.iter().map(|&v| f32_to_f16(v)).collect()),
+            Precision::F32 => StoredMatrix::F32(values.to_vec()),
+            Precision::F16 => StoredMatrix::F16(values.iter().map(|&v| f32_to_f16(v)).collect()),
         }
     }
 }
@@ -143,15 +143,16 @@ pub enum OperatorData {
     /// `F_k` and the cores: `B_c = E_c + rho_c ⊙ F_k M_c (Vᵀ E_c)`.
     Factored {
         /// `n * k` element-to-patch form factors `F_k`, finite, >= 0.
-        fk: FkData,
-        /// `channels * k * k` row-major: `M_c = (I - Vᵀ diag(rho_c) F_k)⁻¹`, finite.
+        fk: StoredMatrix,
+        /// `channels * k * k` row-major: `M_c = (I - Vᵀ diag(rho_c) F_k)⁻¹`, finite, from a
+        /// system of condition number at most [`MAX_CONDITION`].
         cores: Vec<f64>,
     },
     /// Plain `Y_c = -diag(rho_c) F_k M_c`: `B_c = E_c - Y_c (Vᵀ E_c)`.
     PlainYk {
         /// `channels * n * k` values, finite: channel-major, each channel an n x k row-major
         /// block with rows in file order.
-        yk: FkData,
+        yk: StoredMatrix,
     },
 }
 
@@ -165,7 +166,7 @@ impl OperatorData {
     }
 
     /// The stored matrix a frame reads: `F_k`, or all channels of `Y_k`.
-    pub fn matrix(&self) -> &FkData {
+    pub fn matrix(&self) -> &StoredMatrix {
         match self {
             OperatorData::Factored { fk, .. } => fk,
             OperatorData::PlainYk { yk } => yk,
@@ -238,45 +239,5 @@ impl OperatorFile {
     /// The layout of [`operator`](Self::operator).
     pub fn layout(&self) -> Layout {
         self.operator.layout()
-    }
-
-    /// Encodes the file. Runs [`validate`](Self::validate) first: an inconsistent struct gives an
-    /// `Invalid` error and no bytes.
-    pub fn to_bytes(&self) -> Result<Vec<u8>, FormatError> {
-        self.validate()?;
-        Ok(codec::encode(self))
-    }
-
-    /// Decodes and validates a file. Never panics, never reads out of bounds, and allocates about
-    /// the size of `bytes` at most, whatever the bytes are.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, FormatError> {
-        let container = Container::parse(bytes)?;
-        let file = codec::decode(&container)?;
-        file.validate()?;
-        Ok(file)
-    }
-
-    /// Reads and decodes the file at `path`; every error message starts with the path.
-    pub fn read(path: &Path) -> Result<Self, FormatError> {
-        let bytes = std::fs::read(path).map_err(|e| {
-            FormatError::new(
-                ErrorKind::Io,
-                format!("cannot read {}: {e}", path.display()),
-            )
-        })?;
-        Self::from_bytes(&bytes).map_err(|e| e.context(path.display()))
-    }
-
-    /// Validates, encodes and writes the file atomically (see [`write_atomic`]): readers see the
-    /// old file or the new one, never a mix.
-    pub fn write(&self, path: &Path) -> Result<(), FormatError> {
-        let bytes = self.to_bytes().map_err(|e| e.context(path.display()))?;
-        write_atomic(path, &bytes)
-    }
-
-    /// Checks every invariant documented on the fields. Messages name the section, the index and
-    /// the problem, e.g. `section FK: element 4, patch 1: value NaN must be finite and >= 0`.
-    pub fn validate(&self) -> Result<(), FormatError> {
-        validate::check(self)
     }
 }

@@ -1,0 +1,10 @@
+//! Helpers for tests and benchmarks, behind the non-default cargo feature `testkit` (no
+//! dependencies either way): an application needs none of them.
+//!
+//! - [`synthetic`]: generated operators, valid and deterministic, of any size;
+//! - [`reference`](mod@reference): the f64 evaluation of a file, the yardstick of the fast paths;
+//! - [`baseline`]: the papers' dense-`V_k` evaluation, for `lrr bench runtime`.
+
+pub mod baseline;
+pub mod reference;
+pub mod synthetic;
