@@ -16,9 +16,80 @@ pub fn cornell() -> PathBuf {
     root().join("scenes/cornell-box/cornell-box.toml")
 }
 
-/// The public Cornell box OBJ in ../shared (used by path, never copied).
+/// The project's Cornell box as OBJ (+ MTL beside it), generated from [`cornell()`] by
+/// [`description_to_obj`] (`cornell::write_cornell_obj`; a test checks the files are current).
+pub fn cornell_obj() -> PathBuf {
+    root().join("scenes/cornell-box/cornell-box.obj")
+}
+
+/// The public Cornell box OBJ in `../shared`, beside the checkout. A fresh clone does not have
+/// it: only the optional cross-check `cornell::the_public_obj_imports_with_warnings_for_its_quirks`
+/// (ignored unless asked for; `.ci/run` runs it when the folder exists) reads it.
 pub fn shared_cornell_obj() -> PathBuf {
     root().join("../shared/scenes/cornell-box/CornellBox-Original.obj")
+}
+
+/// A scene description written as Wavefront OBJ and MTL text, returned as `(obj, mtl)`.
+///
+/// Each surface becomes a group (`g NAME`, `usemtl MATERIAL`, one `f` per polygon in the
+/// description's vertex order, so the counter-clockwise front is kept); each distinct vertex is
+/// written once, in order of first use, with `scale` applied. Materials keep their order: `Kd`
+/// is the reflectance, `Ke` the radiance (written only when non-zero). Numbers are Rust's
+/// shortest round-trip decimals, so the OBJ importer reads back exactly the description's
+/// coordinates. `mtl_name` is what `mtllib` names; `header` (comment lines) opens both files.
+/// Boxes, OBJ includes and mesh hints have no OBJ form: a description with any is refused.
+pub fn description_to_obj(
+    desc: &lrr_precompute::scene::description::SceneDescription,
+    mtl_name: &str,
+    header: &str,
+) -> (String, String) {
+    use std::fmt::Write;
+    assert!(
+        desc.boxes.is_empty() && desc.includes.is_empty(),
+        "boxes and includes have no OBJ form"
+    );
+    assert!(
+        desc.mesh.element_size.is_none() && desc.mesh.patch_size.is_none(),
+        "mesh hints have no OBJ form"
+    );
+    let mut mtl = header.to_string();
+    for m in &desc.materials {
+        let [r, g, b] = m.reflectance;
+        write!(mtl, "\nnewmtl {}\nKd {r} {g} {b}\n", m.name).unwrap();
+        if m.radiance.iter().any(|&x| x != 0.0) {
+            let [r, g, b] = m.radiance;
+            writeln!(mtl, "Ke {r} {g} {b}").unwrap();
+        }
+    }
+    let mut vertices: Vec<[f64; 3]> = Vec::new();
+    let mut ids = std::collections::HashMap::new();
+    let mut groups = String::new();
+    for surface in &desc.surfaces {
+        write!(
+            groups,
+            "\ng {}\nusemtl {}\n",
+            surface.name, surface.material
+        )
+        .unwrap();
+        for polygon in &surface.polygons {
+            groups.push('f');
+            for p in polygon {
+                let v = p.map(|x| x * desc.scale);
+                let id = *ids.entry(v.map(f64::to_bits)).or_insert_with(|| {
+                    vertices.push(v);
+                    vertices.len()
+                });
+                write!(groups, " {id}").unwrap();
+            }
+            groups.push('\n');
+        }
+    }
+    let mut obj = format!("{header}mtllib {mtl_name}\n\n");
+    for [x, y, z] in vertices {
+        writeln!(obj, "v {x} {y} {z}").unwrap();
+    }
+    obj.push_str(&groups);
+    (obj, mtl)
 }
 
 /// A fresh temporary folder for one test.
