@@ -111,7 +111,7 @@ impl<'s> Prepared<'s> {
     }
 
     /// Name of the visibility method used (the file metadata's `visibility`).
-    pub fn visibility_name(&self) -> &'static str {
+    pub(crate) fn visibility_name(&self) -> &'static str {
         if self.occluder.is_some() {
             self.visibility.name()
         } else {
@@ -133,7 +133,7 @@ impl<'s> Prepared<'s> {
     }
 
     /// What identifies this bake's `F_k` for checkpoints.
-    pub fn identity(&self) -> checkpoint::Identity<'_> {
+    pub(crate) fn identity(&self) -> checkpoint::Identity<'_> {
         checkpoint::Identity {
             scene: self.scene,
             sizes: self.sizes,

@@ -12,7 +12,7 @@ use faer::linalg::solvers::DenseSolveCore;
 use crate::error::{Error, Result};
 
 /// Largest condition number accepted: beyond it the f64 solution has fewer than ~4 correct digits.
-pub const MAX_CONDITION: f64 = 1e12;
+pub(crate) const MAX_CONDITION: f64 = 1e12;
 
 /// The per-channel cores.
 #[derive(Debug, Clone, PartialEq)]
@@ -27,7 +27,7 @@ pub struct Cores {
 }
 
 /// Inputs in file order: `fk` is n×k row-major, `weights` and `reflectance` per element.
-pub struct OperatorInputs<'a> {
+pub(crate) struct OperatorInputs<'a> {
     pub fk: &'a [f64],
     pub weights: &'a [f64],
     pub index: &'a [u32],
@@ -36,7 +36,7 @@ pub struct OperatorInputs<'a> {
 }
 
 /// Builds and inverts `I - VᵀU` for every channel.
-pub fn build_cores(inp: &OperatorInputs) -> Result<Cores> {
+pub(crate) fn build_cores(inp: &OperatorInputs) -> Result<Cores> {
     let k = inp.index.len() - 1;
     let mut m = Vec::with_capacity(inp.channels * k * k);
     let mut condition = Vec::with_capacity(inp.channels);
@@ -59,7 +59,7 @@ pub fn build_cores(inp: &OperatorInputs) -> Result<Cores> {
 }
 
 /// `A = I_k - Vᵀ diag(ρ_c) F_k`.
-pub fn system_matrix(inp: &OperatorInputs, c: usize) -> Mat<f64> {
+pub(crate) fn system_matrix(inp: &OperatorInputs, c: usize) -> Mat<f64> {
     let k = inp.index.len() - 1;
     let mut a = Mat::<f64>::identity(k, k);
     for p in 0..k {
@@ -78,7 +78,7 @@ pub fn system_matrix(inp: &OperatorInputs, c: usize) -> Mat<f64> {
 }
 
 /// Inverts a system matrix, with its 1-norm condition number; refuses singular systems.
-pub fn invert(a: &Mat<f64>, channel: usize) -> Result<(Mat<f64>, f64)> {
+pub(crate) fn invert(a: &Mat<f64>, channel: usize) -> Result<(Mat<f64>, f64)> {
     let lu = a.partial_piv_lu();
     let inverse = lu.inverse();
     let kappa = norm_1(a) * norm_1(&inverse);
@@ -95,7 +95,7 @@ pub fn invert(a: &Mat<f64>, channel: usize) -> Result<(Mat<f64>, f64)> {
 }
 
 /// Induced 1-norm: the largest absolute column sum (faer's `norm_l1` is the entrywise sum).
-pub fn norm_1(a: &Mat<f64>) -> f64 {
+pub(crate) fn norm_1(a: &Mat<f64>) -> f64 {
     (0..a.ncols())
         .map(|j| (0..a.nrows()).map(|i| a[(i, j)].abs()).sum::<f64>())
         .fold(0.0, f64::max)

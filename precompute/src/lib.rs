@@ -28,15 +28,16 @@
 
 // Indexed loops over RGB channels and matrix entries read like the maths they implement.
 #![allow(clippy::needless_range_loop)]
+#![warn(missing_docs)]
 
 pub mod bake;
 pub mod checkpoint;
-pub mod cores;
+mod cores;
 pub mod error;
 pub mod exact;
 pub mod formfactor;
 pub mod geometry;
-pub mod memory;
+mod memory;
 pub mod mesh;
 pub mod patches;
 pub mod pool;

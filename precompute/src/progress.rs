@@ -59,7 +59,7 @@ impl Progress {
     }
 
     /// Records a stage measured elsewhere.
-    pub fn record(&self, name: &str, seconds: f64) {
+    pub(crate) fn record(&self, name: &str, seconds: f64) {
         self.stages
             .lock()
             .expect("no panics while holding the lock")

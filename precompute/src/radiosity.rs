@@ -15,7 +15,7 @@ pub struct ElementData<'a> {
 }
 
 /// Solves `(I - diag(ρ_c) F) B_c = E_c` for c = r, g, b with dense LU.
-pub fn solve_dense(f: &[f64], data: &ElementData) -> Result<Vec<[f64; 3]>> {
+pub(crate) fn solve_dense(f: &[f64], data: &ElementData) -> Result<Vec<[f64; 3]>> {
     let n = data.reflectance.len();
     let mut out = vec![[0.0; 3]; n];
     for c in 0..3 {

@@ -75,7 +75,7 @@ impl Default for Storage {
 
 /// The operator file of a bake stored as asked, with one light group per emitting surface
 /// (named after the surface; its elements at their baked emission).
-pub fn stored_file(b: &Baked, storage: Storage) -> Result<OperatorFile> {
+pub(crate) fn stored_file(b: &Baked, storage: Storage) -> Result<OperatorFile> {
     let mut file = operator_file(b);
     add_light_groups(b, &mut file)?;
     if storage.precision != file.precision {
@@ -124,7 +124,7 @@ pub fn write(b: &Baked, path: &Path, storage: Storage) -> Result<OperatorFile> {
 /// What the file's metadata section holds (JSON). Only deterministic values: no timings, no
 /// thread count, so the same inputs give the same bytes.
 #[derive(Debug, Serialize)]
-pub struct Metadata<'a> {
+pub(crate) struct Metadata<'a> {
     pub generator: String,
     pub scene: &'a str,
     pub method: &'a str,
@@ -151,7 +151,7 @@ pub struct SurfaceRanges {
 }
 
 /// The metadata section's JSON ([`Metadata`]).
-pub fn metadata_json(b: &Baked) -> String {
+pub(crate) fn metadata_json(b: &Baked) -> String {
     let refinement = match b.method {
         PatchMethod::TwoFixed => None,
         PatchMethod::SpatialCoherence {
@@ -176,7 +176,7 @@ pub fn metadata_json(b: &Baked) -> String {
 }
 
 /// Ranges of original element ids per surface (elements of a face are consecutive ids).
-pub fn surface_ranges(mesh: &Mesh, surfaces: &[String]) -> Vec<SurfaceRanges> {
+pub(crate) fn surface_ranges(mesh: &Mesh, surfaces: &[String]) -> Vec<SurfaceRanges> {
     let mut out: Vec<SurfaceRanges> = surfaces
         .iter()
         .map(|s| SurfaceRanges {

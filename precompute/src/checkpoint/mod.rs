@@ -3,7 +3,7 @@
 //! writes the same bytes. A checkpoint carries a [`key`] of everything `F_k` depends on and is
 //! never applied to another bake.
 
-pub mod file;
+mod file;
 
 pub use file::{Checkpoint, path_for};
 
@@ -28,7 +28,7 @@ pub struct CheckpointSettings {
 }
 
 /// What identifies a bake's `F_k` (see [`key`]).
-pub struct Identity<'a> {
+pub(crate) struct Identity<'a> {
     pub scene: &'a Scene,
     pub sizes: MeshSizes,
     pub method: PatchMethod,
@@ -42,7 +42,7 @@ pub struct Identity<'a> {
 /// of rows that are checkpointed when `checkpoint` is given. Returns the open checkpoint,
 /// which the caller removes once the output is safely written. `checkpoint` comes with the
 /// bake's [`key`].
-pub fn element_patch_matrix(
+pub(crate) fn element_patch_matrix(
     mesh: &Mesh,
     ff: &FormFactors,
     progress: &Progress,
@@ -104,7 +104,7 @@ pub fn element_patch_matrix(
 
 /// Key of everything `F_k` depends on: the scene's geometry, the mesh sizes and method,
 /// n, k, the samples, the lrr version and the visibility backend.
-pub fn key(bake: &Identity, samples: u32) -> u64 {
+pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
     let mut geometry = Vec::with_capacity(bake.scene.faces.len() * 4 * 24);
     for f in &bake.scene.faces {
         for v in f.polygon.vertices() {

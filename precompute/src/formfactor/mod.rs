@@ -13,10 +13,10 @@
 //! Rows are independent and computed in parallel (rayon); every value depends only on the
 //! pair, never on the thread count or scheduling, so bakes are reproducible byte for byte.
 
-pub mod contour;
-pub mod point;
-pub mod union;
-pub mod visible;
+mod contour;
+pub(crate) mod point;
+mod union;
+mod visible;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -31,14 +31,14 @@ use visible::{Shape, faces_away, visible_fraction};
 
 /// Counters of one form-factor pass.
 #[derive(Debug, Default)]
-pub struct Stats {
+pub(crate) struct Stats {
     pub pairs: AtomicU64,
     pub culled_pairs: AtomicU64,
     pub rays: AtomicU64,
 }
 
 impl Stats {
-    pub fn get(&self) -> (u64, u64, u64) {
+    pub(crate) fn get(&self) -> (u64, u64, u64) {
         (
             self.pairs.load(Ordering::Relaxed),
             self.culled_pairs.load(Ordering::Relaxed),
@@ -53,7 +53,7 @@ pub struct FormFactors<'a> {
     pub samples: u32,
     /// `None` when nothing can occlude.
     pub occluder: Option<&'a dyn Occluder>,
-    pub stats: Stats,
+    pub(crate) stats: Stats,
 }
 
 impl<'a> FormFactors<'a> {
@@ -69,7 +69,7 @@ impl<'a> FormFactors<'a> {
     /// polygon or a union of several, [`Region`]).
     /// `row_ids` seed the per-pair sampling (use the element ids). `progress` is called with
     /// the number of rows finished, from worker threads.
-    pub fn matrix(
+    pub(crate) fn matrix(
         &self,
         rows: &[Polygon],
         row_ids: &[u32],

@@ -10,9 +10,9 @@
 //! Elements are numbered in generation order (depth-first, face by face): that is the
 //! *original element id* every output reports.
 
-pub mod element;
-pub mod imprint;
-pub mod subdivide;
+mod element;
+mod imprint;
+pub(crate) mod subdivide;
 
 use crate::error::{Error, Result};
 use crate::scene::Scene;
@@ -23,7 +23,7 @@ pub use element::{
 pub use subdivide::estimate_elements;
 
 /// The fine mesh (independent of the patch method), refused when it would be too large.
-pub fn fine_mesh(scene: &Scene, sizes: MeshSizes) -> Result<(Vec<Element>, Vec<subdivide::Piece>)> {
+pub(crate) fn fine_mesh(scene: &Scene, sizes: MeshSizes) -> Result<(Vec<Element>, Vec<subdivide::Piece>)> {
     let estimate = estimate_elements(scene, sizes.element_size);
     if estimate > MAX_ELEMENTS as f64 {
         return Err(Error::Limits(format!(

@@ -13,9 +13,9 @@
 //! position → original element id) and the index vector `index` (k+1 offsets into file
 //! positions), with weights `w = A_e / A_p`.
 
-pub mod cluster;
+mod cluster;
 pub mod coherence;
-pub mod patch;
+mod patch;
 
 pub use patch::{Patch, PatchMethod};
 
@@ -36,11 +36,11 @@ pub struct Mesh {
     /// k+1 offsets: patch p holds file positions `index[p]..index[p+1]`.
     pub index: Vec<u32>,
     /// Per file position: `w = A_e / A_p`.
-    pub weights: Vec<f64>,
+    pub(crate) weights: Vec<f64>,
 }
 
 /// Checks the 2MSC parameters and fills in the default `A_min`.
-pub fn refinement(
+pub(crate) fn refinement(
     sizes: MeshSizes,
     threshold: f64,
     min_patch_area: Option<f64>,
@@ -126,7 +126,7 @@ fn two_fixed_patches(
 impl Mesh {
     /// Builds both meshes with the given patch method. 2MSC probes visibility with `occluder`
     /// (`None`: nothing occludes).
-    pub fn build(
+    pub(crate) fn build(
         scene: &Scene,
         sizes: MeshSizes,
         method: PatchMethod,
@@ -146,7 +146,7 @@ impl Mesh {
 
     /// Builds both meshes by 2MF: uniform subdivision and a uniform cut; small pieces (dense
     /// meshes) are clustered to the patch size.
-    pub fn two_fixed(scene: &Scene, sizes: MeshSizes) -> Result<Self> {
+    pub(crate) fn two_fixed(scene: &Scene, sizes: MeshSizes) -> Result<Self> {
         let (mut elements, pieces) = fine_mesh(scene, sizes)?;
         let patches = two_fixed_patches(&pieces, sizes, &mut elements);
         Ok(Self::from_parts(elements, patches))
@@ -154,7 +154,7 @@ impl Mesh {
 
     /// Builds both meshes by 2MSC ([`coherence`]): the fine mesh of 2MF, adaptive patches
     /// probed against the 2MF patches at the patch size.
-    pub fn two_msc(
+    pub(crate) fn two_msc(
         scene: &Scene,
         sizes: MeshSizes,
         refinement: coherence::Refinement,
@@ -193,7 +193,7 @@ impl Mesh {
     }
 
     /// Sorts elements by patch (stable: generation order within a patch) and computes weights.
-    pub fn from_parts(elements: Vec<Element>, patches: Vec<Patch>) -> Self {
+    pub(crate) fn from_parts(elements: Vec<Element>, patches: Vec<Patch>) -> Self {
         let mut order: Vec<u32> = (0..elements.len() as u32).collect();
         order.sort_by_key(|&e| elements[e as usize].patch);
         let mut index = vec![0u32; patches.len() + 1];

@@ -12,15 +12,15 @@
 //! rays at all.
 
 #[cfg(feature = "embree")]
-pub mod embree;
+mod embree;
 pub mod obvhs;
-pub mod occluder;
-pub mod watertight;
+mod occluder;
+mod watertight;
 
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 
-pub use occluder::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, Segment};
+pub use occluder::{Occluder, Segment};
 
 /// Which implementation answers the occlusion queries of a bake (`--visibility`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -62,7 +62,7 @@ impl Backend {
 }
 
 /// What `--visibility embree` says in a build without the feature.
-pub const EMBREE_MISSING: &str = "--visibility embree: this lrr was built without Embree; \
+pub(crate) const EMBREE_MISSING: &str = "--visibility embree: this lrr was built without Embree; \
     run scripts/setup-embree.sh, then rebuild with `cargo build --release --features embree` \
     (or use the default --visibility obvhs)";
 
