@@ -10,7 +10,9 @@ use crate::error::{Error, Result};
 
 /// Per-element reflectance and emission in original id order.
 pub struct ElementData<'a> {
+    /// RGB reflectance ρ per element, each in [0, 1).
     pub reflectance: &'a [[f64; 3]],
+    /// RGB emitted exitance `E = π·Ke` per element (W/m² style).
     pub emission: &'a [[f64; 3]],
 }
 

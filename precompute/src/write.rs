@@ -60,7 +60,9 @@ pub fn operator_file(b: &Baked) -> OperatorFile {
 /// How the operator is stored in the file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Storage {
+    /// Number format of the stored matrix (f32 or f16).
     pub precision: Precision,
+    /// Factored (`F_k` + cores) or the plain per-channel `Y_k`.
     pub layout: Layout,
 }
 
@@ -146,7 +148,9 @@ pub(crate) struct Metadata<'a> {
 /// The elements of one named surface, as ranges of original element ids.
 #[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
 pub struct SurfaceRanges {
+    /// Surface name.
     pub name: String,
+    /// Half-open ranges `[first, end)` of original element ids.
     pub elements: Vec<[u32; 2]>,
 }
 

@@ -20,6 +20,7 @@ use crate::scene::Scene;
 /// Checkpointing of the form-factor rows.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CheckpointSettings {
+    /// Checkpoint file (see [`path_for`]).
     pub path: std::path::PathBuf,
     /// Continue from an existing checkpoint instead of starting over.
     pub resume: bool,

@@ -57,6 +57,7 @@ pub struct FormFactors<'a> {
 }
 
 impl<'a> FormFactors<'a> {
+    /// A pass with `samples` points per pair (at least 1) and an optional occluder.
     pub fn new(samples: u32, occluder: Option<&'a dyn Occluder>) -> Self {
         Self {
             samples: samples.max(1),

@@ -29,10 +29,12 @@ impl Region {
         Self { parts, cumulative }
     }
 
+    /// A region of one polygon.
     pub fn single(p: Polygon) -> Self {
         Self::new(vec![p])
     }
 
+    /// The polygons the region is made of.
     pub fn parts(&self) -> &[Polygon] {
         &self.parts
     }
@@ -45,6 +47,7 @@ impl Region {
         }
     }
 
+    /// Total area of the parts, in scene units².
     pub fn area(&self) -> f64 {
         self.cumulative[self.parts.len()]
     }

@@ -18,7 +18,9 @@ use super::hash::mix;
 /// A quadrature point with its weight (weights of one element sum to 1).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
+    /// Position in scene units.
     pub point: DVec3,
+    /// Quadrature weight (the weights of one polygon sum to 1).
     pub weight: f64,
 }
 

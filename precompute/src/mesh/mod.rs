@@ -23,7 +23,10 @@ pub use element::{
 pub use subdivide::estimate_elements;
 
 /// The fine mesh (independent of the patch method), refused when it would be too large.
-pub(crate) fn fine_mesh(scene: &Scene, sizes: MeshSizes) -> Result<(Vec<Element>, Vec<subdivide::Piece>)> {
+pub(crate) fn fine_mesh(
+    scene: &Scene,
+    sizes: MeshSizes,
+) -> Result<(Vec<Element>, Vec<subdivide::Piece>)> {
     let estimate = estimate_elements(scene, sizes.element_size);
     if estimate > MAX_ELEMENTS as f64 {
         return Err(Error::Limits(format!(

@@ -26,10 +26,12 @@ use crate::mesh::{Element, MeshSizes, fine_mesh};
 use crate::scene::Scene;
 use crate::visibility::Occluder;
 
+/// The fine mesh (elements) and the coarse mesh (patches) of a bake, with the file order.
 #[derive(Debug, Clone)]
 pub struct Mesh {
     /// Elements by original id.
     pub elements: Vec<Element>,
+    /// Patches by index; `k = patches.len()`.
     pub patches: Vec<Patch>,
     /// File position → original element id (elements sorted by patch).
     pub order: Vec<u32>,
@@ -223,10 +225,12 @@ impl Mesh {
         }
     }
 
+    /// Number of elements.
     pub fn n(&self) -> usize {
         self.elements.len()
     }
 
+    /// Number of patches.
     pub fn k(&self) -> usize {
         self.patches.len()
     }

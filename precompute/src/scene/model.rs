@@ -12,8 +12,11 @@ use crate::geometry::Polygon;
 /// A Lambertian material. `emission` is emitted *exitance* `E = π · Ke` (Ke: MTL radiance).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Material {
+    /// Material name (from the MTL or the description).
     pub name: String,
+    /// RGB reflectance ρ (Kd), each in [0, 1).
     pub reflectance: [f64; 3],
+    /// RGB emitted exitance `E = π·Ke` (W/m² style).
     pub emission: [f64; 3],
 }
 
@@ -60,8 +63,11 @@ impl Material {
 /// One planar convex face of the scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Face {
+    /// The face's planar convex polygon, in scene units.
     pub polygon: Polygon,
+    /// Index into `Scene::materials`.
     pub material: usize,
+    /// Index into `Scene::surfaces`.
     pub surface: usize,
 }
 
@@ -72,11 +78,16 @@ pub(crate) struct SizeHints {
     pub patch_size: Option<f64>,
 }
 
+/// An imported scene: materials, named surfaces and their planar convex faces.
 #[derive(Debug, Clone, Default)]
 pub struct Scene {
+    /// Scene name (file metadata).
     pub name: String,
+    /// Materials, indexed by `Face::material`.
     pub materials: Vec<Material>,
+    /// Surface names (OBJ objects/groups, description surfaces and box faces), indexed by `Face::surface`.
     pub surfaces: Vec<String>,
+    /// The faces the mesher subdivides.
     pub faces: Vec<Face>,
     /// Non-fatal problems found while importing (each names file and line).
     pub warnings: Vec<String>,

@@ -45,6 +45,7 @@ use crate::scene::Scene;
 /// face, a wall it stands on) are now always candidates; the own-face rule answers those.
 const F32_DIAGONAL: f64 = 4096.0;
 
+/// The default occluder: an obvhs BVH (f32 traversal) with the exact f64 triangle test.
 pub struct ObvhsOccluder {
     bvh: CwBvh,
     /// The triangles in f64 (relative to `centre`) in BVH primitive order, for the exact test.
@@ -133,6 +134,7 @@ impl ObvhsOccluder {
         own_face(self.planes[id], self.plane_tolerance, p, normal)
     }
 
+    /// Number of triangles in the BVH (quads count twice).
     pub fn triangle_count(&self) -> usize {
         self.exact.len()
     }

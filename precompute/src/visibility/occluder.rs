@@ -21,6 +21,7 @@ pub(super) const PLANE_TOLERANCE: f64 = 1e-6;
 /// Answers "is the segment between two surface points blocked?". The normals are those of
 /// the surfaces the points lie on.
 pub trait Occluder: Sync {
+    /// Whether anything blocks the open segment `from → to`, ignoring the faces its end points lie on.
     fn occluded(&self, from: DVec3, from_normal: DVec3, to: DVec3, to_normal: DVec3) -> bool;
 
     /// Answers [`Occluder::occluded`] for a bundle of segments from points of polygon `e` to
@@ -79,6 +80,8 @@ pub(crate) fn relative_segment(
 /// A line of sight between a point of an element and a point of a target.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Segment {
+    /// Start point, on the element, in scene units.
     pub from: DVec3,
+    /// End point, on the target, in scene units.
     pub to: DVec3,
 }
