@@ -129,7 +129,7 @@ impl<'s> Prepared<'s> {
         }
     }
 
-    /// `F_k`, n×k row-major in file order ([`checkpoint::element_patch_matrix`]), saved block
+    /// `F_k`, n×k row-major in file order (`checkpoint::element_patch_matrix`), saved block
     /// by block when `checkpoint` is given.
     pub fn element_patch_matrix(
         &self,

@@ -1,6 +1,6 @@
 //! Checkpointed form-factor rows: `F_k` computed block by block, each block saved as soon as it
-//! is done ([`file`]), so `lrr bake --resume` continues a killed bake where it stopped and still
-//! writes the same bytes. A checkpoint carries a [`key`] of everything `F_k` depends on and is
+//! is done (`file`), so `lrr bake --resume` continues a killed bake where it stopped and still
+//! writes the same bytes. A checkpoint carries a key of everything `F_k` depends on and is
 //! never applied to another bake.
 
 mod file;

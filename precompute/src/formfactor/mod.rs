@@ -2,11 +2,11 @@
 //!
 //! `F(e → t) = F_unoccluded(e → t) · visibility(e, t)` where
 //! - `F_unoccluded = Σ_s w_s F(x_s → t)`: quadrature over `S` points `x_s` of the element of
-//!   the closed-form point-to-polygon kernel ([`kernel`]), exact for touching polygons;
+//!   the closed-form point-to-polygon kernel (`contour`), exact for touching polygons;
 //! - `visibility` is the kernel-weighted fraction of `S` segments `x_s → y_s` (with `y_s` on
-//!   the target, [`crate::geometry::sampling::pair_point`]) that nothing blocks. Segments whose ends cannot
+//!   the target, `geometry::sampling::pair_point`) that nothing blocks. Segments whose ends cannot
 //!   exchange light (one behind the other's tangent plane) are not counted. Pairs found
-//!   partly visible get [`visible::ADAPTIVE_FACTOR`] times more rays: only they carry sampling noise.
+//!   partly visible get `ADAPTIVE_FACTOR` (16) times more rays: only they carry sampling noise.
 //!
 //! Pairs that face away from each other cost neither kernel evaluations nor rays; when no
 //! occluder exists ([`crate::visibility::nothing_occludes`]) no rays are cast at all.

@@ -1,8 +1,8 @@
 //! The fine mesh (DESIGN.md §2–3): the elements every output reports a radiosity for.
 //!
 //! Every input face is the root of a subdivision hierarchy (quads split 2×2, or 1×2 when one
-//! side is twice the other; triangles into 4 by edge midpoints; [`subdivide`]), after faces are
-//! split where others stand on them ([`imprint`]). The fine mesh is the set of nodes whose size
+//! side is twice the other; triangles into 4 by edge midpoints; `subdivide`), after faces are
+//! split where others stand on them (`imprint`). The fine mesh is the set of nodes whose size
 //! (longest edge; a triangle's second-longest) first drops to the element size. The coarse mesh
 //! is cut from the same hierarchy later ([`crate::patches`]), so the fine mesh is the same
 //! whatever the patch method.

@@ -7,7 +7,7 @@
 //!
 //! 1. Roots in a FIFO list: every piece of an input face (the root of its subdivision
 //!    hierarchy), except on dense surfaces, whose small pieces form one cluster per surface
-//!    ([`super::cluster`]).
+//!    (`cluster`).
 //! 2. Take the first node. If its area is at most `A_min`, or it cannot be split (one element),
 //!    it is a patch. Otherwise estimate the *error* of keeping it whole from its children (the
 //!    2×2, 1×2 or 4 subdivision children of a polygon, the two halves of a cluster's
@@ -28,9 +28,9 @@
 //!   cluster, the centroid of the part nearest the area centroid) with its normal;
 //! - its view vector `f_c[j] = F(x_c → j)` over the probe patches `j` (the 2MF patches at
 //!   `--patch-size`): the closed-form point-to-patch factor times the visible fraction of
-//!   [`PROBE_RAYS`] kernel-weighted rays;
+//!   `PROBE_RAYS` kernel-weighted rays;
 //! - its radiosity estimate `b_c = E + ρ Σ_j f_c[j] B_j`, with `B_j` from a coarse solve on the
-//!   probes ([`Probes::new`]; reflectance and emission averaged over the channels);
+//!   probes (`Probes::new`; reflectance and emission averaged over the channels);
 //!
 //! ```text
 //! error(P) = Σ_j ρ_j | Σ_c a_c (f_c[j] − f̄[j]) (b_c − b̄) |  /  (A_scene · B̄_scene)

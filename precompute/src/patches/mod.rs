@@ -7,7 +7,7 @@
 //! ([`coherence`]) cuts the same hierarchy adaptively, probing how the scene looks from inside
 //! each candidate patch (point-to-patch form factors with visibility, and a coarse solve).
 //! Surfaces made of many faces smaller than the patch size get patches by clustering
-//! ([`cluster`]): a patch is then a union of faces, a [`Region`] of several parts.
+//! (`cluster`): a patch is then a union of faces, a [`Region`] of several parts.
 //!
 //! The operator works in *file order*, elements sorted by patch, described by `order` (file
 //! position → original element id) and the index vector `index` (k+1 offsets into file

@@ -3,7 +3,7 @@
 use crate::geometry::Region;
 
 /// A coarse-mesh patch holding its elements: a convex polygon of one face's subdivision, or
-/// (dense meshes, [`cluster`]) the union of several small pieces of one surface.
+/// (dense meshes, `cluster`) the union of several small pieces of one surface.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Patch {
     /// Its shape: one polygon, or the union of a cluster's parts.

@@ -1,6 +1,6 @@
 //! Visibility between sample points: ray casts against the scene's faces.
 //!
-//! The default backend is [`obvhs`] (pure Rust). With the cargo feature `embree`, [`embree`]
+//! The default backend is [`obvhs`] (pure Rust). With the cargo feature `embree`, `embree`
 //! answers the same queries through Embree 4 (`lrr bake --visibility embree`). A segment query
 //! asks whether anything blocks the open segment between two surface points: the faces the
 //! points lie on never count (nor coincident back faces), every other face does, at any scale.
