@@ -2,7 +2,7 @@
 //! (`lrr bench visibility`, the backend agreement tests).
 //!
 //! [`record`] runs the form-factor rows of a prepared scene exactly as a bake does
-//! ([`FormFactors::row`]: same quadrature, same pair points, same adaptive refinement), with a
+//! ([`FormFactors::row`](lrr_precompute::formfactor::FormFactors::row): same quadrature, same pair points, same adaptive refinement), with a
 //! wrapping [`Occluder`] that forwards every bundle to the scene's own occluder and keeps a copy
 //! of it. Rows are visited in a fixed scrambled order until enough rays are kept, so a subset
 //! samples the whole scene and the same inputs always give the same rays.

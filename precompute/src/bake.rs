@@ -21,13 +21,17 @@ pub const DEFAULT_SAMPLES: u32 = 16;
 /// What a bake may be told.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BakeSettings {
+    /// Element size in scene units; `None`: the scene's hint, else a fraction of its extent.
     pub element_size: Option<f64>,
+    /// Patch size (2MF cut) in scene units; `None`: the scene's hint, else a fraction of its extent.
     pub patch_size: Option<f64>,
     /// How patches are built (2MF or 2MSC).
     pub method: PatchMethod,
+    /// Quadrature points and visibility rays per element-patch pair ([`DEFAULT_SAMPLES`]).
     pub samples: u32,
     /// Which backend answers the occlusion queries (`--visibility`).
     pub visibility: Backend,
+    /// Threads of the bake's pool; `None`: all cores.
     pub threads: Option<usize>,
     /// Refuse jobs whose working memory would exceed this many bytes (default: 80% of what
     /// the machine has available).
@@ -54,12 +58,17 @@ impl Default for BakeSettings {
 /// A meshed scene with its visibility structure: what every command that integrates form
 /// factors starts from.
 pub struct Prepared<'s> {
+    /// The scene the mesh was cut from.
     pub scene: &'s Scene,
+    /// Element and patch sizes the mesh was built with, in scene units.
     pub sizes: MeshSizes,
+    /// How the patches were built (2MF or 2MSC).
     pub method: PatchMethod,
+    /// The fine elements and coarse patches.
     pub mesh: Mesh,
     /// The backend asked for; `occluder` is `None` when nothing can occlude.
     pub visibility: Backend,
+    /// The occlusion structure; `None` when nothing in the scene can occlude (no rays are cast).
     pub occluder: Option<Box<dyn Occluder>>,
 }
 
@@ -106,12 +115,13 @@ impl<'s> Prepared<'s> {
         })
     }
 
+    /// A form-factor pass over this mesh with `samples` points per pair and this occluder.
     pub fn form_factors(&self, samples: u32) -> FormFactors<'_> {
         FormFactors::new(samples, self.occluder.as_deref())
     }
 
     /// Name of the visibility method used (the file metadata's `visibility`).
-    pub fn visibility_name(&self) -> &'static str {
+    pub(crate) fn visibility_name(&self) -> &'static str {
         if self.occluder.is_some() {
             self.visibility.name()
         } else {
@@ -119,7 +129,7 @@ impl<'s> Prepared<'s> {
         }
     }
 
-    /// `F_k`, n×k row-major in file order ([`checkpoint::element_patch_matrix`]), saved block
+    /// `F_k`, n×k row-major in file order (`checkpoint::element_patch_matrix`), saved block
     /// by block when `checkpoint` is given.
     pub fn element_patch_matrix(
         &self,
@@ -133,7 +143,7 @@ impl<'s> Prepared<'s> {
     }
 
     /// What identifies this bake's `F_k` for checkpoints.
-    pub fn identity(&self) -> checkpoint::Identity<'_> {
+    pub(crate) fn identity(&self) -> checkpoint::Identity<'_> {
         checkpoint::Identity {
             scene: self.scene,
             sizes: self.sizes,
@@ -159,18 +169,31 @@ impl<'s> Prepared<'s> {
 
 /// The result of a bake, in file order.
 pub struct Baked {
+    /// Name of the scene (file metadata).
     pub scene_name: String,
+    /// Element and patch sizes used, in scene units.
     pub sizes: MeshSizes,
+    /// How the patches were built.
     pub method: PatchMethod,
+    /// Quadrature points and visibility rays per element-patch pair.
     pub samples: u32,
+    /// Visibility method used, as written to the metadata (`"none (nothing occludes)"` when no rays were cast).
     pub visibility: &'static str,
+    /// The fine and coarse meshes; element data below follow its file order.
     pub mesh: Mesh,
+    /// `F_k`: element→patch form factors with visibility, n×k row-major in file order.
     pub fk: Vec<f64>,
+    /// Per-channel k×k cores `M_c = (I - Vᵀ diag(ρ_c) F_k)⁻¹` and their condition numbers.
     pub cores: Cores,
+    /// Per element in file order: RGB reflectance ρ in [0, 1).
     pub reflectance: Vec<[f64; 3]>,
+    /// Per element in file order: RGB emitted exitance `E = π·Ke` (W/m² style).
     pub emission: Vec<[f64; 3]>,
+    /// Surface names, indexed by `Element::surface`.
     pub surfaces: Vec<String>,
+    /// Occlusion rays cast by the form-factor pass.
     pub rays: u64,
+    /// Element-patch pairs skipped because they face away from each other.
     pub culled_pairs: u64,
     /// The form-factor checkpoint, to remove once the output is written.
     pub checkpoint: Option<Checkpoint>,

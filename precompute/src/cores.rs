@@ -25,7 +25,7 @@ pub struct Cores {
 }
 
 /// Inputs in file order: `fk` is n×k row-major, `weights` and `reflectance` per element.
-pub struct OperatorInputs<'a> {
+pub(crate) struct OperatorInputs<'a> {
     pub fk: &'a [f64],
     pub weights: &'a [f64],
     pub index: &'a [u32],
@@ -34,7 +34,7 @@ pub struct OperatorInputs<'a> {
 }
 
 /// Builds and inverts `I - VᵀU` for every channel.
-pub fn build_cores(inp: &OperatorInputs) -> Result<Cores> {
+pub(crate) fn build_cores(inp: &OperatorInputs) -> Result<Cores> {
     let k = inp.index.len() - 1;
     let mut m = Vec::with_capacity(inp.channels * k * k);
     let mut condition = Vec::with_capacity(inp.channels);
@@ -57,7 +57,7 @@ pub fn build_cores(inp: &OperatorInputs) -> Result<Cores> {
 }
 
 /// `A = I_k - Vᵀ diag(ρ_c) F_k`.
-pub fn system_matrix(inp: &OperatorInputs, c: usize) -> Mat<f64> {
+pub(crate) fn system_matrix(inp: &OperatorInputs, c: usize) -> Mat<f64> {
     let k = inp.index.len() - 1;
     let mut a = Mat::<f64>::identity(k, k);
     for p in 0..k {
@@ -76,7 +76,7 @@ pub fn system_matrix(inp: &OperatorInputs, c: usize) -> Mat<f64> {
 }
 
 /// Inverts a system matrix, with its 1-norm condition number; refuses singular systems.
-pub fn invert(a: &Mat<f64>, channel: usize) -> Result<(Mat<f64>, f64)> {
+pub(crate) fn invert(a: &Mat<f64>, channel: usize) -> Result<(Mat<f64>, f64)> {
     let lu = a.partial_piv_lu();
     let inverse = lu.inverse();
     let kappa = norm_1(a) * norm_1(&inverse);
@@ -93,7 +93,7 @@ pub fn invert(a: &Mat<f64>, channel: usize) -> Result<(Mat<f64>, f64)> {
 }
 
 /// Induced 1-norm: the largest absolute column sum (faer's `norm_l1` is the entrywise sum).
-pub fn norm_1(a: &Mat<f64>) -> f64 {
+pub(crate) fn norm_1(a: &Mat<f64>) -> f64 {
     (0..a.ncols())
         .map(|j| (0..a.nrows()).map(|i| a[(i, j)].abs()).sum::<f64>())
         .fold(0.0, f64::max)

@@ -3,15 +3,23 @@
 use std::fmt;
 use std::path::PathBuf;
 
+/// What went wrong in a bake, by who is at fault.
 #[derive(Debug)]
 pub enum Error {
     /// Reading or writing a file failed.
     Io {
+        /// The file concerned.
         path: PathBuf,
+        /// The underlying I/O error.
         source: std::io::Error,
     },
     /// The scene input is wrong: `location` is "file:line" (or "file" alone).
-    Scene { location: String, message: String },
+    Scene {
+        /// Where: "file:line" or "file".
+        location: String,
+        /// What is wrong and, where possible, how to fix it.
+        message: String,
+    },
     /// A setting or argument is out of range.
     Settings(String),
     /// The system cannot be solved as asked (e.g. numerically singular).
@@ -22,15 +30,18 @@ pub enum Error {
     Format(lrr_formats::FormatError),
 }
 
+/// `Result` with the precompute's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {
+    /// A scene input error at `location` ("file:line" or "file").
     pub fn scene(location: impl Into<String>, message: impl Into<String>) -> Self {
         Error::Scene {
             location: location.into(),
             message: message.into(),
         }
     }
+    /// An I/O error on `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),

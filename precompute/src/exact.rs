@@ -13,6 +13,7 @@ use crate::radiosity::{ElementData, solve_dense};
 
 /// The exact solution, per element in original id order.
 pub struct ExactSolution {
+    /// RGB radiosity `B` per element (original ids), same units as the emission.
     pub radiosity: Vec<[f64; 3]>,
     /// The n×n form-factor matrix (row-major, original ids), kept for checks.
     pub form_factors: Vec<f64>,

@@ -8,11 +8,11 @@
 //! | mesh | [`mesh`] | fine elements and coarse patches: 2MF (uniform cut) or 2MSC (adaptive), clusters for dense meshes |
 //! | visibility | [`visibility`] | occlusion rays (obvhs), skipped when nothing occludes |
 //! | form factors | [`formfactor`] | element→patch `F_k`: closed-form kernel × visibility fraction |
-//! | operator | [`operator`] | per-channel cores `M_c = (I - Vᵀ diag(ρ_c) F_k)⁻¹` (faer) |
-//! | write | [`output`] | the lrr-formats file, atomically |
+//! | operator | `cores` | per-channel cores `M_c = (I - Vᵀ diag(ρ_c) F_k)⁻¹` (faer) |
+//! | write | [`write`](mod@write) | the lrr-formats file, atomically |
 //!
-//! [`reference`] solves the full fine-mesh system exactly for checking; [`bake`] strings the
-//! stages together; [`cli`] is the `lrr` command line.
+//! [`exact`] solves the full fine-mesh system exactly for checking; [`bake`] strings the
+//! stages together; the `lrr` command line is the crate lrr-cli.
 //!
 //! ```
 //! use lrr_precompute::{bake, progress::Progress, scene::procedural};
@@ -28,15 +28,16 @@
 
 // Indexed loops over RGB channels and matrix entries read like the maths they implement.
 #![allow(clippy::needless_range_loop)]
+#![warn(missing_docs)]
 
 pub mod bake;
 pub mod checkpoint;
-pub mod cores;
+mod cores;
 pub mod error;
 pub mod exact;
 pub mod formfactor;
 pub mod geometry;
-pub mod memory;
+mod memory;
 pub mod mesh;
 pub mod patches;
 pub mod pool;

@@ -5,7 +5,7 @@ use crate::error::{Error, Result};
 /// Bytes of memory available to this process: `MemAvailable` from /proc/meminfo, or 16 GiB
 /// where that cannot be read. `LRR_MEMORY_LIMIT` (bytes) overrides it (for tests and for
 /// sharing a machine).
-pub fn available() -> u128 {
+pub(crate) fn available() -> u128 {
     if let Some(v) = std::env::var("LRR_MEMORY_LIMIT")
         .ok()
         .and_then(|v| v.parse::<u128>().ok())
@@ -24,13 +24,9 @@ pub fn available() -> u128 {
         .unwrap_or(16 << 30)
 }
 
-/// Refuses `bytes` of working memory for `what` when they exceed 80% of what is available.
-pub fn check(bytes: u128, what: &str, fix: &str) -> Result<()> {
-    check_with(bytes, None, what, fix)
-}
-
-/// Like [`check`], with an explicit limit in bytes (`--max-memory`) when given.
-pub fn check_with(bytes: u128, limit: Option<u64>, what: &str, fix: &str) -> Result<()> {
+/// Refuses `bytes` of working memory for `what` when they exceed `limit` bytes
+/// (`--max-memory`) or, without one, 80% of what is available.
+pub(crate) fn check_with(bytes: u128, limit: Option<u64>, what: &str, fix: &str) -> Result<()> {
     let limit = limit.map_or_else(|| available() * 8 / 10, u128::from);
     if bytes > limit {
         return Err(Error::Limits(format!(

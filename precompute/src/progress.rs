@@ -11,6 +11,7 @@ pub struct Progress {
 }
 
 impl Progress {
+    /// Progress bars on stderr when `enabled`; timings are recorded either way.
     pub fn new(enabled: bool) -> Self {
         Self {
             enabled,
@@ -18,6 +19,7 @@ impl Progress {
         }
     }
 
+    /// No bars, timings only.
     pub fn hidden() -> Self {
         Self::new(false)
     }
@@ -59,7 +61,7 @@ impl Progress {
     }
 
     /// Records a stage measured elsewhere.
-    pub fn record(&self, name: &str, seconds: f64) {
+    pub(crate) fn record(&self, name: &str, seconds: f64) {
         self.stages
             .lock()
             .expect("no panics while holding the lock")
@@ -67,6 +69,7 @@ impl Progress {
     }
 }
 
+/// A running stage of a [`Progress`]: its bar and start time.
 pub struct Stage<'a> {
     progress: &'a Progress,
     name: String,
@@ -75,6 +78,7 @@ pub struct Stage<'a> {
 }
 
 impl Stage<'_> {
+    /// Advances the stage's bar by `n` work items.
     pub fn inc(&self, n: u64) {
         if let Some(bar) = &self.bar {
             bar.inc(n);

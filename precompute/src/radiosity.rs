@@ -10,12 +10,14 @@ use crate::error::{Error, Result};
 
 /// Per-element reflectance and emission in original id order.
 pub struct ElementData<'a> {
+    /// RGB reflectance ρ per element, each in [0, 1).
     pub reflectance: &'a [[f64; 3]],
+    /// RGB emitted exitance `E = π·Ke` per element (W/m² style).
     pub emission: &'a [[f64; 3]],
 }
 
 /// Solves `(I - diag(ρ_c) F) B_c = E_c` for c = r, g, b with dense LU.
-pub fn solve_dense(f: &[f64], data: &ElementData) -> Result<Vec<[f64; 3]>> {
+pub(crate) fn solve_dense(f: &[f64], data: &ElementData) -> Result<Vec<[f64; 3]>> {
     let n = data.reflectance.len();
     let mut out = vec![[0.0; 3]; n];
     for c in 0..3 {

@@ -60,7 +60,9 @@ pub fn operator_file(b: &Baked) -> OperatorFile {
 /// How the operator is stored in the file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Storage {
+    /// Number format of the stored matrix (f32 or f16).
     pub precision: Precision,
+    /// Factored (`F_k` + cores) or the plain per-channel `Y_k`.
     pub layout: Layout,
 }
 
@@ -75,7 +77,7 @@ impl Default for Storage {
 
 /// The operator file of a bake stored as asked, with one light group per emitting surface
 /// (named after the surface; its elements at their baked emission).
-pub fn stored_file(b: &Baked, storage: Storage) -> Result<OperatorFile> {
+pub(crate) fn stored_file(b: &Baked, storage: Storage) -> Result<OperatorFile> {
     let mut file = operator_file(b);
     add_light_groups(b, &mut file)?;
     if storage.precision != file.precision {
@@ -124,7 +126,7 @@ pub fn write(b: &Baked, path: &Path, storage: Storage) -> Result<OperatorFile> {
 /// What the file's metadata section holds (JSON). Only deterministic values: no timings, no
 /// thread count, so the same inputs give the same bytes.
 #[derive(Debug, Serialize)]
-pub struct Metadata<'a> {
+pub(crate) struct Metadata<'a> {
     pub generator: String,
     pub scene: &'a str,
     pub method: &'a str,
@@ -146,12 +148,14 @@ pub struct Metadata<'a> {
 /// The elements of one named surface, as ranges of original element ids.
 #[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
 pub struct SurfaceRanges {
+    /// Surface name.
     pub name: String,
+    /// Half-open ranges `[first, end)` of original element ids.
     pub elements: Vec<[u32; 2]>,
 }
 
 /// The metadata section's JSON ([`Metadata`]).
-pub fn metadata_json(b: &Baked) -> String {
+pub(crate) fn metadata_json(b: &Baked) -> String {
     let refinement = match b.method {
         PatchMethod::TwoFixed => None,
         PatchMethod::SpatialCoherence {
@@ -176,7 +180,7 @@ pub fn metadata_json(b: &Baked) -> String {
 }
 
 /// Ranges of original element ids per surface (elements of a face are consecutive ids).
-pub fn surface_ranges(mesh: &Mesh, surfaces: &[String]) -> Vec<SurfaceRanges> {
+pub(crate) fn surface_ranges(mesh: &Mesh, surfaces: &[String]) -> Vec<SurfaceRanges> {
     let mut out: Vec<SurfaceRanges> = surfaces
         .iter()
         .map(|s| SurfaceRanges {

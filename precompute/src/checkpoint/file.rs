@@ -19,7 +19,7 @@ const HEADER: usize = 8 + 8 * 4;
 const RECORD_HEADER: usize = 8 * 3;
 
 /// A saved block: its index and its rows (row-major, k values per row).
-pub type SavedBlock = (u64, Vec<f64>);
+pub(super) type SavedBlock = (u64, Vec<f64>);
 
 /// An open checkpoint file.
 pub struct Checkpoint {
@@ -166,7 +166,7 @@ fn read_record(bytes: &[u8], at: usize, shape: Shape) -> Option<(u64, Vec<f64>, 
 }
 
 /// The key of a bake: a hash of everything its form factors depend on.
-pub fn hash_parts(parts: &[&[u8]]) -> u64 {
+pub(super) fn hash_parts(parts: &[&[u8]]) -> u64 {
     let mut all = Vec::new();
     for p in parts {
         all.extend_from_slice(&(p.len() as u64).to_le_bytes());

@@ -1,9 +1,9 @@
 //! Checkpointed form-factor rows: `F_k` computed block by block, each block saved as soon as it
-//! is done ([`file`]), so `lrr bake --resume` continues a killed bake where it stopped and still
-//! writes the same bytes. A checkpoint carries a [`key`] of everything `F_k` depends on and is
+//! is done (`file`), so `lrr bake --resume` continues a killed bake where it stopped and still
+//! writes the same bytes. A checkpoint carries a key of everything `F_k` depends on and is
 //! never applied to another bake.
 
-pub mod file;
+mod file;
 
 pub use file::{Checkpoint, path_for};
 
@@ -20,6 +20,7 @@ use crate::scene::Scene;
 /// Checkpointing of the form-factor rows.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CheckpointSettings {
+    /// Checkpoint file (see [`path_for`]).
     pub path: std::path::PathBuf,
     /// Continue from an existing checkpoint instead of starting over.
     pub resume: bool,
@@ -28,7 +29,7 @@ pub struct CheckpointSettings {
 }
 
 /// What identifies a bake's `F_k` (see [`key`]).
-pub struct Identity<'a> {
+pub(crate) struct Identity<'a> {
     pub scene: &'a Scene,
     pub sizes: MeshSizes,
     pub method: PatchMethod,
@@ -42,7 +43,7 @@ pub struct Identity<'a> {
 /// of rows that are checkpointed when `checkpoint` is given. Returns the open checkpoint,
 /// which the caller removes once the output is safely written. `checkpoint` comes with the
 /// bake's [`key`].
-pub fn element_patch_matrix(
+pub(crate) fn element_patch_matrix(
     mesh: &Mesh,
     ff: &FormFactors,
     progress: &Progress,
@@ -104,7 +105,7 @@ pub fn element_patch_matrix(
 
 /// Key of everything `F_k` depends on: the scene's geometry, the mesh sizes and method,
 /// n, k, the samples, the lrr version and the visibility backend.
-pub fn key(bake: &Identity, samples: u32) -> u64 {
+pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
     let mut geometry = Vec::with_capacity(bake.scene.faces.len() * 4 * 24);
     for f in &bake.scene.faces {
         for v in f.polygon.vertices() {

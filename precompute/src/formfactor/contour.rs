@@ -25,7 +25,7 @@ use crate::geometry::Polygon;
 const MAX_CLIPPED: usize = 8;
 
 /// The form factor from a differential area at `x` (unit normal `n`) to the front of `p`.
-pub fn point_to_polygon(x: DVec3, n: DVec3, p: &Polygon) -> f64 {
+pub(super) fn point_to_polygon(x: DVec3, n: DVec3, p: &Polygon) -> f64 {
     let eps = 1e-12 * p.scale;
     if p.height(x) <= eps {
         return 0.0; // behind the one-sided polygon or in its plane

@@ -2,21 +2,21 @@
 //!
 //! `F(e → t) = F_unoccluded(e → t) · visibility(e, t)` where
 //! - `F_unoccluded = Σ_s w_s F(x_s → t)`: quadrature over `S` points `x_s` of the element of
-//!   the closed-form point-to-polygon kernel ([`kernel`]), exact for touching polygons;
+//!   the closed-form point-to-polygon kernel (`contour`), exact for touching polygons;
 //! - `visibility` is the kernel-weighted fraction of `S` segments `x_s → y_s` (with `y_s` on
-//!   the target, [`crate::geometry::sampling::pair_point`]) that nothing blocks. Segments whose ends cannot
+//!   the target, `geometry::sampling::pair_point`) that nothing blocks. Segments whose ends cannot
 //!   exchange light (one behind the other's tangent plane) are not counted. Pairs found
-//!   partly visible get [`visible::ADAPTIVE_FACTOR`] times more rays: only they carry sampling noise.
+//!   partly visible get `ADAPTIVE_FACTOR` (16) times more rays: only they carry sampling noise.
 //!
 //! Pairs that face away from each other cost neither kernel evaluations nor rays; when no
 //! occluder exists ([`crate::visibility::nothing_occludes`]) no rays are cast at all.
 //! Rows are independent and computed in parallel (rayon); every value depends only on the
 //! pair, never on the thread count or scheduling, so bakes are reproducible byte for byte.
 
-pub mod contour;
-pub mod point;
-pub mod union;
-pub mod visible;
+mod contour;
+pub(crate) mod point;
+mod union;
+mod visible;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -31,14 +31,14 @@ use visible::{Shape, faces_away, visible_fraction};
 
 /// Counters of one form-factor pass.
 #[derive(Debug, Default)]
-pub struct Stats {
+pub(crate) struct Stats {
     pub pairs: AtomicU64,
     pub culled_pairs: AtomicU64,
     pub rays: AtomicU64,
 }
 
 impl Stats {
-    pub fn get(&self) -> (u64, u64, u64) {
+    pub(crate) fn get(&self) -> (u64, u64, u64) {
         (
             self.pairs.load(Ordering::Relaxed),
             self.culled_pairs.load(Ordering::Relaxed),
@@ -53,10 +53,11 @@ pub struct FormFactors<'a> {
     pub samples: u32,
     /// `None` when nothing can occlude.
     pub occluder: Option<&'a dyn Occluder>,
-    pub stats: Stats,
+    pub(crate) stats: Stats,
 }
 
 impl<'a> FormFactors<'a> {
+    /// A pass with `samples` points per pair (at least 1) and an optional occluder.
     pub fn new(samples: u32, occluder: Option<&'a dyn Occluder>) -> Self {
         Self {
             samples: samples.max(1),
@@ -69,7 +70,7 @@ impl<'a> FormFactors<'a> {
     /// polygon or a union of several, [`Region`]).
     /// `row_ids` seed the per-pair sampling (use the element ids). `progress` is called with
     /// the number of rows finished, from worker threads.
-    pub fn matrix(
+    pub(crate) fn matrix(
         &self,
         rows: &[Polygon],
         row_ids: &[u32],

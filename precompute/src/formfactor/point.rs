@@ -13,7 +13,7 @@ use crate::visibility::Occluder;
 
 /// `F(x → region)` for a point `x` with unit `normal`, visibility from `rays` segments seeded
 /// by `seed` (`occluder` `None`: nothing occludes).
-pub fn point_to_region(
+pub(crate) fn point_to_region(
     x: DVec3,
     normal: DVec3,
     region: &Region,

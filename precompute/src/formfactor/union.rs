@@ -26,7 +26,7 @@ use crate::visibility::Occluder;
 
 /// `F(e → target)` for a target of several parts, and the rays cast (`None` when every part
 /// faces away from `e`: a culled pair).
-pub fn multi_part(
+pub(super) fn multi_part(
     occluder: Option<&dyn Occluder>,
     e: &Polygon,
     points: &[Sample],

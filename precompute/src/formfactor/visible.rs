@@ -53,7 +53,7 @@ pub(crate) fn visible_fraction(
 /// `--samples` rays. Only pairs crossed by a shadow boundary pay for it (measured on the
 /// Cornell box: 16× there cut the surface-level reciprocity error from 0.5% to ~0.1% for
 /// about twice the rays).
-pub const ADAPTIVE_FACTOR: u32 = 16;
+pub(super) const ADAPTIVE_FACTOR: u32 = 16;
 
 /// Where a target's pair points lie: one polygon ([`pair_point`]), or a union of parts
 /// ([`Region::pair_point`], parts chosen by area).

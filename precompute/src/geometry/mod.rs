@@ -4,9 +4,9 @@
 //! Nothing here knows about scenes, meshes, rays or form factors; every later stage (import,
 //! meshing, visibility, form factors, patches) uses these types.
 
-pub mod hash;
-pub mod polygon;
-pub mod region;
+pub(crate) mod hash;
+mod polygon;
+mod region;
 pub mod sampling;
 
 pub use polygon::{Polygon, area_vector};

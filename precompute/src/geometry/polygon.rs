@@ -11,8 +11,11 @@ use glam::DVec3;
 /// quantities the kernel needs precomputed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Polygon {
+    /// Vertices in scene units; only the first `count` are used, the rest stay zero.
     pub vertices: [DVec3; 4],
+    /// Number of vertices: 3 or 4.
     pub count: usize,
+    /// Unit normal of the front side (counter-clockwise vertex order).
     pub normal: DVec3,
     /// Length scale for tolerances: square root of the area.
     pub scale: f64,
@@ -40,14 +43,17 @@ impl Polygon {
         })
     }
 
+    /// The `count` used vertices.
     pub fn vertices(&self) -> &[DVec3] {
         &self.vertices[..self.count]
     }
 
+    /// Area in scene units².
     pub fn area(&self) -> f64 {
         0.5 * area_vector(self.vertices()).length()
     }
 
+    /// Area-weighted centroid.
     pub fn centroid(&self) -> DVec3 {
         // Area-weighted centroid of the fan triangles (exact for any planar convex polygon).
         let v = self.vertices();

@@ -29,10 +29,12 @@ impl Region {
         Self { parts, cumulative }
     }
 
+    /// A region of one polygon.
     pub fn single(p: Polygon) -> Self {
         Self::new(vec![p])
     }
 
+    /// The polygons the region is made of.
     pub fn parts(&self) -> &[Polygon] {
         &self.parts
     }
@@ -45,6 +47,7 @@ impl Region {
         }
     }
 
+    /// Total area of the parts, in scene units².
     pub fn area(&self) -> f64 {
         self.cumulative[self.parts.len()]
     }
@@ -74,7 +77,7 @@ impl Region {
 
     /// The `i`-th pair point on the union (R2 shifted by `seed`, the first coordinate choosing
     /// the part by area): the part's index and the sample, whose weight is the area density
-    /// relative to uniform over the union (1 on average, like [`super::sampling::pair_point`]).
+    /// relative to uniform over the union (1 on average, like `sampling::pair_point`).
     pub fn pair_point(&self, i: u32, seed: u64) -> (usize, Sample) {
         let h = mix(seed);
         let shift = (

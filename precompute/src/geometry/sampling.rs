@@ -18,7 +18,9 @@ use super::hash::mix;
 /// A quadrature point with its weight (weights of one element sum to 1).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
+    /// Position in scene units.
     pub point: DVec3,
+    /// Quadrature weight (the weights of one polygon sum to 1).
     pub weight: f64,
 }
 
@@ -27,7 +29,7 @@ const R2_A1: f64 = 0.754_877_666_246_692_8;
 const R2_A2: f64 = 0.569_840_290_998_053_2;
 
 /// `i`-th point of the R2 sequence in the unit square, shifted by `shift`.
-pub fn r2(i: u32, shift: (f64, f64)) -> (f64, f64) {
+pub(crate) fn r2(i: u32, shift: (f64, f64)) -> (f64, f64) {
     let i = f64::from(i);
     (
         (0.5 + shift.0 + R2_A1 * i).fract(),
@@ -60,7 +62,7 @@ pub fn quadrature(polygon: &Polygon, count: u32, out: &mut Vec<Sample>) {
 /// its area density relative to uniform (the bilinear Jacobian of a quad; 1 on triangles).
 /// Ray weights must include it: a wedge-shaped quad's bilinear map crowds points toward its
 /// short side, and unweighted rays biased Cornell-box view factors by 0.2%.
-pub fn pair_point(polygon: &Polygon, i: u32, seed: u64) -> Sample {
+pub(crate) fn pair_point(polygon: &Polygon, i: u32, seed: u64) -> Sample {
     let h = mix(seed);
     let shift = (
         (h >> 11) as f64 / (1u64 << 53) as f64,
@@ -75,7 +77,7 @@ pub fn pair_point(polygon: &Polygon, i: u32, seed: u64) -> Sample {
 }
 
 /// Maps (u, w) in the unit square onto the polygon; the weight is the local area density.
-pub fn map_unit_square(v: &[DVec3], u: f64, w: f64) -> Sample {
+pub(crate) fn map_unit_square(v: &[DVec3], u: f64, w: f64) -> Sample {
     if v.len() == 3 {
         // Fold the square onto the triangle: area-preserving.
         let (u, w) = if u + w > 1.0 {

@@ -7,23 +7,29 @@ use crate::scene::Scene;
 /// A fine-mesh element.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Element {
+    /// The element's planar convex polygon.
     pub polygon: Polygon,
     /// Index of the scene face it came from.
     pub face: u32,
+    /// Index of its surface in `Scene::surfaces`.
     pub surface: u32,
+    /// Index of the patch (in `Mesh::patches`) that holds it.
     pub patch: u32,
 }
 
 /// Mesh sizes, absolute lengths in scene units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MeshSizes {
+    /// Target element size: faces are subdivided until their size (longest edge; a triangle's second longest) drops to it, in scene units.
     pub element_size: f64,
+    /// Patch size of the 2MF cut and of cluster patches, in scene units.
     pub patch_size: f64,
 }
 
 /// Default sizes as fractions of the scene's bounding-box diagonal, so a scaled scene meshes
 /// identically. For the Cornell box (diagonal ≈ 961 mm) they give n = 1 920 elements, k = 128.
 pub const DEFAULT_ELEMENT_FRACTION: f64 = 1.0 / 20.0;
+/// Default patch size as a fraction of the scene's bounding-box diagonal (see above).
 pub const DEFAULT_PATCH_FRACTION: f64 = 1.0 / 6.0;
 
 /// Most elements a bake may create before meshing is refused.

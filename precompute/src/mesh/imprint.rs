@@ -20,7 +20,7 @@ const CONTACT_TOLERANCE: f64 = 1e-7;
 const MIN_PIECE_FRACTION: f64 = 1e-9;
 
 /// Every face cut at its contact lines: (piece, index of the face it came from).
-pub fn split_at_contacts(faces: &[Face]) -> Vec<(Polygon, usize)> {
+pub(super) fn split_at_contacts(faces: &[Face]) -> Vec<(Polygon, usize)> {
     let boxes: Vec<(DVec3, DVec3)> = faces.iter().map(|f| bounds(&f.polygon)).collect();
     // Sweep on x to find pairs whose (slightly grown) boxes overlap.
     let mut by_x: Vec<usize> = (0..faces.len()).collect();

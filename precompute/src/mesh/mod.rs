@@ -1,8 +1,8 @@
 //! The fine mesh (DESIGN.md §2–3): the elements every output reports a radiosity for.
 //!
 //! Every input face is the root of a subdivision hierarchy (quads split 2×2, or 1×2 when one
-//! side is twice the other; triangles into 4 by edge midpoints; [`subdivide`]), after faces are
-//! split where others stand on them ([`imprint`]). The fine mesh is the set of nodes whose size
+//! side is twice the other; triangles into 4 by edge midpoints; `subdivide`), after faces are
+//! split where others stand on them (`imprint`). The fine mesh is the set of nodes whose size
 //! (longest edge; a triangle's second-longest) first drops to the element size. The coarse mesh
 //! is cut from the same hierarchy later ([`crate::patches`]), so the fine mesh is the same
 //! whatever the patch method.
@@ -10,9 +10,9 @@
 //! Elements are numbered in generation order (depth-first, face by face): that is the
 //! *original element id* every output reports.
 
-pub mod element;
-pub mod imprint;
-pub mod subdivide;
+mod element;
+mod imprint;
+pub(crate) mod subdivide;
 
 use crate::error::{Error, Result};
 use crate::scene::Scene;
@@ -23,7 +23,10 @@ pub use element::{
 pub use subdivide::estimate_elements;
 
 /// The fine mesh (independent of the patch method), refused when it would be too large.
-pub fn fine_mesh(scene: &Scene, sizes: MeshSizes) -> Result<(Vec<Element>, Vec<subdivide::Piece>)> {
+pub(crate) fn fine_mesh(
+    scene: &Scene,
+    sizes: MeshSizes,
+) -> Result<(Vec<Element>, Vec<subdivide::Piece>)> {
     let estimate = estimate_elements(scene, sizes.element_size);
     if estimate > MAX_ELEMENTS as f64 {
         return Err(Error::Limits(format!(

@@ -8,7 +8,7 @@ use crate::scene::Scene;
 
 /// Splits a node into children: quads 2×2 (or 1×2 along the long side when one side is at
 /// least twice the other, to keep elements near square), triangles into 4 by edge midpoints.
-pub fn split(p: &Polygon) -> Vec<Polygon> {
+pub(crate) fn split(p: &Polygon) -> Vec<Polygon> {
     let v = p.vertices();
     let mid = |a: DVec3, b: DVec3| (a + b) * 0.5;
     let pieces: Vec<Vec<DVec3>> = if v.len() == 3 {
@@ -72,7 +72,7 @@ pub fn estimate_elements(scene: &Scene, element_size: f64) -> f64 {
 /// A piece of an input face (after imprinting): the root of one subdivision hierarchy, and the
 /// consecutive original ids `first..first + count` of its elements.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Piece {
+pub(crate) struct Piece {
     pub polygon: Polygon,
     pub face: u32,
     pub surface: u32,
@@ -83,7 +83,7 @@ pub struct Piece {
 /// The fine mesh: every piece subdivided depth-first until its nodes' size ([`Polygon::size`])
 /// drops to the element size. It does not depend on the patch method; `patch` is left unset
 /// (`u32::MAX`) for the coarse mesh to fill.
-pub fn fine(scene: &Scene, element_size: f64) -> (Vec<Element>, Vec<Piece>) {
+pub(crate) fn fine(scene: &Scene, element_size: f64) -> (Vec<Element>, Vec<Piece>) {
     let mut elements = Vec::new();
     let mut pieces = Vec::new();
     for (polygon, f) in super::imprint::split_at_contacts(&scene.faces) {
@@ -109,7 +109,7 @@ pub fn fine(scene: &Scene, element_size: f64) -> (Vec<Element>, Vec<Piece>) {
 }
 
 /// Calls `visit` on the leaves (elements) under `node`, depth-first.
-pub fn leaves(node: Polygon, element_size: f64, visit: &mut dyn FnMut(Polygon)) {
+pub(crate) fn leaves(node: Polygon, element_size: f64, visit: &mut dyn FnMut(Polygon)) {
     if node.size() <= element_size {
         visit(node);
         return;
@@ -120,7 +120,7 @@ pub fn leaves(node: Polygon, element_size: f64, visit: &mut dyn FnMut(Polygon)) 
 }
 
 /// Number of elements under `node`.
-pub fn leaf_count(node: Polygon, element_size: f64) -> u32 {
+pub(crate) fn leaf_count(node: Polygon, element_size: f64) -> u32 {
     let mut n = 0;
     leaves(node, element_size, &mut |_| n += 1);
     n
@@ -128,7 +128,7 @@ pub fn leaf_count(node: Polygon, element_size: f64) -> u32 {
 
 /// True when a piece is its own patch or smaller under the 2MF cut (its root is cut): such
 /// pieces are grouped by clustering instead of each becoming a patch.
-pub fn is_small(piece: &Piece, sizes: MeshSizes) -> bool {
+pub(crate) fn is_small(piece: &Piece, sizes: MeshSizes) -> bool {
     let size = piece.polygon.size();
     size <= sizes.patch_size || size <= sizes.element_size
 }
@@ -136,11 +136,11 @@ pub fn is_small(piece: &Piece, sizes: MeshSizes) -> bool {
 /// Fewest small pieces a surface must have for them to be clustered: below it each small
 /// piece stays its own patch, as the 2MF cut makes it. Imprinting leaves a few small slivers
 /// at the feet of blocks and walls (3 on the Cornell box floor); dense meshes have hundreds.
-pub const DENSE_PIECES: usize = 16;
+pub(crate) const DENSE_PIECES: usize = 16;
 
 /// The small pieces of each *dense* surface (at least [`DENSE_PIECES`] of them), by surface
 /// then piece index: what clustering groups.
-pub fn dense_sets(pieces: &[Piece], sizes: MeshSizes) -> Vec<Vec<usize>> {
+pub(crate) fn dense_sets(pieces: &[Piece], sizes: MeshSizes) -> Vec<Vec<usize>> {
     let mut small: std::collections::BTreeMap<u32, Vec<usize>> = Default::default();
     for (i, p) in pieces.iter().enumerate() {
         if is_small(p, sizes) {
@@ -156,7 +156,7 @@ pub fn dense_sets(pieces: &[Piece], sizes: MeshSizes) -> Vec<Vec<usize>> {
 /// The 2MF cut of one (large) piece: nodes where the size first drops to the patch size (an
 /// element larger than the patch size is its own patch), depth-first; `visit` gets each patch
 /// polygon and its first element id and element count.
-pub fn cut(
+pub(crate) fn cut(
     node: Polygon,
     first: u32,
     sizes: MeshSizes,

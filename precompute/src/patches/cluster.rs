@@ -20,11 +20,11 @@ use glam::DVec3;
 use crate::geometry::Polygon;
 
 /// Largest angle between a piece's normal and its 2MF cluster's mean normal.
-pub const NORMAL_CONE_DEGREES: f64 = 45.0;
+pub(super) const NORMAL_CONE_DEGREES: f64 = 45.0;
 
 /// What clustering needs of a piece.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Unit {
+pub(super) struct Unit {
     pub centroid: DVec3,
     pub normal: DVec3,
     pub area: f64,
@@ -34,7 +34,7 @@ pub struct Unit {
 }
 
 impl Unit {
-    pub fn of(p: &Polygon) -> Self {
+    pub(super) fn of(p: &Polygon) -> Self {
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
         for v in p.vertices() {
@@ -53,7 +53,7 @@ impl Unit {
 
 /// Splits `set` (at least two indices into `units`) into two non-empty halves at the median
 /// of the centroids along the longest axis of their bounding box; each half sorted by index.
-pub fn bisect(units: &[Unit], set: &[usize]) -> [Vec<usize>; 2] {
+pub(super) fn bisect(units: &[Unit], set: &[usize]) -> [Vec<usize>; 2] {
     debug_assert!(set.len() >= 2);
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
@@ -83,7 +83,7 @@ pub fn bisect(units: &[Unit], set: &[usize]) -> [Vec<usize>; 2] {
 
 /// True when the set's vertex bounding box has no side longer than `size` and its normals lie
 /// within the cone of [`NORMAL_CONE_DEGREES`] around their area-weighted mean.
-pub fn fits(units: &[Unit], set: &[usize], size: f64) -> bool {
+pub(super) fn fits(units: &[Unit], set: &[usize], size: f64) -> bool {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
     let mut mean = DVec3::ZERO;
@@ -104,7 +104,7 @@ pub fn fits(units: &[Unit], set: &[usize], size: f64) -> bool {
 
 /// The 2MF clusters of `set`: bisected until each [`fits`] the patch size. Each cluster is
 /// sorted by index; clusters come in the order of their smallest index.
-pub fn by_size(units: &[Unit], set: Vec<usize>, size: f64) -> Vec<Vec<usize>> {
+pub(super) fn by_size(units: &[Unit], set: Vec<usize>, size: f64) -> Vec<Vec<usize>> {
     let mut out = Vec::new();
     let mut stack = vec![set];
     while let Some(s) = stack.pop() {

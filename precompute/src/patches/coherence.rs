@@ -7,7 +7,7 @@
 //!
 //! 1. Roots in a FIFO list: every piece of an input face (the root of its subdivision
 //!    hierarchy), except on dense surfaces, whose small pieces form one cluster per surface
-//!    ([`super::cluster`]).
+//!    (`cluster`).
 //! 2. Take the first node. If its area is at most `A_min`, or it cannot be split (one element),
 //!    it is a patch. Otherwise estimate the *error* of keeping it whole from its children (the
 //!    2×2, 1×2 or 4 subdivision children of a polygon, the two halves of a cluster's
@@ -28,9 +28,9 @@
 //!   cluster, the centroid of the part nearest the area centroid) with its normal;
 //! - its view vector `f_c[j] = F(x_c → j)` over the probe patches `j` (the 2MF patches at
 //!   `--patch-size`): the closed-form point-to-patch factor times the visible fraction of
-//!   [`PROBE_RAYS`] kernel-weighted rays;
+//!   `PROBE_RAYS` kernel-weighted rays;
 //! - its radiosity estimate `b_c = E + ρ Σ_j f_c[j] B_j`, with `B_j` from a coarse solve on the
-//!   probes ([`Probes::new`]; reflectance and emission averaged over the channels);
+//!   probes (`Probes::new`; reflectance and emission averaged over the channels);
 //!
 //! ```text
 //! error(P) = Σ_j ρ_j | Σ_c a_c (f_c[j] − f̄[j]) (b_c − b̄) |  /  (A_scene · B̄_scene)
@@ -75,18 +75,18 @@ use crate::visibility::Occluder;
 pub const DEFAULT_THRESHOLD: f64 = 1e-4;
 
 /// Visibility rays from a child's point to each probe.
-pub const PROBE_RAYS: u32 = 8;
+pub(crate) const PROBE_RAYS: u32 = 8;
 
 /// The 2MSC parameters, validated.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Refinement {
+pub(crate) struct Refinement {
     pub threshold: f64,
     pub min_patch_area: f64,
 }
 
 /// A node of the hierarchy: part of one piece's subdivision, or a cluster of small pieces.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Node {
+pub(crate) enum Node {
     Polygon {
         polygon: Polygon,
         piece: u32,
@@ -99,7 +99,7 @@ pub enum Node {
 }
 
 /// The probe patches (the 2MF patches at the patch size) and a coarse radiosity solve on them.
-pub struct Probes<'a> {
+pub(crate) struct Probes<'a> {
     pub targets: Vec<Region>,
     /// Mean reflectance over the channels.
     pub reflectance: Vec<f64>,
@@ -115,7 +115,7 @@ pub struct Probes<'a> {
 impl<'a> Probes<'a> {
     /// Builds the probes and solves the coarse system with point-to-patch form factors from
     /// each probe's representative point (q² kernel sums, `q² · PROBE_RAYS` rays).
-    pub fn new(
+    pub(crate) fn new(
         targets: Vec<Region>,
         reflectance: Vec<f64>,
         emission: Vec<f64>,
@@ -159,14 +159,14 @@ impl<'a> Probes<'a> {
 
 /// Mean reflectance and emission (over the channels) of a piece's material.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Material {
+pub(crate) struct Material {
     pub reflectance: f64,
     pub emission: f64,
 }
 
 /// Refines the hierarchy over `pieces` and returns the patches, with `elements[..].patch` set.
 /// Patches are numbered by their smallest element id.
-pub fn two_msc(
+pub(crate) fn two_msc(
     pieces: &[Piece],
     materials: &[Material],
     elements: &mut [Element],
@@ -213,7 +213,7 @@ type Ranges = Vec<(u32, u32)>;
 /// Top-down refinement with a FIFO list: `split` returns a node's children when it must be
 /// split. Nodes come out in the order they were accepted. One generation of the list is
 /// decided in parallel, which is the FIFO order exactly (a decision depends on its node only).
-pub fn fifo_refine<N: Send + Sync>(
+pub(crate) fn fifo_refine<N: Send + Sync>(
     roots: Vec<N>,
     split: impl Fn(&N) -> Option<Vec<N>> + Sync,
 ) -> Vec<N> {
@@ -419,7 +419,7 @@ impl Ctx<'_> {
 }
 
 /// The view vector of a surface point: `F(x → probe j)` with visibility.
-pub fn view(probes: &Probes, x: DVec3, normal: DVec3, out: &mut [f64]) {
+pub(crate) fn view(probes: &Probes, x: DVec3, normal: DVec3, out: &mut [f64]) {
     let seed = mix(x.x.to_bits() ^ mix(x.y.to_bits() ^ mix(x.z.to_bits())));
     for (j, (probe, out)) in probes.targets.iter().zip(out.iter_mut()).enumerate() {
         *out = point_to_region(

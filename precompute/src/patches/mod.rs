@@ -7,15 +7,15 @@
 //! ([`coherence`]) cuts the same hierarchy adaptively, probing how the scene looks from inside
 //! each candidate patch (point-to-patch form factors with visibility, and a coarse solve).
 //! Surfaces made of many faces smaller than the patch size get patches by clustering
-//! ([`cluster`]): a patch is then a union of faces, a [`Region`] of several parts.
+//! (`cluster`): a patch is then a union of faces, a [`Region`] of several parts.
 //!
 //! The operator works in *file order*, elements sorted by patch, described by `order` (file
 //! position → original element id) and the index vector `index` (k+1 offsets into file
 //! positions), with weights `w = A_e / A_p`.
 
-pub mod cluster;
+mod cluster;
 pub mod coherence;
-pub mod patch;
+mod patch;
 
 pub use patch::{Patch, PatchMethod};
 
@@ -26,21 +26,23 @@ use crate::mesh::{Element, MeshSizes, fine_mesh};
 use crate::scene::Scene;
 use crate::visibility::Occluder;
 
+/// The fine mesh (elements) and the coarse mesh (patches) of a bake, with the file order.
 #[derive(Debug, Clone)]
 pub struct Mesh {
     /// Elements by original id.
     pub elements: Vec<Element>,
+    /// Patches by index; `k = patches.len()`.
     pub patches: Vec<Patch>,
     /// File position → original element id (elements sorted by patch).
     pub order: Vec<u32>,
     /// k+1 offsets: patch p holds file positions `index[p]..index[p+1]`.
     pub index: Vec<u32>,
     /// Per file position: `w = A_e / A_p`.
-    pub weights: Vec<f64>,
+    pub(crate) weights: Vec<f64>,
 }
 
 /// Checks the 2MSC parameters and fills in the default `A_min`.
-pub fn refinement(
+pub(crate) fn refinement(
     sizes: MeshSizes,
     threshold: f64,
     min_patch_area: Option<f64>,
@@ -126,7 +128,7 @@ fn two_fixed_patches(
 impl Mesh {
     /// Builds both meshes with the given patch method. 2MSC probes visibility with `occluder`
     /// (`None`: nothing occludes).
-    pub fn build(
+    pub(crate) fn build(
         scene: &Scene,
         sizes: MeshSizes,
         method: PatchMethod,
@@ -146,7 +148,7 @@ impl Mesh {
 
     /// Builds both meshes by 2MF: uniform subdivision and a uniform cut; small pieces (dense
     /// meshes) are clustered to the patch size.
-    pub fn two_fixed(scene: &Scene, sizes: MeshSizes) -> Result<Self> {
+    pub(crate) fn two_fixed(scene: &Scene, sizes: MeshSizes) -> Result<Self> {
         let (mut elements, pieces) = fine_mesh(scene, sizes)?;
         let patches = two_fixed_patches(&pieces, sizes, &mut elements);
         Ok(Self::from_parts(elements, patches))
@@ -154,7 +156,7 @@ impl Mesh {
 
     /// Builds both meshes by 2MSC ([`coherence`]): the fine mesh of 2MF, adaptive patches
     /// probed against the 2MF patches at the patch size.
-    pub fn two_msc(
+    pub(crate) fn two_msc(
         scene: &Scene,
         sizes: MeshSizes,
         refinement: coherence::Refinement,
@@ -193,7 +195,7 @@ impl Mesh {
     }
 
     /// Sorts elements by patch (stable: generation order within a patch) and computes weights.
-    pub fn from_parts(elements: Vec<Element>, patches: Vec<Patch>) -> Self {
+    pub(crate) fn from_parts(elements: Vec<Element>, patches: Vec<Patch>) -> Self {
         let mut order: Vec<u32> = (0..elements.len() as u32).collect();
         order.sort_by_key(|&e| elements[e as usize].patch);
         let mut index = vec![0u32; patches.len() + 1];
@@ -223,10 +225,12 @@ impl Mesh {
         }
     }
 
+    /// Number of elements.
     pub fn n(&self) -> usize {
         self.elements.len()
     }
 
+    /// Number of patches.
     pub fn k(&self) -> usize {
         self.patches.len()
     }

@@ -33,30 +33,41 @@ use serde::{Deserialize, Serialize};
 use super::model::{Material, Scene};
 use crate::error::{Error, Result};
 
+/// A parsed scene description file (the TOML above).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneDescription {
+    /// Scene name; default: the file's stem.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
+    /// Factor applied to every coordinate (default 1).
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub scale: f64,
+    /// Optional mesh size hints (`[mesh]`).
     #[serde(default, skip_serializing_if = "MeshHints::is_empty")]
     pub mesh: MeshHints,
+    /// Materials (`[[material]]`), referred to by name.
     #[serde(default, rename = "material")]
     pub materials: Vec<MaterialDesc>,
+    /// Explicit polygon surfaces (`[[surface]]`).
     #[serde(default, rename = "surface", skip_serializing_if = "Vec::is_empty")]
     pub surfaces: Vec<SurfaceDesc>,
+    /// Axis-aligned boxes (`[[box]]`), one surface per face.
     #[serde(default, rename = "box", skip_serializing_if = "Vec::is_empty")]
     pub boxes: Vec<BoxDesc>,
+    /// OBJ files merged into the scene (`[[include]]`).
     #[serde(default, rename = "include", skip_serializing_if = "Vec::is_empty")]
     pub includes: Vec<IncludeDesc>,
 }
 
+/// Mesh size hints of a description (`[mesh]`), in description units before `scale`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshHints {
+    /// Suggested element size.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub element_size: Option<f64>,
+    /// Suggested patch size.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub patch_size: Option<f64>,
 }
@@ -67,39 +78,56 @@ impl MeshHints {
     }
 }
 
+/// A Lambertian material (`[[material]]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialDesc {
+    /// Name surfaces and boxes refer to.
     pub name: String,
+    /// RGB reflectance (Kd), each in [0, 1).
     pub reflectance: [f64; 3],
+    /// RGB emitted radiance (Ke); the emitted exitance is `E = π·Ke`. Default 0.
     #[serde(default)]
     pub radiance: [f64; 3],
 }
 
+/// A named surface of explicit polygons (`[[surface]]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SurfaceDesc {
+    /// Surface name.
     pub name: String,
+    /// Name of its material.
     pub material: String,
+    /// Polygons as vertex lists, counter-clockwise seen from the front, in description units.
     pub polygons: Vec<Vec<[f64; 3]>>,
 }
 
+/// An axis-aligned box (`[[box]]`); each face becomes the surface `name.±axis`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoxDesc {
+    /// Base name of its surfaces.
     pub name: String,
+    /// Name of its material.
     pub material: String,
+    /// Lower corner, in description units.
     pub min: [f64; 3],
+    /// Upper corner, in description units.
     pub max: [f64; 3],
+    /// Normals point into the box (a room) when true, out of it (a block) when false.
     #[serde(default)]
     pub inward: bool,
+    /// Faces left out (`"-x"`, `"+x"`, …, `"+z"`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub omit: Vec<String>,
 }
 
+/// An OBJ file to merge (`[[include]]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IncludeDesc {
+    /// Path of the OBJ file, relative to the description file.
     pub obj: String,
 }
 
@@ -135,6 +163,7 @@ impl SceneDescription {
         })
     }
 
+    /// The description as TOML text (parses back to the same description).
     pub fn to_toml(&self) -> String {
         toml::to_string(self).expect("a scene description always serialises")
     }

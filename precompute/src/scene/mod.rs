@@ -3,7 +3,7 @@
 //! Importers ([`obj`], [`description`]) turn files into a [`Scene`]; [`procedural`] writes scene
 //! descriptions for the furnace and the analytic test pairs. Every face that reaches the mesher
 //! is a planar convex polygon of 3 or 4 vertices whose counter-clockwise normal is its (only)
-//! front: [`Scene::add_polygon`] splits non-planar or concave quads and larger polygons into
+//! front: `Scene::add_polygon` splits non-planar or concave quads and larger polygons into
 //! such pieces, and drops degenerate or duplicate faces with a warning naming where they came
 //! from.
 

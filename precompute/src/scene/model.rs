@@ -12,14 +12,17 @@ use crate::geometry::Polygon;
 /// A Lambertian material. `emission` is emitted *exitance* `E = π · Ke` (Ke: MTL radiance).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Material {
+    /// Material name (from the MTL or the description).
     pub name: String,
+    /// RGB reflectance ρ (Kd), each in [0, 1).
     pub reflectance: [f64; 3],
+    /// RGB emitted exitance `E = π·Ke` (W/m² style).
     pub emission: [f64; 3],
 }
 
 impl Material {
     /// Checks the reflectance is in [0, 1) and the emission is finite and non-negative.
-    pub fn validate(&self, location: &str) -> Result<()> {
+    pub(crate) fn validate(&self, location: &str) -> Result<()> {
         for (c, &r) in self.reflectance.iter().enumerate() {
             if !r.is_finite() || r < 0.0 {
                 return Err(Error::scene(
@@ -60,33 +63,44 @@ impl Material {
 /// One planar convex face of the scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Face {
+    /// The face's planar convex polygon, in scene units.
     pub polygon: Polygon,
+    /// Index into `Scene::materials`.
     pub material: usize,
+    /// Index into `Scene::surfaces`.
     pub surface: usize,
 }
 
 /// Mesh sizes a scene description may suggest (absolute lengths in scene units).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct SizeHints {
+    /// Suggested longest edge of a fine element (scene units).
     pub element_size: Option<f64>,
+    /// Suggested longest edge of a coarse patch (scene units).
     pub patch_size: Option<f64>,
 }
 
+/// An imported scene: materials, named surfaces and their planar convex faces.
 #[derive(Debug, Clone, Default)]
 pub struct Scene {
+    /// Scene name (file metadata).
     pub name: String,
+    /// Materials, indexed by `Face::material`.
     pub materials: Vec<Material>,
+    /// Surface names (OBJ objects/groups, description surfaces and box faces), indexed by `Face::surface`.
     pub surfaces: Vec<String>,
+    /// The faces the mesher subdivides.
     pub faces: Vec<Face>,
     /// Non-fatal problems found while importing (each names file and line).
     pub warnings: Vec<String>,
+    /// Mesh sizes the scene description suggests (explicit flags win over them).
     pub hints: SizeHints,
     /// Exact-duplicate detection: sorted quantised vertices → face index.
     seen: HashMap<Vec<[i64; 3]>, usize>,
 }
 
 impl Scene {
-    pub fn new(name: impl Into<String>) -> Self {
+    pub(crate) fn new(name: impl Into<String>) -> Self {
         Self {
             name: name.into(),
             ..Self::default()
@@ -94,7 +108,7 @@ impl Scene {
     }
 
     /// Index of a surface, added if new.
-    pub fn surface(&mut self, name: &str) -> usize {
+    pub(crate) fn surface(&mut self, name: &str) -> usize {
         match self.surfaces.iter().position(|s| s == name) {
             Some(i) => i,
             None => {
@@ -105,7 +119,7 @@ impl Scene {
     }
 
     /// Adds a material (validated); `location` names where it was defined.
-    pub fn add_material(&mut self, material: Material, location: &str) -> Result<usize> {
+    pub(crate) fn add_material(&mut self, material: Material, location: &str) -> Result<usize> {
         material.validate(location)?;
         self.materials.push(material);
         Ok(self.materials.len() - 1)
@@ -114,7 +128,7 @@ impl Scene {
     /// Adds a polygon (any vertex count, counter-clockwise front), splitting it into planar
     /// convex pieces of 3 or 4 vertices. Non-finite coordinates are an error; degenerate and
     /// duplicate faces are dropped with a warning.
-    pub fn add_polygon(
+    pub(crate) fn add_polygon(
         &mut self,
         vertices: &[DVec3],
         material: usize,
@@ -160,7 +174,7 @@ impl Scene {
     }
 
     /// Axis-aligned bounding box of all faces.
-    pub fn bounds(&self) -> (DVec3, DVec3) {
+    pub(crate) fn bounds(&self) -> (DVec3, DVec3) {
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
         for f in &self.faces {
@@ -179,7 +193,7 @@ impl Scene {
     }
 
     /// Checks the scene can be baked: at least one face, materials valid.
-    pub fn validate(&self, location: &str) -> Result<()> {
+    pub(crate) fn validate(&self, location: &str) -> Result<()> {
         if self.faces.is_empty() {
             return Err(Error::scene(
                 location,
@@ -204,7 +218,7 @@ impl Scene {
     }
 
     /// True when every reflectance is grey (r = g = b): the bake then needs one channel.
-    pub fn is_grey(&self) -> bool {
+    pub(crate) fn is_grey(&self) -> bool {
         self.faces.iter().all(|f| {
             let r = self.materials[f.material].reflectance;
             r[0] == r[1] && r[1] == r[2]

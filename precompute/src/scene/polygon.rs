@@ -10,7 +10,7 @@ const DEGENERATE_TOLERANCE: f64 = 1e-14;
 
 /// Splits a polygon (counter-clockwise front) into planar convex pieces of 3 or 4 vertices.
 /// Returns `None` when it has no area.
-pub fn split_convex(input: &[DVec3]) -> Option<Vec<Vec<DVec3>>> {
+pub(super) fn split_convex(input: &[DVec3]) -> Option<Vec<Vec<DVec3>>> {
     let v = dedup(input);
     if v.len() < 3 {
         return None;
@@ -118,7 +118,7 @@ fn in_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3, n: DVec3) -> bool {
 }
 
 /// Key identifying a face by its vertex set and side, for duplicate detection.
-pub fn duplicate_key(p: &Polygon) -> Vec<[i64; 3]> {
+pub(super) fn duplicate_key(p: &Polygon) -> Vec<[i64; 3]> {
     let q = p.scale * 1e-9;
     let quantise = |v: &DVec3| {
         [

@@ -116,7 +116,7 @@ pub const MAX_SPHERE_SUBDIVISIONS: u32 = 6;
 /// A dense mesh for the clustering path: an icosphere of `20·4^subdivisions` small triangles
 /// (radius 0.25, floating at the centre of a closed unit room, y up) lit by a square light in
 /// the ceiling. Its triangles are smaller than the elements and patches, so 2MF and 2MSC build
-/// its patches by clustering ([`crate::patches::cluster`]).
+/// its patches by clustering (`patches::cluster`).
 pub fn dense_sphere(subdivisions: u32) -> SceneDescription {
     let mut d = empty(format!("dense sphere subdivisions={subdivisions}"));
     d.materials.push(grey("wall", 0.7, 0.0));

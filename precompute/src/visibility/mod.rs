@@ -1,6 +1,6 @@
 //! Visibility between sample points: ray casts against the scene's faces.
 //!
-//! The default backend is [`obvhs`] (pure Rust). With the cargo feature `embree`, [`embree`]
+//! The default backend is [`obvhs`] (pure Rust). With the cargo feature `embree`, `embree`
 //! answers the same queries through Embree 4 (`lrr bake --visibility embree`). A segment query
 //! asks whether anything blocks the open segment between two surface points: the faces the
 //! points lie on never count (nor coincident back faces), every other face does, at any scale.
@@ -12,15 +12,15 @@
 //! rays at all.
 
 #[cfg(feature = "embree")]
-pub mod embree;
+mod embree;
 pub mod obvhs;
-pub mod occluder;
-pub mod watertight;
+mod occluder;
+mod watertight;
 
 use crate::error::Result;
 use crate::scene::Scene;
 
-pub use occluder::{Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, Segment};
+pub use occluder::{Occluder, Segment};
 
 /// Which implementation answers the occlusion queries of a bake (`--visibility`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -62,7 +62,7 @@ impl Backend {
 }
 
 /// What `--visibility embree` says in a build without the feature.
-pub const EMBREE_MISSING: &str = "--visibility embree: this lrr was built without Embree; \
+pub(crate) const EMBREE_MISSING: &str = "--visibility embree: this lrr was built without Embree; \
     run scripts/setup-embree.sh, then rebuild with `cargo build --release --features embree` \
     (or use the default --visibility obvhs)";
 

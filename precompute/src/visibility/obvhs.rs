@@ -2,9 +2,9 @@
 //!
 //! Build settings: obvhs' `medium_build` preset with `search_depth_threshold = 0`. The stock
 //! value (3) made traversal of grid-tessellated walls about 30× slower in our measurements.
-//! Triangles are tested with the watertight test of [`super::watertight`], not obvhs' own.
+//! Triangles are tested with the watertight test of `watertight`, not obvhs' own.
 //! Coordinates are shifted to the scene's centre before the f32 conversion to keep precision,
-//! and scaled by a power of two to a diagonal of 2048..4096 (see [`F32_DIAGONAL`]).
+//! and scaled by a power of two to a diagonal of 2048..4096 (see `F32_DIAGONAL`).
 //!
 //! The BVH only proposes candidates; every decision is the exact f64 test, so the traversal
 //! must never cull a face the exact test would call crossed. Before the scaling it did: obvhs'
@@ -45,6 +45,7 @@ use crate::scene::Scene;
 /// face, a wall it stands on) are now always candidates; the own-face rule answers those.
 const F32_DIAGONAL: f64 = 4096.0;
 
+/// The default occluder: an obvhs BVH (f32 traversal) with the exact f64 triangle test.
 pub struct ObvhsOccluder {
     bvh: CwBvh,
     /// The triangles in f64 (relative to `centre`) in BVH primitive order, for the exact test.
@@ -133,6 +134,7 @@ impl ObvhsOccluder {
         own_face(self.planes[id], self.plane_tolerance, p, normal)
     }
 
+    /// Number of triangles in the BVH (quads count twice).
     pub fn triangle_count(&self) -> usize {
         self.exact.len()
     }

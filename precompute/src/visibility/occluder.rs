@@ -11,16 +11,17 @@ use crate::geometry::Polygon;
 /// [`PLANE_TOLERANCE`]). Excluding a relative 1e-4 of each end (the first design) let a point
 /// sampled within 1e-4 of a wall's foot see through the wall: a 5e-5 leak into a closed room
 /// behind a zero-thickness wall.
-pub const SEGMENT_EPSILON: f32 = 1e-9;
+pub(super) const SEGMENT_EPSILON: f32 = 1e-9;
 
 /// Distance, relative to the scene's bounding-box diagonal, under which a segment's end point
 /// counts as lying in the plane of a face parallel to its own surface: that face is its own
 /// (or a coincident back face) and cannot block the segment.
-pub const PLANE_TOLERANCE: f64 = 1e-6;
+pub(super) const PLANE_TOLERANCE: f64 = 1e-6;
 
 /// Answers "is the segment between two surface points blocked?". The normals are those of
 /// the surfaces the points lie on.
 pub trait Occluder: Sync {
+    /// Whether anything blocks the open segment `from → to`, ignoring the faces its end points lie on.
     fn occluded(&self, from: DVec3, from_normal: DVec3, to: DVec3, to_normal: DVec3) -> bool;
 
     /// Answers [`Occluder::occluded`] for a bundle of segments from points of polygon `e` to
@@ -79,6 +80,8 @@ pub(crate) fn relative_segment(
 /// A line of sight between a point of an element and a point of a target.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Segment {
+    /// Start point, on the element, in scene units.
     pub from: DVec3,
+    /// End point, on the target, in scene units.
     pub to: DVec3,
 }

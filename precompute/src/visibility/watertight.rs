@@ -13,7 +13,7 @@ use glam::DVec3;
 
 /// A ray prepared for watertight tests: the permutation and shear of ray space.
 #[derive(Debug, Clone, Copy)]
-pub struct ShearedRay {
+pub(super) struct ShearedRay {
     origin: DVec3,
     k: [usize; 3],
     shear: [f64; 3],
@@ -22,7 +22,7 @@ pub struct ShearedRay {
 }
 
 impl ShearedRay {
-    pub fn new(origin: DVec3, direction: DVec3, tmin: f64, tmax: f64) -> Self {
+    pub(super) fn new(origin: DVec3, direction: DVec3, tmin: f64, tmax: f64) -> Self {
         let a = direction.abs();
         let kz = if a.x >= a.y && a.x >= a.z {
             0
@@ -47,7 +47,7 @@ impl ShearedRay {
     }
 
     /// Distance to the hit within `[tmin, tmax]`, or `None`.
-    pub fn hit(&self, v0: DVec3, v1: DVec3, v2: DVec3) -> Option<f64> {
+    pub(super) fn hit(&self, v0: DVec3, v1: DVec3, v2: DVec3) -> Option<f64> {
         let [kx, ky, kz] = self.k;
         let [sx, sy, sz] = self.shear;
         let (a, b, c) = (v0 - self.origin, v1 - self.origin, v2 - self.origin);
