@@ -72,6 +72,8 @@ thread_local! {
     static QUERY: Cell<*const Query> = const { Cell::new(std::ptr::null()) };
 }
 
+/// Embree 4's scene over the faces (one triangle geometry, quads as two triangles) with the
+/// exact f64 triangles the occlusion filter tests against.
 pub struct EmbreeOccluder {
     device: sys::RTCDevice,
     scene: sys::RTCScene,
@@ -191,6 +193,7 @@ impl EmbreeOccluder {
         }
     }
 
+    /// Triangles in the scene (quads count two).
     pub fn triangle_count(&self) -> usize {
         self.exact.tris.len()
     }

@@ -12,7 +12,7 @@
 //! rays at all.
 
 #[cfg(feature = "embree")]
-mod embree;
+pub mod embree;
 pub mod obvhs;
 mod occluder;
 mod watertight;
@@ -62,7 +62,8 @@ impl Backend {
 }
 
 /// What `--visibility embree` says in a build without the feature.
-pub(crate) const EMBREE_MISSING: &str = "--visibility embree: this lrr was built without Embree; \
+#[cfg(not(feature = "embree"))]
+const EMBREE_MISSING: &str = "--visibility embree: this lrr was built without Embree; \
     run scripts/setup-embree.sh, then rebuild with `cargo build --release --features embree` \
     (or use the default --visibility obvhs)";
 
