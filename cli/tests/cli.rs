@@ -31,3 +31,97 @@ fn help_and_version_succeed() {
         assert!(!out.stdout.is_empty());
     }
 }
+
+/// Runs `lrr ARGS…` with extra environment variables; returns (status, stdout, stderr).
+fn lrr(args: &[&str], env: &[(&str, &str)]) -> (Option<i32>, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_lrr"))
+        .args(args)
+        .envs(env.iter().copied())
+        .output()
+        .unwrap();
+    let text = |b: Vec<u8>| String::from_utf8(b).unwrap();
+    (out.status.code(), text(out.stdout), text(out.stderr))
+}
+
+/// A baked furnace and a few probe points in a fresh folder.
+fn furnace_and_points(name: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("lrr-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (scene, file, points) = (dir.join("f.toml"), dir.join("f.lrr"), dir.join("p.json"));
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let (code, _, err) = lrr(&["scene", "furnace", "-o", &s(&scene)], &[]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, _, err) = lrr(&["bake", &s(&scene), "-o", &s(&file), "-q"], &[]);
+    assert_eq!(code, Some(0), "{err}");
+    std::fs::write(
+        &points,
+        r#"[{"position":[0.5,0.5,0.0],"normal":[0,0,1]},{"position":[0.25,0.0,0.75],"normal":[0,1,0]}]"#,
+    )
+    .unwrap();
+    (file, points)
+}
+
+fn radiosity(json: &str) -> Vec<f64> {
+    let v: serde_json::Value = serde_json::from_str(json).unwrap();
+    v.as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|p| p["radiosity"].as_array().unwrap().clone())
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+/// Hides every Vulkan driver from wgpu (and every other backend), whatever the machine has.
+const NO_ADAPTER: [(&str, &str); 3] = [
+    ("WGPU_BACKEND", "vulkan"),
+    ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
+    ("VK_DRIVER_FILES", "/nonexistent/icd.json"),
+];
+
+#[test]
+fn probe_without_an_adapter_fails_for_gpu_and_falls_back_for_auto() {
+    let (file, points) = furnace_and_points("no-adapter");
+    let (f, p) = (file.to_str().unwrap(), points.to_str().unwrap());
+    let (code, cpu, err) = lrr(&["probe", f, "--points", p, "--json"], &[]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, _, err) = lrr(&["probe", f, "--points", p, "--device", "gpu"], &NO_ADAPTER);
+    assert_eq!(code, Some(1));
+    let last = err.lines().last().unwrap_or("");
+    assert!(last.starts_with("lrr: error: --device gpu: "), "{err}");
+    assert!(
+        last.contains("apt-get install mesa-vulkan-drivers"),
+        "{err}"
+    );
+    let (code, auto, err) = lrr(
+        &["probe", f, "--points", p, "--json", "--device", "auto"],
+        &NO_ADAPTER,
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("lrr: note: --device auto: evaluating on the CPU"),
+        "{err}"
+    );
+    assert_eq!(auto, cpu);
+}
+
+#[test]
+#[ignore = "needs a Vulkan adapter: scripts/test runs it with --ignored where lavapipe is installed"]
+fn probe_on_the_gpu_matches_the_cpu() {
+    let (file, points) = furnace_and_points("gpu");
+    let (f, p) = (file.to_str().unwrap(), points.to_str().unwrap());
+    let (code, cpu, err) = lrr(&["probe", f, "--points", p, "--json"], &[]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, gpu, err) = lrr(
+        &["probe", f, "--points", p, "--json", "--device", "gpu"],
+        &[],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    if let Ok(expected) = std::env::var("LRR_EXPECT_ADAPTER") {
+        assert!(err.contains(&format!("evaluating on {expected}")), "{err}");
+    }
+    let (cpu, gpu) = (radiosity(&cpu), radiosity(&gpu));
+    assert_eq!(cpu.len(), gpu.len());
+    for (c, g) in cpu.iter().zip(&gpu) {
+        assert!((c - g).abs() <= 1e-5 * c.abs(), "cpu {c} gpu {g}");
+    }
+}
