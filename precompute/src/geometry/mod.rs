@@ -9,5 +9,7 @@ mod polygon;
 mod region;
 pub mod sampling;
 
+#[cfg(test)]
+pub(crate) use polygon::rectangle;
 pub use polygon::{Polygon, area_vector};
 pub use region::Region;

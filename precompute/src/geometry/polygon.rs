@@ -107,3 +107,19 @@ pub fn area_vector(v: &[DVec3]) -> DVec3 {
     }
     s
 }
+
+/// An axis-aligned rectangle `[x0, x1] × [y0, y1]` at height `z`, facing +z (or −z when
+/// `down`): the fixture of the geometry and form-factor unit tests.
+#[cfg(test)]
+pub(crate) fn rectangle(x0: f64, x1: f64, y0: f64, y1: f64, z: f64, down: bool) -> Polygon {
+    let mut v = vec![
+        DVec3::new(x0, y0, z),
+        DVec3::new(x1, y0, z),
+        DVec3::new(x1, y1, z),
+        DVec3::new(x0, y1, z),
+    ];
+    if down {
+        v.reverse();
+    }
+    Polygon::new(&v).unwrap()
+}

@@ -104,19 +104,7 @@ impl Region {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn square(x0: f64, x1: f64, y0: f64, y1: f64, z: f64, down: bool) -> Polygon {
-        let mut v = vec![
-            DVec3::new(x0, y0, z),
-            DVec3::new(x1, y0, z),
-            DVec3::new(x1, y1, z),
-            DVec3::new(x0, y1, z),
-        ];
-        if down {
-            v.reverse();
-        }
-        Polygon::new(&v).unwrap()
-    }
+    use crate::geometry::rectangle as square;
 
     #[test]
     fn pair_points_cover_parts_by_area() {
