@@ -55,6 +55,13 @@ pub struct RuntimeBench {
     /// Print JSON rows instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// `cpu`: the table above. `gpu`: the wgpu evaluator on the best adapter (GPU time and end
+    /// to end, a plain read kernel over the same bytes, the CPU path, the papers' hybrid), an
+    /// error naming the adapters found when none is usable. `auto`: the GPU when usable.
+    #[arg(long, value_enum, default_value_t = crate::probe::Device::Cpu)]
+    pub device: crate::probe::Device,
+    #[command(flatten)]
+    pub gpu: crate::bench_gpu::GpuBenchArgs,
 }
 
 /// One measured size.
@@ -89,6 +96,9 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
         BenchKind::Runtime(b) => b,
         BenchKind::Visibility(v) => return crate::bench_visibility::run(v, out),
     };
+    if b.device != crate::probe::Device::Cpu && crate::bench_gpu::run(b, out)? {
+        return Ok(());
+    }
     let threads = b
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
@@ -128,7 +138,7 @@ fn report_progress(r: &Row) {
     );
 }
 
-fn precisions(names: &[String]) -> Result<Vec<Precision>> {
+pub(crate) fn precisions(names: &[String]) -> Result<Vec<Precision>> {
     names
         .iter()
         .map(|p| match p.as_str() {
@@ -139,7 +149,7 @@ fn precisions(names: &[String]) -> Result<Vec<Precision>> {
         .collect()
 }
 
-fn parse_size(s: &str) -> Result<(usize, usize)> {
+pub(crate) fn parse_size(s: &str) -> Result<(usize, usize)> {
     let (n, k) = s
         .split_once('x')
         .with_context(|| format!("size '{s}' must look like 221184x216"))?;
@@ -158,7 +168,7 @@ fn parse_size(s: &str) -> Result<(usize, usize)> {
 }
 
 /// The bundled Cornell box, baked in-process with default settings.
-fn cornell_operator() -> Result<Operator> {
+pub(crate) fn cornell_operator() -> Result<Operator> {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../scenes/cornell-box/cornell-box.toml");
     let scene = lrr_precompute::scene::load(&path)?;
@@ -173,7 +183,7 @@ fn cornell_operator() -> Result<Operator> {
 }
 
 /// The same operator with F_k stored in another precision.
-fn recast(op: &Operator, p: Precision) -> Result<Operator> {
+pub(crate) fn recast(op: &Operator, p: Precision) -> Result<Operator> {
     let mut file = op.file().clone();
     lrr_precompute::write::store_matrix_as(&mut file, p);
     Ok(Operator::from_file(file)?)

@@ -13,6 +13,7 @@
 mod accuracy;
 mod bake;
 mod bench;
+mod bench_gpu;
 mod bench_visibility;
 mod info;
 mod probe;

@@ -37,7 +37,7 @@ pub enum Device {
 }
 
 /// An error's message on one line (the command line's errors are one line each).
-fn one_line(e: &GpuError) -> String {
+pub(crate) fn one_line(e: &GpuError) -> String {
     e.to_string()
         .split_whitespace()
         .collect::<Vec<_>>()

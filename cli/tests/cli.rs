@@ -125,3 +125,92 @@ fn probe_on_the_gpu_matches_the_cpu() {
         assert!((c - g).abs() <= 1e-5 * c.abs(), "cpu {c} gpu {g}");
     }
 }
+
+#[test]
+fn bench_runtime_without_an_adapter_fails_for_gpu_and_falls_back_for_auto() {
+    let args = |device: &'static str| {
+        [
+            "bench",
+            "runtime",
+            "--sizes",
+            "600x20",
+            "--precisions",
+            "f32",
+            "--no-cornell",
+            "--rounds",
+            "1",
+            "--seconds",
+            "0.01",
+            "--device",
+            device,
+        ]
+    };
+    let (code, _, err) = lrr(&args("gpu"), &NO_ADAPTER);
+    assert_eq!(code, Some(1), "{err}");
+    let last = err.lines().last().unwrap_or("");
+    assert!(last.starts_with("lrr: error: --device gpu: "), "{err}");
+    let (code, out, err) = lrr(&args("auto"), &NO_ADAPTER);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("lrr: note: --device auto: benchmarking the CPU"),
+        "{err}"
+    );
+    assert!(out.contains("600"), "the CPU table: {out}");
+}
+
+#[test]
+#[ignore = "needs a Vulkan adapter: scripts/test runs it with --ignored where lavapipe is installed"]
+fn bench_runtime_on_the_gpu_reports_every_column() {
+    let (code, out, err) = lrr(
+        &[
+            "bench",
+            "runtime",
+            "--device",
+            "gpu",
+            "--sizes",
+            "3000x40",
+            "--precisions",
+            "f32,f16",
+            "--no-cornell",
+            "--frames",
+            "2",
+            "--bounds-checks",
+            "--json",
+        ],
+        &[],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let rows: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 2, "{out}");
+    for (row, precision) in rows.iter().zip(["f32", "f16"]) {
+        assert_eq!(row["precision"], precision);
+        assert_eq!(
+            (row["n"].as_u64(), row["k"].as_u64()),
+            (Some(3000), Some(40))
+        );
+        if let Ok(expected) = std::env::var("LRR_EXPECT_ADAPTER") {
+            let adapter = row["adapter"].as_str().unwrap().to_lowercase();
+            assert!(adapter.contains(&expected.to_lowercase()), "{row}");
+        }
+        for column in [
+            "end_to_end_fps",
+            "cpu_fps",
+            "speedup_end_to_end",
+            "pipelined_fps",
+            "hybrid_end_to_end_fps",
+            "hybrid_pipelined_fps",
+            "hybrid_gain",
+            "bounds_check_cost",
+        ] {
+            let v = row[column].as_f64();
+            assert!(
+                v.is_some_and(|v| v > 0.0 && v.is_finite()),
+                "{column}: {row}"
+            );
+        }
+        // Rows of 40 entries padded to 40 (a multiple of 8), 4 or 2 bytes each.
+        let size = if precision == "f32" { 4 } else { 2 };
+        assert_eq!(row["matrix_bytes"].as_u64(), Some(3000 * 40 * size));
+    }
+}

@@ -200,6 +200,53 @@ fn operators_over_128_mib_are_chunked_and_match_the_cpu() {
     }
 }
 
+/// The papers' hybrid (sums and cores on the CPU, the gather on the GPU) gives the CPU's frame:
+/// every layout, channel count and precision, a chunked operator, an albedo edit, and frames
+/// submitted back to back (each frame's `Z` upload must not disturb the previous gather).
+#[test]
+fn hybrid_frames_match_the_cpu() {
+    let check = |op: &Operator, gpu: &Gpu, rho: Option<&[[f32; 3]]>| {
+        let e = emission(op.n(), 9);
+        let mut cpu = op.evaluator(2).unwrap();
+        let mut eval = GpuEvaluator::new(gpu, op).unwrap();
+        if let Some(rho) = rho {
+            cpu.set_reflectance(rho).unwrap();
+            eval.set_reflectance(rho).unwrap();
+        }
+        let (mut want, mut got) = (vec![[0.0f32; 3]; op.n()], vec![[f32::NAN; 3]; op.n()]);
+        cpu.evaluate(Rgb::triples(&e), RgbMut::triples(&mut want))
+            .unwrap();
+        // A different frame first, submitted and not waited for.
+        eval.submit_hybrid(Rgb::triples(&emission(op.n(), 4)))
+            .unwrap();
+        eval.evaluate_hybrid(Rgb::triples(&e), RgbMut::triples(&mut got))
+            .unwrap();
+        let w = worst(&got, &want);
+        assert!(
+            w <= 1e-5,
+            "hybrid, {}: worst relative {w:e}",
+            eval.describe()
+        );
+        assert!(eval.last_timing().is_some());
+    };
+    for layout in [Layout::Factored, Layout::PlainYk] {
+        for channels in [1, 3] {
+            for precision in [Precision::F32, Precision::F16] {
+                let op = synthetic::operator(2100, 37, channels, precision, layout, 5).unwrap();
+                check(&op, gpu(), None);
+            }
+        }
+    }
+    let op = synthetic::operator(1500, 25, 3, Precision::F32, Layout::Factored, 3).unwrap();
+    check(&op, gpu(), Some(&vec![[0.6, 0.3, 0.2]; op.n()]));
+    let small_chunks = open(&GpuOptions {
+        max_chunk_bytes: Some(64 * 1024),
+        ..GpuOptions::default()
+    });
+    let op = synthetic::operator(3000, 40, 3, Precision::F16, Layout::Factored, 8).unwrap();
+    check(&op, &small_chunks, None);
+}
+
 #[test]
 fn albedo_edits_match_the_cpu() {
     let op = synthetic::operator(1500, 25, 1, Precision::F32, Layout::Factored, 3).unwrap();

@@ -1,5 +1,5 @@
 //! Frame rates of the GPU path against a plain read of the same bytes and the CPU path, all
-//! measured in one run (for `lrr bench runtime --device gpu` and `examples/gpu_bench.rs`).
+//! measured in one run (for `lrr bench runtime --device gpu`).
 
 use std::time::{Duration, Instant};
 
@@ -26,6 +26,17 @@ pub struct GpuBench {
     pub gpu_read: Option<Duration>,
     /// A frame of the CPU [`Evaluator`](crate::Evaluator) with every core.
     pub cpu_frame: Duration,
+    /// Wall time per frame of `frames` frames submitted back to back with no readback and
+    /// waited for once (a renderer's steady state: uploads overlap the previous frames).
+    pub pipelined: Duration,
+    /// The papers' hybrid ([`GpuEvaluator::evaluate_hybrid`]): sums and cores on the CPU, the
+    /// gather on the GPU; a frame end to end.
+    pub hybrid_end_to_end: Duration,
+    /// The hybrid's GPU time (the gather alone) by timestamp queries.
+    pub hybrid_gpu: Option<Duration>,
+    /// [`pipelined`](Self::pipelined) for the hybrid: the CPU computes the next frame's `Z`
+    /// while the GPU gathers the previous one.
+    pub hybrid_pipelined: Duration,
     /// The kernels in use ([`GpuEvaluator::describe`]).
     pub kernels: String,
 }
@@ -51,6 +62,11 @@ impl GpuBench {
         self.cpu_frame.as_secs_f64() / self.gpu_frame.unwrap_or(self.end_to_end).as_secs_f64()
     }
 
+    /// Full-GPU pipelined frame time / hybrid pipelined frame time: above 1, the hybrid wins.
+    pub fn hybrid_gain(&self) -> f64 {
+        self.pipelined.as_secs_f64() / self.hybrid_pipelined.as_secs_f64()
+    }
+
     /// CPU frame time / GPU end-to-end time.
     pub fn speedup_end_to_end(&self) -> f64 {
         self.cpu_frame.as_secs_f64() / self.end_to_end.as_secs_f64()
@@ -63,7 +79,9 @@ fn median(mut v: Vec<Duration>) -> Duration {
 }
 
 /// Measures `frames` (at least 1) frames of `op` with its baked emission: GPU frames, read
-/// passes and CPU frames alternate, so all see the same machine; one warm-up of each first.
+/// passes, hybrid frames and CPU frames alternate, so all see the same machine; one warm-up of
+/// each first. Then `frames` pipelined frames of the full GPU path and of the hybrid, twice
+/// each, alternated (the faster of the two runs of each).
 pub fn bench_operator(gpu: &Gpu, op: &Operator, frames: usize) -> Result<GpuBench, GpuError> {
     let mut eval = GpuEvaluator::new(gpu, op)?;
     let mut cpu = op.evaluator(0)?;
@@ -73,18 +91,36 @@ pub fn bench_operator(gpu: &Gpu, op: &Operator, frames: usize) -> Result<GpuBenc
         eval.evaluate(Rgb::triples(&e), RgbMut::triples(&mut out))?;
         Ok(eval.last_timing().expect("set by evaluate"))
     };
+    let hybrid = |eval: &mut GpuEvaluator, out: &mut [[f32; 3]]| {
+        eval.evaluate_hybrid(Rgb::triples(&e), RgbMut::triples(out))?;
+        Ok::<_, GpuError>(eval.last_timing().expect("set by evaluate_hybrid"))
+    };
+    let mut cpu_out = vec![[0.0f32; 3]; op.n()];
     frame(&mut eval)?;
     eval.read_pass()?;
+    hybrid(&mut eval, &mut cpu_out)?;
     let (mut gpu_t, mut e2e, mut read, mut cpu_t) = (vec![], vec![], vec![], vec![]);
-    let mut cpu_out = vec![[0.0f32; 3]; op.n()];
+    let (mut hybrid_gpu, mut hybrid_e2e) = (vec![], vec![]);
     for _ in 0..frames.max(1) {
         let t = frame(&mut eval)?;
         gpu_t.extend(t.gpu);
         e2e.push(t.end_to_end);
         read.extend(eval.read_pass()?.gpu);
+        let t = hybrid(&mut eval, &mut cpu_out)?;
+        hybrid_gpu.extend(t.gpu);
+        hybrid_e2e.push(t.end_to_end);
         let start = Instant::now();
         cpu.evaluate(Rgb::triples(&e), RgbMut::triples(&mut cpu_out))?;
         cpu_t.push(start.elapsed());
+    }
+    let (mut pipelined, mut hybrid_pipelined) = (Duration::MAX, Duration::MAX);
+    for _ in 0..2 {
+        pipelined = pipelined.min(per_frame(&mut eval, frames, |ev| {
+            ev.submit(Rgb::triples(&e))
+        })?);
+        hybrid_pipelined = hybrid_pipelined.min(per_frame(&mut eval, frames, |ev| {
+            ev.submit_hybrid(Rgb::triples(&e))
+        })?);
     }
     let some = |v: Vec<Duration>| (!v.is_empty()).then(|| median(v));
     Ok(GpuBench {
@@ -95,6 +131,27 @@ pub fn bench_operator(gpu: &Gpu, op: &Operator, frames: usize) -> Result<GpuBenc
         end_to_end: median(e2e),
         gpu_read: some(read),
         cpu_frame: median(cpu_t),
+        pipelined,
+        hybrid_end_to_end: median(hybrid_e2e),
+        hybrid_gpu: some(hybrid_gpu),
+        hybrid_pipelined,
         kernels: eval.describe(),
     })
+}
+
+/// Wall time per frame of `frames` (at least 1) frames submitted by `submit` back to back and
+/// waited for once.
+fn per_frame(
+    eval: &mut GpuEvaluator,
+    frames: usize,
+    mut submit: impl FnMut(&mut GpuEvaluator) -> Result<(), GpuError>,
+) -> Result<Duration, GpuError> {
+    eval.wait()?;
+    let frames = frames.max(1);
+    let start = Instant::now();
+    for _ in 0..frames {
+        submit(eval)?;
+    }
+    eval.wait()?;
+    Ok(start.elapsed() / frames as u32)
 }

@@ -111,6 +111,22 @@ impl OperatorBuffers {
         let kp = lrr_shaders::padded_k(k);
         let factored = matches!(file.operator, OperatorData::Factored { .. });
         let blocks = if factored { 1 } else { file.channels };
+        let (n64, k64, kp64) = (u64::from(n), u64::from(k), u64::from(kp));
+        let lit: u64 = file.lights.iter().map(|g| g.positions.len() as u64).sum();
+        check_fits(
+            &[
+                ("core (k × k per channel)", 4 * k64 * kp64),
+                ("index", 4 * (k64 + 1)),
+                ("weights", 4 * n64),
+                ("order", 4 * n64),
+                ("emission", 12 * n64),
+                ("radiosity", 12 * n64),
+                ("light-group sums", 12 * kp64 * file.lights.len() as u64),
+                ("light-group emission", 12 * lit),
+            ],
+            gpu.max_binding_bytes(),
+            &gpu.info.name,
+        )?;
         let groups = groups(gpu, file, kp as usize);
         let params = Params {
             n,
@@ -147,8 +163,9 @@ impl OperatorBuffers {
             ),
             cores,
             chunks,
-            x: zeros(gpu, "x", 3 * kp as usize, wgpu::BufferUsages::empty()),
-            z: zeros(gpu, "z", 3 * kp as usize, wgpu::BufferUsages::empty()),
+            // COPY_DST: the hybrid frame uploads Z (X for the plain layout) computed on the CPU.
+            x: zeros(gpu, "x", 3 * kp as usize, wgpu::BufferUsages::COPY_DST),
+            z: zeros(gpu, "z", 3 * kp as usize, wgpu::BufferUsages::COPY_DST),
             groups,
             radiosity: zeros(
                 gpu,
@@ -169,6 +186,19 @@ impl OperatorBuffers {
         }
         gpu.queue
             .write_buffer(&self.reflectance, 0, bytes_of(reflectance));
+    }
+}
+
+/// Refuses an operator whose buffers, other than the stored matrix (which is split into chunks
+/// of rows), do not fit one storage binding of `limit` bytes: wgpu would abort the process.
+fn check_fits(buffers: &[(&str, u64)], limit: u64, adapter: &str) -> Result<(), GpuError> {
+    match buffers.iter().find(|(_, bytes)| *bytes > limit) {
+        None => Ok(()),
+        Some((name, bytes)) => Err(GpuError::Device(format!(
+            "GPU: the {name} buffer needs {bytes} bytes, over the {limit}-byte limit of one \
+             storage binding on {adapter}; only the stored matrix is split into chunks: \
+             evaluate this operator on the CPU"
+        ))),
     }
 }
 
@@ -316,5 +346,24 @@ fn groups(gpu: &Gpu, file: &OperatorFile, kp: usize) -> Groups {
         members: storage(gpu, "group members", &members, none),
         member_emission: storage(gpu, "group emission", &emission, none),
         emission: zeros(gpu, "emission of the groups", 3 * file.n as usize, none),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn buffers_over_the_binding_limit_are_refused_by_name() {
+        let fits = [("core (k × k per channel)", 100), ("radiosity", 128)];
+        assert_eq!(check_fits(&fits, 128, "gpu"), Ok(()));
+        let over = [("core (k × k per channel)", 100), ("radiosity", 129)];
+        let e = check_fits(&over, 128, "llvmpipe").unwrap_err().to_string();
+        assert!(e.contains("radiosity buffer needs 129 bytes"), "{e}");
+        assert!(
+            e.contains("128-byte limit") && e.contains("llvmpipe"),
+            "{e}"
+        );
+        assert!(e.contains("on the CPU"), "{e}");
     }
 }

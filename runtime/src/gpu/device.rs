@@ -151,6 +151,12 @@ impl Gpu {
         &self.info.name
     }
 
+    /// Whether the adapter runs on the CPU (lavapipe, SwiftShader): its timings say nothing
+    /// about a GPU.
+    pub fn is_cpu(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
     /// The adapter in one line: name, backend, type, driver, and the features in use.
     pub fn describe(&self) -> String {
         let has = |f: wgpu::Features| self.device.features().contains(f);
@@ -213,6 +219,12 @@ impl Gpu {
     }
 
     /// The largest chunk of the stored matrix one buffer and binding may hold, in bytes.
+    /// The largest buffer that can be bound whole: the adapter's binding and buffer limits.
+    pub(super) fn max_binding_bytes(&self) -> u64 {
+        let binding = self.limits.max_storage_buffer_binding_size;
+        binding.min(self.limits.max_buffer_size)
+    }
+
     pub(super) fn max_chunk_bytes(&self) -> u64 {
         let binding = self.limits.max_storage_buffer_binding_size;
         let limit = binding.min(self.limits.max_buffer_size);

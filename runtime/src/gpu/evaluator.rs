@@ -12,6 +12,8 @@ use super::common::{GpuError, bytes_of, bytes_of_mut};
 use super::device::Gpu;
 use super::pipelines::Pipelines;
 use crate::error::input;
+use crate::frame::Frame;
+use crate::kernel::SimdLevel;
 use crate::operator::Operator;
 use crate::rgb::{Rgb, RgbMut};
 
@@ -37,6 +39,17 @@ enum Source {
     Slot(usize),
     /// Light-group intensities, in upload slot `i`.
     Groups(usize),
+    /// The caller's emission in upload slot `i`, and `Z` computed on the CPU (the hybrid).
+    Hybrid(usize),
+}
+
+/// The CPU half of the papers' hybrid frame: `X = Vᵀ E` and `Z_c = M_c X_c` on the calling
+/// thread, the O(nk) gather on the GPU. Built on the first hybrid frame.
+struct Hybrid {
+    frame: Frame,
+    x: Vec<[f64; 3]>,
+    z: Vec<f32>,
+    simd: SimdLevel,
 }
 
 /// One of the two upload slots: its buffers and the bind groups that read them.
@@ -81,6 +94,9 @@ pub struct GpuEvaluator {
     /// Planar emission interleaved for upload.
     scratch: Vec<f32>,
     timing: Option<FrameTiming>,
+    hybrid: Option<Hybrid>,
+    /// The last albedo edit, for a hybrid frame built after it.
+    edited: Option<(crate::albedo::Albedo, Vec<[f32; 3]>)>,
 }
 
 impl std::fmt::Debug for GpuEvaluator {
@@ -164,6 +180,8 @@ impl GpuEvaluator {
             timestamps,
             scratch: Vec::new(),
             timing: None,
+            hybrid: None,
+            edited: None,
         })
     }
 
@@ -291,6 +309,30 @@ impl GpuEvaluator {
         Ok(())
     }
 
+    /// [`evaluate`](Self::evaluate) as the papers' hybrid: the segment sums and the core
+    /// product on the calling thread (f64, as the CPU [`Evaluator`](crate::Evaluator)), `Z`
+    /// uploaded beside the emission, the gather on the GPU. The result equals
+    /// [`evaluate`](Self::evaluate)'s to f32 rounding.
+    pub fn evaluate_hybrid(
+        &mut self,
+        emission: Rgb<'_>,
+        mut out: RgbMut<'_>,
+    ) -> Result<(), GpuError> {
+        let start = Instant::now();
+        out.check(self.buffers.n as usize, "output")?;
+        let source = self.upload_hybrid(&emission)?;
+        self.run(source, true);
+        self.read_back(&mut out, start)
+    }
+
+    /// [`submit`](Self::submit) as the hybrid: returns once the gather is submitted, so the
+    /// caller's thread computes the next frame's sums while the GPU runs this one's gather.
+    pub fn submit_hybrid(&mut self, emission: Rgb<'_>) -> Result<(), GpuError> {
+        let source = self.upload_hybrid(&emission)?;
+        self.run(source, false);
+        Ok(())
+    }
+
     /// Waits until every submitted frame is done.
     pub fn wait(&self) -> Result<(), GpuError> {
         self.gpu.wait()
@@ -320,6 +362,10 @@ impl GpuEvaluator {
             edit.channels as u32,
             &edit.reflectance,
         );
+        if let Some(h) = &mut self.hybrid {
+            h.frame.set_albedo(edit.clone(), rho);
+        }
+        self.edited = Some((edit, rho.to_vec()));
         Ok(())
     }
 
@@ -416,6 +462,41 @@ impl GpuEvaluator {
         Ok(Source::Slot(slot))
     }
 
+    /// Validates and uploads the emission, computes `Z` on this thread and uploads it where
+    /// the gather reads it (`Z`, or `X` for the plain layout).
+    fn upload_hybrid(&mut self, emission: &Rgb<'_>) -> Result<Source, GpuError> {
+        let (n, k, kp) = (
+            self.buffers.n as usize,
+            self.buffers.k as usize,
+            self.buffers.kp as usize,
+        );
+        emission.check(n, "emission")?;
+        let h = self.hybrid.get_or_insert_with(|| {
+            let mut frame = Frame::new(Arc::clone(&self.file), &[0, n]);
+            if let Some((edit, rho)) = &self.edited {
+                frame.set_albedo(edit.clone(), rho);
+            }
+            Hybrid {
+                frame,
+                x: vec![[0.0; 3]; k],
+                z: vec![0.0; 3 * kp],
+                simd: SimdLevel::detect(),
+            }
+        });
+        h.frame.segment_sums(emission, &mut h.x, h.simd)?;
+        h.frame.core_product(&h.x, &mut h.z, kp);
+        let target = if self.buffers.factored {
+            &self.buffers.z
+        } else {
+            &self.buffers.x
+        };
+        self.gpu.queue.write_buffer(target, 0, bytes_of(&h.z));
+        let Source::Slot(slot) = self.upload(emission)? else {
+            unreachable!("upload fills a slot")
+        };
+        Ok(Source::Hybrid(slot))
+    }
+
     fn upload_groups(&mut self, intensities: &[f32]) -> Result<Source, GpuError> {
         crate::frame::check_intensities(&self.file, intensities)?;
         let slot = self.take_slot();
@@ -467,6 +548,7 @@ impl GpuEvaluator {
                     dispatch(&mut pass, b.k);
                     &slot.gather
                 }
+                Source::Hybrid(i) => &self.slots[i].gather,
                 Source::Groups(i) => {
                     let slot = &self.slots[i];
                     pass.set_pipeline(&p.group_sums);
@@ -480,7 +562,7 @@ impl GpuEvaluator {
                     &slot.gather_groups
                 }
             };
-            if b.factored {
+            if b.factored && !matches!(source, Source::Hybrid(_)) {
                 pass.set_pipeline(&p.core_product);
                 pass.set_bind_group(0, &self.core_product, &[]);
                 dispatch(&mut pass, b.k);
