@@ -4,11 +4,13 @@
 use std::io::Write;
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
+use anyhow::Result;
 use clap::{Args, Subcommand};
 use lrr_runtime::testkit::baseline::DenseV;
 use lrr_runtime::{Evaluator, Layout, Operator, Precision, Rgb, RgbMut};
 use serde::Serialize;
+
+use crate::bench_operators::{Operators, cornell_operator, parse_size, precisions, recast};
 
 #[derive(Debug, Args)]
 pub struct BenchArgs {
@@ -96,8 +98,15 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
         BenchKind::Runtime(b) => b,
         BenchKind::Visibility(v) => return crate::bench_visibility::run(v, out),
     };
-    if b.device != crate::probe::Device::Cpu && crate::bench_gpu::run(b, out)? {
-        return Ok(());
+    if b.device != crate::probe::Device::Cpu {
+        let operators = Operators {
+            sizes: &b.sizes,
+            precisions: &b.precisions,
+            cornell: !b.no_cornell,
+        };
+        if crate::bench_gpu::run(&b.gpu, b.device, &operators, b.json, out)? {
+            return Ok(());
+        }
     }
     let threads = b
         .threads
@@ -136,57 +145,6 @@ fn report_progress(r: &Row) {
         "lrr bench: {} {}×{} {} done ({:.1} fps)",
         r.scene, r.n, r.k, r.precision, r.fps
     );
-}
-
-pub(crate) fn precisions(names: &[String]) -> Result<Vec<Precision>> {
-    names
-        .iter()
-        .map(|p| match p.as_str() {
-            "f32" => Ok(Precision::F32),
-            "f16" => Ok(Precision::F16),
-            other => bail!("unknown precision '{other}': use f32 or f16"),
-        })
-        .collect()
-}
-
-pub(crate) fn parse_size(s: &str) -> Result<(usize, usize)> {
-    let (n, k) = s
-        .split_once('x')
-        .with_context(|| format!("size '{s}' must look like 221184x216"))?;
-    let n: usize = n
-        .trim()
-        .parse()
-        .with_context(|| format!("size '{s}': n is not a number"))?;
-    let k: usize = k
-        .trim()
-        .parse()
-        .with_context(|| format!("size '{s}': k is not a number"))?;
-    if k == 0 || k > n {
-        bail!("size '{s}': need 1 <= k <= n");
-    }
-    Ok((n, k))
-}
-
-/// The bundled Cornell box, baked in-process with default settings.
-pub(crate) fn cornell_operator() -> Result<Operator> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../scenes/cornell-box/cornell-box.toml");
-    let scene = lrr_precompute::scene::load(&path)?;
-    let baked = lrr_precompute::bake::bake(
-        &scene,
-        &lrr_precompute::bake::BakeSettings::default(),
-        &lrr_precompute::progress::Progress::hidden(),
-    )?;
-    Ok(Operator::from_file(lrr_precompute::write::operator_file(
-        &baked,
-    ))?)
-}
-
-/// The same operator with F_k stored in another precision.
-pub(crate) fn recast(op: &Operator, p: Precision) -> Result<Operator> {
-    let mut file = op.file().clone();
-    lrr_precompute::write::store_matrix_as(&mut file, p);
-    Ok(Operator::from_file(file)?)
 }
 
 /// Times `frame` repeatedly for about `seconds`; returns seconds per frame.

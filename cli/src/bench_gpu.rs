@@ -10,7 +10,7 @@ use lrr_runtime::gpu::{Gpu, GpuBench, GpuOptions, bench_operator};
 use lrr_runtime::{Layout, Operator, Precision};
 use serde::Serialize;
 
-use crate::bench::{RuntimeBench, cornell_operator, parse_size, precisions, recast};
+use crate::bench_operators::{Operators, cornell_operator, parse_size, precisions, recast};
 use crate::probe::{Device, one_line};
 
 /// Flags of the GPU benchmark.
@@ -102,14 +102,20 @@ fn precision_name(p: Precision) -> &'static str {
 
 /// Runs the GPU benchmark. `Ok(false)`: `--device auto` found no usable adapter and said so;
 /// the caller benchmarks the CPU instead.
-pub fn run(b: &RuntimeBench, out: &mut dyn Write) -> Result<bool> {
+pub fn run(
+    args: &GpuBenchArgs,
+    device: Device,
+    operators: &Operators<'_>,
+    json: bool,
+    out: &mut dyn Write,
+) -> Result<bool> {
     let options = GpuOptions {
-        adapter: b.gpu.adapter.clone(),
+        adapter: args.adapter.clone(),
         ..GpuOptions::default()
     };
     let gpu = match Gpu::new(&options) {
         Ok(gpu) => gpu,
-        Err(e) if b.device == Device::Auto => {
+        Err(e) if device == Device::Auto => {
             eprintln!(
                 "lrr: note: --device auto: benchmarking the CPU ({})",
                 one_line(&e)
@@ -119,7 +125,7 @@ pub fn run(b: &RuntimeBench, out: &mut dyn Write) -> Result<bool> {
         Err(e) => bail!("--device gpu: {}", one_line(&e)),
     };
     eprintln!("lrr bench: GPU {}", gpu.describe());
-    let checked = if b.gpu.bounds_checks {
+    let checked = if args.bounds_checks {
         let options = GpuOptions {
             bounds_checks: true,
             ..options
@@ -130,10 +136,10 @@ pub fn run(b: &RuntimeBench, out: &mut dyn Write) -> Result<bool> {
     };
     let mut rows = Vec::new();
     let mut measure = |scene: &str, p: Precision, op: &Operator| -> Result<()> {
-        let bench = bench_operator(&gpu, op, b.gpu.frames)?;
+        let bench = bench_operator(&gpu, op, args.frames)?;
         let mut row = GpuRow::new(scene, p, &gpu, &bench);
         if let Some(checked) = &checked {
-            let with = bench_operator(checked, op, b.gpu.frames)?;
+            let with = bench_operator(checked, op, args.frames)?;
             row.bounds_check_cost = match (with.gpu_frame, bench.gpu_frame) {
                 (Some(with), Some(without)) => Some(with.as_secs_f64() / without.as_secs_f64()),
                 _ => Some(with.end_to_end.as_secs_f64() / bench.end_to_end.as_secs_f64()),
@@ -146,9 +152,9 @@ pub fn run(b: &RuntimeBench, out: &mut dyn Write) -> Result<bool> {
         rows.push(row);
         Ok(())
     };
-    if !b.no_cornell {
+    if operators.cornell {
         let op = cornell_operator()?;
-        for p in precisions(&b.precisions)? {
+        for p in precisions(operators.precisions)? {
             let op = if p == Precision::F32 {
                 op.clone()
             } else {
@@ -157,14 +163,14 @@ pub fn run(b: &RuntimeBench, out: &mut dyn Write) -> Result<bool> {
             measure("cornell-box", p, &op)?;
         }
     }
-    for size in &b.sizes {
+    for size in operators.sizes {
         let (n, k) = parse_size(size)?;
-        for p in precisions(&b.precisions)? {
+        for p in precisions(operators.precisions)? {
             let op = lrr_runtime::testkit::synthetic::operator(n, k, 3, p, Layout::Factored, 7)?;
             measure("synthetic", p, &op)?;
         }
     }
-    if b.json {
+    if json {
         writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?;
     } else {
         print_table(&rows, out)?;
