@@ -483,6 +483,23 @@ mod tests {
         assert!(last > 20 && last < fixed.n(), "k = {last}");
     }
 
+    /// With the default `A_min` (which shrinks below the default threshold) 2MSC keeps
+    /// splitting as the threshold falls, towards single elements: `k` grows strictly and ends
+    /// near `n` (the floor under the blocks, which receives nothing, is never split).
+    #[test]
+    fn smaller_thresholds_keep_splitting_toward_single_elements() {
+        let scene = cornell();
+        let mut ks = Vec::new();
+        for t in [1e-4, 1e-5, 1e-6, 1e-8] {
+            let mesh = msc(&scene, t, None);
+            println!("threshold {t}: k = {} of n = {}", mesh.k(), mesh.n());
+            ks.push((mesh.k(), mesh.n()));
+        }
+        assert!(ks.windows(2).all(|w| w[0].0 < w[1].0), "{ks:?}");
+        let (k, n) = ks[ks.len() - 1];
+        assert!(k as f64 >= 0.9 * n as f64, "{ks:?}");
+    }
+
     #[test]
     fn min_patch_area_stops_refinement() {
         // A threshold far below any error splits every node larger than A_min: every patch
