@@ -161,23 +161,30 @@ pub fn factor(vf: &serde_json::Value, from: &str, to: &str) -> f64 {
     vf["matrix"][i][j].as_f64().unwrap()
 }
 
-/// The `lrr` binary of this build (built by `cargo test`, or here if missing).
+/// The `lrr` binary of the sources under test: `cargo build --bin lrr` of this profile and
+/// target directory, once per test process (a no-op when `cargo test` has just built it), so a
+/// stale binary left in `target/` is never what a test runs. (Cargo gives `CARGO_BIN_EXE_lrr`
+/// only to the tests of the package that owns the binary, `cli/tests`.)
 pub fn lrr_binary() -> PathBuf {
-    let exe = std::env::current_exe().unwrap();
-    let dir = exe.parent().unwrap().parent().unwrap(); // target/<profile>/deps/.. → target/<profile>
-    let bin = dir.join("lrr");
-    if !bin.exists() {
-        let profile = dir.file_name().unwrap().to_str().unwrap().to_string();
-        let mut cmd = std::process::Command::new(env!("CARGO"));
-        cmd.args(["build", "--bin", "lrr", "--manifest-path"])
-            .arg(root().join("Cargo.toml"));
-        if profile == "release" {
-            cmd.arg("--release");
-        }
-        cmd.env("CARGO_TARGET_DIR", dir.parent().unwrap());
-        assert!(cmd.status().unwrap().success(), "building lrr failed");
-    }
-    bin
+    static BUILT: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    BUILT
+        .get_or_init(|| {
+            let exe = std::env::current_exe().unwrap();
+            let dir = exe.parent().unwrap().parent().unwrap(); // target/<profile>/deps/.. → target/<profile>
+            let profile = dir.file_name().unwrap().to_str().unwrap().to_string();
+            let mut cmd = std::process::Command::new(env!("CARGO"));
+            cmd.args(["build", "--quiet", "--bin", "lrr", "--manifest-path"])
+                .arg(root().join("Cargo.toml"));
+            if profile == "release" {
+                cmd.arg("--release");
+            }
+            cmd.env("CARGO_TARGET_DIR", dir.parent().unwrap());
+            assert!(cmd.status().unwrap().success(), "building lrr failed");
+            let bin = dir.join("lrr");
+            assert!(bin.exists(), "cargo build left no {}", bin.display());
+            bin
+        })
+        .clone()
 }
 
 /// Per element from `lrr solve SCENE --json EXTRA…`: (surface, centroid, radiosity).
