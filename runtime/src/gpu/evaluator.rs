@@ -270,11 +270,7 @@ impl GpuEvaluator {
     /// planar), as [`Evaluator::evaluate`](crate::Evaluator::evaluate): emission must be finite
     /// and non-negative, and on an error nothing is written.
     pub fn evaluate(&mut self, emission: Rgb<'_>, mut out: RgbMut<'_>) -> Result<(), GpuError> {
-        let start = Instant::now();
-        out.check(self.buffers.n as usize, "output")?;
-        let source = self.upload(&emission)?;
-        self.run(source, true);
-        self.read_back(&mut out, start)
+        self.frame_into(&mut out, |ev| ev.upload(&emission))
     }
 
     /// Radiosity for light-group intensities (one per [`Operator::light_groups`] entry, finite
@@ -285,11 +281,7 @@ impl GpuEvaluator {
         intensities: &[f32],
         mut out: RgbMut<'_>,
     ) -> Result<(), GpuError> {
-        let start = Instant::now();
-        out.check(self.buffers.n as usize, "output")?;
-        let source = self.upload_groups(intensities)?;
-        self.run(source, true);
-        self.read_back(&mut out, start)
+        self.frame_into(&mut out, |ev| ev.upload_groups(intensities))
     }
 
     /// Computes a frame into [`radiosity_buffer`](Self::radiosity_buffer) without reading it
@@ -318,11 +310,7 @@ impl GpuEvaluator {
         emission: Rgb<'_>,
         mut out: RgbMut<'_>,
     ) -> Result<(), GpuError> {
-        let start = Instant::now();
-        out.check(self.buffers.n as usize, "output")?;
-        let source = self.upload_hybrid(&emission)?;
-        self.run(source, true);
-        self.read_back(&mut out, start)
+        self.frame_into(&mut out, |ev| ev.upload_hybrid(&emission))
     }
 
     /// [`submit`](Self::submit) as the hybrid: returns once the gather is submitted, so the
@@ -432,6 +420,20 @@ impl GpuEvaluator {
                 "off where proven"
             },
         )
+    }
+
+    /// A frame read back into `out`: checks `out`, uploads through `upload`, runs the passes,
+    /// waits and copies `B` into `out`, recording the timing.
+    fn frame_into(
+        &mut self,
+        out: &mut RgbMut<'_>,
+        upload: impl FnOnce(&mut Self) -> Result<Source, GpuError>,
+    ) -> Result<(), GpuError> {
+        let start = Instant::now();
+        out.check(self.buffers.n as usize, "output")?;
+        let source = upload(self)?;
+        self.run(source, true);
+        self.read_back(out, start)
     }
 
     /// Validates the emission and writes it into the next upload slot.
