@@ -51,3 +51,52 @@ fn reflectance_one_is_refused_with_an_explanation() {
     );
     assert!(!dir.join("x.lrr").exists());
 }
+
+/// A furnace that casts rays: a closed room with two boxes floating inside, every surface with
+/// the same reflectance and emission, still has `B = E / (1 - ρ)` everywhere, whatever occludes
+/// what (every element's visible factors sum to one). Sampled visibility does not conserve that
+/// sum exactly; the worst element is the measure.
+#[test]
+fn an_occluded_furnace_stays_at_emission_over_one_minus_rho() {
+    let dir = temp_dir("occluded-furnace");
+    let path = dir.join("occluded.toml");
+    std::fs::write(
+        &path,
+        "[[material]]\nname = \"w\"\nreflectance = [0.6, 0.6, 0.6]\nradiance = [1, 1, 1]\n\
+         [[box]]\nname = \"room\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [4, 3, 5]\ninward = true\n\
+         [[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0.8, 0.7, 1.0]\nmax = [1.9, 1.6, 2.2]\n\
+         [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [2.2, 1.2, 2.6]\nmax = [3.3, 2.5, 3.9]\n",
+    )
+    .unwrap();
+    let out = dir.join("occluded.lrr");
+    let report = dir.join("report.json");
+    bake(&path, &out, &["--report", report.to_str().unwrap()]).unwrap();
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let rays = report["rays"].as_u64().unwrap();
+    assert!(
+        rays > 1_000_000,
+        "the boxes occlude: the bake must cast rays ({rays})"
+    );
+    let op = Operator::load(&out).unwrap();
+    let expected = std::f64::consts::PI / (1.0 - 0.6);
+    let errors: Vec<f64> = op
+        .evaluate_baked()
+        .iter()
+        .map(|b| (f64::from(b[0]) - expected).abs() / expected)
+        .collect();
+    let worst = errors.iter().copied().fold(0.0, f64::max);
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    println!(
+        "occluded furnace: n = {}, k = {}, worst relative error {worst:.2e}, mean {mean:.2e}",
+        op.n(),
+        op.k()
+    );
+    // Measured 6.43e-3 worst, 3.9e-4 mean (n = 1728, k = 330, 2.1e7 rays): the sampled
+    // visibility's rows do not sum to exactly one. The goal of issue #9 is 1e-3 worst; this
+    // holds today's figure so that it can only get better.
+    assert!(
+        worst <= 8e-3 && mean <= 5e-4,
+        "worst {worst:.2e}, mean {mean:.2e}"
+    );
+}
