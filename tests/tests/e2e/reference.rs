@@ -199,7 +199,9 @@ fn default_bake_against_reference(name: &str) -> Errors {
 }
 
 /// Asserts measured errors within `FACTOR` of what they were when these tests were written
-/// (`expected` = median, p90, max): a regression of the bake or of `locate` fails here.
+/// (`expected` = median, p90, max; docs/ACCURACY.md, "Against an independent path tracer"):
+/// a regression of the bake or of `locate` fails here. Bakes are deterministic, so the
+/// measured values only move when the bake does; an improvement should lower `expected`.
 fn assert_within(name: &str, e: &Errors, expected: [f64; 3]) {
     const FACTOR: f64 = 1.25;
     for (what, got, was) in [
@@ -223,19 +225,19 @@ fn cornell_box_default_bake_against_the_path_tracer() {
         cornell(),
         "the Cornell reference is of the shipped scene"
     );
-    assert_within("cornell-box", &e, [0.0, 0.0, 0.0]);
+    assert_within("cornell-box", &e, [0.0303, 0.1124, 2.421]);
 }
 
 #[test]
 fn cluttered_room_default_bake_against_the_path_tracer() {
     let e = default_bake_against_reference("cluttered");
-    assert_within("cluttered", &e, [0.0, 0.0, 0.0]);
+    assert_within("cluttered", &e, [0.0256, 0.1147, 1.772]);
 }
 
 #[test]
 fn dense_sphere_default_bake_against_the_path_tracer() {
     let e = default_bake_against_reference("dense-sphere");
-    assert_within("dense-sphere", &e, [0.0, 0.0, 0.0]);
+    assert_within("dense-sphere", &e, [0.0331, 0.0951, 0.529]);
 }
 
 /// z-scores of the reference against exact values, per point and channel with stderr > 0.
