@@ -19,9 +19,9 @@ import numpy as np
 
 
 def quantile(v, q):
-    """Nearest rank on the sorted values, as the Rust test takes it."""
+    """Nearest rank on the sorted values, halves rounded up, as the Rust test takes it."""
     s = np.sort(v)
-    return float(s[min(int(round(q * (len(s) - 1))), len(s) - 1)])
+    return float(s[min(int(np.floor(q * (len(s) - 1) + 0.5)), len(s) - 1)])
 
 
 def main():
