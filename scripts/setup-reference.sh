@@ -8,8 +8,8 @@
 #   1. pip-installs the pinned mitsuba (and the drjit it pins) and numpy for the current python3
 #      (into the user's site unless a virtual environment is active);
 #   2. installs Debian's libllvm19 when missing: drjit's LLVM backend loads libLLVM at run time,
-#      and Debian 12's default LLVM (14/15) cannot lower what drjit 1.x emits. The variant
-#      `scalar_rgb` needs no LLVM but renders on one thread;
+#      and Debian 12's default LLVM (14/15) cannot lower what drjit 1.x emits (run.py needs a
+#      vectorised variant: llvm_ad_rgb here, or cuda_ad_rgb on an NVIDIA GPU);
 #   3. checks that `import mitsuba; mi.set_variant("llvm_ad_rgb")` works with
 #      DRJIT_LIBLLVM_PATH pointing at that library (scripts/reference/run.py sets it itself).
 set -euo pipefail

@@ -155,7 +155,11 @@ def main():
     ap.add_argument("--batch", type=int, default=256, help="paths per point in one pass")
     ap.add_argument("--image-spp", type=int, default=1024)
     ap.add_argument("--image-size", type=int, default=256)
-    ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument(
+        "--variant", default="llvm_ad_rgb",
+        help="a vectorised RGB variant: llvm_ad_rgb (CPU) or cuda_ad_rgb (NVIDIA GPU); the "
+        "scalar ones are not supported (the estimator works on whole wavefronts)",
+    )
     args = ap.parse_args()
     os.environ.setdefault("DRJIT_LIBLLVM_PATH", "/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
     import mitsuba as mi
