@@ -7,7 +7,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 
 use crate::load_scene;
-use crate::sweep::{self, FrameTiming, PlanOptions, plot, report};
+use crate::sweep::{self, FrameTiming, PlanOptions, Truth, plot, report};
 
 /// Default 2MSC thresholds of the full sweep (smaller: more patches).
 pub const FULL_THRESHOLDS: [f64; 7] = [3e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5];
@@ -59,6 +59,11 @@ pub struct AccuracyArgs {
     /// No reference exact solve (drops rel_error_ref).
     #[arg(long, conflicts_with = "ref_samples")]
     pub no_ref: bool,
+    /// Points where an independent path tracer measured this scene's radiosity
+    /// (tests/data/reference/NAME.json): adds the total-error columns truth_median, truth_p90,
+    /// truth_max and truth_noise (docs/ACCURACY.md, "Against an independent path tracer").
+    #[arg(long, value_name = "FILE")]
+    pub reference: Option<PathBuf>,
     /// Rounds of frame timing (each times f32 and f16 back to back).
     #[arg(long, default_value_t = 7)]
     pub rounds: usize,
@@ -136,6 +141,9 @@ impl AccuracyArgs {
         if self.no_ref {
             c.push_str(" --no-ref");
         }
+        if let Some(r) = &self.reference {
+            c.push_str(&format!(" --reference {}", r.display()));
+        }
         if let Some(t) = self.threads {
             c.push_str(&format!(" --threads {t}"));
         }
@@ -164,6 +172,10 @@ pub fn run(a: &AccuracyArgs, out: &mut dyn Write) -> Result<()> {
     }
     let scene = load_scene(&a.scene)?;
     let plan = a.options(&scene).plan()?;
+    let truth = match &a.reference {
+        Some(path) => Some(Truth::load(path, &scene)?),
+        None => None,
+    };
     let timing = FrameTiming {
         rounds: a.rounds,
         seconds: a.frame_seconds,
@@ -175,7 +187,7 @@ pub fn run(a: &AccuracyArgs, out: &mut dyn Write) -> Result<()> {
         }
     };
     log(&format!("{} bakes to run", plan.points.len()));
-    let rows = sweep::run(&scene, &plan, a.threads, timing, &mut log)?;
+    let rows = sweep::run(&scene, &plan, truth.as_ref(), a.threads, timing, &mut log)?;
     if let Some(path) = &a.csv {
         lrr_formats::write_atomic(path, report::csv(&rows).as_bytes())
             .with_context(|| format!("writing the CSV {}", path.display()))?;

@@ -9,6 +9,9 @@
 //!   rounding is left.
 //! - `rel_error_ref`: the same against an exact solve with `ref_samples` samples per pair, so
 //!   it includes the form-factor sampling error a user actually gets.
+//! - `truth_median`, `truth_p90`, `truth_max` (with `--reference`): the total error at points
+//!   where an independent path tracer measured the radiosity ([`truth`]): discretisation,
+//!   sampling and low-rank error together, what a user sees.
 //! - bake time, split by stage (mesh, visibility, form factors, operator), and the runtime's
 //!   frame time (median over interleaved rounds, f32 and f16 side by side).
 //!
@@ -24,6 +27,7 @@ pub mod plan;
 pub mod plot;
 pub mod report;
 pub mod row;
+pub mod truth;
 
 use std::time::Instant;
 
@@ -44,6 +48,7 @@ use lrr_precompute::write::{operator_file, store_matrix_as};
 
 pub use plan::{Plan, PlanOptions};
 pub use row::Row;
+pub use truth::Truth;
 
 /// How frames are timed.
 #[derive(Debug, Clone, Copy)]
@@ -63,10 +68,12 @@ struct Exact {
     seconds: f64,
 }
 
-/// Runs the sweep; `log` gets one line per finished step (for progress on stderr).
+/// Runs the sweep; `log` gets one line per finished step (for progress on stderr). With
+/// `truth`, every row also gets its error against those reference points.
 pub fn run(
     scene: &Scene,
     plan: &Plan,
+    truth: Option<&Truth>,
     threads: Option<usize>,
     timing: FrameTiming,
     log: &mut dyn FnMut(&str),
@@ -94,18 +101,16 @@ pub fn run(
             threads,
             ..settings.clone()
         };
-        let point = measure(
-            scene,
-            &settings,
-            &cache,
+        let against = Against {
+            cache: &cache,
             same,
             reference,
-            eval_threads,
-            timing,
-        )?;
+            truth,
+        };
+        let point = measure(scene, &settings, &against, eval_threads, timing)?;
         for r in &point {
             log(&format!(
-                "[{}/{}] {} n = {} k = {} samples = {} {}: error {:.3e}, bake {:.2} s, frame {:.1} µs",
+                "[{}/{}] {} n = {} k = {} samples = {} {}: error {:.3e}{}, bake {:.2} s, frame {:.1} µs",
                 i + 1,
                 plan.points.len(),
                 r.method,
@@ -114,6 +119,11 @@ pub fn run(
                 r.samples,
                 r.precision,
                 r.rel_error,
+                r.truth.map_or(String::new(), |t| format!(
+                    " (path tracer: median {:.2}%, p90 {:.2}%)",
+                    100.0 * t.median,
+                    100.0 * t.p90
+                )),
                 r.bake_s,
                 r.frame_s * 1e6
             ));
@@ -175,13 +185,20 @@ fn exact(
     Ok(cache.len() - 1)
 }
 
+/// What a bake is measured against: the exact solves (`cache`, the same-samples one at
+/// `same`, the high-sample one at `reference`) and the path-traced points.
+struct Against<'a> {
+    cache: &'a [Exact],
+    same: usize,
+    reference: Option<usize>,
+    truth: Option<&'a Truth>,
+}
+
 /// Bakes one point and measures it at f32 and f16.
 fn measure(
     scene: &Scene,
     settings: &BakeSettings,
-    cache: &[Exact],
-    same: usize,
-    reference: Option<usize>,
+    against: &Against,
     eval_threads: usize,
     timing: FrameTiming,
 ) -> Result<Vec<Row>> {
@@ -197,6 +214,12 @@ fn measure(
             .map(|(_, t)| t)
             .sum()
     };
+    let Against {
+        cache,
+        same,
+        reference,
+        truth,
+    } = *against;
     let exact = &cache[same];
     let same_mesh = baked.mesh.elements.len() == exact.polygons.len()
         && baked
@@ -235,6 +258,8 @@ fn measure(
             rel_error: relative_l2(&b, &exact.radiosity),
             rel_error_ref: reference.map(|r| relative_l2(&b, &cache[r].radiosity)),
             ref_samples: reference.map(|r| cache[r].samples),
+            truth: truth.map(|t| t.error(op, &b)),
+            truth_noise: truth.map(|t| t.noise.median),
             bake_s,
             mesh_s: stage("mesh"),
             visibility_s: stage("visibility"),

@@ -1,5 +1,7 @@
 //! One measured point of the sweep (a row of the CSV and the markdown table).
 
+use super::truth::Spread;
+
 /// One measured point of the sweep: one bake stored at one precision.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Row {
@@ -15,6 +17,10 @@ pub struct Row {
     /// Against the exact solve with `ref_samples` samples (low-rank plus sampling error).
     pub rel_error_ref: Option<f64>,
     pub ref_samples: Option<u32>,
+    /// Against the path-traced reference points (`--reference`): total error, discretisation
+    /// included; and the reference's own noise (median relative standard error).
+    pub truth: Option<Spread>,
+    pub truth_noise: Option<f64>,
     /// Wall time of the whole bake (meshing to cores), and per stage.
     pub bake_s: f64,
     pub mesh_s: f64,

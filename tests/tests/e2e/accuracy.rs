@@ -6,7 +6,7 @@ use std::collections::HashMap;
 
 use lrr_cli::sweep::analysis;
 
-use crate::util::{cornell, lrr, temp_dir};
+use crate::util::{cornell, lrr, root, temp_dir};
 
 /// One CSV row by column name.
 type Record = HashMap<String, String>;
@@ -58,11 +58,14 @@ fn quick_accuracy_sweep_on_the_cornell_box() {
     let md = dir.join("accuracy.md");
     let plot = dir.join("accuracy");
     let scene = cornell();
+    let reference = root().join("tests/data/reference/cornell-box.json");
     let out = lrr(&[
         "accuracy",
         scene.to_str().unwrap(),
         "--quick",
         "--quiet",
+        "--reference",
+        reference.to_str().unwrap(),
         "--csv",
         csv.to_str().unwrap(),
         "--markdown",
@@ -86,6 +89,10 @@ fn quick_accuracy_sweep_on_the_cornell_box() {
         "frame_s",
         "rel_error_ref",
         "formfactor_s",
+        "truth_median",
+        "truth_p90",
+        "truth_max",
+        "truth_noise",
     ] {
         assert!(
             header.iter().any(|h| h == c),
@@ -103,7 +110,15 @@ fn quick_accuracy_sweep_on_the_cornell_box() {
         }
         assert!(num(r, "k") >= 1.0 && num(r, "k") <= n);
         assert!(num(r, "rel_error").is_finite() && num(r, "rel_error_ref").is_finite());
+        let (median, p90, max) = (
+            num(r, "truth_median"),
+            num(r, "truth_p90"),
+            num(r, "truth_max"),
+        );
+        assert!(num(r, "truth_noise") > 0.0 && num(r, "truth_noise") < 0.01);
+        assert!(median > 0.0 && median <= p90 && p90 <= max, "{r:?}");
     }
+    assert!(out.contains("path tracer median"), "{out}");
     for precision in ["f32", "f16"] {
         let count = |m: &str| {
             rows.iter()
@@ -145,6 +160,20 @@ fn quick_accuracy_sweep_on_the_cornell_box() {
         // (measured 1.3e-3): small, and the smallest of all 2MF f32 rows.
         let reference = num(r, "rel_error_ref");
         assert!(reference < 5e-3, "k = n vs reference: {reference:e}");
+        // Against the path tracer the coarse quick mesh's discretisation error remains:
+        // measured median 5.64%, p90 19.5% (f32 and f16 alike); a regression beyond 1.25×
+        // fails, and the coarsest 2MF cut (k = 20: 12.3%, 47.7%) must be worse.
+        let (median, p90) = (num(r, "truth_median"), num(r, "truth_p90"));
+        assert!(
+            median <= 1.25 * 0.0565 && p90 <= 1.25 * 0.1953,
+            "k = n: {r:?}"
+        );
+        let coarsest = rows
+            .iter()
+            .filter(|c| c["method"] == "2mf" && c["precision"] == r["precision"])
+            .min_by(|a, b| num(a, "k").total_cmp(&num(b, "k")))
+            .unwrap();
+        assert!(num(coarsest, "truth_median") > 1.5 * median, "{coarsest:?}");
     }
 
     // 2MSC needs fewer patches than 2MF at equal error (interpolated on the curves). The
@@ -181,4 +210,34 @@ fn accuracy_refuses_bad_axes_with_the_flag_to_fix() {
     assert!(e.contains("--patch-multiples"), "{e}");
     let e = lrr(&["accuracy", scene.to_str().unwrap(), "--samples", "0"]).unwrap_err();
     assert!(e.contains("--samples"), "{e}");
+}
+
+#[test]
+fn accuracy_refuses_a_reference_of_another_scene() {
+    let scene = cornell();
+    let other = root().join("tests/data/reference/dense-sphere.json");
+    let e = lrr(&[
+        "accuracy",
+        scene.to_str().unwrap(),
+        "--quick",
+        "--reference",
+        other.to_str().unwrap(),
+    ])
+    .unwrap_err();
+    assert!(
+        e.contains("--reference") && e.contains("lies on no face of surface"),
+        "{e}"
+    );
+    let e = lrr(&[
+        "accuracy",
+        scene.to_str().unwrap(),
+        "--quick",
+        "--reference",
+        scene.to_str().unwrap(),
+    ])
+    .unwrap_err();
+    assert!(
+        e.contains("--reference") && e.contains("expected a file of"),
+        "{e}"
+    );
 }

@@ -10,6 +10,7 @@ mod furnace;
 mod fuzz_replay;
 mod import;
 mod meshing;
+mod reference;
 mod resilience;
 mod storage;
 mod util;

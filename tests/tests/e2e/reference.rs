@@ -1,0 +1,342 @@
+//! Against an independent path tracer: lrr's default bakes at the points where Mitsuba 3's
+//! unbiased path tracer measured the radiosity, with its standard error
+//! (`tests/data/reference/`, made by `scripts/reference/run.py`; the renderer is never needed
+//! here). The reference itself is first held to closed forms (a furnace, a square under a
+//! parallel emitting square) in units of its standard error.
+//!
+//! Error of a point: `‖B_lrr − B_ref‖₁ / ‖B_ref‖₁` over the three channels, `B_lrr` the value
+//! of the element the point falls in (`Operator::locate`, the flat reconstruction `lrr probe`
+//! uses). The reference's noise at a point: `‖stderr‖₁ / ‖B_ref‖₁`.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use lrr_runtime::Operator;
+use serde_json::Value;
+
+use crate::util::{bake, cornell, root, temp_dir};
+
+/// One reference point: where, which surface, and the path tracer's B with its stderr.
+struct RefPoint {
+    surface: String,
+    position: [f64; 3],
+    normal: [f64; 3],
+    b: [f64; 3],
+    stderr: [f64; 3],
+}
+
+fn data_dir() -> PathBuf {
+    root().join("tests/data/reference")
+}
+
+fn triple(v: &Value) -> [f64; 3] {
+    let a = v.as_array().expect("a JSON array of 3 numbers");
+    [0, 1, 2].map(|i| a[i].as_f64().expect("a number"))
+}
+
+/// The committed reference `NAME.json`: its document and its points.
+fn load_reference(name: &str) -> (Value, Vec<RefPoint>) {
+    let path = data_dir().join(format!("{name}.json"));
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("{}: {e} (made by scripts/reference/run.py)", path.display()));
+    let doc: Value = serde_json::from_str(&text).unwrap();
+    let points = doc["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| RefPoint {
+            surface: p["surface"].as_str().unwrap().to_string(),
+            position: triple(&p["position"]),
+            normal: triple(&p["normal"]),
+            b: triple(&p["radiosity"]),
+            stderr: triple(&p["stderr"]),
+        })
+        .collect();
+    (doc, points)
+}
+
+fn scene_path(doc: &Value) -> PathBuf {
+    root().join(doc["scene"].as_str().unwrap())
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn l1(a: [f64; 3]) -> f64 {
+    a.iter().map(|x| x.abs()).sum()
+}
+
+/// Every point lies on a face of its surface, front side, in lrr's import of the scene today:
+/// a changed scene fails here instead of being compared with a stale reference.
+fn assert_points_on_scene(scene: &Path, points: &[RefPoint]) {
+    let s = lrr_precompute::scene::load(scene).unwrap();
+    let tol = 1e-6 * s.extent();
+    for (i, p) in points.iter().enumerate() {
+        let on = s.faces.iter().any(|f| {
+            let poly = &f.polygon;
+            let n = poly.normal.to_array();
+            let v: Vec<[f64; 3]> = poly.vertices().iter().map(|v| v.to_array()).collect();
+            s.surfaces[f.surface] == p.surface
+                && dot(n, p.normal) > 1.0 - 1e-6
+                && dot(n, sub(p.position, v[0])).abs() <= tol
+                && (0..v.len()).all(|j| {
+                    let e = sub(v[(j + 1) % v.len()], v[j]);
+                    dot(cross(e, sub(p.position, v[j])), n)
+                        >= -tol * e.iter().map(|x| x.abs()).sum::<f64>()
+                })
+        });
+        assert!(
+            on,
+            "{}: reference point {i} ({:?} on '{}') is on no face of that surface: the scene \
+             changed since the reference was made; rerun scripts/reference/run.py",
+            scene.display(),
+            p.position,
+            p.surface
+        );
+    }
+}
+
+/// Quantile `q` of `v` (nearest rank on the sorted values).
+fn quantile(v: &[f64], q: f64) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[((q * (s.len() - 1) as f64).round() as usize).min(s.len() - 1)]
+}
+
+/// Median, 90th percentile and max of the per-point relative error, and the reference's noise.
+#[derive(Debug)]
+struct Errors {
+    median: f64,
+    p90: f64,
+    max: f64,
+    noise_median: f64,
+    noise_p90: f64,
+}
+
+fn errors(points: &[RefPoint], values: &[[f64; 3]]) -> Errors {
+    let rel: Vec<f64> = points
+        .iter()
+        .zip(values)
+        .map(|(p, v)| l1(sub(*v, p.b)) / l1(p.b))
+        .collect();
+    let noise: Vec<f64> = points.iter().map(|p| l1(p.stderr) / l1(p.b)).collect();
+    Errors {
+        median: quantile(&rel, 0.5),
+        p90: quantile(&rel, 0.9),
+        max: quantile(&rel, 1.0),
+        noise_median: quantile(&noise, 0.5),
+        noise_p90: quantile(&noise, 0.9),
+    }
+}
+
+/// B of the element each point falls in (the flat reconstruction of `lrr probe`); asserts the
+/// element faces the way the point does.
+fn flat_values(op: &Operator, points: &[RefPoint]) -> Vec<[f64; 3]> {
+    let b = op.evaluate_baked();
+    let file = op.file();
+    let mut slot = vec![0usize; op.n()];
+    for (s, &id) in file.order.iter().enumerate() {
+        slot[id as usize] = s;
+    }
+    points
+        .iter()
+        .map(|p| {
+            let id = op
+                .locate(p.position.map(|x| x as f32), p.normal.map(|x| x as f32))
+                .unwrap() as usize;
+            let s = slot[id];
+            let n = [0, 1, 2].map(|c| f64::from(file.geometry.normals[3 * s + c]));
+            assert!(
+                dot(n, p.normal) > 0.99,
+                "point {:?} on '{}' was located in element {id} facing {n:?}",
+                p.position,
+                p.surface
+            );
+            b[id].map(f64::from)
+        })
+        .collect()
+}
+
+/// Bakes the scene of reference `name` with the default settings and measures its error.
+fn default_bake_against_reference(name: &str) -> Errors {
+    let (doc, points) = load_reference(name);
+    let scene = scene_path(&doc);
+    assert_points_on_scene(&scene, &points);
+    let out = temp_dir(&format!("reference-{name}")).join(format!("{name}.lrr"));
+    let start = Instant::now();
+    bake(&scene, &out, &[]).unwrap();
+    let seconds = start.elapsed().as_secs_f64();
+    let op = Operator::load(&out).unwrap();
+    let e = errors(&points, &flat_values(&op, &points));
+    println!(
+        "{name}: n = {}, k = {}, bake {seconds:.1} s; against {} reference points: median \
+         {:.2}%, p90 {:.2}%, max {:.1}%; reference noise median {:.2}%, p90 {:.2}% ({})",
+        op.n(),
+        op.k(),
+        points.len(),
+        100.0 * e.median,
+        100.0 * e.p90,
+        100.0 * e.max,
+        100.0 * e.noise_median,
+        100.0 * e.noise_p90,
+        doc["renderer"].as_str().unwrap(),
+    );
+    assert!(
+        e.noise_p90 < 0.2 * e.median,
+        "{name}: the reference's noise ({e:?}) is not small against the error it measures"
+    );
+    e
+}
+
+/// Asserts measured errors within `FACTOR` of what they were when these tests were written
+/// (`expected` = median, p90, max; docs/ACCURACY.md, "Against an independent path tracer"):
+/// a regression of the bake or of `locate` fails here. Bakes are deterministic, so the
+/// measured values only move when the bake does; an improvement should lower `expected`.
+fn assert_within(name: &str, e: &Errors, expected: [f64; 3]) {
+    const FACTOR: f64 = 1.25;
+    for (what, got, was) in [
+        ("median", e.median, expected[0]),
+        ("90th percentile", e.p90, expected[1]),
+        ("max", e.max, expected[2]),
+    ] {
+        assert!(
+            got <= FACTOR * was,
+            "{name}: {what} relative error {got:.4} against the path tracer, more than \
+             {FACTOR} × the {was:.4} measured when the test was written"
+        );
+    }
+}
+
+#[test]
+fn cornell_box_default_bake_against_the_path_tracer() {
+    let e = default_bake_against_reference("cornell-box");
+    assert_eq!(
+        scene_path(&load_reference("cornell-box").0),
+        cornell(),
+        "the Cornell reference is of the shipped scene"
+    );
+    assert_within("cornell-box", &e, [0.0304, 0.1124, 2.421]);
+}
+
+#[test]
+fn cluttered_room_default_bake_against_the_path_tracer() {
+    let e = default_bake_against_reference("cluttered");
+    assert_within("cluttered", &e, [0.0256, 0.1147, 1.772]);
+}
+
+#[test]
+fn dense_sphere_default_bake_against_the_path_tracer() {
+    let e = default_bake_against_reference("dense-sphere");
+    assert_within("dense-sphere", &e, [0.0331, 0.0951, 0.529]);
+}
+
+/// z-scores of the reference against exact values, per point and channel with stderr > 0.
+fn z_scores(points: &[RefPoint], exact: &[[f64; 3]]) -> Vec<f64> {
+    points
+        .iter()
+        .zip(exact)
+        .flat_map(|(p, x)| (0..3).map(move |c| (p.b[c] - x[c], p.stderr[c])))
+        .filter(|&(_, se)| se > 0.0)
+        .map(|(d, se)| d / se)
+        .collect()
+}
+
+/// The reference is unbiased within its noise where the answer is known: the z-scores have an
+/// RMS near 1 and no outlier beyond 4.5 σ (p ≈ 7e-6 per value for a normal error).
+fn assert_unbiased(name: &str, points: &[RefPoint], exact: &[[f64; 3]]) {
+    let z = z_scores(points, exact);
+    assert!(z.len() >= 60, "{name}: only {} values", z.len());
+    let rms = (z.iter().map(|x| x * x).sum::<f64>() / z.len() as f64).sqrt();
+    let mean = z.iter().sum::<f64>() / z.len() as f64;
+    let worst = z.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let noise = quantile(
+        &points
+            .iter()
+            .map(|p| l1(p.stderr) / l1(p.b))
+            .collect::<Vec<_>>(),
+        0.5,
+    );
+    println!(
+        "{name}: {} values, mean z {mean:.2}, rms z {rms:.2}, max |z| {worst:.2}, median \
+         relative stderr {noise:.1e}",
+        z.len()
+    );
+    // With m independent values the mean of z has a spread of 1/√m, the RMS of about
+    // 1/√(2m). A point's three channels come from the same paths (identical in a grey scene):
+    // m counts points, not values.
+    let m = points.len() as f64;
+    assert!(mean.abs() < 4.0 / m.sqrt(), "{name}: biased: mean z {mean}");
+    assert!(
+        (rms - 1.0).abs() < 4.0 / (2.0 * m).sqrt(),
+        "{name}: rms z {rms}"
+    );
+    assert!(worst < 4.5, "{name}: an outlier of {worst} σ");
+}
+
+#[test]
+fn the_reference_meets_the_furnace() {
+    let (doc, points) = load_reference("furnace");
+    let scene = lrr_precompute::scene::load(&scene_path(&doc)).unwrap();
+    assert_points_on_scene(&scene_path(&doc), &points);
+    let m = &scene.materials[0];
+    let exact = [0, 1, 2].map(|c| m.emission[c] / (1.0 - m.reflectance[c]));
+    assert_unbiased("furnace", &points, &vec![exact; points.len()]);
+}
+
+/// View factor from a point to a parallel `a × b` rectangle at distance `c` facing it, the
+/// point under one corner (Howell's catalogue, B-3).
+fn corner_factor(a: f64, b: f64, c: f64) -> f64 {
+    let (x, y) = (a / c, b / c);
+    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * std::f64::consts::PI)
+}
+
+#[test]
+fn the_reference_meets_a_square_under_an_emitting_square() {
+    let (doc, points) = load_reference("squares");
+    let scene = lrr_precompute::scene::load(&scene_path(&doc)).unwrap();
+    assert_points_on_scene(&scene_path(&doc), &points);
+    let material = |name: &str| scene.materials.iter().find(|m| m.name == name).unwrap();
+    let (rho, e) = (
+        material("receiver").reflectance,
+        material("emitter").emission,
+    );
+    let mut receivers = 0;
+    let exact: Vec<[f64; 3]> = points
+        .iter()
+        .map(|p| {
+            if p.surface == "emitter" {
+                return e;
+            }
+            receivers += 1;
+            let [x, y, _] = p.position;
+            let f: f64 = [x, 1.0 - x]
+                .iter()
+                .flat_map(|&u| [y, 1.0 - y].map(|v| corner_factor(u, v, 1.0)))
+                .sum();
+            [0, 1, 2].map(|c| rho[c] * e[c] * f)
+        })
+        .collect();
+    assert!(receivers >= 20, "{receivers} receiver points");
+    for (p, x) in points.iter().zip(&exact) {
+        if p.surface == "emitter" {
+            let rel = l1(sub(p.b, *x)) / l1(*x);
+            assert!(
+                rel < 1e-6,
+                "the emitter's B is E exactly (ρ = 0): {:?}",
+                p.b
+            );
+        }
+    }
+    assert_unbiased("squares", &points, &exact);
+}
