@@ -80,6 +80,27 @@ pub(crate) fn gather<const C: usize>(simd: SimdLevel, g: &Gather<'_>, w: &mut [f
     }
 }
 
+#[cfg(any(test, feature = "testkit"))]
+/// `acc[c kp + q] += Σ_r m(r, q) e[3 r + c]` for every row `r` of `m` (`k` columns) and `c < 3`:
+/// the transposed product `Mᵀ E` of the dense-`V` baseline (`testkit`), in f32 (the caller adds
+/// `acc` to f64 every few hundred rows). `e` holds 3 interleaved values per row; `acc` is 3
+/// planes of `kp >= k` values, left as they are past `k`.
+pub(crate) fn transposed(
+    simd: SimdLevel,
+    m: Rows<'_>,
+    k: usize,
+    e: &[f32],
+    acc: &mut [f32],
+    kp: usize,
+) {
+    debug_assert!(kp >= k && acc.len() >= 3 * kp && e.len() >= 3 * (m.len() / k));
+    match simd {
+        #[cfg(target_arch = "x86_64")]
+        SimdLevel::Avx2 => avx2::transposed(m, k, e, acc, kp),
+        _ => scalar::transposed(m, k, e, acc, kp),
+    }
+}
+
 /// A wrapping sum of every stored word of `m` (f32 bits modulo 2³², or binary16 bits modulo
 /// 2¹⁶), so that nothing can be skipped: the memory-read roofline of a gather over the same rows.
 pub(crate) fn read_sum(simd: SimdLevel, m: Rows<'_>) -> u64 {
