@@ -171,10 +171,7 @@ fn lane_sums<const C: usize, const R: usize, const H: bool>(
     } else {
         64 / (4 * LANES)
     };
-    let (near, far) = (
-        R * k * if H { 2 } else { 1 },
-        4 * R * k * if H { 2 } else { 1 },
-    );
+    let (near, far) = (R * k, 4 * R * k);
     for v in 0..full {
         let q = v * LANES;
         if v % per_line == 0 {
@@ -333,10 +330,7 @@ fn t_block<const R: usize, const H: bool>(
     } else {
         64 / (4 * LANES)
     };
-    let (near, far) = (
-        R * k * if H { 2 } else { 1 },
-        4 * R * k * if H { 2 } else { 1 },
-    );
+    let (near, far) = (R * k, 4 * R * k);
     for v in 0..full {
         let q = v * LANES;
         if v % per_line == 0 {
