@@ -14,9 +14,10 @@
 //! accumulators of the three-channel loop to the stack (a store and a reload in their chains).
 //! Taking it out (2026-11-23, one thread, 960 rows × 216 in L2, best of 30 alternated runs):
 //! binary16 three channels 15.2 → 16.5 GB/s (17.1 with `R = 4` and its spill), one channel
-//! 28.6 → 35.4; f32 34.5 → 36.1 and 47.1 → 49.6. Three-channel binary16 is now at the bound of
-//! the FMA ports: per 8 values and row, 3 FMAs and the conversion's FMA-port µop, 4 values
-//! per cycle. Measured on the development machine, one
+//! 28.6 → 35.4; f32 34.5 → 36.1 and 47.1 → 49.6. Three-channel binary16 now computes about as
+//! many values per second as f32 (8.3 against 9.0 G/s), so half the bytes per value need
+//! twice the compute per byte: with 3 FMAs per 8 values and row, the conversion's µop on the
+//! same ports is what AVX2 cannot hide (AVX-512's second FMA port could; see PERFORMANCE.md). Measured on the development machine, one
 //! thread, 1000 rows × k = 216 in cache, three channels: f32 8, 22 and 25–27 GB/s with
 //! `R = 1, 2, 4`, f16 5.5, 11 and 10–13.6 GB/s (the scalar twin: 4.8 and 1.8 GB/s); one channel
 //! with `R = 4, 8`: f32 41 and 50 GB/s, f16 24 and 27 GB/s. Two things mattered as much as `R`:
