@@ -674,6 +674,59 @@ mod tests {
     }
 
     #[test]
+    fn a_row_gives_the_same_bits_in_every_block_shape() {
+        // Chunk bounds move with the thread count, so a row may be computed in a block of R
+        // rows or alone: the result must be the same bits (deterministic frames).
+        if !avx2_or_allowed_skip() {
+            return;
+        }
+        for (rows, k) in [(13, 216), (11, 300), (9, 7)] {
+            let kp = padded(k);
+            let m = values(rows * k, k as u64);
+            let halves: Vec<u16> = m.iter().map(|&v| lrr_formats::f32_to_f16(v)).collect();
+            let z = values(3 * kp, 5);
+            for m in [Rows::F32(&m), Rows::F16(&halves)] {
+                for c3 in [true, false] {
+                    let g = Gather {
+                        m,
+                        k,
+                        z: &z,
+                        kp,
+                        offset: 0,
+                    };
+                    let mut all = vec![0.0f32; 3 * rows];
+                    if c3 {
+                        gather::<3>(&g, &mut all);
+                    } else {
+                        gather::<1>(&g, &mut all);
+                    }
+                    for r in 0..rows {
+                        let one = match m {
+                            Rows::F32(v) => Rows::F32(&v[r * k..(r + 1) * k]),
+                            Rows::F16(v) => Rows::F16(&v[r * k..(r + 1) * k]),
+                        };
+                        let g = Gather { m: one, ..g };
+                        let mut w = [0.0f32; 3];
+                        if c3 {
+                            gather::<3>(&g, &mut w);
+                        } else {
+                            gather::<1>(&g, &mut w);
+                        }
+                        let used = if c3 { 3 } else { 1 };
+                        for c in 0..used {
+                            assert_eq!(
+                                w[c].to_bits(),
+                                all[3 * r + c].to_bits(),
+                                "rows {rows} k {k} {m:?} row {r} channel {c}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
     fn transposed_matches_the_scalar_twin_on_every_shape() {
         if !avx2_or_allowed_skip() {
             return;
