@@ -17,7 +17,7 @@
 //! 0.82–0.84 for AVX2, with the 512-bit read pass no faster than the 256-bit one. It was not
 //! kept.
 //!
-//! Accuracy: products are summed in 8 f32 lanes over blocks of [`BLOCK`] columns, each block's
+//! Accuracy: products are summed in 8 f32 lanes over blocks of [`BLOCK`](shared::BLOCK) columns, each block's
 //! sum is added in f64. With non-negative terms (form factors, cores of a physical operator,
 //! non-negative emission) the relative error of a row is at most about
 //! `(BLOCK / 8 + 4) · 2⁻²⁴ ≈ 2.2e-6`, whatever k is.
@@ -113,7 +113,7 @@ pub(crate) fn read_sum(simd: SimdLevel, m: Rows<'_>) -> u64 {
 
 /// `Σ_j w_j e_j` per channel over one run of interleaved emission (`e.len() == 3 * w.len()`),
 /// and whether every value of `e` was allowed ([`emission_ok`]): a segment sum of `X = Vᵀ E`.
-/// Accuracy: the AVX2 version sums [`SUM_STEPS`] products per f32 lane before adding in f64,
+/// Accuracy: the AVX2 version sums [`SUM_STEPS`](shared::SUM_STEPS) products per f32 lane before adding in f64,
 /// so with non-negative weights and emission a sum's relative error is at most about
 /// `(SUM_STEPS + 1) · 2⁻²⁴ ≈ 2e-6`; the scalar twin sums in f64.
 pub(crate) fn sums_interleaved(simd: SimdLevel, w: &[f32], e: &[f32]) -> ([f64; 3], bool) {

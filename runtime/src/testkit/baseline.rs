@@ -8,11 +8,11 @@
 //! show what the sparse `V` and the factored layout save.
 //!
 //! It is engineered like the [`Evaluator`](crate::Evaluator), so that a speed-up over it is the
-//! gain of the layout and not of the code: the same persistent [`Pool`] (chunks of rows taken
+//! gain of the layout and not of the code: the same persistent pool (chunks of rows taken
 //! from a queue, buffers allocated once, no allocation per frame), the same AVX2 + FMA + F16C
 //! gather with its software prefetch for `Y_k` (one channel per block), and for `V_kᵀ E` the
 //! kernel `transposed` (AVX2, FMA, the same prefetch; per chunk f32 sums flushed to f64 every
-//! [`FLUSH_ROWS`] rows, then the chunks' sums added on the caller's thread as they come back).
+//! 256 rows, then the chunks' sums added on the caller's thread as they come back).
 //! `V_k`'s rows are in original id order, so that pass streams the emission as given; the
 //! emission is copied once per frame into a buffer the threads share (persistent threads cannot
 //! borrow the caller's slice), the counterpart of the evaluator's O(n) segment sums.
