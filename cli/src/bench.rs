@@ -21,8 +21,9 @@ pub struct BenchArgs {
 #[derive(Debug, Subcommand)]
 pub enum BenchKind {
     /// Runtime frame rates: (a) factored RGB, (b) plain per-channel Y_k, (c) dense V_k per
-    /// channel (the papers' baseline), (d) a plain read of the bytes (a) reads (the roofline),
-    /// (e) the factored frame from light-group intensities (no O(n) emission pass).
+    /// channel (the papers' baseline, same threads and kernels), (d) a plain read of the bytes
+    /// (a) reads (the roofline), (e) the factored frame from light-group intensities (no O(n)
+    /// emission pass), (f) a plain read of the bytes (c) reads (the baseline's roofline).
     Runtime(RuntimeBench),
     /// Occlusion rays/s of the visibility backends (Embree, obvhs, the default path) on the
     /// form-factor rays of the Cornell box and a cluttered room, one thread and all cores.
@@ -47,8 +48,8 @@ pub struct RuntimeBench {
     /// Seconds of frames per variant and round.
     #[arg(long, default_value_t = 0.3)]
     pub seconds: f64,
-    /// Rounds; each round times (a), (d), (e), (d), (a), (c), (a), (b) back to back; ratios are
-    /// medians of per-round ratios between the measurements around each other.
+    /// Rounds; each round times (a), (d), (e), (d), (a), (c), (f), (c), (a), (b) back to back;
+    /// ratios are medians of per-round ratios between the measurements around each other.
     #[arg(long, default_value_t = 5)]
     pub rounds: usize,
     /// Skip the Cornell box row (which bakes the bundled scene first).
@@ -83,6 +84,15 @@ pub struct Row {
     pub roofline_ratio: f64,
     /// time(c) / time(a).
     pub speedup_vs_dense: f64,
+    /// Bytes of `V_k` and `Y_k` a frame of (c) reads (same precision as (a)), and
+    /// `dense_bytes_per_frame / bytes_per_frame`: the speed-up a layout alone would give if
+    /// both frames ran at their read rate.
+    pub dense_bytes_per_frame: usize,
+    pub byte_ratio: f64,
+    /// (f) a plain read of the bytes (c) reads; time(f) / time(c): how close the baseline is
+    /// to its own roofline (how well it is engineered).
+    pub fps_dense_read: f64,
+    pub dense_roofline_ratio: f64,
     /// (e) the factored frame from light-group intensities (`Vᵀ E` from the stored groups, no
     /// O(n) pass over an emission on the calling thread), when the operator has light groups.
     pub fps_groups: Option<f64>,
@@ -180,9 +190,10 @@ fn measure(scene: &str, op: &Operator, threads: usize, b: &RuntimeBench) -> Resu
     let mut factored = op.evaluator(threads)?;
     let plain_op = Operator::from_file(op.file().to_plain_yk(threads)?)?;
     let mut plain = plain_op.evaluator(threads)?;
-    let dense = DenseV::new(op, threads)?;
+    let mut dense = DenseV::new(op, threads)?;
     let mut sink = 0u64;
     let (mut ta, mut tb, mut tc, mut td) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut tf, mut dense_roof) = (Vec::new(), Vec::new());
     // Ratios are taken per round between neighbouring measurements and their median reported:
     // on a shared machine (other tenants, a last-level cache that may or may not hold the
     // operator) the regime changes between rounds, and a ratio of medians would mix regimes.
@@ -218,23 +229,34 @@ fn measure(scene: &str, op: &Operator, threads: usize, b: &RuntimeBench) -> Resu
             te.push(e);
             roof_groups.push((d + d2) / (2.0 * e));
         }
-        // (c) between two (a), likewise.
-        let c = time_frames(b.seconds, || {
-            Ok(dense.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut radiosity))?)
+        // (c) (f) (c) between two (a), likewise.
+        let baseline = |dense: &mut DenseV, radiosity: &mut [[f32; 3]]| {
+            time_frames(b.seconds, || {
+                Ok(dense.evaluate(Rgb::triples(&emission), RgbMut::triples(radiosity))?)
+            })
+        };
+        let c = baseline(&mut dense, &mut radiosity)?;
+        let f = time_frames(b.seconds, || {
+            sink = sink.wrapping_add(dense.read_pass()?);
+            Ok(())
         })?;
+        let c2 = baseline(&mut dense, &mut radiosity)?;
         let a3 = frame(&mut factored, &mut radiosity)?;
         tb.push(time_frames(b.seconds, || {
             Ok(plain.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut radiosity))?)
         })?);
         roof.push((d + d2) / (a + a2));
-        speedup.push(2.0 * c / (a2 + a3));
+        speedup.push((c + c2) / (a2 + a3));
+        dense_roof.push(2.0 * f / (c + c2));
         ta.extend([a, a2, a3]);
-        tc.push(c);
+        tc.extend([c, c2]);
+        tf.push(f);
         td.extend([d, d2]);
     }
     std::hint::black_box(sink);
     let (a, pb, c, d) = (median(ta), median(tb), median(tc), median(td));
     let bytes = op.matrix_bytes();
+    let dense_bytes = dense.bytes_per_frame();
     Ok(Row {
         scene: scene.to_string(),
         n,
@@ -253,6 +275,10 @@ fn measure(scene: &str, op: &Operator, threads: usize, b: &RuntimeBench) -> Resu
         fps_groups: (!te.is_empty()).then(|| 1.0 / median(te)),
         roofline_ratio_groups: (!roof_groups.is_empty()).then(|| median(roof_groups)),
         speedup_vs_dense: median(speedup),
+        dense_bytes_per_frame: dense_bytes,
+        byte_ratio: dense_bytes as f64 / bytes as f64,
+        fps_dense_read: 1.0 / median(tf),
+        dense_roofline_ratio: median(dense_roof),
         bytes_per_frame: bytes,
         gb_per_s: bytes as f64 / a / 1e9,
     })
@@ -261,7 +287,7 @@ fn measure(scene: &str, op: &Operator, threads: usize, b: &RuntimeBench) -> Resu
 fn print_table(rows: &[Row], out: &mut dyn Write) -> Result<()> {
     writeln!(
         out,
-        "{:<12} {:>9} {:>5} {:>4} {:>3} {:>10} {:>10} {:>10} {:>10} {:>8} {:>8} {:>7} {:>10} {:>8}",
+        "{:<12} {:>9} {:>5} {:>4} {:>3} {:>9} {:>9} {:>9} {:>9} {:>6} {:>7} {:>8} {:>8} {:>6} {:>6} {:>6} {:>9} {:>6}",
         "scene",
         "n",
         "k",
@@ -273,6 +299,10 @@ fn print_table(rows: &[Row], out: &mut dyn Write) -> Result<()> {
         "(d) fps",
         "a/roof",
         "a/dense",
+        "(a) MB",
+        "(c) MB",
+        "bytes",
+        "c/roof",
         "GB/s",
         "(e) fps",
         "e/roof"
@@ -280,7 +310,7 @@ fn print_table(rows: &[Row], out: &mut dyn Write) -> Result<()> {
     for r in rows {
         writeln!(
             out,
-            "{:<12} {:>9} {:>5} {:>4} {:>3} {:>10.1} {:>10.1} {:>10.1} {:>10.1} {:>8.2} {:>8.2} {:>7.2} {:>10} {:>8}",
+            "{:<12} {:>9} {:>5} {:>4} {:>3} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>6.2} {:>7.2} {:>8.1} {:>8.1} {:>6.2} {:>6.2} {:>6.2} {:>9} {:>6}",
             r.scene,
             r.n,
             r.k,
@@ -292,11 +322,21 @@ fn print_table(rows: &[Row], out: &mut dyn Write) -> Result<()> {
             r.fps_read,
             r.roofline_ratio,
             r.speedup_vs_dense,
+            r.bytes_per_frame as f64 / 1e6,
+            r.dense_bytes_per_frame as f64 / 1e6,
+            r.byte_ratio,
+            r.dense_roofline_ratio,
             r.gb_per_s,
             r.fps_groups.map_or("-".into(), |f| format!("{f:.1}")),
             r.roofline_ratio_groups
                 .map_or("-".into(), |f| format!("{f:.2}")),
         )?;
     }
+    writeln!(
+        out,
+        "a/dense: the baseline's frame time over (a)'s; bytes: its bytes per frame over (a)'s \
+         (what the layout alone would give at equal read rates); c/roof: (f) read of the \
+         baseline's bytes over its frame time"
+    )?;
     Ok(())
 }

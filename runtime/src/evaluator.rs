@@ -8,7 +8,7 @@ use crate::error::RuntimeError;
 use crate::frame::Frame;
 use crate::kernel::{self, LANES, SimdLevel};
 use crate::operator::Operator;
-use crate::pool::{Pool, Task};
+use crate::pool::{FileWork, Pool, Task};
 use crate::rgb::{Rgb, RgbMut};
 
 /// Evaluates frames of one operator with a pool of threads that lives as long as the evaluator.
@@ -63,7 +63,12 @@ impl Evaluator {
         .clamp(1, n);
         let kp = kernel::padded(k);
         let bounds = chunk_bounds(n, threads);
-        let pool = Pool::start(&file, &bounds, threads - 1, kp, simd)?;
+        let work = FileWork {
+            file: Arc::clone(&file),
+            kp,
+            simd,
+        };
+        let pool = Pool::start(Arc::new(work), &bounds, threads - 1, 3 * kp, (0, 0))?;
         Ok(Evaluator {
             frame: Frame::new(file, &bounds),
             simd,
@@ -199,7 +204,7 @@ impl Operator {
 /// Chunk bounds: about eight chunks per thread (so a thread the OS preempts delays the frame by
 /// one chunk at most), at least 512 rows each, on multiples of 8 rows so the SIMD kernel rarely
 /// takes its 1-row path; one chunk for one thread.
-fn chunk_bounds(n: usize, threads: usize) -> Vec<usize> {
+pub(crate) fn chunk_bounds(n: usize, threads: usize) -> Vec<usize> {
     let chunks = if threads == 1 {
         1
     } else {

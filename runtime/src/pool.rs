@@ -32,6 +32,37 @@ pub(crate) enum Task {
     Gather,
     /// The read roofline of the chunk's rows, into `sum`.
     Read,
+    /// A partial product over the chunk's rows into `partial` (the dense-`V` baseline's
+    /// `Vᵀ E`; an operator file has no such task).
+    #[cfg_attr(not(feature = "testkit"), allow(dead_code))]
+    Partial,
+}
+
+/// What the threads compute: the stored matrix of an operator file ([`FileWork`]) or, for the
+/// benchmarks' baseline, another matrix with the same chunks and threads.
+pub(crate) trait Work: Send + Sync {
+    /// Runs `task` over `chunk.rows`, into the chunk's buffers; `z` is this frame's input.
+    fn run(&self, task: Task, chunk: &mut Chunk, z: &[f32]);
+}
+
+/// The frame's work: the pass over an operator file's stored matrix.
+pub(crate) struct FileWork {
+    pub file: Arc<OperatorFile>,
+    pub kp: usize,
+    pub simd: SimdLevel,
+}
+
+impl Work for FileWork {
+    fn run(&self, task: Task, chunk: &mut Chunk, z: &[f32]) {
+        let rows = chunk.rows.clone();
+        match task {
+            Task::Gather => {
+                pass::gather_rows(&self.file, rows, z, self.kp, &mut chunk.w, self.simd)
+            }
+            Task::Read => chunk.sum = pass::read_rows(&self.file, rows, self.simd),
+            Task::Partial => {}
+        }
+    }
 }
 
 /// A block of rows and its `W`.
@@ -42,22 +73,18 @@ pub(crate) struct Chunk {
     /// `3 * rows.len()`: `W` of the rows.
     pub w: Vec<f32>,
     pub sum: u64,
+    /// [`Task::Partial`]'s output and scratch, as long as [`Pool::start`] was asked for (empty
+    /// for an operator file's frames).
+    pub partial: Vec<f64>,
+    pub scratch: Vec<f32>,
     /// Set when the computation panicked (a bug): the frame fails instead of hanging.
     failed: bool,
 }
 
 impl Chunk {
-    fn run(&mut self, task: Task, file: &OperatorFile, z: &[f32], kp: usize, simd: SimdLevel) {
-        let rows = self.rows.clone();
-        match task {
-            Task::Gather => pass::gather_rows(file, rows, z, kp, &mut self.w, simd),
-            Task::Read => self.sum = pass::read_rows(file, rows, simd),
-        }
-    }
-
-    /// [`run`](Self::run), recording a panic instead of unwinding.
-    fn run_caught(&mut self, task: Task, file: &OperatorFile, z: &[f32], kp: usize, b: SimdLevel) {
-        let run = AssertUnwindSafe(|| self.run(task, file, z, kp, b));
+    /// [`Work::run`], recording a panic instead of unwinding.
+    fn run_caught(&mut self, task: Task, work: &dyn Work, z: &[f32]) {
+        let run = AssertUnwindSafe(|| work.run(task, self, z));
         self.failed = catch_unwind(run).is_err();
     }
 }
@@ -91,24 +118,25 @@ pub(crate) struct Pool {
     queue: Arc<Mutex<Receiver<Chunk>>>,
     workers: Vec<Worker>,
     done: Receiver<Done>,
-    file: Arc<OperatorFile>,
-    kp: usize,
-    simd: SimdLevel,
+    work: Arc<dyn Work>,
+    /// Length of `z`.
+    z_len: usize,
 }
 
 impl Pool {
     /// Cuts the rows at `bounds` into chunks and starts `workers` threads, waiting until each
-    /// is ready.
+    /// is ready. `z_len`: the length of a frame's `z`; `partial`: the lengths of each chunk's
+    /// [`Task::Partial`] buffers (f64 output, f32 scratch), `(0, 0)` when unused.
     ///
     /// std's channels allocate a thread's wait state the first time it blocks. So every worker
     /// blocks once (1 ms, on its empty job channel) before it reports ready, and the caller
     /// blocks on the ready reports: after this, no frame allocates.
     pub(crate) fn start(
-        file: &Arc<OperatorFile>,
+        work: Arc<dyn Work>,
         bounds: &[usize],
         workers: usize,
-        kp: usize,
-        simd: SimdLevel,
+        z_len: usize,
+        partial: (usize, usize),
     ) -> Result<Self, RuntimeError> {
         let chunks: Vec<Option<Chunk>> = bounds
             .windows(2)
@@ -119,6 +147,8 @@ impl Pool {
                     rows: b[0]..b[1],
                     w: vec![0.0; 3 * (b[1] - b[0])],
                     sum: 0,
+                    partial: vec![0.0; partial.0],
+                    scratch: vec![0.0; partial.1],
                     failed: false,
                 })
             })
@@ -132,9 +162,8 @@ impl Pool {
             queue,
             workers: Vec::with_capacity(workers),
             done,
-            file: Arc::clone(file),
-            kp,
-            simd,
+            work,
+            z_len,
         };
         for i in 0..workers {
             let worker = pool.spawn(i, done_tx.clone())?;
@@ -148,8 +177,7 @@ impl Pool {
 
     fn spawn(&self, i: usize, done: SyncSender<Done>) -> Result<Worker, RuntimeError> {
         let (to, from) = sync_channel::<Job>(1);
-        let (file, queue) = (Arc::clone(&self.file), Arc::clone(&self.queue));
-        let (kp, simd) = (self.kp, self.simd);
+        let (work, queue) = (Arc::clone(&self.work), Arc::clone(&self.queue));
         let thread = std::thread::Builder::new()
             .name(format!("lrr-eval-{i}"))
             .spawn(move || {
@@ -160,7 +188,7 @@ impl Pool {
                 }
                 while let Ok(job) = from.recv() {
                     while let Some(mut chunk) = take(&queue) {
-                        chunk.run_caught(job.task, &file, &job.z, kp, simd);
+                        chunk.run_caught(job.task, &*work, &job.z);
                         if done.send(Done::Chunk(chunk)).is_err() {
                             return;
                         }
@@ -179,7 +207,7 @@ impl Pool {
             to: Some(to),
             job: Some(Job {
                 task: Task::Gather,
-                z: vec![0.0; 3 * self.kp],
+                z: vec![0.0; self.z_len],
             }),
             thread: Some(thread),
         })
@@ -192,8 +220,9 @@ impl Pool {
 
     /// Bytes of the buffers.
     pub(crate) fn bytes(&self) -> usize {
-        let w: usize = self.chunks.iter().flatten().map(|c| c.w.len()).sum();
-        4 * (w + self.workers.len() * 3 * self.kp)
+        let chunk = |c: &Chunk| 4 * (c.w.len() + c.scratch.len()) + 8 * c.partial.len();
+        let chunks: usize = self.chunks.iter().flatten().map(chunk).sum();
+        chunks + 4 * self.workers.len() * self.z_len
     }
 
     /// Runs `task` over every chunk with every thread; `z` is the caller's copy. `finished`
@@ -222,7 +251,7 @@ impl Pool {
         let (mut chunks_out, mut jobs_out) = (self.chunks.len(), self.workers.len());
         let mut failed = false;
         while let Some(mut chunk) = take(&self.queue) {
-            chunk.run_caught(task, &self.file, z, self.kp, self.simd);
+            chunk.run_caught(task, &*self.work, z);
             failed |= self.home(chunk, &mut finished);
             chunks_out -= 1;
             // B of the chunks the workers finished meanwhile.

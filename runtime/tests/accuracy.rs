@@ -167,21 +167,59 @@ fn groups_equal_the_per_element_emission_they_stand_for() {
 #[test]
 fn dense_v_baseline_matches() {
     for (layout, channels) in [(Layout::Factored, 3), (Layout::PlainYk, 1)] {
+        // 1001 rows: chunks of 2 and 3 threads end off the kernels' row blocks.
         let op = synthetic::operator(1001, 19, channels, Precision::F32, layout, 4).unwrap();
         let e = emission(op.n(), 6);
         let want = reference::evaluate(op.file(), &e).unwrap();
         for threads in [1, 2, 3] {
-            let dense = DenseV::new(&op, threads).unwrap();
+            let mut dense = DenseV::new(&op, threads).unwrap();
             assert_eq!(dense.bytes_per_frame(), 4 * 1001 * 19 * (1 + channels));
             let mut got = vec![[0.0; 3]; op.n()];
-            dense
-                .evaluate(Rgb::triples(&e), RgbMut::triples(&mut got))
-                .unwrap();
-            // Y_k is rounded to f32 once more than the factored path's F_k.
-            let worst = worst_relative(&got, &want);
-            assert!(worst <= F32_BOUND, "{layout:?} {threads}: {worst:e}");
+            // Twice: the second frame reuses every buffer of the first.
+            for _ in 0..2 {
+                dense
+                    .evaluate(Rgb::triples(&e), RgbMut::triples(&mut got))
+                    .unwrap();
+                // Y_k is rounded to f32 once more than the factored path's F_k.
+                let worst = worst_relative(&got, &want);
+                assert!(worst <= F32_BOUND, "{layout:?} {threads}: {worst:e}");
+            }
         }
     }
+}
+
+#[test]
+fn dense_v_baseline_in_f16_stays_within_two_roundings() {
+    // V_k and Y_k in binary16: each weight and each Y_k entry within 2^-11 relative, so W
+    // within about 2^-10 relative (non-negative terms); plus the f32 evaluation error.
+    let bound = 2f64.powi(-10) + F32_BOUND;
+    let file = synthetic::file(1500, 37, 3, Precision::F32, Layout::Factored, 11).unwrap();
+    let e = emission(1500, 8);
+    let want = reference::evaluate(&file, &e).unwrap();
+    let op = Operator::from_file(to_f16(&file)).unwrap();
+    let mut dense = DenseV::new(&op, 2).unwrap();
+    assert_eq!(dense.bytes_per_frame(), 2 * 1500 * 37 * 4);
+    let mut got = vec![[0.0; 3]; op.n()];
+    dense
+        .evaluate(Rgb::triples(&e), RgbMut::triples(&mut got))
+        .unwrap();
+    let worst = worst_relative(&got, &want);
+    eprintln!("dense V in f16: worst relative error {worst:.2e} (bound {bound:.2e})");
+    assert!(worst <= bound, "{worst:e}");
+}
+
+#[test]
+fn dense_v_baseline_refuses_bad_emission_and_writes_nothing() {
+    let op = synthetic::operator(300, 9, 3, Precision::F32, Layout::Factored, 2).unwrap();
+    let mut dense = DenseV::new(&op, 2).unwrap();
+    let mut e = emission(op.n(), 3);
+    e[123][1] = f32::NAN;
+    let mut out = vec![[7.0f32; 3]; op.n()];
+    let err = dense
+        .evaluate(Rgb::triples(&e), RgbMut::triples(&mut out))
+        .unwrap_err();
+    assert!(err.to_string().contains("element 123"), "{err}");
+    assert!(out.iter().all(|b| *b == [7.0; 3]));
 }
 
 #[test]

@@ -1,11 +1,11 @@
 //! A frame allocates nothing: every allocation of the process is counted, on every thread, while
-//! an evaluator renders frames (one test in this binary, so no other test allocates meanwhile).
+//! an evaluator (and the benchmarks' dense-V baseline) renders frames (one test in this binary, so no other test allocates meanwhile).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use lrr_formats::{Layout as OperatorLayout, Precision};
-use lrr_runtime::testkit::synthetic;
+use lrr_runtime::testkit::{baseline::DenseV, synthetic};
 use lrr_runtime::{Rgb, RgbMut};
 
 struct Counting;
@@ -54,6 +54,8 @@ fn frames_allocate_nothing() {
         let mut out_planes: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0; n]);
         let a = vec![1.0f32; op.light_groups().len()];
         let mut eval = op.evaluator(3).unwrap();
+        // The benchmarks' dense-V baseline is held to the same rule.
+        let mut dense = DenseV::new(&op, 3).unwrap();
         let mut frame = |counting: bool| {
             COUNTING.store(counting, Ordering::SeqCst);
             eval.evaluate(Rgb::triples(&e), RgbMut::triples(&mut out))
@@ -63,6 +65,10 @@ fn frames_allocate_nothing() {
             eval.evaluate(planar, RgbMut::Planar([r, g, b])).unwrap();
             eval.evaluate_groups(&a, RgbMut::triples(&mut out)).unwrap();
             std::hint::black_box(eval.read_pass().unwrap());
+            dense
+                .evaluate(Rgb::triples(&e), RgbMut::triples(&mut out))
+                .unwrap();
+            std::hint::black_box(dense.read_pass().unwrap());
             COUNTING.store(false, Ordering::SeqCst);
         };
         // The first frames may set up the channels' thread-local parking state.

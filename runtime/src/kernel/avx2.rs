@@ -6,8 +6,18 @@
 //! only by rounding (fused multiply-add), which the tests bound.
 //!
 //! Rows are processed `R` at a time so that one load of `z` serves `R` rows and `R · C`
-//! independent FMA chains hide the FMA latency: `R = 4` for three channels (12 accumulators +
-//! 3 `z` + 1 row register = 16 ymm), `R = 8` for one. Measured on the development machine, one
+//! independent FMA chains hide the FMA latency: for three channels `R = 4` in f32 (12
+//! accumulators + 3 `z` + 1 row register = 16 ymm) and `R = 3` in binary16 (the conversion
+//! needs a second temporary: with `R = 4` LLVM kept one accumulator on the stack), `R = 8` for
+//! one channel. The column loop of a block is its own function ([`lane_sums`]): inlined into the
+//! row loop, the `R · C` f64 block totals held vector registers across it and LLVM spilled two
+//! accumulators of the three-channel loop to the stack (a store and a reload in their chains).
+//! Taking it out (2026-11-23, one thread, 960 rows × 216 in L2, best of 30 alternated runs):
+//! binary16 three channels 15.2 → 16.5 GB/s (17.1 with `R = 4` and its spill), one channel
+//! 28.6 → 35.4; f32 34.5 → 36.1 and 47.1 → 49.6. Three-channel binary16 now computes about as
+//! many values per second as f32 (8.3 against 9.0 G/s), so half the bytes per value need
+//! twice the compute per byte: with 3 FMAs per 8 values and row, the conversion's µop on the
+//! same ports is what AVX2 cannot hide (AVX-512's second FMA port could; see PERFORMANCE.md). Measured on the development machine, one
 //! thread, 1000 rows × k = 216 in cache, three channels: f32 8, 22 and 25–27 GB/s with
 //! `R = 1, 2, 4`, f16 5.5, 11 and 10–13.6 GB/s (the scalar twin: 4.8 and 1.8 GB/s); one channel
 //! with `R = 4, 8`: f32 41 and 50 GB/s, f16 24 and 27 GB/s. Two things mattered as much as `R`:
@@ -23,6 +33,9 @@
 //! read from a median of 0.78 (0.76–0.80) to 0.84 (0.80–0.87) over 9 alternated runs of
 //! `examples/roofline` (same build otherwise); eight blocks ahead was no better, and the same
 //! extra prefetch in the read pass did not make the read faster, so the roofline does without.
+//! Prefetching binary16 as far ahead in bytes as f32 (twice the rows) was measured against
+//! this (`examples/roofline 221184 216 2 f16 20`, 5 alternated runs on the loaded machine):
+//! medians of pairs 0.67–0.80 against 0.65–0.78, no difference; not kept.
 
 #![allow(unsafe_code)]
 
@@ -59,7 +72,7 @@ pub(crate) fn gather<const C: usize>(g: &Gather<'_>, w: &mut [f32]) {
     unsafe {
         match (C == 3, f16) {
             (true, false) => rows::<C, 4, false>(g, f32s, f16s, w),
-            (true, true) => rows::<C, 4, true>(g, f32s, f16s, w),
+            (true, true) => rows::<C, 3, true>(g, f32s, f16s, w),
             (false, false) => rows::<C, 8, false>(g, f32s, f16s, w),
             (false, true) => rows::<C, 8, true>(g, f32s, f16s, w),
         }
@@ -86,8 +99,7 @@ fn rows<const C: usize, const R: usize, const H: bool>(
     }
 }
 
-/// Rows `r0..r0 + R` (kept long: it is the loop every frame spends its time in; no closures,
-/// see the module docs).
+/// Rows `r0..r0 + R`: the lane sums of each [`BLOCK`] of columns ([`lane_sums`]) added in f64.
 #[target_feature(enable = "avx2,fma,f16c")]
 #[inline]
 fn block<const C: usize, const R: usize, const H: bool>(
@@ -102,77 +114,7 @@ fn block<const C: usize, const R: usize, const H: bool>(
     let mut q0 = 0;
     while q0 < k {
         let len = BLOCK.min(k - q0);
-        let full = len / LANES;
-        let mut acc = [[_mm256_setzero_ps(); C]; R];
-        // Slices of exactly `full` vectors, so the loop's indices need no bounds checks.
-        let span = full * LANES;
-        let mut zs: [&[f32]; C] = [&[]; C];
-        for c in 0..C {
-            zs[c] = &g.z[c * g.kp + q0..c * g.kp + q0 + span];
-        }
-        let mut rf: [&[f32]; R] = [&[]; R];
-        let mut rh: [&[u16]; R] = [&[]; R];
-        for r in 0..R {
-            let at = (r0 + r) * k + q0;
-            if H {
-                rh[r] = &f16s[at..at + span];
-            } else {
-                rf[r] = &f32s[at..at + span];
-            }
-        }
-        for v in 0..full {
-            let q = v * LANES;
-            if v % PREFETCH_EVERY[usize::from(H)] == 0 {
-                for r in 0..R {
-                    let ahead = (r0 + R + r) * k + q0 + q;
-                    let far = (r0 + 4 * R + r) * k + q0 + q;
-                    if H {
-                        prefetch(f16s, ahead);
-                        prefetch_l2(f16s, far);
-                    } else {
-                        prefetch(f32s, ahead);
-                        prefetch_l2(f32s, far);
-                    }
-                }
-            }
-            let mut zv = [_mm256_setzero_ps(); C];
-            for c in 0..C {
-                zv[c] = load_f32(&zs[c][q..q + LANES]);
-            }
-            for r in 0..R {
-                let f = if H {
-                    load_f16(&rh[r][q..q + LANES])
-                } else {
-                    load_f32(&rf[r][q..q + LANES])
-                };
-                for c in 0..C {
-                    acc[r][c] = _mm256_fmadd_ps(f, zv[c], acc[r][c]);
-                }
-            }
-        }
-        let tail = len - full * LANES;
-        if tail != 0 {
-            let q = q0 + full * LANES;
-            let mut zv = [_mm256_setzero_ps(); C];
-            for c in 0..C {
-                zv[c] = load_f32(&g.z[c * g.kp + q..]);
-            }
-            for r in 0..R {
-                let at = (r0 + r) * k + q;
-                let f = if H {
-                    let mut padded = [0u16; LANES];
-                    padded[..tail].copy_from_slice(&f16s[at..at + tail]);
-                    load_f16(&padded)
-                } else {
-                    let mut padded = [0.0f32; LANES];
-                    padded[..tail].copy_from_slice(&f32s[at..at + tail]);
-                    load_f32(&padded)
-                };
-                for c in 0..C {
-                    acc[r][c] = _mm256_fmadd_ps(f, zv[c], acc[r][c]);
-                }
-            }
-        }
+        let acc = lane_sums::<C, R, H>(g, f32s, f16s, r0, q0, len);
         for r in 0..R {
             for c in 0..C {
                 total[r][c] += f64::from(hsum(acc[r][c]));
@@ -187,8 +129,267 @@ fn block<const C: usize, const R: usize, const H: bool>(
     }
 }
 
-/// Vector steps per 64-byte cache line of a row: 2 for f32, 4 for binary16.
-const PREFETCH_EVERY: [usize; 2] = [64 / (4 * LANES), 64 / (2 * LANES)];
+/// The `R · C` accumulators of rows `r0..r0 + R` over the columns `q0..q0 + len` (`len <=
+/// BLOCK`). Its own function, never inlined: the caller's `R · C` f64 totals would otherwise
+/// hold vector registers through this loop, which then spilled accumulators to the stack (a
+/// store and a reload in every step of their chain).
+///
+/// The loop goes one cache line of each row at a time (2 vector steps of f32, 4 of binary16):
+/// first the prefetches of that line for the rows one block ahead (into L1) and four blocks
+/// ahead (into L2), then the steps. Prefetch addresses are the row's own pointer plus a fixed
+/// offset, so they need no registers of their own.
+#[target_feature(enable = "avx2,fma,f16c")]
+#[inline(never)]
+fn lane_sums<const C: usize, const R: usize, const H: bool>(
+    g: &Gather<'_>,
+    f32s: &[f32],
+    f16s: &[u16],
+    r0: usize,
+    q0: usize,
+    len: usize,
+) -> [[__m256; C]; R] {
+    let k = g.k;
+    let full = len / LANES;
+    let mut acc = [[_mm256_setzero_ps(); C]; R];
+    // Slices of exactly `full` vectors, so the loop's indices need no bounds checks.
+    let span = full * LANES;
+    let mut zs: [&[f32]; C] = [&[]; C];
+    for c in 0..C {
+        zs[c] = &g.z[c * g.kp + q0..c * g.kp + q0 + span];
+    }
+    let mut rf: [&[f32]; R] = [&[]; R];
+    let mut rh: [&[u16]; R] = [&[]; R];
+    for r in 0..R {
+        let at = (r0 + r) * k + q0;
+        if H {
+            rh[r] = &f16s[at..at + span];
+        } else {
+            rf[r] = &f32s[at..at + span];
+        }
+    }
+    let per_line = if H {
+        64 / (2 * LANES)
+    } else {
+        64 / (4 * LANES)
+    };
+    let (near, far) = (R * k, 4 * R * k);
+    for v in 0..full {
+        let q = v * LANES;
+        if v % per_line == 0 {
+            for r in 0..R {
+                if H {
+                    prefetch(rh[r], q + near);
+                    prefetch_l2(rh[r], q + far);
+                } else {
+                    prefetch(rf[r], q + near);
+                    prefetch_l2(rf[r], q + far);
+                }
+            }
+        }
+        step::<C, R, H>(&zs, &rf, &rh, q, &mut acc);
+    }
+    let tail = len - span;
+    if tail != 0 {
+        let q = q0 + span;
+        let mut zv = [_mm256_setzero_ps(); C];
+        for c in 0..C {
+            zv[c] = load_f32(&g.z[c * g.kp + q..]);
+        }
+        for r in 0..R {
+            let at = (r0 + r) * k + q;
+            let f = if H {
+                let mut padded = [0u16; LANES];
+                padded[..tail].copy_from_slice(&f16s[at..at + tail]);
+                load_f16(&padded)
+            } else {
+                let mut padded = [0.0f32; LANES];
+                padded[..tail].copy_from_slice(&f32s[at..at + tail]);
+                load_f32(&padded)
+            };
+            for c in 0..C {
+                acc[r][c] = _mm256_fmadd_ps(f, zv[c], acc[r][c]);
+            }
+        }
+    }
+    acc
+}
+
+/// One vector step of [`lane_sums`] at column `q` of the slices: `C` loads of `z`, then per row
+/// one load (widened by F16C when `H`) and `C` fused multiply-adds.
+#[target_feature(enable = "avx2,fma,f16c")]
+#[inline]
+fn step<const C: usize, const R: usize, const H: bool>(
+    zs: &[&[f32]; C],
+    rf: &[&[f32]; R],
+    rh: &[&[u16]; R],
+    q: usize,
+    acc: &mut [[__m256; C]; R],
+) {
+    let mut zv = [_mm256_setzero_ps(); C];
+    for c in 0..C {
+        zv[c] = load_f32(&zs[c][q..q + LANES]);
+    }
+    for r in 0..R {
+        let f = if H {
+            load_f16(&rh[r][q..q + LANES])
+        } else {
+            load_f32(&rf[r][q..q + LANES])
+        };
+        for c in 0..C {
+            acc[r][c] = _mm256_fmadd_ps(f, zv[c], acc[r][c]);
+        }
+    }
+}
+
+#[cfg(any(test, feature = "testkit"))]
+/// See [`super::transposed`]; falls back to [`scalar`](super::scalar) on a CPU without the
+/// features.
+pub(crate) fn transposed(m: Rows<'_>, k: usize, e: &[f32], acc: &mut [f32], kp: usize) {
+    if !supported() {
+        return super::scalar::transposed(m, k, e, acc, kp);
+    }
+    let t = Transposed { k, kp, e };
+    // SAFETY: `supported()` confirmed AVX2, FMA and F16C on this CPU.
+    unsafe {
+        match m {
+            Rows::F32(v) => t_rows::<TRANSPOSED_ROWS, false>(&t, v, &[], acc),
+            Rows::F16(v) => t_rows::<TRANSPOSED_ROWS, true>(&t, &[], v, acc),
+        }
+    }
+}
+
+#[cfg(any(test, feature = "testkit"))]
+/// Rows per block of [`transposed`]: 3 rows × 3 channels of broadcast emission, 3 accumulators
+/// and a row register (13 of the 16 ymm registers).
+const TRANSPOSED_ROWS: usize = 3;
+
+#[cfg(any(test, feature = "testkit"))]
+/// The shape of one [`transposed`] call.
+struct Transposed<'a> {
+    k: usize,
+    kp: usize,
+    e: &'a [f32],
+}
+
+#[cfg(any(test, feature = "testkit"))]
+/// Every row of `f32s` (or `f16s` when `H`), `R` at a time.
+#[target_feature(enable = "avx2,fma,f16c")]
+fn t_rows<const R: usize, const H: bool>(
+    t: &Transposed<'_>,
+    f32s: &[f32],
+    f16s: &[u16],
+    acc: &mut [f32],
+) {
+    let n = if H { f16s.len() } else { f32s.len() } / t.k;
+    let mut r = 0;
+    while r + R <= n {
+        t_block::<R, H>(t, f32s, f16s, r, acc);
+        r += R;
+    }
+    while r < n {
+        t_block::<1, H>(t, f32s, f16s, r, acc);
+        r += 1;
+    }
+}
+
+#[cfg(any(test, feature = "testkit"))]
+/// Rows `r0..r0 + R` of [`transposed`]: per vector of columns, the 3 accumulators are loaded
+/// once, take `3 R` fused multiply-adds and are stored back. Prefetch as in [`lane_sums`].
+#[target_feature(enable = "avx2,fma,f16c")]
+#[inline(never)]
+fn t_block<const R: usize, const H: bool>(
+    t: &Transposed<'_>,
+    f32s: &[f32],
+    f16s: &[u16],
+    r0: usize,
+    acc: &mut [f32],
+) {
+    let (k, kp) = (t.k, t.kp);
+    let full = k / LANES;
+    let span = full * LANES;
+    let mut ev = [[_mm256_setzero_ps(); 3]; R];
+    for r in 0..R {
+        for c in 0..3 {
+            ev[r][c] = _mm256_set1_ps(t.e[3 * (r0 + r) + c]);
+        }
+    }
+    let mut rf: [&[f32]; R] = [&[]; R];
+    let mut rh: [&[u16]; R] = [&[]; R];
+    for r in 0..R {
+        let at = (r0 + r) * k;
+        if H {
+            rh[r] = &f16s[at..at + span];
+        } else {
+            rf[r] = &f32s[at..at + span];
+        }
+    }
+    let (a0, rest) = acc.split_at_mut(kp);
+    let (a1, a2) = rest.split_at_mut(kp);
+    let planes: [&mut [f32]; 3] = [&mut a0[..kp], &mut a1[..kp], &mut a2[..kp]];
+    let per_line = if H {
+        64 / (2 * LANES)
+    } else {
+        64 / (4 * LANES)
+    };
+    let (near, far) = (R * k, 4 * R * k);
+    for v in 0..full {
+        let q = v * LANES;
+        if v % per_line == 0 {
+            for r in 0..R {
+                if H {
+                    prefetch(rh[r], q + near);
+                    prefetch_l2(rh[r], q + far);
+                } else {
+                    prefetch(rf[r], q + near);
+                    prefetch_l2(rf[r], q + far);
+                }
+            }
+        }
+        let mut a = [_mm256_setzero_ps(); 3];
+        for c in 0..3 {
+            a[c] = load_f32(&planes[c][q..q + LANES]);
+        }
+        for r in 0..R {
+            let f = if H {
+                load_f16(&rh[r][q..q + LANES])
+            } else {
+                load_f32(&rf[r][q..q + LANES])
+            };
+            for c in 0..3 {
+                a[c] = _mm256_fmadd_ps(f, ev[r][c], a[c]);
+            }
+        }
+        for c in 0..3 {
+            store_f32(&mut planes[c][q..q + LANES], a[c]);
+        }
+    }
+    let tail = k - span;
+    if tail != 0 {
+        // The planes are `kp >= span + LANES` long; the padded columns take products with 0.
+        let mut a = [_mm256_setzero_ps(); 3];
+        for c in 0..3 {
+            a[c] = load_f32(&planes[c][span..span + LANES]);
+        }
+        for r in 0..R {
+            let at = (r0 + r) * k + span;
+            let f = if H {
+                let mut padded = [0u16; LANES];
+                padded[..tail].copy_from_slice(&f16s[at..at + tail]);
+                load_f16(&padded)
+            } else {
+                let mut padded = [0.0f32; LANES];
+                padded[..tail].copy_from_slice(&f32s[at..at + tail]);
+                load_f32(&padded)
+            };
+            for c in 0..3 {
+                a[c] = _mm256_fmadd_ps(f, ev[r][c], a[c]);
+            }
+        }
+        for c in 0..3 {
+            store_f32(&mut planes[c][span..span + LANES], a[c]);
+        }
+    }
+}
 
 /// Asks the CPU to bring the cache line holding `data[index]` into L1. A hint: it never faults
 /// and reads nothing into the program (so the intrinsic is safe), and an index past the end (the
@@ -423,6 +624,16 @@ fn load_f32(v: &[f32]) -> __m256 {
     unsafe { _mm256_loadu_ps(lanes.as_ptr()) }
 }
 
+#[cfg(any(test, feature = "testkit"))]
+/// Stores `x` into the first 8 values of `v` (bounds-checked like [`load_f32`]).
+#[target_feature(enable = "avx2,fma,f16c")]
+#[inline]
+fn store_f32(v: &mut [f32], x: __m256) {
+    let lanes: &mut [f32; LANES] = (&mut v[..LANES]).try_into().expect("8 values");
+    // SAFETY: `lanes` is 8 writable f32 (32 bytes); the unaligned store has no other requirement.
+    unsafe { std::arch::x86_64::_mm256_storeu_ps(lanes.as_mut_ptr(), x) }
+}
+
 /// The first 8 binary16 values of `v`, widened exactly by the F16C instruction.
 #[target_feature(enable = "avx2,fma,f16c")]
 #[inline]
@@ -446,10 +657,119 @@ mod tests {
     use super::super::{Gather, Rows, padded, scalar, tests::values};
     use super::*;
 
+    /// Whether this CPU runs the AVX2 kernels. Without them a test fails (the kernels would go
+    /// untested while the tests pass) unless `LRR_SKIP_AVX2=1` says that is expected; then it
+    /// says it skipped.
+    fn avx2_or_allowed_skip() -> bool {
+        if supported() {
+            return true;
+        }
+        assert!(
+            std::env::var_os("LRR_SKIP_AVX2").is_some(),
+            "this CPU lacks AVX2/FMA/F16C, so the AVX2 kernels cannot be tested here: run on \
+             an x86-64 CPU with them, or set LRR_SKIP_AVX2=1 to skip these tests knowingly"
+        );
+        eprintln!("skipped: this CPU lacks AVX2/FMA/F16C (LRR_SKIP_AVX2 is set)");
+        false
+    }
+
+    #[test]
+    fn a_row_gives_the_same_bits_in_every_block_shape() {
+        // Chunk bounds move with the thread count, so a row may be computed in a block of R
+        // rows or alone: the result must be the same bits (deterministic frames).
+        if !avx2_or_allowed_skip() {
+            return;
+        }
+        for (rows, k) in [(13, 216), (11, 300), (9, 7)] {
+            let kp = padded(k);
+            let m = values(rows * k, k as u64);
+            let halves: Vec<u16> = m.iter().map(|&v| lrr_formats::f32_to_f16(v)).collect();
+            let z = values(3 * kp, 5);
+            for m in [Rows::F32(&m), Rows::F16(&halves)] {
+                for c3 in [true, false] {
+                    let g = Gather {
+                        m,
+                        k,
+                        z: &z,
+                        kp,
+                        offset: 0,
+                    };
+                    let mut all = vec![0.0f32; 3 * rows];
+                    if c3 {
+                        gather::<3>(&g, &mut all);
+                    } else {
+                        gather::<1>(&g, &mut all);
+                    }
+                    for r in 0..rows {
+                        let one = match m {
+                            Rows::F32(v) => Rows::F32(&v[r * k..(r + 1) * k]),
+                            Rows::F16(v) => Rows::F16(&v[r * k..(r + 1) * k]),
+                        };
+                        let g = Gather { m: one, ..g };
+                        let mut w = [0.0f32; 3];
+                        if c3 {
+                            gather::<3>(&g, &mut w);
+                        } else {
+                            gather::<1>(&g, &mut w);
+                        }
+                        let used = if c3 { 3 } else { 1 };
+                        for c in 0..used {
+                            assert_eq!(
+                                w[c].to_bits(),
+                                all[3 * r + c].to_bits(),
+                                "rows {rows} k {k} {m:?} row {r} channel {c}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn transposed_matches_the_scalar_twin_on_every_shape() {
+        if !avx2_or_allowed_skip() {
+            return;
+        }
+        // Rows around the 3-row blocks, columns around the 8 lanes and the cache lines.
+        for (rows, k) in [
+            (1, 1),
+            (2, 7),
+            (3, 8),
+            (4, 13),
+            (7, 16),
+            (8, 33),
+            (10, 216),
+            (5, 300),
+        ] {
+            let kp = padded(k);
+            let m = values(rows * k, (rows * 31 + k) as u64);
+            let halves: Vec<u16> = m.iter().map(|&v| lrr_formats::f32_to_f16(v)).collect();
+            let e = values(3 * rows, 9);
+            let mut start = values(3 * kp, 4);
+            for c in 0..3 {
+                start[c * kp + k..(c + 1) * kp].fill(0.0);
+            }
+            for m in [Rows::F32(&m), Rows::F16(&halves)] {
+                let (mut fast, mut slow) = (start.clone(), start.clone());
+                transposed(m, k, &e, &mut fast, kp);
+                scalar::transposed(m, k, &e, &mut slow, kp);
+                for (i, (a, b)) in fast.iter().zip(&slow).enumerate() {
+                    assert!(
+                        (a - b).abs() <= 1e-6 * b.abs(),
+                        "rows {rows} k {k} {m:?} value {i}: {a} vs {b}"
+                    );
+                }
+                for c in 0..3 {
+                    assert!(fast[c * kp + k..(c + 1) * kp].iter().all(|&x| x == 0.0));
+                }
+            }
+        }
+    }
+
     #[test]
     fn matches_the_scalar_twin_on_every_shape() {
-        if !supported() {
-            eprintln!("skipped: this CPU lacks AVX2/FMA/F16C");
+        if !avx2_or_allowed_skip() {
             return;
         }
         for (rows, k) in [
@@ -461,6 +781,8 @@ mod tests {
             (4, 256),
             (6, 300),
             (2, 777),
+            (7, 40),
+            (11, 24),
         ] {
             let kp = padded(k);
             let m = values(rows * k, (rows * 1000 + k) as u64);
@@ -499,8 +821,7 @@ mod tests {
 
     #[test]
     fn segment_sums_match_the_scalar_twin_and_refuse_the_same_values() {
-        if !supported() {
-            eprintln!("skipped: this CPU lacks AVX2/FMA/F16C");
+        if !avx2_or_allowed_skip() {
             return;
         }
         for len in [0, 1, 7, 8, 9, 31, 255, 256, 257, 1000, 4099] {

@@ -17,7 +17,7 @@
 //! 0.82–0.84 for AVX2, with the 512-bit read pass no faster than the 256-bit one. It was not
 //! kept.
 //!
-//! Accuracy: products are summed in 8 f32 lanes over blocks of [`BLOCK`] columns, each block's
+//! Accuracy: products are summed in 8 f32 lanes over blocks of [`BLOCK`](shared::BLOCK) columns, each block's
 //! sum is added in f64. With non-negative terms (form factors, cores of a physical operator,
 //! non-negative emission) the relative error of a row is at most about
 //! `(BLOCK / 8 + 4) · 2⁻²⁴ ≈ 2.2e-6`, whatever k is.
@@ -80,6 +80,27 @@ pub(crate) fn gather<const C: usize>(simd: SimdLevel, g: &Gather<'_>, w: &mut [f
     }
 }
 
+#[cfg(any(test, feature = "testkit"))]
+/// `acc[c kp + q] += Σ_r m(r, q) e[3 r + c]` for every row `r` of `m` (`k` columns) and `c < 3`:
+/// the transposed product `Mᵀ E` of the dense-`V` baseline (`testkit`), in f32 (the caller adds
+/// `acc` to f64 every few hundred rows). `e` holds 3 interleaved values per row; `acc` is 3
+/// planes of `kp >= k` values, left as they are past `k`.
+pub(crate) fn transposed(
+    simd: SimdLevel,
+    m: Rows<'_>,
+    k: usize,
+    e: &[f32],
+    acc: &mut [f32],
+    kp: usize,
+) {
+    debug_assert!(kp >= k && acc.len() >= 3 * kp && e.len() >= 3 * (m.len() / k));
+    match simd {
+        #[cfg(target_arch = "x86_64")]
+        SimdLevel::Avx2 => avx2::transposed(m, k, e, acc, kp),
+        _ => scalar::transposed(m, k, e, acc, kp),
+    }
+}
+
 /// A wrapping sum of every stored word of `m` (f32 bits modulo 2³², or binary16 bits modulo
 /// 2¹⁶), so that nothing can be skipped: the memory-read roofline of a gather over the same rows.
 pub(crate) fn read_sum(simd: SimdLevel, m: Rows<'_>) -> u64 {
@@ -92,7 +113,7 @@ pub(crate) fn read_sum(simd: SimdLevel, m: Rows<'_>) -> u64 {
 
 /// `Σ_j w_j e_j` per channel over one run of interleaved emission (`e.len() == 3 * w.len()`),
 /// and whether every value of `e` was allowed ([`emission_ok`]): a segment sum of `X = Vᵀ E`.
-/// Accuracy: the AVX2 version sums [`SUM_STEPS`] products per f32 lane before adding in f64,
+/// Accuracy: the AVX2 version sums [`SUM_STEPS`](shared::SUM_STEPS) products per f32 lane before adding in f64,
 /// so with non-negative weights and emission a sum's relative error is at most about
 /// `(SUM_STEPS + 1) · 2⁻²⁴ ≈ 2e-6`; the scalar twin sums in f64.
 pub(crate) fn sums_interleaved(simd: SimdLevel, w: &[f32], e: &[f32]) -> ([f64; 3], bool) {

@@ -92,6 +92,34 @@ pub(crate) fn gather<const C: usize>(g: &Gather<'_>, w: &mut [f32]) {
     }
 }
 
+#[cfg(any(test, feature = "testkit"))]
+/// See [`super::transposed`]: one row at a time, [`BLOCK`] columns at a time, each channel an
+/// f32 axpy over the block.
+pub(crate) fn transposed(m: Rows<'_>, k: usize, e: &[f32], acc: &mut [f32], kp: usize) {
+    let mut buf = [0.0f32; BLOCK];
+    for (r, er) in e.chunks_exact(3).take(m.len() / k).enumerate() {
+        for q0 in (0..k).step_by(BLOCK) {
+            let len = BLOCK.min(k - q0);
+            let values = &mut buf[..len];
+            let at = r * k + q0;
+            match m {
+                Rows::F32(m) => values.copy_from_slice(&m[at..at + len]),
+                Rows::F16(m) => {
+                    for (v, &h) in values.iter_mut().zip(&m[at..at + len]) {
+                        *v = f16_finite_to_f32(h);
+                    }
+                }
+            }
+            for (c, &ec) in er.iter().enumerate() {
+                let plane = &mut acc[c * kp + q0..c * kp + q0 + len];
+                for (a, &v) in plane.iter_mut().zip(values.iter()) {
+                    *a += v * ec;
+                }
+            }
+        }
+    }
+}
+
 /// `Σ a b` in [`LANES`] f32 lanes; the lengths are equal multiples of [`LANES`].
 fn dot(a: &[f32], b: &[f32]) -> f32 {
     let mut acc = [0.0f32; LANES];
@@ -156,6 +184,32 @@ mod tests {
             let exact = lrr_formats::f16_to_f32(h);
             if exact.is_finite() {
                 assert_eq!(f16_finite_to_f32(h).to_bits(), exact.to_bits(), "{h:#06x}");
+            }
+        }
+    }
+
+    #[test]
+    fn transposed_adds_the_product_of_the_transpose() {
+        let (rows, k, kp) = (5, 11, 16);
+        let m = super::super::tests::values(rows * k, 3);
+        let e = super::super::tests::values(3 * rows, 8);
+        let mut acc = vec![1.0f32; 3 * kp];
+        transposed(Rows::F32(&m), k, &e, &mut acc, kp);
+        for c in 0..3 {
+            for q in 0..kp {
+                let want = 1.0
+                    + if q < k {
+                        (0..rows)
+                            .map(|r| f64::from(m[r * k + q]) * f64::from(e[3 * r + c]))
+                            .sum()
+                    } else {
+                        0.0
+                    };
+                let got = f64::from(acc[c * kp + q]);
+                assert!(
+                    (got - want).abs() <= 1e-6 * want,
+                    "c {c} q {q}: {got} vs {want}"
+                );
             }
         }
     }

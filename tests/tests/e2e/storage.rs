@@ -105,10 +105,27 @@ fn bench_runtime_prints_the_promised_json_rows() {
             "fps",
             "roofline_ratio",
             "speedup_vs_dense",
+            "fps_dense",
+            "bytes_per_frame",
+            "dense_bytes_per_frame",
+            "byte_ratio",
+            "fps_dense_read",
+            "dense_roofline_ratio",
         ] {
             assert!(!r[key].is_null(), "{key} missing in {r}");
         }
         assert!(r["fps"].as_f64().unwrap() > 0.0 && r["roofline_ratio"].as_f64().unwrap() > 0.0);
+        assert!(r["dense_roofline_ratio"].as_f64().unwrap() > 0.0);
+        // The baseline reads V_k and three Y_c in the operator's precision: 4 × the bytes of F_k.
+        let (a, c) = (
+            r["bytes_per_frame"].as_u64(),
+            r["dense_bytes_per_frame"].as_u64(),
+        );
+        let (n, k) = (r["n"].as_u64().unwrap(), r["k"].as_u64().unwrap());
+        let size = if r["precision"] == "f16" { 2 } else { 4 };
+        assert_eq!(a, Some(n * k * size), "{r}");
+        assert_eq!(c, Some(4 * n * k * size), "{r}");
+        assert_eq!(r["byte_ratio"].as_f64(), Some(4.0), "{r}");
     }
     let err = lrr(&["bench", "runtime", "--sizes", "10x20"]).unwrap_err();
     assert!(err.contains("k <= n"), "{err}");
