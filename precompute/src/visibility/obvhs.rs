@@ -17,11 +17,9 @@
 use glam::{DVec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::builder::build_cwbvh;
-use obvhs::ray::Ray;
 use obvhs::triangle::Triangle;
 
+use super::flat::{FlatBvh, FlatRay};
 use super::occluder::{
     Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, own_face, relative_segment, triangle_plane,
 };
@@ -47,7 +45,7 @@ const F32_DIAGONAL: f64 = 4096.0;
 
 /// The default occluder: an obvhs BVH (f32 traversal) with the exact f64 triangle test.
 pub struct ObvhsOccluder {
-    bvh: CwBvh,
+    bvh: FlatBvh,
     /// The triangles in f64 (relative to `centre`) in BVH primitive order, for the exact test.
     exact: Vec<[DVec3; 3]>,
     /// Their planes (unit normal, offset), same order.
@@ -81,6 +79,8 @@ impl ObvhsOccluder {
         }
         let params = BvhBuildParams {
             search_depth_threshold: 0,
+            max_prims_per_leaf: 2,
+            collapse_traversal_cost: 1.0,
             ..BvhBuildParams::medium_build()
         };
         // Boxes padded by a hair: an axis-aligned wall has a box of zero thickness, which the
@@ -93,12 +93,8 @@ impl ObvhsOccluder {
                 Aabb::new(b.min - pad, b.max + pad)
             })
             .collect();
-        let bvh = build_cwbvh(&boxes, params, &mut std::time::Duration::default());
-        let exact: Vec<[DVec3; 3]> = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| exact_tris[i as usize])
-            .collect();
+        let bvh = FlatBvh::build(&boxes, params);
+        let exact: Vec<[DVec3; 3]> = bvh.order.iter().map(|&i| exact_tris[i as usize]).collect();
         let planes = exact.iter().map(triangle_plane).collect();
         let plane_tolerance = PLANE_TOLERANCE * (hi - lo).length();
         Self {
@@ -166,29 +162,26 @@ impl Occluder for ObvhsOccluder {
         // rounded to f32) into +0.0: obvhs picks the slab's near side by `dir < 0` but inverts
         // -0.0 to a negative number, which made every box test of such a ray fail.
         let scaled = length * self.scale;
-        let ray = Ray::new(
+        let ray = FlatRay::new(
             Vec3A::from((origin * self.scale).as_vec3()),
-            Vec3A::from(direction.as_vec3()) + Vec3A::ZERO,
+            Vec3A::from(direction.as_vec3()),
             0.0,
             (scaled * (1.0 + 1e-5)) as f32,
         );
         let eps = f64::from(SEGMENT_EPSILON) * length;
         let sheared = ShearedRay::new(origin, direction, eps, length - eps);
-        !self.bvh.ray_traverse_miss(ray, |_, id| {
-            // The face an end point lies on (or a coincident back face) meets the segment only
-            // at that end point: skip it, whatever the rounding says. Every other face counts
-            // over the whole segment, however close to an end point it is crossed.
-            if self.own_face(id, origin, from_normal) || self.own_face(id, target, to_normal) {
-                return f32::INFINITY;
-            }
-            let [a, b, c] = self.exact[id];
-            // Any value below the ray's tmax reports a hit to obvhs.
-            if sheared.hit(a, b, c).is_some() {
-                0.0
-            } else {
-                f32::INFINITY
-            }
-        })
+        self.bvh
+            .any_hit(&ray, |id| {
+                // The face an end point lies on (or a coincident back face) meets the segment
+                // only at that end point: skip it, whatever the rounding says. Every other face
+                // counts over the whole segment, however close to an end point it is crossed.
+                if self.own_face(id, origin, from_normal) || self.own_face(id, target, to_normal) {
+                    return false;
+                }
+                let [a, b, c] = self.exact[id];
+                sheared.hit(a, b, c).is_some()
+            })
+            .is_some()
     }
 }
 
