@@ -1,18 +1,23 @@
-//! Occlusion queries through obvhs (a compressed wide BVH, pure Rust).
+//! Occlusion queries through a BVH built by obvhs (pure Rust) and traversed by our own code.
 //!
-//! Build settings: obvhs' `medium_build` preset with `search_depth_threshold = 0`. The stock
-//! value (3) made traversal of grid-tessellated walls about 30× slower in our measurements.
+//! Build: obvhs' PLOC binary BVH (`medium_build` preset with `search_depth_threshold = 0`; the
+//! stock value 3 made traversal of grid-tessellated walls about 30× slower in our measurements
+//! with obvhs' traversal; at most 2 triangles per leaf, leaf-collapse cost 1), collapsed into
+//! the flat 4-wide BVH of `flat` (four f32 slab tests per node, an any-hit traversal). Before
+//! it, obvhs' compressed wide BVH (`CwBvh::ray_traverse_miss`) answered the queries at about
+//! 0.9× Embree's rate on the bake's rays; the flat 4-wide BVH at 1.3–1.5× (docs/PERFORMANCE.md).
 //! Triangles are tested with the watertight test of `watertight`, not obvhs' own.
 //! Coordinates are shifted to the scene's centre before the f32 conversion to keep precision,
 //! and scaled by a power of two to a diagonal of 2048..4096 (see `F32_DIAGONAL`).
 //!
 //! The BVH only proposes candidates; every decision is the exact f64 test, so the traversal
-//! must never cull a face the exact test would call crossed. Before the scaling it did: obvhs'
-//! node test ignores `Ray::tmin` and culls every box the ray leaves before
-//! t = 1e-4 in absolute units, so in a scene a few units across a wall crossed within ~1e-4
-//! of a segment's start (its padded box left before 1e-4) was never tested (5365 of 16 000
-//! segments starting 1e-7..1e-4 diagonals from a wall missed it at size 1, 5186 of 16 000 at
-//! size 0.01, none at size 1000); and a direction component of -0.0 made every box test fail.
+//! must never cull a face the exact test would call crossed. obvhs' own traversal did: its
+//! node test ignores `Ray::tmin` and culls every box the ray leaves before t = 1e-4 in absolute
+//! units, so in a scene a few units across a wall crossed within ~1e-4 of a segment's start
+//! (its padded box left before 1e-4) was never tested (5365 of 16 000 segments starting
+//! 1e-7..1e-4 diagonals from a wall missed it at size 1, 5186 of 16 000 at size 0.01, none at
+//! size 1000); and a direction component of -0.0 made every box test fail. The unit tests
+//! below keep both cases.
 
 use glam::{DVec3, Vec3A};
 use obvhs::BvhBuildParams;
@@ -29,21 +34,20 @@ use crate::scene::Scene;
 /// The scene's diagonal in the f32 coordinates of the BVH is scaled (by a power of two) into
 /// `(F32_DIAGONAL / 2, F32_DIAGONAL]`.
 ///
-/// Why: obvhs' child-box test (`CwBvhNode::intersect_ray{,_simd}`, obvhs 0.4) ignores the
-/// ray's `tmin` and clamps the entry distance to a constant `EPSILON = 1e-4` instead, in the
-/// scene's absolute units: a box the ray leaves before t = 1e-4 is culled. A face crossed at
-/// t_c ≥ 0 has a padded box the ray leaves at t ≥ t_c + pad (pad = [`PLANE_TOLERANCE`] ×
-/// diagonal, the box's half-thickness: a unit direction moves no coordinate faster than
-/// 1), minus f32 rounding (a few ulps of the coordinates, well under pad). With a unit-sized
-/// scene pad ≈ 2e-6 < 1e-4, so faces crossed within ~1e-4 of the start were never offered to
-/// the exact test; no negative `tmin` or slack on the segment's length can change that. At a
-/// diagonal of 2048..4096 pad ≥ 2e-3 ≥ 20 × 1e-4, so the clamp culls no box that contains a
-/// point of the segment, at any scene scale, and the f32 precision relative to the diagonal
-/// is unchanged (a power of two scales exactly). The faces through the start point (its own
-/// face, a wall it stands on) are now always candidates; the own-face rule answers those.
+/// Why: the traversal's culling must stay conservative: a face crossed at t_c ≥ 0 has a padded
+/// box the ray leaves at t ≥ t_c + pad (pad = [`PLANE_TOLERANCE`] × diagonal, the box's
+/// half-thickness: a unit direction moves no coordinate faster than 1), minus f32 rounding (a
+/// few ulps of the coordinates, well under pad), so the interval `[0, length]` always meets it.
+/// A power of two scales exactly, so the f32 precision relative to the diagonal is that of any
+/// scale, and no coordinate, distance or inverse direction over- or underflows f32 however
+/// large or small the scene. (The scaling was introduced for obvhs' `CwBvh` traversal, which
+/// clamped the entry distance to an absolute 1e-4: at this diagonal pad ≥ 2e-3 ≥ 20 × 1e-4.)
+/// The faces through the start point (its own face, a wall it stands on) are always
+/// candidates; the own-face rule answers those.
 const F32_DIAGONAL: f64 = 4096.0;
 
-/// The default occluder: an obvhs BVH (f32 traversal) with the exact f64 triangle test.
+/// The default occluder: a flat 4-wide BVH (f32 traversal, built by obvhs) with the exact f64
+/// triangle test.
 pub struct ObvhsOccluder {
     bvh: FlatBvh,
     /// The triangles in f64 (relative to `centre`) in BVH primitive order, for the exact test.
@@ -157,10 +161,9 @@ impl Occluder for ObvhsOccluder {
         };
         // The BVH is traversed in f32 (scaled coordinates, see `F32_DIAGONAL`) over a slightly
         // longer range (culling stays conservative under rounding); the decision is the exact
-        // f64 test over the segment. obvhs ignores `tmin`; the start is covered by the boxes'
-        // padding. `+ 0.0` turns a -0.0 component (from -0.0 - 0.0, or a tiny negative one
-        // rounded to f32) into +0.0: obvhs picks the slab's near side by `dir < 0` but inverts
-        // -0.0 to a negative number, which made every box test of such a ray fail.
+        // f64 test over the segment. A face crossed at the very start is still entered: its
+        // padded box reaches past t = 0. (Zero and -0.0 direction components are handled by
+        // `FlatRay`, consistently with the near side it picks.)
         let scaled = length * self.scale;
         let ray = FlatRay::new(
             Vec3A::from((origin * self.scale).as_vec3()),
