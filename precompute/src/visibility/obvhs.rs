@@ -5,7 +5,8 @@
 //! with obvhs' traversal; at most 2 triangles per leaf, leaf-collapse cost 1), collapsed into
 //! the flat 4-wide BVH of `flat` (four f32 slab tests per node, an any-hit traversal). Before
 //! it, obvhs' compressed wide BVH (`CwBvh::ray_traverse_miss`) answered the queries at about
-//! 0.9× Embree's rate on the bake's rays; the flat 4-wide BVH at 1.3–1.5× (docs/PERFORMANCE.md).
+//! 0.85–1.1× Embree's rate on the bake's rays; the flat 4-wide BVH at 1.2–1.5×
+//! (docs/PERFORMANCE.md).
 //! Triangles are tested with the watertight test of `watertight`, not obvhs' own.
 //! Coordinates are shifted to the scene's centre before the f32 conversion to keep precision,
 //! and scaled by a power of two to a diagonal of 2048..4096 (see `F32_DIAGONAL`).
