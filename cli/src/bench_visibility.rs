@@ -2,15 +2,22 @@
 //! form-factor rays, measured side by side in one run.
 //!
 //! Per scene (the bundled Cornell box; the generated cluttered room), the rays a default bake
-//! casts are recorded once ([`crate::record`]), then answered by
-//! - `embree`: Embree 4, one `rtcOccluded1` per ray (only in builds with the feature `embree`);
-//! - `obvhs`: the project's obvhs BVH, one [`Occluder::occluded`] per ray;
-//! - `default`: the occluder a plain bake builds, through [`Occluder::occluded_bundle`] per
-//!   element-target pair, exactly as the form-factor integration calls it;
+//! casts are recorded once ([`crate::record`]), then answered by every backend the build has,
+//! each exactly as a bake calls it: [`Occluder::occluded_bundle`] per element-target pair
+//! (rayon over the pairs):
+//! - `embree`: Embree 4 (only in builds with the feature `embree`), one `rtcOccluded1` per ray;
+//! - `obvhs`: the default backend, the project's BVH with the exact f64 triangle test.
 //!
-//! on one thread and on all cores (rayon over the pairs), backends interleaved within each
-//! round. Reported: median rays/s over rounds, median per-round ratio to Embree, BVH build
-//! times (median of the rounds), and how many answers differ from obvhs.
+//! Each row is its own measurement: one backend on one thread count. (An earlier `default` row
+//! timed the default backend's `occluded_bundle`, which for obvhs is the per-ray loop the
+//! `obvhs` row already timed: the same code under a second name.)
+//!
+//! Protocol: `--runs` runs; in each, every thread count (one thread, then `--threads`) times
+//! every backend once, in alternating order (forward in even runs, reversed in odd ones, so
+//! that neither backend always goes first on a warming or cooling machine). Reported: the
+//! median rays/s over runs, the median and range of the per-run ratio to Embree (both timed
+//! within the same run, back to back), the median BVH build time, and how many answers differ
+//! from obvhs'.
 
 use std::io::Write;
 use std::time::Instant;
@@ -27,7 +34,7 @@ use lrr_precompute::patches::PatchMethod;
 use lrr_precompute::pool::with_threads;
 use lrr_precompute::progress::Progress;
 use lrr_precompute::scene::{Scene, procedural};
-use lrr_precompute::visibility::{Backend, Occluder, obvhs::ObvhsOccluder};
+use lrr_precompute::visibility::{Backend, Occluder};
 
 #[derive(Debug, Args)]
 pub struct VisibilityBench {
@@ -38,10 +45,11 @@ pub struct VisibilityBench {
     /// Form-factor rays recorded per scene (at least; whole element rows are kept).
     #[arg(long, default_value_t = 1_000_000)]
     pub rays: usize,
-    /// Rounds; each round times every backend on one thread, then on all cores.
-    #[arg(long, default_value_t = 5)]
-    pub rounds: usize,
-    /// Threads of the "all cores" runs [default: all cores].
+    /// Runs; each times every backend on one thread, then on `--threads`, backends in
+    /// alternating order. Rates and ratios are medians over runs.
+    #[arg(long, alias = "rounds", default_value_t = 5)]
+    pub runs: usize,
+    /// Threads of the multi-threaded runs [default: all cores].
     #[arg(long)]
     pub threads: Option<usize>,
     /// Print JSON rows instead of a table.
@@ -53,27 +61,29 @@ pub struct VisibilityBench {
 #[derive(Debug, Clone, Serialize)]
 pub struct Row {
     pub scene: String,
-    /// `embree`, `obvhs` or `default` (the path a plain bake uses).
+    /// `embree` or `obvhs` (the default backend).
     pub backend: &'static str,
     pub threads: usize,
-    /// Median over rounds.
+    /// Median over runs.
     pub rays_per_s: f64,
-    /// Median over rounds of this backend's rays/s over Embree's in the same round (absent
+    /// Median over runs of this backend's rays/s over Embree's in the same run (absent
     /// without Embree).
     pub ratio_vs_embree: Option<f64>,
+    /// Every run's ratio, in run order (empty without Embree).
+    pub ratios_vs_embree: Vec<f64>,
+    pub runs: usize,
     pub rays: usize,
     /// Median seconds to build the backend's acceleration structure.
     pub build_s: f64,
     /// Rays answered "blocked".
     pub blocked: usize,
-    /// Rays whose answer differs from obvhs' single-ray answer.
+    /// Rays whose answer differs from obvhs'.
     pub differs_from_obvhs: usize,
 }
 
 struct Contender {
-    name: &'static str,
+    backend: Backend,
     occ: Box<dyn Occluder>,
-    bundles: bool,
     build_s: Vec<f64>,
 }
 
@@ -83,6 +93,9 @@ pub fn run(b: &VisibilityBench, out: &mut dyn Write) -> Result<()> {
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     if all == 0 {
         bail!("--threads must be at least 1");
+    }
+    if b.runs == 0 {
+        bail!("--runs must be at least 1");
     }
     let mut rows = Vec::new();
     for name in &b.scenes {
@@ -123,10 +136,10 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// Answers every ray of `set` with `threads` threads, pair by pair; returns (seconds, answers).
-fn answer(set: &RaySet, c: &Contender, threads: usize) -> Result<(f64, Vec<bool>)> {
+/// Answers every ray of `set` with `threads` threads, pair by pair through
+/// [`Occluder::occluded_bundle`] as a bake does; returns (seconds, answers).
+fn answer(set: &RaySet, occ: &dyn Occluder, threads: usize) -> Result<(f64, Vec<bool>)> {
     let mut blocked = vec![false; set.rays()];
-    let occ = &*c.occ;
     let seconds = with_threads(Some(threads), || {
         // Split the answers along the bundles so that each task owns its slice.
         let mut slices = Vec::with_capacity(set.bundles.len());
@@ -139,13 +152,7 @@ fn answer(set: &RaySet, c: &Contender, threads: usize) -> Result<(f64, Vec<bool>
         let start = Instant::now();
         slices.into_par_iter().for_each(|(bundle, out)| {
             let segments = &set.segments[bundle.start..bundle.end];
-            if c.bundles {
-                occ.occluded_bundle(&bundle.element, &bundle.target, segments, out);
-            } else {
-                for (s, o) in segments.iter().zip(out.iter_mut()) {
-                    *o = occ.occluded(s.from, bundle.element.normal, s.to, bundle.target.normal);
-                }
-            }
+            occ.occluded_bundle(&bundle.element, &bundle.target, segments, out);
         });
         start.elapsed().as_secs_f64()
     })?;
@@ -177,84 +184,68 @@ fn measure(name: &str, scene: &Scene, b: &VisibilityBench, all: usize) -> Result
         Ok((start.elapsed().as_secs_f64(), occ))
     };
     let mut contenders = Vec::new();
-    if Backend::Embree.available() {
-        let (t, occ) = timed_build(Backend::Embree)?;
-        contenders.push(Contender {
-            name: "embree",
-            occ,
-            bundles: false,
-            build_s: vec![t],
-        });
+    for backend in [Backend::Embree, Backend::Obvhs] {
+        if backend.available() {
+            let (t, occ) = timed_build(backend)?;
+            contenders.push(Contender {
+                backend,
+                occ,
+                build_s: vec![t],
+            });
+        }
     }
-    let start = Instant::now();
-    let obvhs = ObvhsOccluder::build(scene);
-    contenders.push(Contender {
-        name: "obvhs",
-        occ: Box::new(obvhs),
-        bundles: false,
-        build_s: vec![start.elapsed().as_secs_f64()],
-    });
-    let (t, occ) = timed_build(Backend::default())?;
-    contenders.push(Contender {
-        name: "default",
-        occ,
-        bundles: true,
-        build_s: vec![t],
-    });
     let threads = if all > 1 { vec![1, all] } else { vec![1] };
-    // rates[contender][thread setting] per round; ratios likewise.
+    // rates[contender][thread setting] per run; ratios likewise.
     let mut rates = vec![vec![Vec::new(); threads.len()]; contenders.len()];
     let mut ratios = vec![vec![Vec::new(); threads.len()]; contenders.len()];
     let mut answers: Vec<Vec<bool>> = vec![Vec::new(); contenders.len()];
-    for round in 0..b.rounds.max(1) {
-        if round > 0 {
-            // Build times too are medians of the rounds.
+    for run in 0..b.runs {
+        if run > 0 {
+            // Build times too are medians of the runs.
             for c in contenders.iter_mut() {
-                let start = Instant::now();
-                let occ = match c.name {
-                    "obvhs" => Box::new(ObvhsOccluder::build(scene)) as Box<dyn Occluder>,
-                    "embree" => Backend::Embree.build(scene)?,
-                    _ => Backend::default().build(scene)?,
-                };
-                c.build_s.push(start.elapsed().as_secs_f64());
+                let (t, occ) = timed_build(c.backend)?;
+                c.build_s.push(t);
                 c.occ = occ;
             }
         }
+        // Forward in even runs, reversed in odd ones.
+        let mut order: Vec<usize> = (0..contenders.len()).collect();
+        if run % 2 == 1 {
+            order.reverse();
+        }
         for (ti, &t) in threads.iter().enumerate() {
-            let mut this_round = Vec::with_capacity(contenders.len());
-            for (ci, c) in contenders.iter().enumerate() {
-                let (seconds, blocked) = answer(&set, c, t)?;
+            let mut this_run = vec![0.0; contenders.len()];
+            for &ci in &order {
+                let (seconds, blocked) = answer(&set, &*contenders[ci].occ, t)?;
                 let rate = set.rays() as f64 / seconds;
                 rates[ci][ti].push(rate);
-                this_round.push(rate);
+                this_run[ci] = rate;
                 answers[ci] = blocked;
             }
-            if contenders[0].name == "embree" {
-                for (ci, r) in this_round.iter().enumerate() {
-                    ratios[ci][ti].push(r / this_round[0]);
+            if contenders[0].backend == Backend::Embree {
+                for (ci, r) in this_run.iter().enumerate() {
+                    ratios[ci][ti].push(r / this_run[0]);
                 }
             }
         }
-        eprintln!(
-            "lrr bench: {name}: round {} of {} done",
-            round + 1,
-            b.rounds.max(1)
-        );
+        eprintln!("lrr bench: {name}: run {} of {} done", run + 1, b.runs);
     }
     let obvhs_answers = &answers[contenders
         .iter()
-        .position(|c| c.name == "obvhs")
-        .expect("obvhs is always measured")];
+        .position(|c| c.backend == Backend::Obvhs)
+        .expect("obvhs is always available")];
     let mut rows = Vec::new();
     for (ti, &t) in threads.iter().enumerate() {
         for (ci, c) in contenders.iter().enumerate() {
             rows.push(Row {
                 scene: name.to_string(),
-                backend: c.name,
+                backend: c.backend.name(),
                 threads: t,
                 rays_per_s: median(rates[ci][ti].clone()),
                 ratio_vs_embree: (!ratios[ci][ti].is_empty())
                     .then(|| median(ratios[ci][ti].clone())),
+                ratios_vs_embree: ratios[ci][ti].clone(),
+                runs: b.runs,
                 rays: set.rays(),
                 build_s: median(c.build_s.clone()),
                 blocked: answers[ci].iter().filter(|&&x| x).count(),
@@ -272,26 +263,53 @@ fn measure(name: &str, scene: &Scene, b: &VisibilityBench, all: usize) -> Result
 fn print_table(rows: &[Row], out: &mut dyn Write) -> Result<()> {
     writeln!(
         out,
-        "{:<10} {:<8} {:>4} {:>9} {:>12} {:>9} {:>9} {:>9} {:>8}",
-        "scene", "backend", "thr", "rays", "rays/s", "÷embree", "build ms", "blocked", "≠obvhs"
+        "{:<10} {:<8} {:>4} {:>9} {:>12} {:>9} {:>11} {:>9} {:>9} {:>8}",
+        "scene",
+        "backend",
+        "thr",
+        "rays",
+        "rays/s",
+        "÷embree",
+        "range",
+        "build ms",
+        "blocked",
+        "≠obvhs"
     )?;
     for r in rows {
         let ratio = r
             .ratio_vs_embree
             .map_or_else(|| "-".to_string(), |x| format!("{x:.2}"));
+        let (lo, hi) = r
+            .ratios_vs_embree
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+                (lo.min(x), hi.max(x))
+            });
+        let range = if r.ratios_vs_embree.is_empty() {
+            "-".to_string()
+        } else {
+            format!("{lo:.2}–{hi:.2}")
+        };
         writeln!(
             out,
-            "{:<10} {:<8} {:>4} {:>9} {:>12.0} {:>9} {:>9.1} {:>9} {:>8}",
+            "{:<10} {:<8} {:>4} {:>9} {:>12.0} {:>9} {:>11} {:>9.1} {:>9} {:>8}",
             r.scene,
             r.backend,
             r.threads,
             r.rays,
             r.rays_per_s,
             ratio,
+            range,
             r.build_s * 1e3,
             r.blocked,
             r.differs_from_obvhs
         )?;
     }
+    writeln!(
+        out,
+        "(medians over {} runs, backends alternated; ÷embree: median and range of the per-run \
+         ratios)",
+        rows.first().map_or(0, |r| r.runs)
+    )?;
     Ok(())
 }

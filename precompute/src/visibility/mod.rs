@@ -13,6 +13,7 @@
 
 #[cfg(feature = "embree")]
 pub mod embree;
+mod flat;
 pub mod obvhs;
 mod occluder;
 mod watertight;

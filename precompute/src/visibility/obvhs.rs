@@ -1,27 +1,31 @@
-//! Occlusion queries through obvhs (a compressed wide BVH, pure Rust).
+//! Occlusion queries through a BVH built by obvhs (pure Rust) and traversed by our own code.
 //!
-//! Build settings: obvhs' `medium_build` preset with `search_depth_threshold = 0`. The stock
-//! value (3) made traversal of grid-tessellated walls about 30× slower in our measurements.
+//! Build: obvhs' PLOC binary BVH (`medium_build` preset with `search_depth_threshold = 0`; the
+//! stock value 3 made traversal of grid-tessellated walls about 30× slower in our measurements
+//! with obvhs' traversal; at most 2 triangles per leaf, leaf-collapse cost 1), collapsed into
+//! the flat 4-wide BVH of `flat` (four f32 slab tests per node, an any-hit traversal). Before
+//! it, obvhs' compressed wide BVH (`CwBvh::ray_traverse_miss`) answered the queries at about
+//! 0.85–1.1× Embree's rate on the bake's rays; the flat 4-wide BVH at 1.2–1.5×
+//! (docs/PERFORMANCE.md).
 //! Triangles are tested with the watertight test of `watertight`, not obvhs' own.
 //! Coordinates are shifted to the scene's centre before the f32 conversion to keep precision,
 //! and scaled by a power of two to a diagonal of 2048..4096 (see `F32_DIAGONAL`).
 //!
 //! The BVH only proposes candidates; every decision is the exact f64 test, so the traversal
-//! must never cull a face the exact test would call crossed. Before the scaling it did: obvhs'
-//! node test ignores `Ray::tmin` and culls every box the ray leaves before
-//! t = 1e-4 in absolute units, so in a scene a few units across a wall crossed within ~1e-4
-//! of a segment's start (its padded box left before 1e-4) was never tested (5365 of 16 000
-//! segments starting 1e-7..1e-4 diagonals from a wall missed it at size 1, 5186 of 16 000 at
-//! size 0.01, none at size 1000); and a direction component of -0.0 made every box test fail.
+//! must never cull a face the exact test would call crossed. obvhs' own traversal did: its
+//! node test ignores `Ray::tmin` and culls every box the ray leaves before t = 1e-4 in absolute
+//! units, so in a scene a few units across a wall crossed within ~1e-4 of a segment's start
+//! (its padded box left before 1e-4) was never tested (5365 of 16 000 segments starting
+//! 1e-7..1e-4 diagonals from a wall missed it at size 1, 5186 of 16 000 at size 0.01, none at
+//! size 1000); and a direction component of -0.0 made every box test fail. The unit tests
+//! below keep both cases.
 
 use glam::{DVec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::builder::build_cwbvh;
-use obvhs::ray::Ray;
 use obvhs::triangle::Triangle;
 
+use super::flat::{FlatBvh, FlatRay};
 use super::occluder::{
     Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, own_face, relative_segment, triangle_plane,
 };
@@ -31,23 +35,22 @@ use crate::scene::Scene;
 /// The scene's diagonal in the f32 coordinates of the BVH is scaled (by a power of two) into
 /// `(F32_DIAGONAL / 2, F32_DIAGONAL]`.
 ///
-/// Why: obvhs' child-box test (`CwBvhNode::intersect_ray{,_simd}`, obvhs 0.4) ignores the
-/// ray's `tmin` and clamps the entry distance to a constant `EPSILON = 1e-4` instead, in the
-/// scene's absolute units: a box the ray leaves before t = 1e-4 is culled. A face crossed at
-/// t_c ≥ 0 has a padded box the ray leaves at t ≥ t_c + pad (pad = [`PLANE_TOLERANCE`] ×
-/// diagonal, the box's half-thickness: a unit direction moves no coordinate faster than
-/// 1), minus f32 rounding (a few ulps of the coordinates, well under pad). With a unit-sized
-/// scene pad ≈ 2e-6 < 1e-4, so faces crossed within ~1e-4 of the start were never offered to
-/// the exact test; no negative `tmin` or slack on the segment's length can change that. At a
-/// diagonal of 2048..4096 pad ≥ 2e-3 ≥ 20 × 1e-4, so the clamp culls no box that contains a
-/// point of the segment, at any scene scale, and the f32 precision relative to the diagonal
-/// is unchanged (a power of two scales exactly). The faces through the start point (its own
-/// face, a wall it stands on) are now always candidates; the own-face rule answers those.
+/// Why: the traversal's culling must stay conservative: a face crossed at t_c ≥ 0 has a padded
+/// box the ray leaves at t ≥ t_c + pad (pad = [`PLANE_TOLERANCE`] × diagonal, the box's
+/// half-thickness: a unit direction moves no coordinate faster than 1), minus f32 rounding (a
+/// few ulps of the coordinates, well under pad), so the interval `[0, length]` always meets it.
+/// A power of two scales exactly, so the f32 precision relative to the diagonal is that of any
+/// scale, and no coordinate, distance or inverse direction over- or underflows f32 however
+/// large or small the scene. (The scaling was introduced for obvhs' `CwBvh` traversal, which
+/// clamped the entry distance to an absolute 1e-4: at this diagonal pad ≥ 2e-3 ≥ 20 × 1e-4.)
+/// The faces through the start point (its own face, a wall it stands on) are always
+/// candidates; the own-face rule answers those.
 const F32_DIAGONAL: f64 = 4096.0;
 
-/// The default occluder: an obvhs BVH (f32 traversal) with the exact f64 triangle test.
+/// The default occluder: a flat 4-wide BVH (f32 traversal, built by obvhs) with the exact f64
+/// triangle test.
 pub struct ObvhsOccluder {
-    bvh: CwBvh,
+    bvh: FlatBvh,
     /// The triangles in f64 (relative to `centre`) in BVH primitive order, for the exact test.
     exact: Vec<[DVec3; 3]>,
     /// Their planes (unit normal, offset), same order.
@@ -81,6 +84,8 @@ impl ObvhsOccluder {
         }
         let params = BvhBuildParams {
             search_depth_threshold: 0,
+            max_prims_per_leaf: 2,
+            collapse_traversal_cost: 1.0,
             ..BvhBuildParams::medium_build()
         };
         // Boxes padded by a hair: an axis-aligned wall has a box of zero thickness, which the
@@ -93,12 +98,8 @@ impl ObvhsOccluder {
                 Aabb::new(b.min - pad, b.max + pad)
             })
             .collect();
-        let bvh = build_cwbvh(&boxes, params, &mut std::time::Duration::default());
-        let exact: Vec<[DVec3; 3]> = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| exact_tris[i as usize])
-            .collect();
+        let bvh = FlatBvh::build(&boxes, params);
+        let exact: Vec<[DVec3; 3]> = bvh.order.iter().map(|&i| exact_tris[i as usize]).collect();
         let planes = exact.iter().map(triangle_plane).collect();
         let plane_tolerance = PLANE_TOLERANCE * (hi - lo).length();
         Self {
@@ -161,34 +162,30 @@ impl Occluder for ObvhsOccluder {
         };
         // The BVH is traversed in f32 (scaled coordinates, see `F32_DIAGONAL`) over a slightly
         // longer range (culling stays conservative under rounding); the decision is the exact
-        // f64 test over the segment. obvhs ignores `tmin`; the start is covered by the boxes'
-        // padding. `+ 0.0` turns a -0.0 component (from -0.0 - 0.0, or a tiny negative one
-        // rounded to f32) into +0.0: obvhs picks the slab's near side by `dir < 0` but inverts
-        // -0.0 to a negative number, which made every box test of such a ray fail.
+        // f64 test over the segment. A face crossed at the very start is still entered: its
+        // padded box reaches past t = 0. (Zero and -0.0 direction components are handled by
+        // `FlatRay`, consistently with the near side it picks.)
         let scaled = length * self.scale;
-        let ray = Ray::new(
+        let ray = FlatRay::new(
             Vec3A::from((origin * self.scale).as_vec3()),
-            Vec3A::from(direction.as_vec3()) + Vec3A::ZERO,
+            Vec3A::from(direction.as_vec3()),
             0.0,
             (scaled * (1.0 + 1e-5)) as f32,
         );
         let eps = f64::from(SEGMENT_EPSILON) * length;
         let sheared = ShearedRay::new(origin, direction, eps, length - eps);
-        !self.bvh.ray_traverse_miss(ray, |_, id| {
-            // The face an end point lies on (or a coincident back face) meets the segment only
-            // at that end point: skip it, whatever the rounding says. Every other face counts
-            // over the whole segment, however close to an end point it is crossed.
-            if self.own_face(id, origin, from_normal) || self.own_face(id, target, to_normal) {
-                return f32::INFINITY;
-            }
-            let [a, b, c] = self.exact[id];
-            // Any value below the ray's tmax reports a hit to obvhs.
-            if sheared.hit(a, b, c).is_some() {
-                0.0
-            } else {
-                f32::INFINITY
-            }
-        })
+        self.bvh
+            .any_hit(&ray, |id| {
+                // The face an end point lies on (or a coincident back face) meets the segment
+                // only at that end point: skip it, whatever the rounding says. Every other face
+                // counts over the whole segment, however close to an end point it is crossed.
+                if self.own_face(id, origin, from_normal) || self.own_face(id, target, to_normal) {
+                    return false;
+                }
+                let [a, b, c] = self.exact[id];
+                sheared.hit(a, b, c).is_some()
+            })
+            .is_some()
     }
 }
 
