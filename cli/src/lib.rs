@@ -15,9 +15,11 @@ mod bake;
 mod bench;
 mod bench_visibility;
 mod info;
+mod merge;
 mod probe;
 pub mod record;
 mod scene;
+mod shard;
 mod solve;
 mod summary;
 pub mod sweep;
@@ -50,6 +52,9 @@ pub struct Cli {
 pub enum Command {
     /// Bake a scene (OBJ or .toml scene description) into an operator file.
     Bake(bake::BakeArgs),
+    /// Join the parts of a sharded bake (`lrr bake --shard I/N`) into the operator file a
+    /// single bake writes.
+    Merge(merge::MergeArgs),
     /// Describe an operator file: sizes, bake settings, radiosity per surface.
     Info(info::InfoArgs),
     /// Radiosity at surface points, from an operator file.
@@ -210,6 +215,7 @@ where
     };
     match cli.command {
         Command::Bake(a) => bake::run(&a, out),
+        Command::Merge(a) => merge::run(&a, out),
         Command::Info(a) => info::run(&a, out),
         Command::Probe(a) => probe::run(&a, out),
         Command::ViewFactors(a) => view_factors::run(&a, out),
