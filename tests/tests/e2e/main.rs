@@ -11,5 +11,6 @@ mod fuzz_replay;
 mod import;
 mod meshing;
 mod resilience;
+mod shards;
 mod storage;
 mod util;
