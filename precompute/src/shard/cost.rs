@@ -1,8 +1,9 @@
 //! Cutting the rows of `F_k` into shards of about equal cost.
 //!
 //! A row costs what [`FormFactors::row`](crate::formfactor::FormFactors::row) integrates:
-//! its (target, part) pairs that do not face away from each other, each with the same number
-//! of quadrature points and rays. Counting them costs a few dot products per pair (O(nk), far
+//! per target that is not culled, the closed-form kernel over each part facing the element
+//! (clustered patches have many) and one visibility fraction (rays), at the same number of
+//! samples for every pair. Counting them costs a few dot products per pair (O(nk), far
 //! below the integrals' O(nk·samples) point-to-polygon factors and rays), is the same in every
 //! shard (no randomness, no timing), and tracks the real cost where cutting by row count does
 //! not: in a box, the rows of a wall see the other walls while half the pairs of a small
@@ -15,13 +16,21 @@ use crate::formfactor::FormFactors;
 use crate::geometry::Region;
 use crate::patches::Mesh;
 
-/// Estimated cost of every row of `F_k`, in file order: 1 (the row's quadrature) + its
-/// pairs that are integrated.
-pub(crate) fn row_costs(mesh: &Mesh) -> Vec<u64> {
+/// The visibility fraction of a pair (its rays, about 1.8 per sample in the Cornell box),
+/// in units of one part's closed-form kernel at every sample. Fitted on the dense sphere
+/// (`scripts/shard-balance`, 7 shards, slowest over mean in CPU time): 0 gave 1.68, 3 gave
+/// 1.21, 4 gave 1.12, 6 gave 1.16, 16 gave 1.75 (on this shared machine: ±0.05).
+const VISIBILITY_COST: u64 = 4;
+
+/// Estimated cost of every row of `F_k`, in file order: 1 (the row's quadrature) + per
+/// target that is not culled, its parts that face the element (closed-form kernels) +
+/// [`VISIBILITY_COST`] when the scene can occlude (rays).
+pub(crate) fn row_costs(mesh: &Mesh, occluded: bool) -> Vec<u64> {
     let targets: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
+    let ray = if occluded { VISIBILITY_COST } else { 0 };
     (0..mesh.n())
         .into_par_iter()
-        .map(|s| 1 + FormFactors::row_cost(&mesh.element_at(s).polygon, &targets))
+        .map(|s| 1 + FormFactors::row_cost(&mesh.element_at(s).polygon, &targets, ray))
         .collect()
 }
 

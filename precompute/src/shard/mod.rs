@@ -132,7 +132,7 @@ pub fn bake_shard(
     crate::pool::with_threads(settings.threads, || {
         let prepared = Prepared::new(scene, sizes, settings.method, settings.visibility, progress)?;
         let stage = progress.stage("plan", 0);
-        let costs = cost::row_costs(&prepared.mesh);
+        let costs = cost::row_costs(&prepared.mesh, prepared.occluder.is_some());
         let cut = cost::boundaries(&costs, shard.count);
         let per_shard = cost::shard_costs(&costs, &cut);
         stage.finish();
