@@ -47,6 +47,9 @@ pub struct BakeArgs {
     /// joins the parts. Resumes its own checkpoint by itself. docs/DISTRIBUTED.md.
     #[arg(long, value_name = "I/N")]
     pub shard: Option<String>,
+    /// With --shard: take the meshes from this plan (`lrr plan`) instead of meshing again.
+    #[arg(long, value_name = "PLAN", requires = "shard")]
+    pub plan: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -117,6 +120,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
             spec,
             checkpoint_rows: a.checkpoint_rows,
             report: a.report.as_deref(),
+            plan: a.plan.as_deref(),
         };
         return crate::shard::run(&shard, out);
     }

@@ -16,6 +16,7 @@ mod bench;
 mod bench_visibility;
 mod info;
 mod merge;
+mod plan;
 mod probe;
 pub mod record;
 mod scene;
@@ -52,6 +53,8 @@ pub struct Cli {
 pub enum Command {
     /// Bake a scene (OBJ or .toml scene description) into an operator file.
     Bake(bake::BakeArgs),
+    /// Mesh a scene once for the shards of a sharded bake (`lrr bake --shard I/N --plan PLAN`).
+    Plan(plan::PlanArgs),
     /// Join the parts of a sharded bake (`lrr bake --shard I/N`) into the operator file a
     /// single bake writes.
     Merge(merge::MergeArgs),
@@ -215,6 +218,7 @@ where
     };
     match cli.command {
         Command::Bake(a) => bake::run(&a, out),
+        Command::Plan(a) => plan::run(&a, out),
         Command::Merge(a) => merge::run(&a, out),
         Command::Info(a) => info::run(&a, out),
         Command::Probe(a) => probe::run(&a, out),

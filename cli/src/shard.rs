@@ -21,6 +21,8 @@ pub struct ShardArgs<'a> {
     pub spec: &'a str,
     pub checkpoint_rows: Option<usize>,
     pub report: Option<&'a Path>,
+    /// Meshes from `lrr plan`.
+    pub plan: Option<&'a Path>,
 }
 
 #[derive(Serialize)]
@@ -59,7 +61,7 @@ pub fn run(a: &ShardArgs, out: &mut dyn Write) -> Result<()> {
         resume: true,
         block_rows: a.checkpoint_rows,
     });
-    let baked = bake_shard(&scene, &settings, spec, &output, &progress)
+    let baked = bake_shard(&scene, &settings, spec, &output, a.plan, &progress)
         .with_context(|| format!("baking shard {}/{}", spec.index, spec.count))?;
     let mean = baked.total_cost as f64 / spec.count as f64;
     let report = Report {

@@ -83,6 +83,19 @@ impl<'s> Prepared<'s> {
         visibility: Backend,
         progress: &Progress,
     ) -> Result<Self> {
+        Self::with_mesh(scene, sizes, method, visibility, progress, None)
+    }
+
+    /// [`new`](Self::new), with the mesh made before when `mesh` is given (a sharded bake's
+    /// plan, `crate::shard`): then only the BVH is built.
+    pub(crate) fn with_mesh(
+        scene: &'s Scene,
+        sizes: MeshSizes,
+        method: PatchMethod,
+        visibility: Backend,
+        progress: &Progress,
+        mesh: Option<Mesh>,
+    ) -> Result<Self> {
         if !visibility.available() {
             // Refuse before any work, even where no ray would be cast: the flag is wrong here.
             visibility.build(scene)?;
@@ -103,7 +116,10 @@ impl<'s> Prepared<'s> {
         };
         stage.finish();
         let stage = progress.stage("mesh", 0);
-        let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
+        let mesh = match mesh {
+            Some(mesh) => mesh,
+            None => Mesh::build(scene, sizes, method, occluder.as_deref())?,
+        };
         stage.finish();
         Ok(Self {
             scene,

@@ -18,6 +18,7 @@
 mod cost;
 mod merge;
 mod part;
+mod plan;
 
 pub use cost::{boundaries, shard_costs};
 pub use merge::{MergeSettings, Merged, merge};
@@ -118,11 +119,14 @@ pub struct ShardBaked {
 
 /// Bakes one shard of a scene into the part file `output`; its checkpoint is
 /// `checkpoint::path_for(output)`, resumed when it is there and belongs to this shard.
+/// With `plan`, the meshes come from that plan file ([`write_plan`]) instead of being made
+/// again.
 pub fn bake_shard(
     scene: &Scene,
     settings: &BakeSettings,
     shard: ShardSpec,
     output: &Path,
+    plan: Option<&Path>,
     progress: &Progress,
 ) -> Result<ShardBaked> {
     if settings.samples == 0 {
@@ -130,8 +134,27 @@ pub fn bake_shard(
     }
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
     crate::pool::with_threads(settings.threads, || {
-        let prepared = Prepared::new(scene, sizes, settings.method, settings.visibility, progress)?;
-        let stage = progress.stage("plan", 0);
+        let mesh = match plan {
+            None => None,
+            Some(path) => {
+                let stage = progress.stage("read plan", 0);
+                let visibility = visibility_name(scene, settings.visibility);
+                let text = settings_text(sizes, settings, visibility);
+                let id = plan_identity(scene, &text);
+                let mesh = plan::read(path, &id)?;
+                stage.finish();
+                Some(mesh)
+            }
+        };
+        let prepared = Prepared::with_mesh(
+            scene,
+            sizes,
+            settings.method,
+            settings.visibility,
+            progress,
+            mesh,
+        )?;
+        let stage = progress.stage("cut", 0);
         let costs = cost::row_costs(&prepared.mesh, prepared.occluder.is_some());
         let cut = cost::boundaries(&costs, shard.count);
         let per_shard = cost::shard_costs(&costs, &cut);
@@ -188,6 +211,42 @@ pub fn bake_shard(
             header,
         })
     })?
+}
+
+/// Meshes the scene once and writes the plan file every shard may read
+/// (`lrr bake --shard I/N --plan PLAN`); returns n and k.
+pub fn write_plan(
+    scene: &Scene,
+    settings: &BakeSettings,
+    output: &Path,
+    progress: &Progress,
+) -> Result<(usize, usize)> {
+    let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
+    crate::pool::with_threads(settings.threads, || {
+        let prepared = Prepared::new(scene, sizes, settings.method, settings.visibility, progress)?;
+        let text = settings_text(sizes, settings, prepared.visibility_name());
+        let stage = progress.stage("write", 0);
+        plan::write(output, &plan_identity(scene, &text), &prepared.mesh)?;
+        stage.finish();
+        Ok((prepared.mesh.n(), prepared.mesh.k()))
+    })?
+}
+
+fn plan_identity<'a>(scene: &Scene, settings: &'a str) -> plan::PlanIdentity<'a> {
+    plan::PlanIdentity {
+        version: concat!("lrr ", env!("CARGO_PKG_VERSION")),
+        scene_hash: scene_hash(scene),
+        settings,
+    }
+}
+
+/// The visibility name a bake of `scene` records (as `Prepared::visibility_name`).
+fn visibility_name(scene: &Scene, backend: crate::visibility::Backend) -> &'static str {
+    if crate::visibility::nothing_occludes(scene) {
+        "none (nothing occludes)"
+    } else {
+        backend.name()
+    }
 }
 
 /// The shard's rows, checkpointed; an earlier run's checkpoint is resumed when it belongs

@@ -412,28 +412,28 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
 
 /// Little-endian encoding: numbers, and length-prefixed strings and arrays.
 #[derive(Default)]
-struct Enc(Vec<u8>);
+pub(super) struct Enc(pub(super) Vec<u8>);
 
 impl Enc {
-    fn u64(&mut self, v: u64) {
+    pub(super) fn u64(&mut self, v: u64) {
         self.0.extend_from_slice(&v.to_le_bytes());
     }
-    fn str(&mut self, s: &str) {
+    pub(super) fn str(&mut self, s: &str) {
         self.bytes(s.as_bytes());
     }
-    fn bytes(&mut self, b: &[u8]) {
+    pub(super) fn bytes(&mut self, b: &[u8]) {
         self.u64(b.len() as u64);
         self.0.extend_from_slice(b);
     }
-    fn u64s(&mut self, v: impl ExactSizeIterator<Item = u64>) {
+    pub(super) fn u64s(&mut self, v: impl ExactSizeIterator<Item = u64>) {
         self.u64(v.len() as u64);
         v.for_each(|x| self.u64(x));
     }
-    fn f64s(&mut self, v: &[f64]) {
+    pub(super) fn f64s(&mut self, v: &[f64]) {
         self.u64(v.len() as u64);
         v.iter().for_each(|x| self.u64(x.to_bits()));
     }
-    fn f32s(&mut self, v: &[f32]) {
+    pub(super) fn f32s(&mut self, v: &[f32]) {
         self.u64(v.len() as u64);
         v.iter()
             .for_each(|x| self.0.extend_from_slice(&x.to_le_bytes()));
@@ -441,65 +441,68 @@ impl Enc {
 }
 
 /// The reader of [`Enc`]: every length is checked against the bytes left before allocating.
-struct Dec<'a> {
+pub(super) struct Dec<'a> {
     bytes: &'a [u8],
     at: usize,
 }
 
-type Decoded<T> = std::result::Result<T, String>;
+pub(super) type Decoded<T> = std::result::Result<T, String>;
 
 impl<'a> Dec<'a> {
-    fn new(bytes: &'a [u8]) -> Self {
+    pub(super) fn new(bytes: &'a [u8]) -> Self {
         Self { bytes, at: 0 }
     }
-    fn take(&mut self, n: usize) -> Decoded<&'a [u8]> {
+    pub(super) fn take(&mut self, n: usize) -> Decoded<&'a [u8]> {
         let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len());
         let end = end.ok_or_else(|| format!("ends early (at byte {})", self.at))?;
         let out = &self.bytes[self.at..end];
         self.at = end;
         Ok(out)
     }
-    fn u64(&mut self) -> Decoded<u64> {
+    pub(super) fn u64(&mut self) -> Decoded<u64> {
         Ok(u64::from_le_bytes(
             self.take(8)?.try_into().expect("8 bytes"),
         ))
     }
-    fn usize(&mut self) -> Decoded<usize> {
+    pub(super) fn usize(&mut self) -> Decoded<usize> {
         usize::try_from(self.u64()?).map_err(|_| "a size out of range".to_string())
     }
-    fn f64(&mut self) -> Decoded<f64> {
+    pub(super) fn f64(&mut self) -> Decoded<f64> {
         Ok(f64::from_bits(self.u64()?))
     }
     /// A count of items of at least `min_bytes` each.
-    fn count(&mut self, min_bytes: usize) -> Decoded<usize> {
+    pub(super) fn count(&mut self, min_bytes: usize) -> Decoded<usize> {
         let n = self.usize()?;
         if n.saturating_mul(min_bytes) > self.bytes.len() - self.at {
             return Err(format!("a count of {n} exceeds the bytes left"));
         }
         Ok(n)
     }
-    fn bytes(&mut self) -> Decoded<Vec<u8>> {
+    pub(super) fn bytes(&mut self) -> Decoded<Vec<u8>> {
         let n = self.count(1)?;
         Ok(self.take(n)?.to_vec())
     }
-    fn str(&mut self) -> Decoded<String> {
+    pub(super) fn str(&mut self) -> Decoded<String> {
         String::from_utf8(self.bytes()?).map_err(|_| "a name is not UTF-8".to_string())
     }
-    fn u64s(&mut self) -> Decoded<Vec<u64>> {
+    pub(super) fn u64s(&mut self) -> Decoded<Vec<u64>> {
         let n = self.count(8)?;
         (0..n).map(|_| self.u64()).collect()
     }
-    fn u32s(&mut self) -> Decoded<Vec<u32>> {
+    pub(super) fn u32(&mut self) -> Decoded<u32> {
+        u32::try_from(self.u64()?).map_err(|_| "an index out of range".to_string())
+    }
+    pub(super) fn u32s(&mut self) -> Decoded<Vec<u32>> {
         self.u64s()?
             .into_iter()
             .map(|v| u32::try_from(v).map_err(|_| "an index out of range".to_string()))
             .collect()
     }
-    fn f64s(&mut self) -> Decoded<Vec<f64>> {
+    pub(super) fn f64s(&mut self) -> Decoded<Vec<f64>> {
         let n = self.count(8)?;
         (0..n).map(|_| self.f64()).collect()
     }
-    fn f32s(&mut self) -> Decoded<Vec<f32>> {
+    pub(super) fn f32s(&mut self) -> Decoded<Vec<f32>> {
         let n = self.count(4)?;
         Ok(self
             .take(n * 4)?
@@ -507,7 +510,7 @@ impl<'a> Dec<'a> {
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
             .collect())
     }
-    fn end(&self) -> Decoded<()> {
+    pub(super) fn end(&self) -> Decoded<()> {
         if self.at == self.bytes.len() {
             Ok(())
         } else {

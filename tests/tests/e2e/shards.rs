@@ -344,3 +344,46 @@ fn a_merge_streams_within_a_memory_cap_smaller_than_f_k() {
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn shards_of_a_2msc_bake_read_one_plan_and_merge_into_the_bytes_of_a_single_bake() {
+    let dir = temp_dir("shard-plan");
+    let scene = cornell();
+    let extra = ["--method", "2msc", "--samples", "2"];
+    let single = dir.join("single.lrr");
+    bake(&scene, &single, &extra).unwrap();
+    let plan = dir.join("cornell.plan");
+    let mut args = vec!["plan", s(&scene), "-o", s(&plan), "-q"];
+    args.extend_from_slice(&extra);
+    lrr(&args).unwrap();
+    let with_plan = [&extra[..], &["--plan", s(&plan)]].concat();
+    let p: Vec<PathBuf> = (0..3).map(|i| dir.join(format!("p{i}.bin"))).collect();
+    for (i, part) in p.iter().enumerate() {
+        shard(&scene, part, i, 3, &with_plan);
+    }
+    let out = dir.join("merged.lrr");
+    merge(&p, &out, &[]).unwrap();
+    assert!(std::fs::read(&out).unwrap() == std::fs::read(&single).unwrap());
+    // A plan made with other flags is refused by name.
+    let spec = "0/3";
+    let part = dir.join("x.bin");
+    let err = lrr(&[
+        "bake",
+        s(&scene),
+        "-o",
+        s(&part),
+        "-q",
+        "--shard",
+        spec,
+        "--plan",
+        s(&plan),
+        "--samples",
+        "2",
+    ])
+    .unwrap_err();
+    assert!(
+        err.contains("cornell.plan") && err.contains("other settings"),
+        "{err}"
+    );
+    assert!(!part.exists());
+}
