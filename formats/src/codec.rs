@@ -99,7 +99,7 @@ impl OperatorFile {
             let mut row = 0usize;
             let mut fill = |emit: &mut dyn FnMut(&[u8]) -> Result<(), FormatError>| {
                 rows(&mut |piece: &StoredMatrix| {
-                    if piece.precision() != precision || piece.len() % k.max(1) != 0 {
+                    if piece.precision() != precision || !piece.len().is_multiple_of(k.max(1)) {
                         return Err(FormatError::invalid(format!(
                             "section FK: a piece of {} {:?} values is not whole rows of {k} {precision:?} values",
                             piece.len(),
@@ -397,14 +397,12 @@ mod tests {
                 cores: cores.clone(),
             };
             skeleton
-                .write_streamed(&path, &mut |emit| rows.iter().try_for_each(|r| emit(r)))
+                .write_streamed(&path, &mut |emit| rows.iter().try_for_each(&mut *emit))
                 .unwrap();
             assert_eq!(std::fs::read(&path).unwrap(), encode(&file));
             // Too few rows: an error, and the file written before stays.
             let e = skeleton
-                .write_streamed(&path, &mut |emit| {
-                    rows[1..].iter().try_for_each(|r| emit(r))
-                })
+                .write_streamed(&path, &mut |emit| rows[1..].iter().try_for_each(&mut *emit))
                 .unwrap_err();
             assert!(e.to_string().contains("announced"), "{e}");
             // A bad value names its row.

@@ -218,7 +218,7 @@ mod tests {
                     kind: at as u32 + 1,
                     required: at != 2,
                     len: streamed.len() as u64,
-                    fill: &mut |emit| streamed.chunks(7).try_for_each(|c| emit(c)),
+                    fill: &mut |emit| streamed.chunks(7).try_for_each(&mut *emit),
                 },
             )
             .unwrap();
