@@ -224,10 +224,15 @@ fn ordered_parts(parts: &[PathBuf]) -> Result<Vec<PartReader>> {
         return Err(Error::part(
             &some.path,
             format!(
-                "missing parts: shard {} not given; bake {} with `lrr bake SCENE --shard I/{count} …` \
-                 (same settings) and merge again",
+                "missing parts: shard {} not given; bake {} with `lrr bake SCENE --shard {}/{count} …` \
+                 (the same settings) and merge again",
                 missing.join(", "),
-                if missing.len() == 1 { "it" } else { "them" }
+                if missing.len() == 1 { "it" } else { "them" },
+                if missing.len() == 1 {
+                    missing[0].split('/').next().unwrap_or("I")
+                } else {
+                    "I"
+                }
             ),
         ));
     }

@@ -204,7 +204,7 @@ fn a_merge_of_parts_that_are_not_one_bake_names_them_and_writes_nothing() {
         &[p[0].clone(), p[2].clone()],
         &out,
         "p0.bin",
-        &["missing", "shard 1/3", "rows"],
+        &["missing", "shard 1/3", "rows", "--shard 1/3"],
     );
     // Repeated: shard 1 twice, under two names.
     let copy = dir.join("copy-of-p1.bin");
