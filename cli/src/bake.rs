@@ -42,12 +42,38 @@ pub struct BakeArgs {
     /// (the papers' per-channel Y_k).
     #[arg(long, value_enum, default_value_t = LayoutArg::Factored)]
     pub layout: LayoutArg,
+    /// Bake only shard I of N (I from 0; `env/N` takes I from SLURM_ARRAY_TASK_ID or
+    /// JOB_COMPLETION_INDEX) into the part file OUT (`{i}` in it becomes I); `lrr merge`
+    /// joins the parts. Resumes its own checkpoint by itself. docs/DISTRIBUTED.md.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// With --shard: take the meshes from this plan (`lrr plan`) instead of meshing again.
+    #[arg(long, value_name = "PLAN", requires = "shard")]
+    pub plan: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum PrecisionArg {
     F32,
     F16,
+}
+
+impl From<PrecisionArg> for lrr_formats::Precision {
+    fn from(p: PrecisionArg) -> Self {
+        match p {
+            PrecisionArg::F32 => lrr_formats::Precision::F32,
+            PrecisionArg::F16 => lrr_formats::Precision::F16,
+        }
+    }
+}
+
+impl From<LayoutArg> for lrr_formats::Layout {
+    fn from(l: LayoutArg) -> Self {
+        match l {
+            LayoutArg::Factored => lrr_formats::Layout::Factored,
+            LayoutArg::Plain => lrr_formats::Layout::PlainYk,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -59,14 +85,8 @@ pub enum LayoutArg {
 impl BakeArgs {
     fn storage(&self) -> write::Storage {
         write::Storage {
-            precision: match self.precision {
-                PrecisionArg::F32 => lrr_formats::Precision::F32,
-                PrecisionArg::F16 => lrr_formats::Precision::F16,
-            },
-            layout: match self.layout {
-                LayoutArg::Factored => lrr_formats::Layout::Factored,
-                LayoutArg::Plain => lrr_formats::Layout::PlainYk,
-            },
+            precision: self.precision.into(),
+            layout: self.layout.into(),
         }
     }
 }
@@ -92,6 +112,18 @@ struct Report<'a> {
 }
 
 pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
+    if let Some(spec) = &a.shard {
+        let shard = crate::shard::ShardArgs {
+            scene: &a.scene,
+            output: &a.output,
+            mesh: &a.mesh,
+            spec,
+            checkpoint_rows: a.checkpoint_rows,
+            report: a.report.as_deref(),
+            plan: a.plan.as_deref(),
+        };
+        return crate::shard::run(&shard, out);
+    }
     let start = Instant::now();
     let progress = a.mesh.progress();
     let stage = progress.stage("import", 0);

@@ -17,9 +17,12 @@ mod bench_gpu;
 mod bench_operators;
 mod bench_visibility;
 mod info;
+mod merge;
+mod plan;
 mod probe;
 pub mod record;
 mod scene;
+mod shard;
 mod solve;
 mod summary;
 pub mod sweep;
@@ -52,6 +55,11 @@ pub struct Cli {
 pub enum Command {
     /// Bake a scene (OBJ or .toml scene description) into an operator file.
     Bake(bake::BakeArgs),
+    /// Mesh a scene once for the shards of a sharded bake (`lrr bake --shard I/N --plan PLAN`).
+    Plan(plan::PlanArgs),
+    /// Join the parts of a sharded bake (`lrr bake --shard I/N`) into the operator file a
+    /// single bake writes.
+    Merge(merge::MergeArgs),
     /// Describe an operator file: sizes, bake settings, radiosity per surface.
     Info(info::InfoArgs),
     /// Radiosity at surface points, from an operator file.
@@ -212,6 +220,8 @@ where
     };
     match cli.command {
         Command::Bake(a) => bake::run(&a, out),
+        Command::Plan(a) => plan::run(&a, out),
+        Command::Merge(a) => merge::run(&a, out),
         Command::Info(a) => info::run(&a, out),
         Command::Probe(a) => probe::run(&a, out),
         Command::ViewFactors(a) => view_factors::run(&a, out),

@@ -24,6 +24,23 @@ static COUNTER: AtomicU64 = AtomicU64::new(0);
 /// On error the temporary file is removed and `path` is untouched. The new file gets default
 /// permissions, not those of the file it replaces.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FormatError> {
+    write_atomic_with(path, &mut |file| {
+        file.write_all(bytes).map_err(|e| {
+            FormatError::new(
+                ErrorKind::Io,
+                format!("cannot write {}: {e}", path.display()),
+            )
+        })
+    })
+}
+
+/// Like [`write_atomic`], with the bytes written by `fill` into the temporary file (which it
+/// may seek in): for outputs too large to hold. An error of `fill` removes the temporary file,
+/// leaves `path` untouched and comes back as it is.
+pub fn write_atomic_with(
+    path: &Path,
+    fill: &mut dyn FnMut(&mut File) -> Result<(), FormatError>,
+) -> Result<(), FormatError> {
     let io_error = |what: &str, e: io::Error| {
         FormatError::new(
             ErrorKind::Io,
@@ -37,9 +54,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FormatError> {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let (tmp, file) =
+    let (tmp, mut file) =
         create_temporary(folder, name).map_err(|e| io_error("creating a temporary file", e))?;
-    if let Err(e) = fill_and_rename(file, bytes, &tmp, path) {
+    if let Err(e) = fill(&mut file) {
+        drop(file);
+        let _ = fs::remove_file(&tmp);
+        return Err(e);
+    }
+    if let Err(e) = sync_and_rename(file, &tmp, path) {
         let _ = fs::remove_file(&tmp);
         return Err(io_error(&format!("via {}", tmp.display()), e));
     }
@@ -67,8 +89,7 @@ fn create_temporary(folder: &Path, name: &std::ffi::OsStr) -> io::Result<(PathBu
     Err(last)
 }
 
-fn fill_and_rename(mut file: File, bytes: &[u8], tmp: &Path, path: &Path) -> io::Result<()> {
-    file.write_all(bytes)?;
+fn sync_and_rename(file: File, tmp: &Path, path: &Path) -> io::Result<()> {
     file.sync_all()?;
     drop(file); // close before renaming: Windows refuses to rename an open file
     fs::rename(tmp, path)

@@ -51,6 +51,91 @@ pub fn checksum(data: &[u8]) -> u64 {
     tail(h, stripes.remainder())
 }
 
+/// XXH64 of data that arrives in pieces: [`Xxh64::finish`] equals [`checksum`] of the pieces
+/// joined, however they were cut (for payloads too large to hold, written as they stream).
+///
+/// ```
+/// let mut h = lrr_formats::Xxh64::new();
+/// h.update(b"a");
+/// h.update(b"bc");
+/// assert_eq!(h.finish(), lrr_formats::checksum(b"abc"));
+/// ```
+#[derive(Debug, Clone)]
+pub struct Xxh64 {
+    lanes: [u64; 4],
+    buffer: [u8; 32],
+    buffered: usize,
+    total: u64,
+}
+
+impl Default for Xxh64 {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Xxh64 {
+    /// A hasher that has seen nothing (seed 0).
+    pub fn new() -> Self {
+        Self {
+            lanes: [P1.wrapping_add(P2), P2, 0, P1.wrapping_neg()],
+            buffer: [0; 32],
+            buffered: 0,
+            total: 0,
+        }
+    }
+
+    /// Takes in the next bytes.
+    pub fn update(&mut self, mut data: &[u8]) {
+        self.total += data.len() as u64;
+        if self.buffered > 0 {
+            let take = (32 - self.buffered).min(data.len());
+            self.buffer[self.buffered..self.buffered + take].copy_from_slice(&data[..take]);
+            self.buffered += take;
+            data = &data[take..];
+            if self.buffered < 32 {
+                return;
+            }
+            let stripe = self.buffer;
+            self.stripe(&stripe);
+            self.buffered = 0;
+        }
+        let mut stripes = data.chunks_exact(32);
+        for stripe in &mut stripes {
+            self.stripe(stripe);
+        }
+        let rest = stripes.remainder();
+        self.buffer[..rest.len()].copy_from_slice(rest);
+        self.buffered = rest.len();
+    }
+
+    fn stripe(&mut self, stripe: &[u8]) {
+        for (lane, word) in self.lanes.iter_mut().zip(stripe.chunks_exact(8)) {
+            *lane = round(*lane, le_u64(word));
+        }
+    }
+
+    /// The hash of everything taken in so far.
+    pub fn finish(&self) -> u64 {
+        let mut h = if self.total >= 32 {
+            let [a, b, c, d] = self.lanes;
+            let mut h = a
+                .rotate_left(1)
+                .wrapping_add(b.rotate_left(7))
+                .wrapping_add(c.rotate_left(12))
+                .wrapping_add(d.rotate_left(18));
+            for lane in self.lanes {
+                h = merge(h, lane);
+            }
+            h
+        } else {
+            P5
+        };
+        h = h.wrapping_add(self.total);
+        tail(h, &self.buffer[..self.buffered])
+    }
+}
+
 /// Folds the last `< 32` bytes: whole words, one half word, then single bytes.
 fn tail(mut h: u64, rest: &[u8]) -> u64 {
     let mut words = rest.chunks_exact(8);
@@ -141,5 +226,20 @@ mod tests {
         // Trailing zeros must not vanish.
         assert_ne!(checksum(&[0; 5]), checksum(&[0; 6]));
         assert_ne!(checksum(&[0; 32]), checksum(&[0; 40]));
+    }
+
+    #[test]
+    fn streaming_equals_one_shot_for_every_cut() {
+        let data: Vec<u8> = (0..300u32).map(|i| (i * 151 + 7) as u8).collect();
+        for len in [0usize, 1, 31, 32, 33, 63, 64, 65, 100, 300] {
+            let reference = checksum(&data[..len]);
+            for piece in [1usize, 3, 8, 31, 32, 33, 97] {
+                let mut h = Xxh64::new();
+                for chunk in data[..len].chunks(piece) {
+                    h.update(chunk);
+                }
+                assert_eq!(h.finish(), reference, "len {len} in pieces of {piece}");
+            }
+        }
     }
 }

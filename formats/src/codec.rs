@@ -10,15 +10,15 @@
 
 use std::path::Path;
 
-use crate::atomic::write_atomic;
+use crate::atomic::{write_atomic, write_atomic_with};
 use crate::bytes::{self, checked_product};
 use crate::container::Container;
 use crate::error::{ErrorKind, FormatError};
 use crate::file::{Geometry, Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
 use crate::kind;
 use crate::lights;
-use crate::validate::{Sizes, check_dims};
-use crate::writer::ContainerWriter;
+use crate::validate::{Sizes, check_dims, check_fk};
+use crate::writer::{ContainerWriter, Streamed};
 
 /// Bytes in the DIMS payload: n, k, channels, precision, layout, 3 reserved, all u32.
 pub(crate) const DIMS_LEN: usize = 32;
@@ -59,8 +59,82 @@ impl OperatorFile {
     }
 }
 
+/// Sections before FK in a factored file: METADATA, DIMS, ORDER, INDEX, WEIGHTS.
+const SECTIONS_BEFORE_FK: usize = 5;
+
+impl OperatorFile {
+    /// Writes a factored file whose `F_k` is too large to hold, atomically: the bytes
+    /// [`write`](Self::write) gives for the complete file. `self` holds everything else, its
+    /// `F_k` an empty matrix of the file's precision; `rows` hands `F_k`'s n·k values, in row
+    /// order and the file's precision, to its argument in pieces of whole rows, each checked
+    /// as it passes. An error (of the pieces, or returned by `rows`) leaves `path` untouched.
+    #[allow(clippy::type_complexity)]
+    pub fn write_streamed(
+        &self,
+        path: &Path,
+        rows: &mut dyn FnMut(
+            &mut dyn FnMut(&StoredMatrix) -> Result<(), FormatError>,
+        ) -> Result<(), FormatError>,
+    ) -> Result<(), FormatError> {
+        let context = |e: FormatError| e.context(path.display());
+        let OperatorData::Factored { fk, .. } = &self.operator else {
+            return Err(context(FormatError::invalid(
+                "write_streamed writes the factored layout only",
+            )));
+        };
+        if !fk.is_empty() {
+            return Err(context(FormatError::invalid(
+                "write_streamed: F_k comes from the rows, the file's own must be empty",
+            )));
+        }
+        self.check(true).map_err(context)?;
+        let (k, precision) = (self.k as usize, self.precision);
+        let sizes = Sizes::new(self.n, self.k, self.channels).map_err(context)?;
+        let value_bytes = match precision {
+            Precision::F32 => 4,
+            Precision::F16 => 2,
+        };
+        let writer = encoder(self, false);
+        write_atomic_with(path, &mut |file| {
+            let mut row = 0usize;
+            let mut fill = |emit: &mut dyn FnMut(&[u8]) -> Result<(), FormatError>| {
+                rows(&mut |piece: &StoredMatrix| {
+                    if piece.precision() != precision || !piece.len().is_multiple_of(k.max(1)) {
+                        return Err(FormatError::invalid(format!(
+                            "section FK: a piece of {} {:?} values is not whole rows of {k} {precision:?} values",
+                            piece.len(),
+                            piece.precision()
+                        )));
+                    }
+                    check_fk(piece, k)
+                        .map_err(|e| e.context(format_args!("rows from element {row}")))?;
+                    row += piece.len() / k.max(1);
+                    emit(&matrix_payload(piece))
+                })
+            };
+            writer.write_streamed(
+                file,
+                Streamed {
+                    at: SECTIONS_BEFORE_FK,
+                    kind: kind::FK,
+                    required: true,
+                    len: (sizes.fk * value_bytes) as u64,
+                    fill: &mut fill,
+                },
+            )
+        })
+        .map_err(context)
+    }
+}
+
 /// Builds the container; `file` has been validated.
 pub(crate) fn encode(file: &OperatorFile) -> Vec<u8> {
+    encoder(file, true).to_bytes()
+}
+
+/// The container's sections; `with_fk: false` leaves FK out (to be streamed in at
+/// [`SECTIONS_BEFORE_FK`]).
+fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter {
     let mut w = ContainerWriter::new();
     w.add(kind::METADATA, true, file.metadata_json.as_bytes().to_vec());
     w.add(kind::DIMS, true, encode_dims(file));
@@ -68,7 +142,10 @@ pub(crate) fn encode(file: &OperatorFile) -> Vec<u8> {
     w.add(kind::INDEX, true, u32_payload(&file.index));
     w.add(kind::WEIGHTS, true, f32_payload(&file.weights));
     if let OperatorData::Factored { fk, cores } = &file.operator {
-        w.add(kind::FK, true, matrix_payload(fk));
+        debug_assert_eq!(w.len(), SECTIONS_BEFORE_FK);
+        if with_fk {
+            w.add(kind::FK, true, matrix_payload(fk));
+        }
         let mut payload = Vec::new();
         bytes::put_f64s(&mut payload, cores);
         w.add(kind::CORES, true, payload);
@@ -83,7 +160,7 @@ pub(crate) fn encode(file: &OperatorFile) -> Vec<u8> {
         // Optional: a reader of format 1.0 skips it and still evaluates per-element emission.
         w.add(kind::LIGHTS, false, lights::encode(&file.lights));
     }
-    w.to_bytes()
+    w
 }
 
 fn matrix_payload(m: &StoredMatrix) -> Vec<u8> {
@@ -297,6 +374,49 @@ mod tests {
             assert_eq!(back, file);
             assert_eq!(encode(&back), bytes);
         }
+    }
+
+    #[test]
+    fn streamed_writes_are_the_bytes_of_whole_files() {
+        let dir = std::env::temp_dir().join(format!("lrr-formats-stream-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("streamed.lrr");
+        for file in [sample(Precision::F32, 3), sample(Precision::F16, 1)] {
+            let OperatorData::Factored { fk, cores } = &file.operator else {
+                unreachable!()
+            };
+            let rows: Vec<StoredMatrix> = (0..6)
+                .map(|r| match fk {
+                    StoredMatrix::F32(v) => StoredMatrix::F32(v[2 * r..2 * r + 2].to_vec()),
+                    StoredMatrix::F16(v) => StoredMatrix::F16(v[2 * r..2 * r + 2].to_vec()),
+                })
+                .collect();
+            let mut skeleton = file.clone();
+            skeleton.operator = OperatorData::Factored {
+                fk: StoredMatrix::from_f32(&[], file.precision),
+                cores: cores.clone(),
+            };
+            skeleton
+                .write_streamed(&path, &mut |emit| rows.iter().try_for_each(&mut *emit))
+                .unwrap();
+            assert_eq!(std::fs::read(&path).unwrap(), encode(&file));
+            // Too few rows: an error, and the file written before stays.
+            let e = skeleton
+                .write_streamed(&path, &mut |emit| rows[1..].iter().try_for_each(&mut *emit))
+                .unwrap_err();
+            assert!(e.to_string().contains("announced"), "{e}");
+            // A bad value names its row.
+            let bad = StoredMatrix::from_f32(&[0.5, f32::NAN], file.precision);
+            let e = skeleton
+                .write_streamed(&path, &mut |emit| {
+                    emit(&rows[0])?;
+                    emit(&bad)
+                })
+                .unwrap_err();
+            assert!(e.to_string().contains("rows from element 1"), "{e}");
+            assert_eq!(std::fs::read(&path).unwrap(), encode(&file));
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -178,8 +178,8 @@ mod testdata;
 mod validate;
 mod writer;
 
-pub use atomic::write_atomic;
-pub use checksum::checksum;
+pub use atomic::{write_atomic, write_atomic_with};
+pub use checksum::{Xxh64, checksum};
 pub use container::{
     ALIGN, Container, FLAG_REQUIRED, HEADER_CHECKSUM_OFFSET, HEADER_LEN, MAGIC, SECTION_ENTRY_LEN,
     Section, VERSION_MAJOR, VERSION_MINOR,

@@ -83,6 +83,19 @@ impl<'s> Prepared<'s> {
         visibility: Backend,
         progress: &Progress,
     ) -> Result<Self> {
+        Self::with_mesh(scene, sizes, method, visibility, progress, None)
+    }
+
+    /// [`new`](Self::new), with the mesh made before when `mesh` is given (a sharded bake's
+    /// plan, `crate::shard`): then only the BVH is built.
+    pub(crate) fn with_mesh(
+        scene: &'s Scene,
+        sizes: MeshSizes,
+        method: PatchMethod,
+        visibility: Backend,
+        progress: &Progress,
+        mesh: Option<Mesh>,
+    ) -> Result<Self> {
         if !visibility.available() {
             // Refuse before any work, even where no ray would be cast: the flag is wrong here.
             visibility.build(scene)?;
@@ -103,7 +116,10 @@ impl<'s> Prepared<'s> {
         };
         stage.finish();
         let stage = progress.stage("mesh", 0);
-        let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
+        let mesh = match mesh {
+            Some(mesh) => mesh,
+            None => Mesh::build(scene, sizes, method, occluder.as_deref())?,
+        };
         stage.finish();
         Ok(Self {
             scene,
@@ -139,7 +155,14 @@ impl<'s> Prepared<'s> {
         checkpoint: Option<&CheckpointSettings>,
     ) -> Result<(Vec<f64>, Option<Checkpoint>)> {
         let checkpoint = checkpoint.map(|c| (c, checkpoint::key(&self.identity(), ff.samples)));
-        checkpoint::element_patch_matrix(&self.mesh, ff, progress, max_memory, checkpoint)
+        checkpoint::element_patch_matrix(
+            &self.mesh,
+            ff,
+            progress,
+            max_memory,
+            checkpoint,
+            0..self.mesh.n(),
+        )
     }
 
     /// What identifies this bake's `F_k` for checkpoints.
@@ -152,6 +175,21 @@ impl<'s> Prepared<'s> {
             k: self.mesh.k(),
             visibility: self.visibility_name(),
         }
+    }
+
+    /// Reflectance and emission of each element, in file order.
+    pub(crate) fn file_order_materials(&self) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let (rho, emission) = self.element_materials();
+        let order = &self.mesh.order;
+        (
+            order.iter().map(|&e| rho[e as usize]).collect(),
+            order.iter().map(|&e| emission[e as usize]).collect(),
+        )
+    }
+
+    /// Channels of the cores: 1 for a grey scene, else 3.
+    pub(crate) fn channels(&self) -> usize {
+        if self.scene.is_grey() { 1 } else { 3 }
     }
 
     /// Reflectance and emission of each element, in original id order.
@@ -214,11 +252,8 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             settings.max_memory,
             settings.checkpoint.as_ref(),
         )?;
-        let (rho, emission) = prepared.element_materials();
-        let order = &prepared.mesh.order;
-        let reflectance: Vec<[f64; 3]> = order.iter().map(|&e| rho[e as usize]).collect();
-        let emission: Vec<[f64; 3]> = order.iter().map(|&e| emission[e as usize]).collect();
-        let channels = if scene.is_grey() { 1 } else { 3 };
+        let (reflectance, emission) = prepared.file_order_materials();
+        let channels = prepared.channels();
         let stage = progress.stage("operator", 0);
         let cores = build_cores(&OperatorInputs {
             fk: &fk,

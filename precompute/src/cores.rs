@@ -35,29 +35,97 @@ pub(crate) struct OperatorInputs<'a> {
 
 /// Builds and inverts `I - VᵀU` for every channel.
 pub(crate) fn build_cores(inp: &OperatorInputs) -> Result<Cores> {
-    let k = inp.index.len() - 1;
-    let mut m = Vec::with_capacity(inp.channels * k * k);
-    let mut condition = Vec::with_capacity(inp.channels);
-    for c in 0..inp.channels {
-        let a = system_matrix(inp, c);
-        let (inverse, kappa) = invert(&a, c)?;
-        for p in 0..k {
-            for q in 0..k {
-                m.push(inverse[(p, q)]);
-            }
-        }
-        condition.push(kappa);
-    }
-    Ok(Cores {
-        k,
-        channels: inp.channels,
-        m,
-        condition,
-    })
+    let mut systems = Systems::new(inp.weights, inp.index, inp.reflectance, inp.channels);
+    systems.add_rows(inp.fk);
+    systems.finish()
 }
 
-/// `A = I_k - Vᵀ diag(ρ_c) F_k`.
-pub(crate) fn system_matrix(inp: &OperatorInputs, c: usize) -> Mat<f64> {
+/// The systems `A_c = I_k - Vᵀ diag(ρ_c) F_k` of every channel, summed from the rows of `F_k`
+/// as they come (in file order, in pieces of whole rows): the merge of a sharded bake streams
+/// its rows through this, a bake passes all of them at once, and both get the same bits (each
+/// entry takes the same terms in the same order).
+pub(crate) struct Systems<'a> {
+    weights: &'a [f64],
+    index: &'a [u32],
+    reflectance: &'a [[f64; 3]],
+    a: Vec<Mat<f64>>,
+    /// The next row's file position and its patch.
+    row: usize,
+    patch: usize,
+}
+
+impl<'a> Systems<'a> {
+    /// Identity systems for `channels` channels; `weights`, `index`, `reflectance` in file order.
+    pub(crate) fn new(
+        weights: &'a [f64],
+        index: &'a [u32],
+        reflectance: &'a [[f64; 3]],
+        channels: usize,
+    ) -> Self {
+        let k = index.len() - 1;
+        Self {
+            weights,
+            index,
+            reflectance,
+            a: (0..channels).map(|_| Mat::<f64>::identity(k, k)).collect(),
+            row: 0,
+            patch: 0,
+        }
+    }
+
+    /// Takes in the next rows of `F_k` (k values each).
+    pub(crate) fn add_rows(&mut self, rows: &[f64]) {
+        let k = self.index.len() - 1;
+        if k == 0 {
+            return;
+        }
+        for row in rows.chunks_exact(k) {
+            let s = self.row;
+            while self.index[self.patch + 1] as usize <= s {
+                self.patch += 1;
+            }
+            let p = self.patch;
+            for (c, a) in self.a.iter_mut().enumerate() {
+                let scale = self.weights[s] * self.reflectance[s][c];
+                if scale == 0.0 {
+                    continue;
+                }
+                for (q, f) in row.iter().enumerate() {
+                    a[(p, q)] -= scale * f;
+                }
+            }
+            self.row += 1;
+        }
+    }
+
+    /// Inverts every channel's system (all n rows must have been added).
+    pub(crate) fn finish(self) -> Result<Cores> {
+        let k = self.index.len() - 1;
+        assert_eq!(self.row, self.weights.len(), "every row of F_k is needed");
+        let channels = self.a.len();
+        let mut m = Vec::with_capacity(channels * k * k);
+        let mut condition = Vec::with_capacity(channels);
+        for (c, a) in self.a.iter().enumerate() {
+            let (inverse, kappa) = invert(a, c)?;
+            for p in 0..k {
+                for q in 0..k {
+                    m.push(inverse[(p, q)]);
+                }
+            }
+            condition.push(kappa);
+        }
+        Ok(Cores {
+            k,
+            channels,
+            m,
+            condition,
+        })
+    }
+}
+
+/// `A = I_k - Vᵀ diag(ρ_c) F_k`, patch by patch: what [`Systems`] must agree with.
+#[cfg(test)]
+fn system_matrix(inp: &OperatorInputs, c: usize) -> Mat<f64> {
     let k = inp.index.len() - 1;
     let mut a = Mat::<f64>::identity(k, k);
     for p in 0..k {
@@ -122,6 +190,41 @@ mod tests {
             assert!((a - b).abs() < 1e-14);
         }
         assert!((cores.condition[0] - 1.5 * 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn rows_in_pieces_give_the_bits_of_the_whole_system() {
+        // n = 7 elements in k = 3 patches (one empty), coloured reflectance, one black element.
+        let (n, k) = (7usize, 3usize);
+        let fk: Vec<f64> = (0..n * k)
+            .map(|i| ((i * 7919) % 97) as f64 / 331.0)
+            .collect();
+        let index = [0u32, 3, 3, 7];
+        let weights = [0.2, 0.5, 0.3, 0.1, 0.4, 0.25, 0.25];
+        let reflectance: Vec<[f64; 3]> = (0..n)
+            .map(|s| [0.1 * s as f64 % 0.9, 0.3, if s == 4 { 0.0 } else { 0.7 }])
+            .collect();
+        let inp = OperatorInputs {
+            fk: &fk,
+            weights: &weights,
+            index: &index,
+            reflectance: &reflectance,
+            channels: 3,
+        };
+        let whole = build_cores(&inp).unwrap();
+        let mut systems = Systems::new(&weights, &index, &reflectance, 3);
+        for piece in [0, 2, 3, 7].windows(2) {
+            systems.add_rows(&fk[piece[0] * k..piece[1] * k]);
+        }
+        for c in 0..3 {
+            let a = system_matrix(&inp, c);
+            for p in 0..k {
+                for q in 0..k {
+                    assert_eq!(systems.a[c][(p, q)].to_bits(), a[(p, q)].to_bits());
+                }
+            }
+        }
+        assert_eq!(systems.finish().unwrap(), whole);
     }
 
     #[test]

@@ -28,6 +28,14 @@ pub enum Error {
     Limits(String),
     /// The operator file could not be written or read.
     Format(lrr_formats::FormatError),
+    /// The parts of a sharded bake do not make one bake (missing, repeated, truncated,
+    /// damaged or foreign parts); `path` names the part (or the first one) concerned.
+    Part {
+        /// The part file concerned.
+        path: PathBuf,
+        /// What is wrong and how to fix it.
+        message: String,
+    },
 }
 
 /// `Result` with the precompute's [`Error`].
@@ -38,6 +46,13 @@ impl Error {
     pub fn scene(location: impl Into<String>, message: impl Into<String>) -> Self {
         Error::Scene {
             location: location.into(),
+            message: message.into(),
+        }
+    }
+    /// A part of a sharded bake at `path` that does not fit.
+    pub fn part(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        Error::Part {
+            path: path.into(),
             message: message.into(),
         }
     }
@@ -57,6 +72,7 @@ impl fmt::Display for Error {
             Error::Scene { location, message } => write!(f, "{location}: {message}"),
             Error::Settings(m) | Error::Numerical(m) | Error::Limits(m) => f.write_str(m),
             Error::Format(e) => write!(f, "{e}"),
+            Error::Part { path, message } => write!(f, "{}: {message}", path.display()),
         }
     }
 }

@@ -10,6 +10,7 @@
 //! | form factors | [`formfactor`] | element→patch `F_k`: closed-form kernel × visibility fraction |
 //! | operator | `cores` | per-channel cores `M_c = (I - Vᵀ diag(ρ_c) F_k)⁻¹` (faer) |
 //! | write | [`write`](mod@write) | the lrr-formats file, atomically |
+//! | shards | [`shard`] | a bake cut into N processes (`--shard i/N`) and merged byte for byte |
 //!
 //! [`exact`] solves the full fine-mesh system exactly for checking; [`bake`] strings the
 //! stages together; the `lrr` command line is the crate lrr-cli.
@@ -44,6 +45,7 @@ pub mod pool;
 pub mod progress;
 pub mod radiosity;
 pub mod scene;
+pub mod shard;
 pub mod visibility;
 pub mod write;
 

@@ -30,10 +30,19 @@ pub(crate) fn check_with(bytes: u128, limit: Option<u64>, what: &str, fix: &str)
     let limit = limit.map_or_else(|| available() * 8 / 10, u128::from);
     if bytes > limit {
         return Err(Error::Limits(format!(
-            "{what} needs about {:.2} GiB but only {:.2} GiB can be used; {fix}",
-            bytes as f64 / (1u64 << 30) as f64,
-            limit as f64 / (1u64 << 30) as f64
+            "{what} needs about {} but only {} can be used; {fix}",
+            size(bytes),
+            size(limit)
         )));
     }
     Ok(())
+}
+
+/// Bytes in GiB, or MiB below 1 GiB (so small limits do not all read "0.01 GiB").
+fn size(bytes: u128) -> String {
+    if bytes >= 1 << 30 {
+        format!("{:.2} GiB", bytes as f64 / (1u64 << 30) as f64)
+    } else {
+        format!("{:.1} MiB", bytes as f64 / (1u64 << 20) as f64)
+    }
 }

@@ -8,53 +8,215 @@ use lrr_formats::{Geometry, Layout, OperatorData, OperatorFile, Precision, Store
 use serde::Serialize;
 
 use crate::bake::Baked;
+use crate::cores::Cores;
 use crate::error::Result;
+use crate::mesh::MeshSizes;
 use crate::patches::{Mesh, PatchMethod};
+
+/// Everything an operator file holds but `F_k` and the cores, in file order: what a bake
+/// writes around its matrix, and what every shard of a sharded bake carries to the merge
+/// (`crate::shard`), so that both go through the same code to the same bytes.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Skeleton {
+    pub scene_name: String,
+    /// `PatchMethod::name`.
+    pub method: String,
+    /// 2MSC: the threshold and the `A_min` used.
+    pub refinement: Option<[f64; 2]>,
+    pub element_size: f64,
+    pub patch_size: f64,
+    pub samples: u32,
+    pub visibility: String,
+    /// Surface names, indexed by `Element::surface`.
+    pub surfaces: Vec<String>,
+    /// Per surface: ranges of original element ids (the metadata's `surfaces`).
+    pub surface_ranges: Vec<SurfaceRanges>,
+    /// Channels of the cores: 1 for a grey scene, else 3.
+    pub channels: usize,
+    pub order: Vec<u32>,
+    pub index: Vec<u32>,
+    /// Per file position: `w = A_e / A_p`.
+    pub weights: Vec<f64>,
+    /// Per file position: RGB reflectance.
+    pub reflectance: Vec<[f64; 3]>,
+    /// Per file position: RGB emitted exitance.
+    pub emission: Vec<[f64; 3]>,
+    /// Per file position: the element's surface.
+    pub surface_at: Vec<u32>,
+    /// Per file position: the element's polygon and normal, in f32.
+    pub geometry: Geometry,
+}
+
+/// What a [`Skeleton`] is cut from (a finished bake, or a shard's meshes).
+pub(crate) struct SkeletonInputs<'a> {
+    pub scene_name: &'a str,
+    pub sizes: MeshSizes,
+    pub method: PatchMethod,
+    pub samples: u32,
+    pub visibility: &'a str,
+    pub mesh: &'a Mesh,
+    /// Per file position.
+    pub reflectance: &'a [[f64; 3]],
+    /// Per file position.
+    pub emission: &'a [[f64; 3]],
+    pub surfaces: &'a [String],
+    pub channels: usize,
+}
+
+impl Skeleton {
+    pub(crate) fn new(i: &SkeletonInputs) -> Self {
+        let n = i.mesh.n();
+        let mut geometry = Geometry {
+            vertex_count: Vec::with_capacity(n),
+            vertices: Vec::with_capacity(n * 12),
+            normals: Vec::with_capacity(n * 3),
+        };
+        for s in 0..n {
+            let p = &i.mesh.element_at(s).polygon;
+            geometry.vertex_count.push(p.count as u8);
+            // Triangles leave their fourth slot zero (Polygon keeps unused slots zeroed).
+            for v in &p.vertices {
+                geometry
+                    .vertices
+                    .extend([v.x as f32, v.y as f32, v.z as f32]);
+            }
+            geometry
+                .normals
+                .extend([p.normal.x as f32, p.normal.y as f32, p.normal.z as f32]);
+        }
+        let refinement = match i.method {
+            PatchMethod::TwoFixed => None,
+            PatchMethod::SpatialCoherence {
+                threshold,
+                min_patch_area,
+            } => crate::patches::refinement(i.sizes, threshold, min_patch_area)
+                .ok()
+                .map(|r| [r.threshold, r.min_patch_area]),
+        };
+        Self {
+            scene_name: i.scene_name.to_string(),
+            method: i.method.name().to_string(),
+            refinement,
+            element_size: i.sizes.element_size,
+            patch_size: i.sizes.patch_size,
+            samples: i.samples,
+            visibility: i.visibility.to_string(),
+            surfaces: i.surfaces.to_vec(),
+            surface_ranges: surface_ranges(i.mesh, i.surfaces),
+            channels: i.channels,
+            order: i.mesh.order.clone(),
+            index: i.mesh.index.clone(),
+            weights: i.mesh.weights.clone(),
+            reflectance: i.reflectance.to_vec(),
+            emission: i.emission.to_vec(),
+            surface_at: (0..n).map(|s| i.mesh.element_at(s).surface).collect(),
+            geometry,
+        }
+    }
+
+    /// The skeleton of a finished bake.
+    pub(crate) fn of(b: &Baked) -> Self {
+        Self::new(&SkeletonInputs {
+            scene_name: &b.scene_name,
+            sizes: b.sizes,
+            method: b.method,
+            samples: b.samples,
+            visibility: b.visibility,
+            mesh: &b.mesh,
+            reflectance: &b.reflectance,
+            emission: &b.emission,
+            surfaces: &b.surfaces,
+            channels: b.cores.channels,
+        })
+    }
+
+    /// Number of elements.
+    pub(crate) fn n(&self) -> usize {
+        self.order.len()
+    }
+
+    /// Number of patches.
+    pub(crate) fn k(&self) -> usize {
+        self.index.len().saturating_sub(1)
+    }
+
+    /// The operator file with this `F_k` (f32, or empty for a streamed write) and cores, in
+    /// f32, without light groups.
+    pub(crate) fn file(&self, fk: StoredMatrix, cores: &Cores) -> OperatorFile {
+        let flat = |v: &[[f64; 3]]| {
+            v.iter()
+                .flat_map(|x| x.map(|c| c as f32))
+                .collect::<Vec<f32>>()
+        };
+        OperatorFile {
+            metadata_json: self.metadata_json(&cores.condition),
+            n: self.n() as u32,
+            k: self.k() as u32,
+            channels: cores.channels as u32,
+            precision: fk.precision(),
+            order: self.order.clone(),
+            index: self.index.clone(),
+            weights: self.weights.iter().map(|&w| w as f32).collect(),
+            operator: OperatorData::Factored {
+                fk,
+                cores: cores.m.clone(),
+            },
+            reflectance: flat(&self.reflectance),
+            emission: flat(&self.emission),
+            geometry: self.geometry.clone(),
+            lights: Vec::new(),
+        }
+    }
+
+    /// The metadata section's JSON ([`Metadata`]).
+    fn metadata_json(&self, condition: &[f64]) -> String {
+        let meta = Metadata {
+            generator: format!("lrr {}", env!("CARGO_PKG_VERSION")),
+            scene: &self.scene_name,
+            method: &self.method,
+            threshold: self.refinement.map(|r| r[0]),
+            min_patch_area: self.refinement.map(|r| r[1]),
+            element_size: self.element_size,
+            patch_size: self.patch_size,
+            samples: self.samples,
+            visibility: &self.visibility,
+            condition,
+            surfaces: self.surface_ranges.clone(),
+        };
+        serde_json::to_string(&meta).expect("metadata serialises")
+    }
+
+    /// Adds one light group per emitting surface (named after the surface; its elements at
+    /// their baked emission).
+    pub(crate) fn add_light_groups(&self, file: &mut OperatorFile) -> Result<()> {
+        // One pass over the elements, collecting emitters per surface.
+        let mut members: Vec<(Vec<u32>, Vec<f32>)> =
+            vec![(Vec::new(), Vec::new()); self.surfaces.len()];
+        for (s, e) in self.emission.iter().enumerate() {
+            if e.iter().any(|&x| x > 0.0) {
+                let (positions, emission) = &mut members[self.surface_at[s] as usize];
+                positions.push(s as u32);
+                emission.extend(e.map(|x| x as f32));
+            }
+        }
+        for (name, (positions, emission)) in self.surfaces.iter().zip(members) {
+            if !positions.is_empty() {
+                let group = file.light_group(name.clone(), positions, emission)?;
+                file.lights.push(group);
+            }
+        }
+        Ok(())
+    }
+}
 
 /// Assembles the operator file of a bake (elements in file order).
 pub fn operator_file(b: &Baked) -> OperatorFile {
-    let n = b.n();
-    let mut geometry = Geometry {
-        vertex_count: Vec::with_capacity(n),
-        vertices: Vec::with_capacity(n * 12),
-        normals: Vec::with_capacity(n * 3),
-    };
-    for s in 0..n {
-        let p = &b.mesh.element_at(s).polygon;
-        geometry.vertex_count.push(p.count as u8);
-        // Triangles leave their fourth slot zero (Polygon keeps unused slots zeroed).
-        for v in &p.vertices {
-            geometry
-                .vertices
-                .extend([v.x as f32, v.y as f32, v.z as f32]);
-        }
-        geometry
-            .normals
-            .extend([p.normal.x as f32, p.normal.y as f32, p.normal.z as f32]);
-    }
-    let flat = |v: &[[f64; 3]]| {
-        v.iter()
-            .flat_map(|x| x.map(|c| c as f32))
-            .collect::<Vec<f32>>()
-    };
-    OperatorFile {
-        metadata_json: metadata_json(b),
-        n: n as u32,
-        k: b.k() as u32,
-        channels: b.cores.channels as u32,
-        precision: Precision::F32,
-        order: b.mesh.order.clone(),
-        index: b.mesh.index.clone(),
-        weights: b.mesh.weights.iter().map(|&w| w as f32).collect(),
-        operator: OperatorData::Factored {
-            fk: StoredMatrix::F32(b.fk.iter().map(|&f| f as f32).collect()),
-            cores: b.cores.m.clone(),
-        },
-        reflectance: flat(&b.reflectance),
-        emission: flat(&b.emission),
-        geometry,
-        lights: Vec::new(),
-    }
+    Skeleton::of(b).file(f32_matrix(&b.fk), &b.cores)
+}
+
+/// `F_k` as the file stores it before any change of precision: f32.
+pub(crate) fn f32_matrix(fk: &[f64]) -> StoredMatrix {
+    StoredMatrix::F32(fk.iter().map(|&f| f as f32).collect())
 }
 
 /// How the operator is stored in the file.
@@ -78,8 +240,9 @@ impl Default for Storage {
 /// The operator file of a bake stored as asked, with one light group per emitting surface
 /// (named after the surface; its elements at their baked emission).
 pub(crate) fn stored_file(b: &Baked, storage: Storage) -> Result<OperatorFile> {
-    let mut file = operator_file(b);
-    add_light_groups(b, &mut file)?;
+    let skeleton = Skeleton::of(b);
+    let mut file = skeleton.file(f32_matrix(&b.fk), &b.cores);
+    skeleton.add_light_groups(&mut file)?;
     if storage.precision != file.precision {
         store_matrix_as(&mut file, storage.precision);
     }
@@ -87,25 +250,6 @@ pub(crate) fn stored_file(b: &Baked, storage: Storage) -> Result<OperatorFile> {
         file = file.to_plain_yk(0)?;
     }
     Ok(file)
-}
-
-fn add_light_groups(b: &Baked, file: &mut OperatorFile) -> Result<()> {
-    // One pass over the elements, collecting emitters per surface.
-    let mut members: Vec<(Vec<u32>, Vec<f32>)> = vec![(Vec::new(), Vec::new()); b.surfaces.len()];
-    for (s, e) in b.emission.iter().enumerate() {
-        if e.iter().any(|&x| x > 0.0) {
-            let (positions, emission) = &mut members[b.mesh.element_at(s).surface as usize];
-            positions.push(s as u32);
-            emission.extend(e.map(|x| x as f32));
-        }
-    }
-    for (name, (positions, emission)) in b.surfaces.iter().zip(members) {
-        if !positions.is_empty() {
-            let group = file.light_group(name.clone(), positions, emission)?;
-            file.lights.push(group);
-        }
-    }
-    Ok(())
 }
 
 /// Stores a factored file's `F_k` in `precision` (rounding once from its current values).
@@ -152,31 +296,6 @@ pub struct SurfaceRanges {
     pub name: String,
     /// Half-open ranges `[first, end)` of original element ids.
     pub elements: Vec<[u32; 2]>,
-}
-
-/// The metadata section's JSON ([`Metadata`]).
-pub(crate) fn metadata_json(b: &Baked) -> String {
-    let refinement = match b.method {
-        PatchMethod::TwoFixed => None,
-        PatchMethod::SpatialCoherence {
-            threshold,
-            min_patch_area,
-        } => crate::patches::refinement(b.sizes, threshold, min_patch_area).ok(),
-    };
-    let meta = Metadata {
-        generator: format!("lrr {}", env!("CARGO_PKG_VERSION")),
-        scene: &b.scene_name,
-        method: b.method.name(),
-        threshold: refinement.map(|r| r.threshold),
-        min_patch_area: refinement.map(|r| r.min_patch_area),
-        element_size: b.sizes.element_size,
-        patch_size: b.sizes.patch_size,
-        samples: b.samples,
-        visibility: b.visibility,
-        condition: &b.cores.condition,
-        surfaces: surface_ranges(&b.mesh, &b.surfaces),
-    };
-    serde_json::to_string(&meta).expect("metadata serialises")
 }
 
 /// Ranges of original element ids per surface (elements of a face are consecutive ids).

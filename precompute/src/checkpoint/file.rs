@@ -25,6 +25,8 @@ pub(super) type SavedBlock = (u64, Vec<f64>);
 pub struct Checkpoint {
     path: PathBuf,
     file: File,
+    /// Rows taken from the file when resuming (0 for a fresh checkpoint).
+    pub(crate) resumed_rows: u64,
 }
 
 /// What a checkpoint describes: the bake it belongs to and its block size.
@@ -63,6 +65,7 @@ impl Checkpoint {
         Ok(Self {
             path: path.to_path_buf(),
             file,
+            resumed_rows: 0,
         })
     }
 
@@ -106,6 +109,7 @@ impl Checkpoint {
             Self {
                 path: path.to_path_buf(),
                 file,
+                resumed_rows: 0,
             },
             blocks,
         ))
@@ -126,6 +130,11 @@ impl Checkpoint {
             .write_all(&record)
             .map_err(|e| Error::io(&self.path, e))?;
         self.file.flush().map_err(|e| Error::io(&self.path, e))
+    }
+
+    /// Rows of `F_k` this run took from the checkpoint instead of computing them.
+    pub fn resumed_rows(&self) -> u64 {
+        self.resumed_rows
     }
 
     /// Deletes the checkpoint (after the output was written).

@@ -39,18 +39,20 @@ pub(crate) struct Identity<'a> {
     pub visibility: &'a str,
 }
 
-/// `F_k`: element-to-patch form factors, n×k row-major in file order, computed in blocks
-/// of rows that are checkpointed when `checkpoint` is given. Returns the open checkpoint,
-/// which the caller removes once the output is safely written. `checkpoint` comes with the
-/// bake's [`key`].
+/// The rows `rows` (file positions) of `F_k`: element-to-patch form factors, row-major,
+/// computed in blocks of rows that are checkpointed when `checkpoint` is given (all n rows
+/// for a bake, one shard's range for a sharded one). Returns the open checkpoint, which the
+/// caller removes once the output is safely written. `checkpoint` comes with the bake's
+/// [`key`] (for a range, [`range_key`]).
 pub(crate) fn element_patch_matrix(
     mesh: &Mesh,
     ff: &FormFactors,
     progress: &Progress,
     max_memory: Option<u64>,
     checkpoint: Option<(&CheckpointSettings, u64)>,
+    rows: std::ops::Range<usize>,
 ) -> Result<(Vec<f64>, Option<Checkpoint>)> {
-    let (n, k) = (mesh.n(), mesh.k());
+    let (n, k) = (rows.len(), mesh.k());
     let bytes = (n as u128) * (k as u128) * 12;
     memory::check_with(
         bytes,
@@ -58,7 +60,8 @@ pub(crate) fn element_patch_matrix(
         "the element-to-patch matrix",
         "use a larger --element-size or --patch-size",
     )?;
-    let rows: Vec<Polygon> = (0..n).map(|s| mesh.element_at(s).polygon).collect();
+    let polygons: Vec<Polygon> = rows.clone().map(|s| mesh.element_at(s).polygon).collect();
+    let ids = &mesh.order[rows];
     let targets: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
     let mut fk = vec![0.0; n * k];
     let stage = progress.stage("form factors", n as u64);
@@ -77,8 +80,9 @@ pub(crate) fn element_patch_matrix(
             block_rows: block_rows as u64,
         };
         file = Some(if c.resume {
-            let (f, saved) = Checkpoint::resume(&c.path, shape)?;
+            let (mut f, saved) = Checkpoint::resume(&c.path, shape)?;
             for (b, values) in saved {
+                f.resumed_rows += (values.len() / k.max(1)) as u64;
                 let b = b as usize;
                 fk[b * block_rows * k..b * block_rows * k + values.len()].copy_from_slice(&values);
                 done[b] = true;
@@ -92,7 +96,7 @@ pub(crate) fn element_patch_matrix(
     for b in (0..blocks).filter(|&b| !done[b]) {
         let (r0, r1) = (b * block_rows, ((b + 1) * block_rows).min(n));
         let out = &mut fk[r0 * k..r1 * k];
-        ff.matrix(&rows[r0..r1], &mesh.order[r0..r1], &targets, out, &|i| {
+        ff.matrix(&polygons[r0..r1], &ids[r0..r1], &targets, out, &|i| {
             stage.inc(i)
         });
         if let Some(f) = &mut file {
@@ -101,6 +105,15 @@ pub(crate) fn element_patch_matrix(
     }
     stage.finish();
     Ok((fk, file))
+}
+
+/// The key of the rows `rows` of a bake whose key is `key` (a shard's checkpoint).
+pub(crate) fn range_key(key: u64, rows: std::ops::Range<usize>) -> u64 {
+    file::hash_parts(&[
+        &key.to_le_bytes(),
+        &(rows.start as u64).to_le_bytes(),
+        &(rows.end as u64).to_le_bytes(),
+    ])
 }
 
 /// Key of everything `F_k` depends on: the scene's geometry, the mesh sizes and method,

@@ -92,6 +92,20 @@ impl<'a> FormFactors<'a> {
             });
     }
 
+    /// Estimated cost of the row of `e`, in units of one part's closed-form kernel at every
+    /// sample: per target [`row`](Self::row) integrates (not culled), its parts facing `e`
+    /// plus `visibility` (the rays of its visible fraction). Culled targets cost a few dot
+    /// products: counted 0. The sharded bake balances its shards by this (docs/DISTRIBUTED.md).
+    pub(crate) fn row_cost(e: &Polygon, targets: &[Region], visibility: u64) -> u64 {
+        targets
+            .iter()
+            .map(|t| {
+                let parts = t.parts().iter().filter(|p| !faces_away(e, p)).count() as u64;
+                if parts == 0 { 0 } else { parts + visibility }
+            })
+            .sum()
+    }
+
     /// One row: the element `e` (with its quadrature points) against every target.
     pub fn row(
         &self,

@@ -12,5 +12,6 @@ mod import;
 mod meshing;
 mod reference;
 mod resilience;
+mod shards;
 mod storage;
 mod util;

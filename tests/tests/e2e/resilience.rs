@@ -145,7 +145,7 @@ fn a_bake_larger_than_memory_is_refused_before_allocating() {
     let out = dir.join("big.lrr");
     let err = bake(&cornell(), &out, &["--max-memory", "1M"]).unwrap_err();
     assert!(
-        err.contains("GiB") && err.contains("--element-size"),
+        err.contains("MiB but only 1.0 MiB") && err.contains("--element-size"),
         "{err}"
     );
     let err = bake(&cornell(), &out, &["--element-size", "1e-4"]).unwrap_err();

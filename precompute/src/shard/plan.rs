@@ -1,0 +1,174 @@
+//! The plan file (`lrr plan SCENE -o PLAN`): a scene's meshes, made once and read by every
+//! shard (`lrr bake SCENE --shard I/N --plan PLAN`) instead of each shard meshing again.
+//!
+//! 2MF meshing costs a shard almost nothing (0.1% of its form factors in the Cornell box at
+//! N = 7), but 2MSC builds its patches from probe solves: half a shard's form-factor time at
+//! N = 7, repeated by every shard (docs/DISTRIBUTED.md). The plan stores the mesh exactly
+//! (every f64 by its bits), so a shard that reads it computes the same rows and the merge
+//! writes the same bytes. Layout: magic `LRRPLAN1`, body length, XXH64 of the body, body
+//! (lrr version, scene content hash, settings text, then the mesh).
+
+use std::path::Path;
+
+use glam::DVec3;
+use lrr_formats::checksum;
+
+use super::part::{Dec, Decoded, Enc};
+use crate::error::{Error, Result};
+use crate::geometry::{Polygon, Region};
+use crate::mesh::Element;
+use crate::patches::{Mesh, Patch};
+
+const MAGIC: &[u8; 8] = b"LRRPLAN1";
+
+/// What a plan must match: the shard's lrr version, scene and settings.
+pub(crate) struct PlanIdentity<'a> {
+    pub version: &'a str,
+    pub scene_hash: u64,
+    pub settings: &'a str,
+}
+
+/// Writes the plan of `mesh` atomically.
+pub(crate) fn write(path: &Path, id: &PlanIdentity, mesh: &Mesh) -> Result<()> {
+    let mut e = Enc::default();
+    e.str(id.version);
+    e.u64(id.scene_hash);
+    e.str(id.settings);
+    e.u64(mesh.elements.len() as u64);
+    for el in &mesh.elements {
+        polygon(&mut e, &el.polygon);
+        for v in [el.face, el.surface, el.patch] {
+            e.u64(u64::from(v));
+        }
+    }
+    e.u64(mesh.patches.len() as u64);
+    for p in &mesh.patches {
+        e.u64(p.shape.parts().len() as u64);
+        p.shape.parts().iter().for_each(|q| polygon(&mut e, q));
+        e.u64(u64::from(p.face));
+        e.u64(u64::from(p.surface));
+    }
+    e.u64s(mesh.order.iter().map(|&v| u64::from(v)));
+    e.u64s(mesh.index.iter().map(|&v| u64::from(v)));
+    e.f64s(&mesh.weights);
+    let body = e.0;
+    let mut bytes = MAGIC.to_vec();
+    bytes.extend_from_slice(&(body.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(&checksum(&body).to_le_bytes());
+    bytes.extend_from_slice(&body);
+    lrr_formats::write_atomic(path, &bytes)?;
+    Ok(())
+}
+
+/// Reads a plan and checks that it was made for `id`; the mesh's invariants are checked too.
+pub(crate) fn read(path: &Path, id: &PlanIdentity) -> Result<Mesh> {
+    let bad = |m: String| Error::part(path, m);
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    if bytes.len() < 24 || &bytes[..8] != MAGIC {
+        return Err(bad(
+            "not a plan (no LRRPLAN1 header): write one with `lrr plan`".into(),
+        ));
+    }
+    let word = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().expect("8 bytes"));
+    let body = &bytes[24..];
+    if word(8) != body.len() as u64 || word(16) != checksum(body) {
+        return Err(bad(
+            "truncated or damaged: length or checksum wrong; run `lrr plan` again".into(),
+        ));
+    }
+    let mut d = Dec::new(body);
+    let (version, scene_hash, settings) = (
+        d.str().map_err(&bad)?,
+        d.u64().map_err(&bad)?,
+        d.str().map_err(&bad)?,
+    );
+    let mismatch = if version != id.version {
+        Some(format!("was written by {version}, this is {}", id.version))
+    } else if scene_hash != id.scene_hash {
+        Some("was made for another scene (content hash differs)".to_string())
+    } else if settings != id.settings {
+        Some(format!(
+            "was made with other settings ({settings}, not {})",
+            id.settings
+        ))
+    } else {
+        None
+    };
+    if let Some(m) = mismatch {
+        return Err(bad(format!(
+            "this plan {m}; run `lrr plan` with the shard's scene and flags"
+        )));
+    }
+    let mesh = mesh(&mut d).map_err(|m| bad(format!("damaged: {m}")))?;
+    mesh.validate()
+        .map_err(|m| bad(format!("damaged: the mesh fails its checks: {m}")))?;
+    Ok(mesh)
+}
+
+fn mesh(d: &mut Dec) -> Decoded<Mesh> {
+    let mut elements = Vec::new();
+    for _ in 0..d.count(8 * 16)? {
+        let polygon = read_polygon(d)?;
+        let [face, surface, patch] = [d.u32()?, d.u32()?, d.u32()?];
+        elements.push(Element {
+            polygon,
+            face,
+            surface,
+            patch,
+        });
+    }
+    let mut patches = Vec::new();
+    for _ in 0..d.count(8 * 16)? {
+        let parts = (0..d.count(8 * 14)?)
+            .map(|_| read_polygon(d))
+            .collect::<Decoded<Vec<_>>>()?;
+        if parts.is_empty() {
+            return Err("a patch without parts".into());
+        }
+        patches.push(Patch {
+            shape: Region::new(parts),
+            face: d.u32()?,
+            surface: d.u32()?,
+        });
+    }
+    let mesh = Mesh {
+        elements,
+        patches,
+        order: d.u32s()?,
+        index: d.u32s()?,
+        weights: d.f64s()?,
+    };
+    d.end()?;
+    if mesh.order.len() != mesh.n() || mesh.weights.len() != mesh.n() {
+        return Err("order or weights disagree with the elements".into());
+    }
+    if mesh.order.iter().any(|&e| e as usize >= mesh.n()) {
+        return Err("an element id out of range".into());
+    }
+    Ok(mesh)
+}
+
+fn polygon(e: &mut Enc, p: &Polygon) {
+    for v in p.vertices.iter().chain([&p.normal]) {
+        v.to_array().iter().for_each(|c| e.u64(c.to_bits()));
+    }
+    e.u64(p.count as u64);
+    e.u64(p.scale.to_bits());
+}
+
+fn read_polygon(d: &mut Dec) -> Decoded<Polygon> {
+    let mut v = [DVec3::ZERO; 5];
+    for x in &mut v {
+        *x = DVec3::new(d.f64()?, d.f64()?, d.f64()?);
+    }
+    let count = d.usize()?;
+    if !(3..=4).contains(&count) {
+        return Err(format!("a polygon of {count} vertices"));
+    }
+    Ok(Polygon {
+        vertices: [v[0], v[1], v[2], v[3]],
+        count,
+        normal: v[4],
+        scale: d.f64()?,
+    })
+}

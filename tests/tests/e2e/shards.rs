@@ -1,0 +1,389 @@
+//! Sharded bakes (docs/DISTRIBUTED.md): shards run as separate processes through GNU
+//! parallel and merged into the very bytes of a single bake, a shard killed and resumed,
+//! parts that do not make one bake named, a merge under a memory cap smaller than `F_k`.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::util::{bake, cornell, generated_scene, lrr, lrr_binary, temp_dir};
+
+/// GNU parallel, which scripts/setup-parallel.sh installs (.ci/run runs it): required, never
+/// skipped.
+fn gnu_parallel() -> &'static str {
+    let version = Command::new("parallel").arg("--version").output();
+    match version {
+        Ok(o) if String::from_utf8_lossy(&o.stdout).contains("GNU parallel") => "parallel",
+        _ => panic!(
+            "GNU parallel is missing (or `parallel` is another program, e.g. moreutils'): \
+             run scripts/setup-parallel.sh"
+        ),
+    }
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("UTF-8 path")
+}
+
+/// Runs shards `indices` of `count` through GNU parallel (2 jobs at a time), each writing
+/// `dir/part-I.bin` and `dir/report-I.json`.
+fn run_shards(scene: &Path, dir: &Path, count: usize, indices: &[usize], extra: &[&str]) {
+    let mut cmd = Command::new(gnu_parallel());
+    cmd.args(["--will-cite", "--halt", "now,fail=1", "-j", "2"])
+        .arg(lrr_binary())
+        .args(["bake", s(scene), "-q", "--shard"])
+        .arg(format!("{{}}/{count}"))
+        .arg("-o")
+        .arg(dir.join("part-{}.bin"))
+        .arg("--report")
+        .arg(dir.join("report-{}.json"))
+        .args(extra)
+        .arg(":::")
+        .args(indices.iter().map(|i| i.to_string()));
+    let out = cmd.output().unwrap();
+    assert!(
+        out.status.success(),
+        "parallel failed: {}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn parts(dir: &Path, count: usize) -> Vec<PathBuf> {
+    (0..count)
+        .map(|i| dir.join(format!("part-{i}.bin")))
+        .collect()
+}
+
+fn merge(parts: &[PathBuf], out: &Path, extra: &[&str]) -> Result<String, String> {
+    let mut args = vec!["merge"];
+    args.extend(parts.iter().map(|p| s(p)));
+    args.extend(["-o", s(out), "-q"]);
+    args.extend_from_slice(extra);
+    lrr(&args)
+}
+
+fn report(dir: &Path, i: usize) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join(format!("report-{i}.json"))).unwrap();
+    serde_json::from_str(&text).unwrap()
+}
+
+/// Starts shard `index` of `count` alone and SIGKILLs it once its checkpoint holds two
+/// blocks; true if it was caught mid-way (it may finish first on a fast machine).
+fn kill_mid_way(scene: &Path, dir: &Path, index: usize, count: usize, extra: &[&str]) -> bool {
+    let part = dir.join(format!("part-{index}.bin"));
+    let ckpt = dir.join(format!("part-{index}.bin.ckpt"));
+    let _ = std::fs::remove_file(&part);
+    let _ = std::fs::remove_file(&ckpt);
+    let mut child = Command::new(lrr_binary())
+        .args([
+            "bake",
+            s(scene),
+            "-q",
+            "--shard",
+            &format!("{index}/{count}"),
+        ])
+        .arg("-o")
+        .arg(&part)
+        .args(extra)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Header (40 bytes) + two records of 8 rows × 242 patches (24 + 8·242·8 bytes each).
+    let two_blocks = 40 + 2 * (24 + 8 * 242 * 8);
+    let start = Instant::now();
+    let mut caught = false;
+    while start.elapsed() < Duration::from_secs(120) {
+        if std::fs::metadata(&ckpt).is_ok_and(|m| m.len() >= two_blocks) {
+            caught = true;
+            break;
+        }
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let _ = child.kill();
+    child.wait().unwrap();
+    caught && !part.exists()
+}
+
+#[test]
+fn shards_run_by_gnu_parallel_merge_into_the_bytes_of_a_single_bake() {
+    let dir = temp_dir("shards");
+    let scene = cornell();
+    let extra = ["--samples", "4", "--checkpoint-rows", "8"];
+    let single = dir.join("single.lrr");
+    bake(&scene, &single, &extra).unwrap();
+    let expected = std::fs::read(&single).unwrap();
+    for count in [1usize, 3, 7] {
+        let sub = dir.join(format!("n{count}"));
+        std::fs::create_dir_all(&sub).unwrap();
+        let mut resumed = None;
+        if count == 3 {
+            // Shard 1 is killed mid-way, then run again with the others: it resumes.
+            let caught = (0..5).any(|_| kill_mid_way(&scene, &sub, 1, 3, &extra));
+            assert!(caught, "never caught shard 1/3 mid-way in 5 attempts");
+            resumed = Some(1);
+        }
+        run_shards(&scene, &sub, count, &(0..count).collect::<Vec<_>>(), &extra);
+        let merged = sub.join("merged.lrr");
+        let text = merge(&parts(&sub, count), &merged, &[]).unwrap();
+        assert!(text.contains(&format!("merged {count} parts")), "{text}");
+        assert!(
+            std::fs::read(&merged).unwrap() == expected,
+            "{count} shards: the merged file differs from the single bake"
+        );
+        let mut covered = 0;
+        for i in 0..count {
+            let r = report(&sub, i);
+            let rows = r["rows"].as_array().unwrap();
+            let (a, b) = (rows[0].as_u64().unwrap(), rows[1].as_u64().unwrap());
+            assert_eq!(a, covered, "shard {i}/{count} starts where the last ended");
+            covered = b;
+            let resumed_rows = r["resumed_rows"].as_u64().unwrap();
+            if Some(i) == resumed {
+                assert!(
+                    resumed_rows >= 16 && resumed_rows < b - a,
+                    "shard {i}/{count}: {resumed_rows} of {} rows resumed",
+                    b - a
+                );
+            } else {
+                assert_eq!(resumed_rows, 0, "shard {i}/{count} resumed");
+            }
+            // The cut balances the estimated cost: every shard within 15% of the mean.
+            let share = r["estimated_cost"].as_f64().unwrap() * count as f64
+                / r["estimated_total_cost"].as_f64().unwrap();
+            assert!((0.85..=1.15).contains(&share), "shard {i}/{count}: {share}");
+            assert!(!sub.join(format!("part-{i}.bin.ckpt")).exists());
+        }
+        assert_eq!(covered, 2116, "the shards cover every row");
+    }
+}
+
+/// Bakes shard `index` of `count` in-process.
+fn shard(scene: &Path, part: &Path, index: usize, count: usize, extra: &[&str]) {
+    let spec = format!("{index}/{count}");
+    let mut args = vec!["bake", s(scene), "-o", s(part), "-q", "--shard", &spec];
+    args.extend_from_slice(extra);
+    lrr(&args).unwrap();
+}
+
+/// The merge fails naming `name` and every word of `words`, and writes nothing.
+fn refused(parts: &[PathBuf], out: &Path, name: &str, words: &[&str]) {
+    let err = merge(parts, out, &[]).unwrap_err();
+    assert!(err.contains(name), "the error does not name {name}: {err}");
+    for w in words {
+        assert!(err.contains(w), "'{w}' missing from: {err}");
+    }
+    assert!(!out.exists(), "{err}: yet {} was written", out.display());
+    let leftovers: Vec<_> = std::fs::read_dir(out.parent().unwrap())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+}
+
+#[test]
+fn a_merge_of_parts_that_are_not_one_bake_names_them_and_writes_nothing() {
+    let dir = temp_dir("shard-errors");
+    let scene = cornell();
+    let extra = ["--samples", "1", "--element-size", "100"];
+    let p: Vec<PathBuf> = (0..3).map(|i| dir.join(format!("p{i}.bin"))).collect();
+    for (i, part) in p.iter().enumerate() {
+        shard(&scene, part, i, 3, &extra);
+    }
+    let out = dir.join("out.lrr");
+    merge(&p, &out, &[]).unwrap();
+    std::fs::remove_file(&out).unwrap();
+
+    // Missing: shard 1 is not given.
+    refused(
+        &[p[0].clone(), p[2].clone()],
+        &out,
+        "p0.bin",
+        &["missing", "shard 1/3", "rows", "--shard 1/3"],
+    );
+    // Repeated: shard 1 twice, under two names.
+    let copy = dir.join("copy-of-p1.bin");
+    std::fs::copy(&p[1], &copy).unwrap();
+    refused(
+        &[p[0].clone(), p[1].clone(), copy.clone(), p[2].clone()],
+        &out,
+        "copy-of-p1.bin",
+        &["repeated", "shard 1/3", "p1.bin"],
+    );
+    // Truncated: the last 100 bytes of shard 2 are gone.
+    let short = dir.join("short.bin");
+    let bytes = std::fs::read(&p[2]).unwrap();
+    std::fs::write(&short, &bytes[..bytes.len() - 100]).unwrap();
+    refused(
+        &[p[0].clone(), p[1].clone(), short.clone()],
+        &out,
+        "short.bin",
+        &["truncated", "shard 2/3"],
+    );
+    // Damaged: one byte of a row flipped (same length: the record's checksum catches it).
+    let damaged = dir.join("damaged.bin");
+    let mut bad = bytes.clone();
+    let at = bad.len() - 20;
+    bad[at] ^= 0x40;
+    std::fs::write(&damaged, &bad).unwrap();
+    refused(
+        &[p[0].clone(), p[1].clone(), damaged.clone()],
+        &out,
+        "damaged.bin",
+        &["checksum", "shard 2/3"],
+    );
+    // Mismatched: shard 1 baked with other samples; shard 1 of another scene; not a part.
+    let other_settings = dir.join("other-settings.bin");
+    shard(
+        &scene,
+        &other_settings,
+        1,
+        3,
+        &["--samples", "2", "--element-size", "100"],
+    );
+    refused(
+        &[p[0].clone(), other_settings.clone(), p[2].clone()],
+        &out,
+        "other-settings.bin",
+        &["foreign", "other bake settings", "2 samples"],
+    );
+    let furnace = generated_scene(&dir, "furnace", &["furnace"]);
+    let other_scene = dir.join("other-scene.bin");
+    shard(&furnace, &other_scene, 1, 3, &["--samples", "1"]);
+    refused(
+        &[p[0].clone(), other_scene.clone(), p[2].clone()],
+        &out,
+        "other-scene.bin",
+        &["foreign", "another scene"],
+    );
+    let other_cut = dir.join("other-cut.bin");
+    shard(&scene, &other_cut, 1, 4, &extra);
+    refused(
+        &[p[0].clone(), other_cut.clone(), p[2].clone()],
+        &out,
+        "other-cut.bin",
+        &["foreign", "4 shards, not 3"],
+    );
+    let stranger = dir.join("single.lrr");
+    bake(&scene, &stranger, &extra).unwrap();
+    refused(
+        &[p[0].clone(), p[1].clone(), stranger.clone()],
+        &out,
+        "single.lrr",
+        &["not a part"],
+    );
+    // And the good parts still merge.
+    merge(&p, &out, &[]).unwrap();
+}
+
+#[test]
+fn a_merge_streams_within_a_memory_cap_smaller_than_f_k() {
+    let dir = temp_dir("shard-memory");
+    let scene = generated_scene(&dir, "furnace", &["furnace"]);
+    // n = 24576 elements, k = 384 patches: F_k is 75 MB in f64 (as baked), 38 MB in f32 (as
+    // stored); the merge gets 24 MiB.
+    let extra = [
+        "--samples",
+        "1",
+        "--element-size",
+        "0.02",
+        "--patch-size",
+        "0.2",
+    ];
+    let single = dir.join("single.lrr");
+    bake(&scene, &single, &extra).unwrap();
+    let p: Vec<PathBuf> = (0..2).map(|i| dir.join(format!("p{i}.bin"))).collect();
+    for (i, part) in p.iter().enumerate() {
+        shard(&scene, part, i, 2, &extra);
+    }
+    let cap: u64 = 24 << 20;
+    let (n, k) = (24576u64, 384u64);
+    assert!(n * k * 4 > cap && n * k * 8 > cap);
+    let out = dir.join("merged.lrr");
+    // Through the binary: its peak resident memory is its own, not the test's.
+    let run = Command::new(lrr_binary())
+        .arg("merge")
+        .args(&p)
+        .args(["-o", s(&out), "-q", "--max-memory", "24M"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&run.stdout).to_string();
+    assert!(
+        run.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        text.contains(&format!("n = {n} elements, k = {k} patches")),
+        "{text}"
+    );
+    assert!(std::fs::read(&out).unwrap() == std::fs::read(&single).unwrap());
+    // "peak resident 20.8 MiB (21803008 bytes)"
+    let peak: u64 = text
+        .split("peak resident ")
+        .nth(1)
+        .and_then(|t| t.split('(').nth(1))
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no peak memory in: {text}"));
+    assert!(
+        peak <= cap,
+        "peak resident {peak} bytes above the cap {cap}: {text}"
+    );
+    // A cap below what the merge needs besides F_k is refused, and nothing is written.
+    std::fs::remove_file(&out).unwrap();
+    let err = merge(&p, &out, &["--max-memory", "12M"]).unwrap_err();
+    assert!(
+        err.contains("--max-memory") && err.contains("12.0 MiB"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn shards_of_a_2msc_bake_read_one_plan_and_merge_into_the_bytes_of_a_single_bake() {
+    let dir = temp_dir("shard-plan");
+    let scene = cornell();
+    let extra = ["--method", "2msc", "--samples", "2"];
+    let single = dir.join("single.lrr");
+    bake(&scene, &single, &extra).unwrap();
+    let plan = dir.join("cornell.plan");
+    let mut args = vec!["plan", s(&scene), "-o", s(&plan), "-q"];
+    args.extend_from_slice(&extra);
+    lrr(&args).unwrap();
+    let with_plan = [&extra[..], &["--plan", s(&plan)]].concat();
+    let p: Vec<PathBuf> = (0..3).map(|i| dir.join(format!("p{i}.bin"))).collect();
+    for (i, part) in p.iter().enumerate() {
+        shard(&scene, part, i, 3, &with_plan);
+    }
+    let out = dir.join("merged.lrr");
+    merge(&p, &out, &[]).unwrap();
+    assert!(std::fs::read(&out).unwrap() == std::fs::read(&single).unwrap());
+    // A plan made with other flags is refused by name.
+    let spec = "0/3";
+    let part = dir.join("x.bin");
+    let err = lrr(&[
+        "bake",
+        s(&scene),
+        "-o",
+        s(&part),
+        "-q",
+        "--shard",
+        spec,
+        "--plan",
+        s(&plan),
+        "--samples",
+        "2",
+    ])
+    .unwrap_err();
+    assert!(
+        err.contains("cornell.plan") && err.contains("other settings"),
+        "{err}"
+    );
+    assert!(!part.exists());
+}
