@@ -248,7 +248,28 @@ impl Mesh {
     /// Invariant checks callable from tests: every element in exactly one patch, weights of a
     /// patch sum to 1, patch areas equal their elements' total.
     pub fn validate(&self) -> std::result::Result<(), String> {
-        if self.index.len() != self.k() + 1 || self.index[self.k()] as usize != self.n() {
+        // Shapes first, so that no check below can index out of bounds (a plan file is read
+        // back through this: damaged input must be an error, never a panic).
+        let n = self.n();
+        if self.order.len() != n || self.weights.len() != n {
+            return Err(format!(
+                "{} file positions and {} weights for {n} elements",
+                self.order.len(),
+                self.weights.len()
+            ));
+        }
+        let mut seen = vec![false; n];
+        for &id in &self.order {
+            match seen.get_mut(id as usize) {
+                Some(s) if !*s => *s = true,
+                _ => return Err(format!("order is not a permutation (element {id})")),
+            }
+        }
+        if self.index.len() != self.k() + 1
+            || self.index[0] != 0
+            || self.index[self.k()] as usize != n
+            || self.index.windows(2).any(|w| w[0] > w[1])
+        {
             return Err("index vector does not cover all elements".into());
         }
         for p in 0..self.k() {
@@ -332,5 +353,47 @@ mod tests {
         let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
         assert_eq!(mesh.n(), mesh.k());
         mesh.validate().unwrap();
+    }
+
+    /// A damaged mesh (as a crafted plan file could hold) fails its checks with a message,
+    /// whatever is out of range, instead of indexing out of bounds.
+    #[test]
+    fn damaged_meshes_are_errors_not_panics() {
+        let d = procedural::furnace(0.5, 1.0);
+        let scene = d.build("f", Path::new(".")).unwrap();
+        let sizes = MeshSizes {
+            element_size: 0.25,
+            patch_size: 0.5,
+        };
+        let good = Mesh::two_fixed(&scene, sizes).unwrap();
+        let n = good.n() as u32;
+        let cases: Vec<(&str, Box<dyn Fn(&mut Mesh)>)> = vec![
+            ("order out of range", Box::new(move |m| m.order[3] = n + 7)),
+            ("order repeats", Box::new(|m| m.order[3] = m.order[4])),
+            (
+                "short order",
+                Box::new(|m| {
+                    m.order.pop();
+                }),
+            ),
+            (
+                "short weights",
+                Box::new(|m| {
+                    m.weights.pop();
+                }),
+            ),
+            ("index past n", Box::new(move |m| m.index[1] = n + 100)),
+            ("index decreasing", Box::new(|m| m.index.swap(1, 2))),
+            ("index not from 0", Box::new(|m| m.index[0] = 1)),
+            (
+                "element of a patch past k",
+                Box::new(|m| m.elements[0].patch = 10_000),
+            ),
+        ];
+        for (what, damage) in cases {
+            let mut m = good.clone();
+            damage(&mut m);
+            assert!(m.validate().is_err(), "{what}: accepted");
+        }
     }
 }
