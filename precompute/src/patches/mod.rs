@@ -367,7 +367,8 @@ mod tests {
         };
         let good = Mesh::two_fixed(&scene, sizes).unwrap();
         let n = good.n() as u32;
-        let cases: Vec<(&str, Box<dyn Fn(&mut Mesh)>)> = vec![
+        type Damage = Box<dyn Fn(&mut Mesh)>;
+        let cases: Vec<(&str, Damage)> = vec![
             ("order out of range", Box::new(move |m| m.order[3] = n + 7)),
             ("order repeats", Box::new(|m| m.order[3] = m.order[4])),
             (
