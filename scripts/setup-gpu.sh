@@ -37,5 +37,7 @@ if ! have_lavapipe; then
   have_lavapipe || { say "error: lavapipe still missing after the install"; exit 1; }
 fi
 say "lavapipe ICD: $(ls /usr/share/vulkan/icd.d/lvp_icd*.json | head -n 1)"
-# The adapter as wgpu sees it (builds the example once; cargo's cache makes later runs quick).
-WGPU_BACKEND=vulkan cargo run --release --locked -q -p lrr-runtime --features gpu --example gpu_bench -- --adapters
+# The adapter as wgpu sees it, and one tiny GPU benchmark through it (builds `lrr` once;
+# cargo's cache makes later runs quick): fails here, not in the tests, when wgpu finds none.
+WGPU_BACKEND=vulkan cargo run --release --locked -q --bin lrr -- bench runtime --device gpu \
+  --sizes 600x20 --precisions f32 --no-cornell --frames 1 >/dev/null
