@@ -91,3 +91,109 @@ fn refusal(scene: &Scene, element_size: f64, per_surface: &[f64]) -> Error {
          use --element-size {hi:.4} or larger",
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Polygon;
+    use crate::scene::{Face, Material};
+    use glam::DVec3;
+
+    /// A scene of one triangle (base `b` along x, apex above its middle, area 1) in a room-less
+    /// void: what a new user tries first.
+    fn needle(b: f64) -> Scene {
+        let mut s = Scene::default();
+        s.name = "needle".into();
+        s.materials.push(Material {
+            name: "m".into(),
+            reflectance: [0.5; 3],
+            emission: [0.0; 3],
+        });
+        s.surfaces.push("needle".into());
+        let v = [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(b, 0.0, 0.0),
+            DVec3::new(0.5 * b, 2.0 / b, 0.0),
+        ];
+        s.faces.push(Face {
+            polygon: Polygon::new(&v).unwrap(),
+            material: 0,
+            surface: 0,
+        });
+        s
+    }
+
+    /// Needles of area 1, aspect (base / height) 1 to 10⁶ at h = 0.1: `A / h² ≤ n ≤
+    /// 2 (A / h² + P / h)` (full cells plus the cells the perimeter `P` crosses), the estimate
+    /// at least n, the area kept, every element within the element size, and the smallest
+    /// angle reported.
+    #[test]
+    fn needle_triangles_mesh_in_proportion_to_area() {
+        let h = 0.1;
+        for aspect in [1.0, 10.0, 100.0, 1e3, 1e4, 1e5, 1e6] {
+            let b = (2.0f64 * aspect).sqrt();
+            let scene = needle(b);
+            let sizes = MeshSizes {
+                element_size: h,
+                patch_size: 0.5,
+            };
+            let (elements, _, report) = fine_mesh(&scene, sizes).unwrap();
+            let n = elements.len() as f64;
+            let p = scene.faces[0].polygon;
+            let v = p.vertices();
+            let perimeter: f64 = (0..3).map(|i| (v[(i + 1) % 3] - v[i]).length()).sum();
+            let expected = 1.0 / (h * h) + perimeter / h;
+            let area: f64 = elements.iter().map(|e| e.polygon.area()).sum();
+            let angle = elements
+                .iter()
+                .map(|e| region::min_angle(&e.polygon))
+                .fold(180.0, f64::min);
+            println!(
+                "aspect {aspect:e}: n = {n}, A/h² + P/h = {expected:.0}, ratio {:.2}, \
+                 estimate {:.0}, smallest angle {angle:.2}°",
+                n / expected,
+                estimate_elements(&scene, h)
+            );
+            assert!(
+                n <= 2.0 * expected && n >= 1.0 / (h * h),
+                "aspect {aspect}: n = {n}"
+            );
+            assert!(estimate_elements(&scene, h) >= n, "aspect {aspect}");
+            assert!((area - 1.0).abs() < 1e-9, "aspect {aspect}: area {area}");
+            assert_eq!(report.min_angle, angle);
+            assert!(angle > 0.0 && angle <= 60.0);
+            // inside a cell of sides at most h: edges at most its diagonal
+            assert!(
+                elements
+                    .iter()
+                    .all(|e| e.polygon.max_edge() <= h * 2f64.sqrt() * (1.0 + 1e-9))
+            );
+        }
+    }
+
+    #[test]
+    fn a_refusal_names_the_surface_its_area_and_a_size_that_fits() {
+        let scene = needle(2000.0);
+        let sizes = MeshSizes {
+            element_size: 1e-4,
+            patch_size: 0.5,
+        };
+        let e = fine_mesh(&scene, sizes).unwrap_err().to_string();
+        assert!(e.contains("'needle'") && e.contains("area 1.0000"), "{e}");
+        let fits: f64 = e
+            .rsplit("--element-size ")
+            .next()
+            .and_then(|s| s.split_whitespace().next())
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!(
+            estimate_elements(&scene, fits) <= MAX_ELEMENTS as f64,
+            "{e}"
+        );
+        assert!(
+            estimate_elements(&scene, 0.9 * fits) > MAX_ELEMENTS as f64,
+            "{e}"
+        );
+    }
+}

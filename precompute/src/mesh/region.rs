@@ -87,8 +87,11 @@ pub(crate) fn plan(scene: &Scene, element_size: f64) -> (Vec<Root>, PlanCounts) 
             roots.extend(group.iter().map(|&f| Root::Face(scene.faces[f].polygon, f)));
             continue;
         }
-        if let Some(merged) = merge_convex(&faces, tolerance)
-            && (merged.count == 4 || merged.size() <= element_size)
+        let fits =
+            |p: &Polygon| p.count == 4 || p.size() <= element_size || min_angle(p) >= WELL_SHAPED;
+        let polygons: Vec<Polygon> = faces.iter().map(|f| f.polygon).collect();
+        if let Some(merged) = merge_convex(&polygons, tolerance)
+            && fits(&merged)
         {
             if group.len() > 1 {
                 counts.merged_groups += 1;
@@ -96,6 +99,15 @@ pub(crate) fn plan(scene: &Scene, element_size: f64) -> (Vec<Root>, PlanCounts) 
             }
             roots.push(Root::Face(merged, group[0]));
             continue;
+        }
+        if group.len() <= MAX_PAIRWISE {
+            let parts = merge_pairwise(&polygons, tolerance);
+            if parts.iter().all(|(p, _)| fits(p)) {
+                counts.merged_groups += 1;
+                counts.merged_faces += group.len();
+                roots.extend(parts.into_iter().map(|(p, i)| Root::Face(p, group[i])));
+                continue;
+            }
         }
         counts.grid_groups += 1;
         counts.grid_faces += group.len();
@@ -159,10 +171,55 @@ fn coplanar(a: &Polygon, b: &Polygon, tolerance: f64) -> bool {
         && b.vertices().iter().all(|v| a.height(*v).abs() <= tolerance)
 }
 
+/// Largest group whose faces are merged pair by pair when the whole does not merge.
+const MAX_PAIRWISE: usize = 256;
+
+/// Faces merged two at a time while a pair's union is one convex polygon of 3 or 4 corners
+/// (a ring of quads written as triangles becomes its quads again): the polygons and the index
+/// of the first face of each.
+fn merge_pairwise(polygons: &[Polygon], tolerance: f64) -> Vec<(Polygon, usize)> {
+    let mut parts: Vec<Option<(Polygon, usize)>> = polygons
+        .iter()
+        .enumerate()
+        .map(|(i, p)| Some((*p, i)))
+        .collect();
+    let touch = |a: &Polygon, b: &Polygon| {
+        a.vertices()
+            .iter()
+            .filter(|x| {
+                b.vertices()
+                    .iter()
+                    .any(|y| (**x - *y).length() <= tolerance)
+            })
+            .count()
+            >= 2
+    };
+    let mut changed = true;
+    while changed {
+        changed = false;
+        for i in 0..parts.len() {
+            for j in i + 1..parts.len() {
+                let (Some((a, ia)), Some((b, _))) = (parts[i], parts[j]) else {
+                    continue;
+                };
+                if !touch(&a, &b) {
+                    continue;
+                }
+                if let Some(m) = merge_convex(&[a, b], tolerance) {
+                    parts[i] = Some((m, ia));
+                    parts[j] = None;
+                    changed = true;
+                }
+            }
+        }
+    }
+    parts.into_iter().flatten().collect()
+}
+
 /// The union of the faces as one convex polygon of 3 or 4 corners, when it is one: shared
 /// edges cancel, what is left must be one loop whose corners (collinear vertices removed) are
 /// 3 or 4, convex, and whose area is the faces' total (no overlaps).
-fn merge_convex(faces: &[&Face], tolerance: f64) -> Option<Polygon> {
+fn merge_convex(faces: &[Polygon], tolerance: f64) -> Option<Polygon> {
     let mut ids: HashMap<[i64; 3], usize> = HashMap::new();
     let mut points: Vec<DVec3> = Vec::new();
     let mut id = |p: DVec3| -> usize {
@@ -186,7 +243,7 @@ fn merge_convex(faces: &[&Face], tolerance: f64) -> Option<Polygon> {
     let mut edges: HashMap<(usize, usize), i32> = HashMap::new();
     let mut order: Vec<(usize, usize)> = Vec::new();
     for f in faces {
-        let v = f.polygon.vertices();
+        let v = f.vertices();
         for i in 0..v.len() {
             let (a, b) = (id(v[i]), id(v[(i + 1) % v.len()]));
             if a == b {
@@ -244,14 +301,14 @@ fn merge_convex(faces: &[&Face], tolerance: f64) -> Option<Polygon> {
             _ => break,
         }
     }
-    let normal = faces[0].polygon.normal;
+    let normal = faces[0].normal;
     let m = corners.len();
     let convex = (0..m).all(|i| {
         let (a, b, c) = (corners[i], corners[(i + 1) % m], corners[(i + 2) % m]);
         (b - a).cross(c - b).dot(normal) > 0.0
     });
     let mut polygon = Polygon::new(&corners)?;
-    let total: f64 = faces.iter().map(|f| f.polygon.area()).sum();
+    let total: f64 = faces.iter().map(|f| f.area()).sum();
     if !convex || (polygon.area() - total).abs() > 1e-9 * total {
         return None;
     }
@@ -319,9 +376,9 @@ impl Grid {
         (n, DVec2::new(extent.x / nu, extent.y / nv))
     }
 
-    /// Number of (face, cell) pairs the grid meets, counted row by row without clipping to
-    /// cells: an upper bound on the elements (a full cell is one element however many faces
-    /// meet it; a boundary piece with more than 4 corners is split in 2 or 3). Stops past `cap`.
+    /// An upper bound on the elements, without clipping to cells: the (face, cell) pairs met
+    /// row by row, plus 2 for each cell a face's edge crosses (a piece of a boundary cell with
+    /// more than 4 corners is split into 2 or 3). Stops past `cap`.
     pub(crate) fn estimate(&self, all: &[Face], element_size: f64, cap: f64) -> f64 {
         let (n, c) = self.cells(element_size);
         let mut total = 0.0;
@@ -332,10 +389,18 @@ impl Grid {
                 .iter()
                 .map(|p| self.to_plane(*p))
                 .collect();
+            let mut pairs = 0.0;
             for_rows(&poly, self.lo, n, c, &mut |_, _, i0, i1| {
-                total += (i1 - i0 + 1) as f64;
-                total <= cap
+                pairs += (i1 - i0 + 1) as f64;
+                total + pairs <= cap
             });
+            let crossed: f64 = (0..poly.len())
+                .map(|i| {
+                    let d = (poly[(i + 1) % poly.len()] - poly[i]).abs();
+                    d.x / c.x + d.y / c.y + 2.0
+                })
+                .sum();
+            total += pairs + 2.0 * crossed.min(pairs);
             if total > cap {
                 break;
             }
@@ -591,7 +656,7 @@ mod tests {
     fn two_triangles_merge_into_their_quad() {
         let a = face(&[[0., 0., 0.], [2., 0., 0.], [2., 1., 0.]]);
         let b = face(&[[0., 0., 0.], [2., 1., 0.], [0., 1., 0.]]);
-        let q = merge_convex(&[&a, &b], 1e-9).unwrap();
+        let q = merge_convex(&[a.polygon, b.polygon], 1e-9).unwrap();
         assert_eq!(q.count, 4);
         assert!((q.area() - 2.0).abs() < 1e-12);
     }
@@ -609,7 +674,7 @@ mod tests {
             [0., 1., 0.],
         ];
         let faces: Vec<Face> = rim.windows(2).map(|w| face(&[hub, w[0], w[1]])).collect();
-        let refs: Vec<&Face> = faces.iter().collect();
+        let refs: Vec<Polygon> = faces.iter().map(|f| f.polygon).collect();
         let q = merge_convex(&refs, 1e-9).unwrap();
         assert_eq!(q.count, 4);
     }
@@ -623,8 +688,12 @@ mod tests {
             face(&[[0., 1., 0.], [1., 1., 0.], [1., 2., 0.]]),
             face(&[[0., 1., 0.], [1., 2., 0.], [0., 2., 0.]]),
         ];
-        let refs: Vec<&Face> = faces.iter().collect();
+        let refs: Vec<Polygon> = faces.iter().map(|f| f.polygon).collect();
         assert!(merge_convex(&refs, 1e-9).is_none());
+        // Pair by pair they are the two rectangles again.
+        let parts = merge_pairwise(&refs, 1e-9);
+        assert_eq!(parts.len(), 2);
+        assert!(parts.iter().all(|(p, _)| p.count == 4));
     }
 
     #[test]
