@@ -37,7 +37,8 @@ pub(crate) fn fine_mesh(
     sizes: MeshSizes,
 ) -> Result<(Vec<Element>, Vec<subdivide::Piece>, MeshReport)> {
     let t = Instant::now();
-    let (roots, regions) = region::plan(scene, sizes.element_size);
+    let h = sizes.element_size;
+    let (roots, regions) = region::plan(scene, h, &|p| subdivide::leaf_count(*p, h) as f64);
     let mut report = MeshReport {
         regions,
         ..MeshReport::default()
@@ -69,7 +70,7 @@ fn refusal(scene: &Scene, element_size: f64, per_surface: &[f64]) -> Error {
         .map(|f| f.polygon.area())
         .sum();
     let fits = |h: f64| {
-        let (roots, _) = region::plan(scene, h);
+        let (roots, _) = region::plan(scene, h, &|p| subdivide::leaf_count(*p, h) as f64);
         subdivide::per_surface_estimate(scene, &roots, h, limit)
             .iter()
             .sum::<f64>()

@@ -22,6 +22,7 @@ use std::collections::HashMap;
 
 use glam::{DVec2, DVec3};
 
+use super::element::face_estimate;
 use crate::geometry::Polygon;
 use crate::scene::{Face, Scene};
 
@@ -74,7 +75,12 @@ pub struct PlanCounts {
 }
 
 /// The scene's faces grouped into planar regions and each region's meshing decided.
-pub(crate) fn plan(scene: &Scene, element_size: f64) -> (Vec<Root>, PlanCounts) {
+/// `leaf_count` gives the elements the subdivision hierarchy makes of a polygon.
+pub(crate) fn plan(
+    scene: &Scene,
+    element_size: f64,
+    leaf_count: &dyn Fn(&Polygon) -> f64,
+) -> (Vec<Root>, PlanCounts) {
     let tolerance = PLANE_TOLERANCE * scene.extent().max(f64::MIN_POSITIVE);
     let mut counts = PlanCounts::default();
     let mut roots = Vec::new();
@@ -102,7 +108,19 @@ pub(crate) fn plan(scene: &Scene, element_size: f64) -> (Vec<Root>, PlanCounts) 
         }
         if group.len() <= MAX_PAIRWISE {
             let parts = merge_pairwise(&polygons, tolerance);
-            if parts.iter().all(|(p, _)| fits(p)) {
+            // Kept when they subdivide into no more than `2 (A/h² + P/h)` elements, the grid's
+            // bound (thin strips would not: each is subdivided along its length).
+            let h = element_size;
+            let polys: Vec<Polygon> = parts.iter().map(|(p, _)| *p).collect();
+            let perimeter = boundary_length(&polys, tolerance);
+            let area: f64 = parts.iter().map(|(p, _)| p.area()).sum();
+            let bound = 2.0 * (area / (h * h) + perimeter / h);
+            let mut subdivided = 0.0;
+            for (p, _) in &parts {
+                let e = face_estimate(p, h);
+                subdivided += if e <= 1e6 { leaf_count(p) } else { e };
+            }
+            if parts.iter().all(|(p, _)| fits(p)) && subdivided <= bound {
                 counts.merged_groups += 1;
                 counts.merged_faces += group.len();
                 roots.extend(parts.into_iter().map(|(p, i)| Root::Face(p, group[i])));
@@ -454,17 +472,35 @@ impl Grid {
                 ];
                 self.emit(&rect, &mut out);
             } else {
+                let eps = 1e-9 * c.x.max(c.y);
+                let mut kept: Vec<Vec<DVec2>> = Vec::new();
                 for (_, _, piece) in cell {
                     let a = signed_area(piece);
-                    if a < MIN_PIECE_FRACTION * cell_area {
+                    let clean = clean(piece, eps);
+                    if a < MIN_PIECE_FRACTION * cell_area || clean.len() < 3 {
                         dropped += a.max(0.0);
                         continue;
                     }
-                    let clean = clean(piece, 1e-9 * c.x.max(c.y));
-                    if clean.len() < 3 {
-                        dropped += a;
-                        continue;
+                    kept.push(clean);
+                }
+                // The pieces of one cell merged while two share an edge and their union is
+                // convex: a boundary cell is then one piece per convex part of cell ∩ region,
+                // however many faces meet in it.
+                let mut merged = true;
+                while merged {
+                    merged = false;
+                    'pairs: for i in 0..kept.len() {
+                        for j in i + 1..kept.len() {
+                            if let Some(u) = union_convex(&kept[i], &kept[j], eps) {
+                                kept[i] = u;
+                                kept.swap_remove(j);
+                                merged = true;
+                                break 'pairs;
+                            }
+                        }
                     }
+                }
+                for clean in kept {
                     // A fan of quads (0, i, i+1, i+2) and a last triangle: convex pieces.
                     let mut k = 1;
                     while k + 2 < clean.len() {
@@ -591,6 +627,33 @@ fn clip(poly: &[DVec2], axis: usize, at: f64, keep_above: bool) -> Vec<DVec2> {
     out
 }
 
+/// The union of two convex counter-clockwise polygons that share an edge (opposite ways,
+/// within `eps`), when it is convex.
+fn union_convex(a: &[DVec2], b: &[DVec2], eps: f64) -> Option<Vec<DVec2>> {
+    let close = |p: DVec2, q: DVec2| (p - q).length() <= eps;
+    let (n, m) = (a.len(), b.len());
+    for i in 0..n {
+        let (p, q) = (a[i], a[(i + 1) % n]);
+        for j in 0..m {
+            if !(close(b[j], q) && close(b[(j + 1) % m], p)) {
+                continue;
+            }
+            // a from q round to p, then b from p round to q (skipping the shared corners).
+            let mut u: Vec<DVec2> = (0..n).map(|k| a[(i + 1 + k) % n]).collect();
+            u.extend((2..m).map(|k| b[(j + k) % m]));
+            let u = clean(&u, eps);
+            let l = u.len();
+            let convex = l >= 3
+                && (0..l).all(|k| {
+                    let (x, y, z) = (u[k], u[(k + 1) % l], u[(k + 2) % l]);
+                    (y - x).perp_dot(z - y) >= -eps * (z - x).length()
+                });
+            return convex.then_some(u);
+        }
+    }
+    None
+}
+
 fn signed_area(p: &[DVec2]) -> f64 {
     let mut s = 0.0;
     for i in 0..p.len() {
@@ -625,6 +688,24 @@ fn clean(p: &[DVec2], eps: f64) -> Vec<DVec2> {
         }
     }
     v
+}
+
+/// Length of the polygons' edges that no other polygon shares (reversed, within `tolerance`):
+/// the perimeter of their union when they meet edge to edge.
+fn boundary_length(polygons: &[Polygon], tolerance: f64) -> f64 {
+    let edges: Vec<(DVec3, DVec3)> = polygons
+        .iter()
+        .flat_map(|p| {
+            let v = p.vertices();
+            (0..v.len()).map(move |i| (v[i], v[(i + 1) % v.len()]))
+        })
+        .collect();
+    let close = |a: DVec3, b: DVec3| (a - b).length() <= tolerance;
+    edges
+        .iter()
+        .filter(|(a, b)| !edges.iter().any(|(c, d)| close(*a, *d) && close(*b, *c)))
+        .map(|(a, b)| (*b - *a).length())
+        .sum()
 }
 
 /// The smallest interior angle of a convex polygon, in degrees.

@@ -4,7 +4,7 @@ use glam::DVec3;
 
 use std::time::Instant;
 
-use super::element::{Element, MeshSizes};
+use super::element::{Element, MeshSizes, face_estimate};
 use super::imprint::{Contact, Imprinter, boxes_meet, cut_all, polygon_bounds, through};
 use super::region::{self, PlanCounts, Root};
 use crate::geometry::Polygon;
@@ -56,22 +56,13 @@ pub(crate) fn split(p: &Polygon) -> Vec<Polygon> {
         .collect()
 }
 
-/// Elements of the 2×2 (or 4-way) subdivision of a face: each halving of the size multiplies
-/// the count by at most 4.
-pub(crate) fn face_estimate(p: &Polygon, element_size: f64) -> f64 {
-    let ratio = p.size() / element_size;
-    if ratio <= 1.0 {
-        1.0
-    } else {
-        4f64.powf(ratio.log2().ceil())
-    }
-}
-
 /// Estimated element count of the fine mesh (for refusing huge bakes early): the subdivision
 /// bound of faces meshed as faces, the (face, cell) pairs of regions meshed as grids (see
 /// `region`), so it follows the area of triangles, not the square of their longest edge.
 pub fn estimate_elements(scene: &Scene, element_size: f64) -> f64 {
-    let (roots, _) = region::plan(scene, element_size);
+    let (roots, _) = region::plan(scene, element_size, &|p| {
+        leaf_count(*p, element_size) as f64
+    });
     per_surface_estimate(scene, &roots, element_size, f64::INFINITY)
         .iter()
         .sum()

@@ -461,6 +461,7 @@ pub fn triangulated(d: &SceneDescription, how: Triangulation) -> SceneDescriptio
 /// A room of the geometry exported assets are full of (`lrr scene messy`), in a closed
 /// 4 × 4 × 2.5 room of quads lit by a ceiling lamp:
 /// - a platform whose top is 40 strips of 2 needle triangles each (aspect 80 to 1);
+/// - an L-shaped rug, a fan of needles from its inner corner, 1 mm above the floor;
 /// - a round table: top and underside as fans of 64 triangles, on a box leg;
 /// - a wall panel whose halves are 2 triangles and 4 quads (T-junctions on the shared edge);
 /// - two boxes passing through each other, and one sunk 0.1 into the floor;
@@ -520,6 +521,42 @@ pub fn messy() -> SceneDescription {
         name: "platform-top".into(),
         material: "wood".into(),
         polygons: top,
+    });
+    // An L-shaped rug on the floor, 1 mm above it: a fan of needles from its inner corner
+    // over points every 5 cm along its far edges (concave, no quad in it).
+    let hub = [0.9, 2.7];
+    let corners = [
+        [0.9, 3.0],
+        [0.3, 3.0],
+        [0.3, 2.4],
+        [1.8, 2.4],
+        [1.8, 2.7],
+        [0.9, 2.7],
+    ];
+    let mut rim: Vec<[f64; 2]> = vec![corners[0]];
+    for w in corners.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let steps = ((((b[0] - a[0]) as f64).hypot(b[1] - a[1]) / 0.05).round() as usize).max(1);
+        for k in 1..=steps {
+            let t = k as f64 / steps as f64;
+            rim.push([a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t]);
+        }
+    }
+    let z = 0.001;
+    let mut rug = Vec::new();
+    for w in rim.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let turn = (a[0] - hub[0]) * (b[1] - hub[1]) - (a[1] - hub[1]) * (b[0] - hub[0]);
+        if turn.abs() < 1e-12 {
+            continue; // along an edge through the hub
+        }
+        let (a, b) = if turn > 0.0 { (a, b) } else { (b, a) };
+        rug.push(vec![[hub[0], hub[1], z], [a[0], a[1], z], [b[0], b[1], z]]);
+    }
+    d.surfaces.push(SurfaceDesc {
+        name: "rug".into(),
+        material: "wood".into(),
+        polygons: rug,
     });
     // The round table: fans of 64 triangles, on a leg.
     let (cx, cy, r, z) = (3.0, 3.0, 0.4, 0.7);
