@@ -246,10 +246,10 @@ fn merge_convex(faces: &[Polygon], tolerance: f64) -> Option<Polygon> {
         for dx in -1..=1 {
             for dy in -1..=1 {
                 for dz in -1..=1 {
-                    if let Some(&i) = ids.get(&[q[0] + dx, q[1] + dy, q[2] + dz]) {
-                        if (points[i] - p).length() <= tolerance {
-                            return i;
-                        }
+                    if let Some(&i) = ids.get(&[q[0] + dx, q[1] + dy, q[2] + dz])
+                        && (points[i] - p).length() <= tolerance
+                    {
+                        return i;
                     }
                 }
             }
@@ -555,15 +555,12 @@ impl Grid {
     }
 }
 
+/// What [`for_rows`] calls for each row: (row, piece in the row, first cell, last cell).
+type RowVisit<'a> = &'a mut dyn FnMut(usize, &[DVec2], usize, usize) -> bool;
+
 /// Calls `visit(row, piece of the polygon in the row, first cell, last cell)` for every row of
 /// cells the (convex, plane) polygon meets; `visit` returns false to stop.
-fn for_rows(
-    poly: &[DVec2],
-    lo: DVec2,
-    n: [usize; 2],
-    c: DVec2,
-    visit: &mut dyn FnMut(usize, &[DVec2], usize, usize) -> bool,
-) {
+fn for_rows(poly: &[DVec2], lo: DVec2, n: [usize; 2], c: DVec2, visit: RowVisit<'_>) {
     let (mut vmin, mut vmax) = (f64::INFINITY, f64::NEG_INFINITY);
     for p in poly {
         vmin = vmin.min(p.y);

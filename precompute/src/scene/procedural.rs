@@ -536,7 +536,7 @@ pub fn messy() -> SceneDescription {
     let mut rim: Vec<[f64; 2]> = vec![corners[0]];
     for w in corners.windows(2) {
         let (a, b) = (w[0], w[1]);
-        let steps = ((((b[0] - a[0]) as f64).hypot(b[1] - a[1]) / 0.05).round() as usize).max(1);
+        let steps = (((b[0] - a[0]).hypot(b[1] - a[1]) / 0.05).round() as usize).max(1);
         for k in 1..=steps {
             let t = k as f64 / steps as f64;
             rim.push([a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t]);
