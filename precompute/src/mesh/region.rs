@@ -111,16 +111,19 @@ pub(crate) fn plan(
             // Kept when they subdivide into no more than `2 (A/h² + P/h)` elements, the grid's
             // bound (thin strips would not: each is subdivided along its length).
             let h = element_size;
-            let polys: Vec<Polygon> = parts.iter().map(|(p, _)| *p).collect();
-            let perimeter = boundary_length(&polys, tolerance);
-            let area: f64 = parts.iter().map(|(p, _)| p.area()).sum();
-            let bound = 2.0 * (area / (h * h) + perimeter / h);
-            let mut subdivided = 0.0;
-            for (p, _) in &parts {
-                let e = face_estimate(p, h);
-                subdivided += if e <= 1e6 { leaf_count(p) } else { e };
-            }
-            if parts.iter().all(|(p, _)| fits(p)) && subdivided <= bound {
+            let kept = parts.iter().all(|(p, _)| fits(p)) && {
+                let polys: Vec<Polygon> = parts.iter().map(|(p, _)| *p).collect();
+                let perimeter = boundary_length(&polys, tolerance);
+                let area: f64 = parts.iter().map(|(p, _)| p.area()).sum();
+                let bound = 2.0 * (area / (h * h) + perimeter / h);
+                let mut subdivided = 0.0;
+                for (p, _) in &parts {
+                    let e = face_estimate(p, h);
+                    subdivided += if e <= bound { leaf_count(p) } else { e };
+                }
+                subdivided <= bound
+            };
+            if kept {
                 counts.merged_groups += 1;
                 counts.merged_faces += group.len();
                 roots.extend(parts.into_iter().map(|(p, i)| Root::Face(p, group[i])));
