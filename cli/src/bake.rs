@@ -108,6 +108,7 @@ struct Report<'a> {
     culled_pairs: u64,
     file_bytes: u64,
     stages: BTreeMap<String, f64>,
+    meshing: summary::MeshingSummary,
     total_seconds: f64,
 }
 
@@ -168,6 +169,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
         culled_pairs: baked.culled_pairs,
         file_bytes,
         stages,
+        meshing: summary::MeshingSummary::new(&scene.repairs, &baked.mesh.meshing),
         total_seconds: start.elapsed().as_secs_f64(),
     };
     if let Some(path) = &a.report {
@@ -202,6 +204,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
         times.join(", "),
         report.total_seconds
     )?;
+    report.meshing.print(out)?;
     let op = lrr_runtime::Operator::from_file(file)?;
     summary::print_surfaces(&op, out)?;
     Ok(())

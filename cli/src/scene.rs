@@ -63,35 +63,60 @@ pub enum SceneKind {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+    /// Messy real-world geometry: needle strips, fans, T-junctions, interpenetrating boxes, a
+    /// non-planar quad with a far vertex, a zero-area and a duplicated face (meshing tests).
+    Messy,
+    /// A scene description (.toml) with every polygon and box face written as triangles.
+    Triangulate {
+        /// The scene description to rewrite.
+        input: PathBuf,
+        /// Fans over extra rim points with slivers at every corner, instead of two triangles
+        /// per quad.
+        #[arg(long)]
+        fans: bool,
+    },
 }
 
 pub fn run(a: &SceneArgs, out: &mut dyn Write) -> Result<()> {
-    let d = match a.kind {
+    let d = match &a.kind {
         SceneKind::Furnace {
             reflectance,
             radiance,
-        } => procedural::furnace(reflectance, radiance),
-        SceneKind::Parallel { side, distance } => procedural::parallel_squares(side, distance),
+        } => procedural::furnace(*reflectance, *radiance),
+        SceneKind::Parallel { side, distance } => procedural::parallel_squares(*side, *distance),
         SceneKind::Perpendicular {
             length,
             width,
             height,
-        } => procedural::perpendicular(length, width, height),
+        } => procedural::perpendicular(*length, *width, *height),
         SceneKind::DenseSphere { subdivisions } => {
-            if subdivisions > procedural::MAX_SPHERE_SUBDIVISIONS {
+            if *subdivisions > procedural::MAX_SPHERE_SUBDIVISIONS {
                 anyhow::bail!(
                     "--subdivisions {subdivisions} is too fine: at most {} ({} triangles)",
                     procedural::MAX_SPHERE_SUBDIVISIONS,
                     20u64 << (2 * procedural::MAX_SPHERE_SUBDIVISIONS)
                 );
             }
-            procedural::dense_sphere(subdivisions)
+            procedural::dense_sphere(*subdivisions)
         }
         SceneKind::Cluttered { grid, seed } => {
-            if grid == 0 || grid > 64 {
+            if *grid == 0 || *grid > 64 {
                 anyhow::bail!("--grid {grid}: use 1 to 64 objects per side");
             }
-            procedural::cluttered(grid, seed)
+            procedural::cluttered(*grid, *seed)
+        }
+        SceneKind::Messy => procedural::messy(),
+        SceneKind::Triangulate { input, fans } => {
+            let origin = input.display().to_string();
+            let text = std::fs::read_to_string(input)
+                .with_context(|| format!("reading the scene description {origin}"))?;
+            let d = lrr_precompute::scene::description::SceneDescription::parse(&text, &origin)?;
+            let how = if *fans {
+                procedural::Triangulation::Fans
+            } else {
+                procedural::Triangulation::Pairs
+            };
+            procedural::triangulated(&d, how)
         }
     };
     // Build once so a bad parameter is reported here, not at bake time.

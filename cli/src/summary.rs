@@ -105,3 +105,79 @@ pub fn print_surfaces(op: &Operator, out: &mut dyn Write) -> Result<()> {
     }
     Ok(())
 }
+
+/// What import and meshing repaired or remeshed, for `lrr bake`'s summary and its report.
+#[derive(Debug, Clone, Serialize)]
+pub struct MeshingSummary {
+    pub degenerate_dropped: usize,
+    pub duplicates_dropped: usize,
+    pub non_planar_split: usize,
+    /// Largest vertex distance from its polygon's plane, relative to the longest edge.
+    pub non_planar_max_deviation: f64,
+    pub interpenetrations_imprinted: usize,
+    pub merged_regions: usize,
+    pub merged_faces: usize,
+    pub grid_regions: usize,
+    pub grid_faces: usize,
+    pub grid_elements: usize,
+    pub min_element_angle_degrees: f64,
+    pub grid_min_element_angle_degrees: f64,
+    /// (stage, seconds) of the mesh stage: regions, grid, imprint, subdivide.
+    pub stages: Vec<(String, f64)>,
+}
+
+impl MeshingSummary {
+    pub fn new(
+        repairs: &lrr_precompute::scene::Repairs,
+        m: &lrr_precompute::mesh::MeshReport,
+    ) -> Self {
+        Self {
+            degenerate_dropped: repairs.degenerate,
+            duplicates_dropped: repairs.duplicates,
+            non_planar_split: repairs.non_planar,
+            non_planar_max_deviation: repairs.max_deviation,
+            interpenetrations_imprinted: m.interpenetrations,
+            merged_regions: m.regions.merged_groups,
+            merged_faces: m.regions.merged_faces,
+            grid_regions: m.regions.grid_groups,
+            grid_faces: m.regions.grid_faces,
+            grid_elements: m.grid_elements,
+            min_element_angle_degrees: m.min_angle,
+            grid_min_element_angle_degrees: m.grid_min_angle,
+            stages: m.stages.iter().map(|(s, t)| (s.to_string(), *t)).collect(),
+        }
+    }
+
+    /// Two lines: the geometry repaired, the meshing done (regions, angles, stage times).
+    pub fn print(&self, out: &mut dyn Write) -> Result<()> {
+        writeln!(
+            out,
+            "geometry: {} degenerate and {} duplicate face(s) dropped, {} non-planar polygon(s) split \
+             (largest deviation {:.2}% of an edge), {} interpenetration(s) imprinted",
+            self.degenerate_dropped,
+            self.duplicates_dropped,
+            self.non_planar_split,
+            100.0 * self.non_planar_max_deviation,
+            self.interpenetrations_imprinted
+        )?;
+        let times: Vec<String> = self
+            .stages
+            .iter()
+            .map(|(s, t)| format!("{s} {t:.3}s"))
+            .collect();
+        writeln!(
+            out,
+            "meshing: {} region(s) of {} faces merged into one face, {} region(s) of {} faces \
+             remeshed as grids ({} elements), smallest element angle {:.1}° (grids {:.1}°); {}",
+            self.merged_regions,
+            self.merged_faces,
+            self.grid_regions,
+            self.grid_faces,
+            self.grid_elements,
+            self.min_element_angle_degrees,
+            self.grid_min_element_angle_degrees,
+            times.join(", ")
+        )?;
+        Ok(())
+    }
+}

@@ -62,3 +62,14 @@ impl MeshSizes {
         })
     }
 }
+
+/// Elements of the 2×2 (or 4-way) subdivision of a face: each halving of the size multiplies
+/// the count by at most 4.
+pub(crate) fn face_estimate(p: &Polygon, element_size: f64) -> f64 {
+    let ratio = p.size() / element_size;
+    if ratio <= 1.0 {
+        1.0
+    } else {
+        4f64.powf(ratio.log2().ceil())
+    }
+}

@@ -19,31 +19,125 @@ const CONTACT_TOLERANCE: f64 = 1e-7;
 /// Pieces smaller than this fraction of their face's area are not cut off.
 const MIN_PIECE_FRACTION: f64 = 1e-9;
 
-/// Every face cut at its contact lines: (piece, index of the face it came from).
-pub(super) fn split_at_contacts(faces: &[Face]) -> Vec<(Polygon, usize)> {
-    let boxes: Vec<(DVec3, DVec3)> = faces.iter().map(|f| bounds(&f.polygon)).collect();
-    // Sweep on x to find pairs whose (slightly grown) boxes overlap.
-    let mut by_x: Vec<usize> = (0..faces.len()).collect();
-    by_x.sort_by(|&a, &b| boxes[a].0.x.total_cmp(&boxes[b].0.x));
-    let mut out = Vec::with_capacity(faces.len());
-    for (f, face) in faces.iter().enumerate() {
-        let mut pieces = vec![face.polygon];
-        let grow = DVec3::splat(CONTACT_TOLERANCE * face.polygon.scale.max(1e-300));
-        let (lo, hi) = (boxes[f].0 - grow, boxes[f].1 + grow);
-        for &g in &by_x {
-            if boxes[g].0.x > hi.x {
+/// The faces of a scene indexed for contact searches: bounding boxes, sorted by lower x.
+pub(super) struct Imprinter<'f> {
+    faces: &'f [Face],
+    boxes: Vec<(DVec3, DVec3)>,
+    by_x: Vec<usize>,
+}
+
+/// A line where another face stands on (or cuts through) a polygon: cut by `plane`'s plane
+/// where `segment` (in the polygon's plane) crosses it.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Contact {
+    plane: Polygon,
+    segment: (DVec3, DVec3),
+    /// True when the other face passes through the plane (an interpenetration), not along it.
+    pub through: bool,
+}
+
+impl<'f> Imprinter<'f> {
+    pub(super) fn new(faces: &'f [Face]) -> Self {
+        let boxes: Vec<(DVec3, DVec3)> = faces.iter().map(|f| bounds(&f.polygon)).collect();
+        // Sweep on x to find pairs whose (slightly grown) boxes overlap.
+        let mut by_x: Vec<usize> = (0..faces.len()).collect();
+        by_x.sort_by(|&a, &b| boxes[a].0.x.total_cmp(&boxes[b].0.x));
+        Self { faces, boxes, by_x }
+    }
+
+    /// The contacts on `plane` (a polygon giving the plane and the tolerance) of every face
+    /// but `skip` whose box meets `(lo, hi)` grown by the tolerance, in sweep order.
+    pub(super) fn contacts(
+        &self,
+        plane: &Polygon,
+        (lo, hi): (DVec3, DVec3),
+        skip: Option<usize>,
+    ) -> Vec<Contact> {
+        let grow = DVec3::splat(CONTACT_TOLERANCE * plane.scale.max(1e-300));
+        let (lo, hi) = (lo - grow, hi + grow);
+        let mut out = Vec::new();
+        for &g in &self.by_x {
+            if self.boxes[g].0.x > hi.x {
                 break;
             }
-            if g == f || !overlaps((lo, hi), boxes[g]) {
+            if Some(g) == skip || !overlaps((lo, hi), self.boxes[g]) {
                 continue;
             }
-            if let Some(edge) = contact_edge(&face.polygon, &faces[g].polygon) {
-                pieces = pieces
-                    .into_iter()
-                    .flat_map(|p| cut(&p, &faces[g].polygon, edge, face.polygon.area()))
-                    .collect();
+            let other = &self.faces[g].polygon;
+            if let Some((segment, through)) = crossing(plane, other) {
+                out.push(Contact {
+                    plane: *other,
+                    segment,
+                    through,
+                });
             }
         }
+        out
+    }
+
+    /// Face `f`'s `polygon` (the face itself or a merged region) cut at its contact lines;
+    /// also the number of cuts by faces passing through it.
+    pub(super) fn split(&self, polygon: Polygon, f: usize) -> (Vec<Polygon>, usize) {
+        let contacts = self.contacts(&polygon, bounds(&polygon), Some(f));
+        let mut used = vec![false; contacts.len()];
+        let pieces = cut_all(vec![polygon], &contacts, polygon.area(), &mut used);
+        (pieces, through(&contacts, &used))
+    }
+}
+
+/// How many of the contacts that cut something were interpenetrations.
+pub(super) fn through(contacts: &[Contact], used: &[bool]) -> usize {
+    contacts
+        .iter()
+        .zip(used)
+        .filter(|(c, u)| c.through && **u)
+        .count()
+}
+
+/// Pieces cut by each contact in turn (pieces under `MIN_PIECE_FRACTION` of `area` are not cut
+/// off); `used[i]` is set when contact `i` cut something.
+pub(super) fn cut_all(
+    mut pieces: Vec<Polygon>,
+    contacts: &[Contact],
+    area: f64,
+    used: &mut [bool],
+) -> Vec<Polygon> {
+    for (c, used) in contacts.iter().zip(used) {
+        let before = pieces.len();
+        pieces = pieces
+            .into_iter()
+            .flat_map(|p| cut(&p, &c.plane, c.segment, area))
+            .collect();
+        *used |= pieces.len() > before;
+    }
+    pieces
+}
+
+impl Contact {
+    /// Bounding box of the contact segment.
+    pub(super) fn bounds(&self) -> (DVec3, DVec3) {
+        let (a, b) = self.segment;
+        (a.min(b), a.max(b))
+    }
+}
+
+/// Lower and upper corners of a polygon's bounding box.
+pub(super) fn polygon_bounds(p: &Polygon) -> (DVec3, DVec3) {
+    bounds(p)
+}
+
+/// True when two boxes grown by `grow` overlap.
+pub(super) fn boxes_meet(a: (DVec3, DVec3), b: (DVec3, DVec3), grow: f64) -> bool {
+    overlaps((a.0 - DVec3::splat(grow), a.1 + DVec3::splat(grow)), b)
+}
+
+/// Every face cut at its contact lines: (piece, index of the face it came from).
+#[cfg(test)]
+pub(super) fn split_at_contacts(faces: &[Face]) -> Vec<(Polygon, usize)> {
+    let imprinter = Imprinter::new(faces);
+    let mut out = Vec::with_capacity(faces.len());
+    for (f, face) in faces.iter().enumerate() {
+        let (pieces, _) = imprinter.split(face.polygon, f);
         out.extend(pieces.into_iter().map(|p| (p, f)));
     }
     out
@@ -59,16 +153,35 @@ fn overlaps(a: (DVec3, DVec3), b: (DVec3, DVec3)) -> bool {
     a.0.cmple(b.1).all() && b.0.cmple(a.1).all()
 }
 
-/// An edge of `g` lying in the plane of `f`, when `g` is not parallel to `f`.
-fn contact_edge(f: &Polygon, g: &Polygon) -> Option<(DVec3, DVec3)> {
+/// Where `g` meets the plane of `f` when `g` is not parallel to `f`: an edge of `g` lying in
+/// the plane (a contact, `false`), or else the segment along which `g` passes through it
+/// (`true`).
+fn crossing(f: &Polygon, g: &Polygon) -> Option<((DVec3, DVec3), bool)> {
     if f.normal.cross(g.normal).length() < 1e-6 {
         return None; // parallel or coplanar: nothing stands on f
     }
     let tol = CONTACT_TOLERANCE * f.scale.max(g.scale);
     let v = g.vertices();
-    (0..v.len())
+    if let Some(edge) = (0..v.len())
         .map(|i| (v[i], v[(i + 1) % v.len()]))
         .find(|(a, b)| f.height(*a).abs() <= tol && f.height(*b).abs() <= tol)
+    {
+        return Some((edge, false));
+    }
+    let h: Vec<f64> = v.iter().map(|x| f.height(*x)).collect();
+    if !(h.iter().any(|&x| x > tol) && h.iter().any(|&x| x < -tol)) {
+        return None;
+    }
+    let mut points = Vec::with_capacity(2);
+    for i in 0..v.len() {
+        let j = (i + 1) % v.len();
+        if h[i].abs() <= tol {
+            points.push(v[i]);
+        } else if h[j].abs() > tol && (h[i] > 0.0) != (h[j] > 0.0) {
+            points.push(v[i] + (v[j] - v[i]) * (h[i] / (h[i] - h[j])));
+        }
+    }
+    (points.len() >= 2).then(|| ((points[0], points[points.len() - 1]), true))
 }
 
 /// Cuts `p` by the plane of `g` if the contact edge crosses `p`'s interior.

@@ -2,7 +2,11 @@
 
 use glam::DVec3;
 
-use super::element::{Element, MeshSizes};
+use std::time::Instant;
+
+use super::element::{Element, MeshSizes, face_estimate};
+use super::imprint::{Contact, Imprinter, boxes_meet, cut_all, polygon_bounds, through};
+use super::region::{self, PlanCounts, Root};
 use crate::geometry::Polygon;
 use crate::scene::Scene;
 
@@ -52,21 +56,42 @@ pub(crate) fn split(p: &Polygon) -> Vec<Polygon> {
         .collect()
 }
 
-/// Upper bound on the element count of a subdivision (for refusing huge bakes early).
+/// Estimated element count of the fine mesh (for refusing huge bakes early): the subdivision
+/// bound of faces meshed as faces, the (face, cell) pairs of regions meshed as grids (see
+/// `region`), so it follows the area of triangles, not the square of their longest edge.
 pub fn estimate_elements(scene: &Scene, element_size: f64) -> f64 {
-    scene
-        .faces
+    let (roots, _) = region::plan(scene, element_size, &|p| {
+        leaf_count(*p, element_size) as f64
+    });
+    per_surface_estimate(scene, &roots, element_size, f64::INFINITY)
         .iter()
-        .map(|f| {
-            let ratio = f.polygon.size() / element_size;
-            if ratio <= 1.0 {
-                1.0
-            } else {
-                // each halving of the edge multiplies the count by at most 4
-                4f64.powf(ratio.log2().ceil())
-            }
-        })
         .sum()
+}
+
+/// The estimate of each surface, stopping once the total passes `cap`.
+pub(crate) fn per_surface_estimate(
+    scene: &Scene,
+    roots: &[Root],
+    element_size: f64,
+    cap: f64,
+) -> Vec<f64> {
+    let mut out = vec![0.0; scene.surfaces.len().max(1)];
+    let mut total = 0.0;
+    for root in roots {
+        let (s, e) = match root {
+            Root::Face(p, f) => (scene.faces[*f].surface, face_estimate(p, element_size)),
+            Root::Grid(g) => (
+                scene.faces[g.faces[0]].surface,
+                g.estimate(&scene.faces, element_size, cap - total),
+            ),
+        };
+        out[s] += e;
+        total += e;
+        if total > cap {
+            break;
+        }
+    }
+    out
 }
 
 /// A piece of an input face (after imprinting): the root of one subdivision hierarchy, and the
@@ -80,31 +105,130 @@ pub(crate) struct Piece {
     pub count: u32,
 }
 
-/// The fine mesh: every piece subdivided depth-first until its nodes' size ([`Polygon::size`])
-/// drops to the element size. It does not depend on the patch method; `patch` is left unset
-/// (`u32::MAX`) for the coarse mesh to fill.
-pub(crate) fn fine(scene: &Scene, element_size: f64) -> (Vec<Element>, Vec<Piece>) {
+/// What building the fine mesh found and how long its stages took.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MeshReport {
+    /// Regions merged or meshed as grids.
+    pub regions: PlanCounts,
+    /// Faces passing through others that were imprinted (cut along the crossing).
+    pub interpenetrations: usize,
+    /// Area of grid pieces too small to be elements (below 1e-12 of a cell), dropped.
+    pub dropped_area: f64,
+    /// Elements made by grids.
+    pub grid_elements: usize,
+    /// Smallest interior angle of any element, degrees.
+    pub min_angle: f64,
+    /// Smallest interior angle of a grid element, degrees (180 when there are none).
+    pub grid_min_angle: f64,
+    /// (stage, seconds): `regions` (grouping and merging), `grid` (clipped grids),
+    /// `imprint` (contact and crossing cuts), `subdivide` (the hierarchy's leaves).
+    pub stages: Vec<(&'static str, f64)>,
+}
+
+/// The fine mesh: planar regions planned (`region`), faces cut at their contacts and
+/// subdivided depth-first until their nodes' size ([`Polygon::size`]) drops to the element
+/// size, grid regions cut into cells (each element its own piece) and at their contacts. It
+/// does not depend on the patch method; `patch` is left unset (`u32::MAX`) for the coarse mesh
+/// to fill.
+pub(crate) fn fine(
+    scene: &Scene,
+    roots: Vec<Root>,
+    element_size: f64,
+    report: &mut MeshReport,
+) -> (Vec<Element>, Vec<Piece>) {
     let mut elements = Vec::new();
     let mut pieces = Vec::new();
-    for (polygon, f) in super::imprint::split_at_contacts(&scene.faces) {
-        let surface = scene.faces[f].surface as u32;
-        let first = elements.len() as u32;
-        leaves(polygon, element_size, &mut |p| {
-            elements.push(Element {
-                polygon: p,
-                face: f as u32,
-                surface,
-                patch: u32::MAX,
-            })
-        });
-        pieces.push(Piece {
-            polygon,
-            face: f as u32,
-            surface,
-            first,
-            count: elements.len() as u32 - first,
-        });
+    let imprinter = Imprinter::new(&scene.faces);
+    let (mut t_grid, mut t_imprint, mut t_subdivide) = (0.0, 0.0, 0.0);
+    report.min_angle = 180.0;
+    report.grid_min_angle = 180.0;
+    for root in roots {
+        match root {
+            Root::Face(polygon, f) => {
+                let t = Instant::now();
+                let (cut, through) = imprinter.split(polygon, f);
+                report.interpenetrations += through;
+                t_imprint += t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                let surface = scene.faces[f].surface as u32;
+                for polygon in cut {
+                    let first = elements.len() as u32;
+                    leaves(polygon, element_size, &mut |p| {
+                        report.min_angle = report.min_angle.min(region::min_angle(&p));
+                        elements.push(Element {
+                            polygon: p,
+                            face: f as u32,
+                            surface,
+                            patch: u32::MAX,
+                        })
+                    });
+                    pieces.push(Piece {
+                        polygon,
+                        face: f as u32,
+                        surface,
+                        first,
+                        count: elements.len() as u32 - first,
+                    });
+                }
+                t_subdivide += t.elapsed().as_secs_f64();
+            }
+            Root::Grid(grid) => {
+                let t = Instant::now();
+                let (cells, dropped) = grid.elements(&scene.faces, element_size);
+                report.dropped_area += dropped;
+                t_grid += t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                let plane = grid.plane_polygon();
+                let contacts = imprinter.contacts(&plane, grid.bounds(&scene.faces), None);
+                let mut used = vec![false; contacts.len()];
+                let f = grid.faces[0];
+                let surface = scene.faces[f].surface as u32;
+                let grow = 1e-7 * plane.scale;
+                for cell in cells {
+                    let near: Vec<usize> = (0..contacts.len())
+                        .filter(|&i| boxes_meet(polygon_bounds(&cell), contacts[i].bounds(), grow))
+                        .collect();
+                    let cut = if near.is_empty() {
+                        vec![cell]
+                    } else {
+                        let picked: Vec<Contact> = near.iter().map(|&i| contacts[i]).collect();
+                        let mut u = vec![false; near.len()];
+                        let cut = cut_all(vec![cell], &picked, cell.area(), &mut u);
+                        for (k, &i) in near.iter().enumerate() {
+                            used[i] |= u[k];
+                        }
+                        cut
+                    };
+                    for polygon in cut {
+                        let angle = region::min_angle(&polygon);
+                        report.min_angle = report.min_angle.min(angle);
+                        report.grid_min_angle = report.grid_min_angle.min(angle);
+                        report.grid_elements += 1;
+                        pieces.push(Piece {
+                            polygon,
+                            face: f as u32,
+                            surface,
+                            first: elements.len() as u32,
+                            count: 1,
+                        });
+                        elements.push(Element {
+                            polygon,
+                            face: f as u32,
+                            surface,
+                            patch: u32::MAX,
+                        });
+                    }
+                }
+                report.interpenetrations += through(&contacts, &used);
+                t_imprint += t.elapsed().as_secs_f64();
+            }
+        }
     }
+    report.stages.extend([
+        ("grid", t_grid),
+        ("imprint", t_imprint),
+        ("subdivide", t_subdivide),
+    ]);
     (elements, pieces)
 }
 

@@ -22,7 +22,7 @@ pub use patch::{Patch, PatchMethod};
 use crate::error::{Error, Result};
 use crate::geometry::{Polygon, Region};
 use crate::mesh::subdivide;
-use crate::mesh::{Element, MeshSizes, fine_mesh};
+use crate::mesh::{Element, MeshReport, MeshSizes, fine_mesh};
 use crate::scene::Scene;
 use crate::visibility::Occluder;
 
@@ -39,6 +39,8 @@ pub struct Mesh {
     pub index: Vec<u32>,
     /// Per file position: `w = A_e / A_p`.
     pub(crate) weights: Vec<f64>,
+    /// What building the fine mesh found (regions, imprints, angles, stage times).
+    pub meshing: MeshReport,
 }
 
 /// Checks the 2MSC parameters and fills in the default `A_min`: `(2h)²` (about 2×2 elements)
@@ -154,9 +156,12 @@ impl Mesh {
     /// Builds both meshes by 2MF: uniform subdivision and a uniform cut; small pieces (dense
     /// meshes) are clustered to the patch size.
     pub(crate) fn two_fixed(scene: &Scene, sizes: MeshSizes) -> Result<Self> {
-        let (mut elements, pieces) = fine_mesh(scene, sizes)?;
+        let (mut elements, pieces, meshing) = fine_mesh(scene, sizes)?;
         let patches = two_fixed_patches(&pieces, sizes, &mut elements);
-        Ok(Self::from_parts(elements, patches))
+        Ok(Self {
+            meshing,
+            ..Self::from_parts(elements, patches)
+        })
     }
 
     /// Builds both meshes by 2MSC ([`coherence`]): the fine mesh of 2MF, adaptive patches
@@ -167,7 +172,7 @@ impl Mesh {
         refinement: coherence::Refinement,
         occluder: Option<&dyn Occluder>,
     ) -> Result<Self> {
-        let (mut elements, pieces) = fine_mesh(scene, sizes)?;
+        let (mut elements, pieces, meshing) = fine_mesh(scene, sizes)?;
         // Probes at half the patch size were tried: 4× the probing cost for the same k at
         // equal error on the Cornell box.
         let probe_patches = two_fixed_patches(&pieces, sizes, &mut elements.clone());
@@ -196,7 +201,10 @@ impl Mesh {
             refinement,
             &probes,
         );
-        Ok(Self::from_parts(elements, patches))
+        Ok(Self {
+            meshing,
+            ..Self::from_parts(elements, patches)
+        })
     }
 
     /// Sorts elements by patch (stable: generation order within a patch) and computes weights.
@@ -227,6 +235,7 @@ impl Mesh {
             order,
             index,
             weights,
+            meshing: MeshReport::default(),
         }
     }
 

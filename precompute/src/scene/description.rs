@@ -260,6 +260,22 @@ fn add_box(scene: &mut Scene, b: &BoxDesc, s: f64, origin: &str) -> Result<()> {
             format!("box '{}': min must be below max on every axis", b.name),
         ));
     }
+    for (face, v) in box_polygons(b, lo, hi) {
+        let id = scene.surface(&format!("{}.{face}", b.name));
+        scene.add_polygon(
+            &v,
+            mat,
+            id,
+            &format!("{origin}: box '{}' face {face}", b.name),
+        )?;
+    }
+    Ok(())
+}
+
+/// The faces a box makes (omitted ones left out), by face name, each counter-clockwise around
+/// its front (outward, or inward for `inward` boxes), between the corners `lo` and `hi`.
+pub(super) fn box_polygons(b: &BoxDesc, lo: DVec3, hi: DVec3) -> Vec<(&'static str, Vec<DVec3>)> {
+    let mut out = Vec::new();
     for (face, axis, side) in BOX_FACES {
         if b.omit.iter().any(|o| o == face) {
             continue;
@@ -283,21 +299,16 @@ fn add_box(scene: &mut Scene, b: &BoxDesc, s: f64, origin: &str) -> Result<()> {
         if outward == b.inward {
             v.reverse();
         }
-        let id = scene.surface(&format!("{}.{face}", b.name));
-        scene.add_polygon(
-            &v,
-            mat,
-            id,
-            &format!("{origin}: box '{}' face {face}", b.name),
-        )?;
+        out.push((face, v));
     }
-    Ok(())
+    out
 }
 
 fn merge(scene: &mut Scene, sub: Scene, s: f64) {
     let mat_offset = scene.materials.len();
     scene.materials.extend(sub.materials);
     scene.warnings.extend(sub.warnings);
+    scene.repairs.add(&sub.repairs);
     for f in sub.faces {
         let name = &sub.surfaces[f.surface];
         let surface = scene.surface(name);

@@ -80,6 +80,29 @@ pub struct SizeHints {
     pub patch_size: Option<f64>,
 }
 
+/// What the import repaired, counted (the warnings name each case).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Repairs {
+    /// Faces (or pieces of split polygons) with no area, dropped.
+    pub degenerate: usize,
+    /// Faces duplicating another (same vertices, same side), dropped.
+    pub duplicates: usize,
+    /// Polygons not planar within 1e-6 of their longest edge, split into triangles.
+    pub non_planar: usize,
+    /// Largest distance of a vertex of such a polygon from its mean plane, relative to the
+    /// polygon's longest edge.
+    pub max_deviation: f64,
+}
+
+impl Repairs {
+    pub(crate) fn add(&mut self, other: &Repairs) {
+        self.degenerate += other.degenerate;
+        self.duplicates += other.duplicates;
+        self.non_planar += other.non_planar;
+        self.max_deviation = self.max_deviation.max(other.max_deviation);
+    }
+}
+
 /// An imported scene: materials, named surfaces and their planar convex faces.
 #[derive(Debug, Clone, Default)]
 pub struct Scene {
@@ -95,6 +118,8 @@ pub struct Scene {
     pub warnings: Vec<String>,
     /// Mesh sizes the scene description suggests (explicit flags win over them).
     pub hints: SizeHints,
+    /// Counts of the import's repairs (each also has a warning).
+    pub repairs: Repairs,
     /// Exact-duplicate detection: sorted quantised vertices → face index.
     seen: HashMap<Vec<[i64; 3]>, usize>,
 }
@@ -144,20 +169,35 @@ impl Scene {
         let pieces = match polygon::split_convex(vertices) {
             Some(p) => p,
             None => {
+                self.repairs.degenerate += 1;
                 self.warnings.push(format!(
                     "{location}: degenerate face (zero area or fewer than 3 distinct vertices) dropped"
                 ));
                 return Ok(());
             }
         };
+        if let Some((off, edge)) = polygon::non_planar(vertices) {
+            self.repairs.non_planar += 1;
+            self.repairs.max_deviation = self.repairs.max_deviation.max(off / edge);
+            self.warnings.push(format!(
+                "{location}: non-planar polygon of {} vertices (a vertex lies {off:.3e} off its mean \
+                 plane, {:.2}% of its longest edge) split into {} triangles along its shortest \
+                 diagonals that keep them front-facing",
+                vertices.len(),
+                100.0 * off / edge,
+                pieces.len()
+            ));
+        }
         for piece in pieces {
             let Some(polygon) = Polygon::new(&piece) else {
+                self.repairs.degenerate += 1;
                 self.warnings
                     .push(format!("{location}: degenerate face piece dropped"));
                 continue;
             };
             let key = polygon::duplicate_key(&polygon);
             if let Some(&other) = self.seen.get(&key) {
+                self.repairs.duplicates += 1;
                 self.warnings.push(format!(
                     "{location}: face duplicates face #{other} (same vertices, same side) and was dropped"
                 ));

@@ -40,6 +40,26 @@ pub(super) fn split_convex(input: &[DVec3]) -> Option<Vec<Vec<DVec3>>> {
     }
 }
 
+/// For a polygon of 4 or more distinct vertices that is not planar (a vertex farther than
+/// `PLANAR_TOLERANCE` × its longest edge from the plane through its centroid with Newell's
+/// normal): that largest distance and the longest edge.
+pub(super) fn non_planar(input: &[DVec3]) -> Option<(f64, f64)> {
+    let v = dedup(input);
+    if v.len() < 4 {
+        return None;
+    }
+    let n = area_vector(&v).normalize_or_zero();
+    let centre = v.iter().copied().sum::<DVec3>() / v.len() as f64;
+    let off = v
+        .iter()
+        .map(|p| (*p - centre).dot(n).abs())
+        .fold(0.0, f64::max);
+    let edge = (0..v.len())
+        .map(|i| (v[(i + 1) % v.len()] - v[i]).length())
+        .fold(0.0, f64::max);
+    (off > PLANAR_TOLERANCE * edge).then_some((off, edge))
+}
+
 fn dedup(input: &[DVec3]) -> Vec<DVec3> {
     let mut v: Vec<DVec3> = Vec::with_capacity(input.len());
     for p in input {

@@ -401,3 +401,258 @@ pub fn cluttered(grid: usize, seed: u64) -> SceneDescription {
     };
     d
 }
+
+/// How [`triangulated`] writes each polygon as triangles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Triangulation {
+    /// A fan from the first vertex: two triangles per quad (what exporters write).
+    Pairs,
+    /// A fan from the first vertex over rim points added on every edge not at the hub, at 0.1%,
+    /// 50% and 99.9% of its length: slivers of aspect about 1000 at each corner.
+    Fans,
+}
+
+/// The same scene with every polygon (and every box face, as surfaces named like the box's)
+/// written as triangles: the meshing of triangles against the quads they came from.
+pub fn triangulated(d: &SceneDescription, how: Triangulation) -> SceneDescription {
+    use glam::DVec3;
+    let mut out = d.clone();
+    out.name = Some(format!(
+        "{} as triangles ({})",
+        d.name.as_deref().unwrap_or("scene"),
+        match how {
+            Triangulation::Pairs => "pairs",
+            Triangulation::Fans => "fans with slivers",
+        }
+    ));
+    let split = |polygon: &[[f64; 3]]| -> Vec<Vec<[f64; 3]>> {
+        let v: Vec<DVec3> = polygon.iter().map(|p| DVec3::from_array(*p)).collect();
+        let n = v.len();
+        let mut rim = vec![v[1]];
+        for i in 1..n - 1 {
+            if how == Triangulation::Fans {
+                for t in [0.001, 0.5, 0.999] {
+                    rim.push(v[i] + (v[i + 1] - v[i]) * t);
+                }
+            }
+            rim.push(v[i + 1]);
+        }
+        rim.windows(2)
+            .map(|w| vec![v[0].to_array(), w[0].to_array(), w[1].to_array()])
+            .collect()
+    };
+    for s in &mut out.surfaces {
+        s.polygons = s.polygons.iter().flat_map(|p| split(p)).collect();
+    }
+    for b in std::mem::take(&mut out.boxes) {
+        let (lo, hi) = (DVec3::from_array(b.min), DVec3::from_array(b.max));
+        for (face, v) in super::description::box_polygons(&b, lo, hi) {
+            let quad: Vec<[f64; 3]> = v.iter().map(|p| p.to_array()).collect();
+            out.surfaces.push(SurfaceDesc {
+                name: format!("{}.{face}", b.name),
+                material: b.material.clone(),
+                polygons: split(&quad),
+            });
+        }
+    }
+    out
+}
+
+/// A room of the geometry exported assets are full of (`lrr scene messy`), in a closed
+/// 4 × 4 × 2.5 room of quads lit by a ceiling lamp:
+/// - a platform whose top is 40 strips of 2 needle triangles each (aspect 80 to 1);
+/// - an L-shaped rug, a fan of needles from its inner corner, 1 mm above the floor;
+/// - a round table: top and underside as fans of 64 triangles, on a box leg;
+/// - a wall panel whose halves are 2 triangles and 4 quads (T-junctions on the shared edge);
+/// - two boxes passing through each other, and one sunk 0.1 into the floor;
+/// - a quad whose fourth vertex lies 20 m away and off its plane (needles, through the wall);
+/// - a zero-area triangle and a duplicated face (dropped with warnings).
+pub fn messy() -> SceneDescription {
+    let mut d = empty("messy".into());
+    d.materials.push(grey("wall", 0.6, 0.0));
+    d.materials.push(MaterialDesc {
+        name: "wood".into(),
+        reflectance: [0.6, 0.45, 0.3],
+        radiance: [0.0; 3],
+    });
+    d.materials.push(grey("lamp", 0.5, 8.0));
+    let boxed = |name: &str, material: &str, min: [f64; 3], max: [f64; 3], omit: &[&str]| BoxDesc {
+        name: name.into(),
+        material: material.into(),
+        min,
+        max,
+        inward: false,
+        omit: omit.iter().map(|s| s.to_string()).collect(),
+    };
+    d.boxes.push(BoxDesc {
+        inward: true,
+        ..boxed("room", "wall", [0.0; 3], [4.0, 4.0, 2.5], &[])
+    });
+    d.surfaces.push(SurfaceDesc {
+        name: "lamp".into(),
+        material: "lamp".into(),
+        polygons: vec![vec![
+            [1.6, 1.6, 2.45],
+            [1.6, 2.4, 2.45],
+            [2.4, 2.4, 2.45],
+            [2.4, 1.6, 2.45],
+        ]],
+    });
+    // The platform: a box without a top, the top as strips of needle triangles.
+    let (x0, x1, y0, y1, h) = (0.2, 2.2, 0.2, 1.2, 0.2);
+    d.boxes.push(boxed(
+        "platform",
+        "wood",
+        [x0, y0, 0.0],
+        [x1, y1, h],
+        &["-z", "+z"],
+    ));
+    let strips = 40;
+    let mut top = Vec::new();
+    for i in 0..strips {
+        let (a, b) = (
+            y0 + (y1 - y0) * i as f64 / strips as f64,
+            y0 + (y1 - y0) * (i + 1) as f64 / strips as f64,
+        );
+        top.push(vec![[x0, a, h], [x1, a, h], [x1, b, h]]);
+        top.push(vec![[x0, a, h], [x1, b, h], [x0, b, h]]);
+    }
+    d.surfaces.push(SurfaceDesc {
+        name: "platform-top".into(),
+        material: "wood".into(),
+        polygons: top,
+    });
+    // An L-shaped rug on the floor, 1 mm above it: a fan of needles from its inner corner
+    // over points every 5 cm along its far edges (concave, no quad in it).
+    let hub = [0.9, 2.7];
+    let corners = [
+        [0.9, 3.0],
+        [0.3, 3.0],
+        [0.3, 2.4],
+        [1.8, 2.4],
+        [1.8, 2.7],
+        [0.9, 2.7],
+    ];
+    let mut rim: Vec<[f64; 2]> = vec![corners[0]];
+    for w in corners.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let steps = (((b[0] - a[0]).hypot(b[1] - a[1]) / 0.05).round() as usize).max(1);
+        for k in 1..=steps {
+            let t = k as f64 / steps as f64;
+            rim.push([a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t]);
+        }
+    }
+    let z = 0.001;
+    let mut rug = Vec::new();
+    for w in rim.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let turn = (a[0] - hub[0]) * (b[1] - hub[1]) - (a[1] - hub[1]) * (b[0] - hub[0]);
+        if turn.abs() < 1e-12 {
+            continue; // along an edge through the hub
+        }
+        let (a, b) = if turn > 0.0 { (a, b) } else { (b, a) };
+        rug.push(vec![[hub[0], hub[1], z], [a[0], a[1], z], [b[0], b[1], z]]);
+    }
+    d.surfaces.push(SurfaceDesc {
+        name: "rug".into(),
+        material: "wood".into(),
+        polygons: rug,
+    });
+    // The round table: fans of 64 triangles, on a leg.
+    let (cx, cy, r, z) = (3.0, 3.0, 0.4, 0.7);
+    let rim = |k: usize| {
+        let a = std::f64::consts::TAU * k as f64 / 64.0;
+        [cx + r * a.cos(), cy + r * a.sin()]
+    };
+    let (mut upper, mut lower) = (Vec::new(), Vec::new());
+    for k in 0..64 {
+        let (p, q) = (rim(k), rim(k + 1));
+        upper.push(vec![[cx, cy, z], [p[0], p[1], z], [q[0], q[1], z]]);
+        lower.push(vec![
+            [cx, cy, z - 0.03],
+            [q[0], q[1], z - 0.03],
+            [p[0], p[1], z - 0.03],
+        ]);
+    }
+    d.surfaces.push(SurfaceDesc {
+        name: "table-top".into(),
+        material: "wood".into(),
+        polygons: upper,
+    });
+    d.surfaces.push(SurfaceDesc {
+        name: "table-underside".into(),
+        material: "wood".into(),
+        polygons: lower,
+    });
+    d.boxes.push(boxed(
+        "table-leg",
+        "wood",
+        [cx - 0.05, cy - 0.05, 0.0],
+        [cx + 0.05, cy + 0.05, z - 0.03],
+        &["-z", "+z"],
+    ));
+    // A panel in front of the +x wall, facing -x: triangles beside quads (T-junctions).
+    let xw = 3.95;
+    let at = |y: f64, z: f64| [xw, y, z];
+    let mut panel = vec![
+        vec![at(1.0, 0.5), at(0.5, 0.5), at(0.5, 1.5)],
+        vec![at(1.0, 0.5), at(0.5, 1.5), at(1.0, 1.5)],
+    ];
+    for k in 0..4 {
+        let (za, zb) = (0.5 + 0.25 * k as f64, 0.75 + 0.25 * k as f64);
+        panel.push(vec![at(1.5, za), at(1.0, za), at(1.0, zb), at(1.5, zb)]);
+    }
+    d.surfaces.push(SurfaceDesc {
+        name: "panel".into(),
+        material: "wall".into(),
+        polygons: panel,
+    });
+    // Boxes passing through each other, and one sunk into the floor.
+    d.boxes.push(boxed(
+        "crate-a",
+        "wood",
+        [1.0, 2.4, 0.0],
+        [1.6, 3.0, 0.6],
+        &["-z"],
+    ));
+    d.boxes.push(boxed(
+        "crate-b",
+        "wood",
+        [1.3, 2.7, 0.2],
+        [1.9, 3.3, 0.9],
+        &[],
+    ));
+    d.boxes.push(boxed(
+        "sunk",
+        "wood",
+        [2.6, 0.4, -0.1],
+        [3.2, 1.0, 0.3],
+        &["-z"],
+    ));
+    // A quad whose fourth vertex lies 20 m away, off its plane: two needle triangles.
+    d.surfaces.push(SurfaceDesc {
+        name: "far-quad".into(),
+        material: "wood".into(),
+        polygons: vec![vec![
+            [0.5, 3.2, 1.0],
+            [1.0, 3.2, 1.0],
+            [1.0, 3.7, 1.0],
+            [0.7, 23.7, 1.3],
+        ]],
+    });
+    // Broken input: a zero-area triangle and a face written twice.
+    d.surfaces.push(SurfaceDesc {
+        name: "junk".into(),
+        material: "wall".into(),
+        polygons: vec![
+            vec![[2.0, 2.0, 1.0], [2.5, 2.0, 1.0], [3.0, 2.0, 1.0]],
+            vec![[2.0, 3.5, 1.2], [2.2, 3.5, 1.2], [2.2, 3.7, 1.2]],
+            vec![[2.0, 3.5, 1.2], [2.2, 3.5, 1.2], [2.2, 3.7, 1.2]],
+        ],
+    });
+    d.mesh = MeshHints {
+        element_size: Some(0.25),
+        patch_size: Some(0.8),
+    };
+    d
+}

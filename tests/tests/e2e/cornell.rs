@@ -207,7 +207,9 @@ fn assert_same_scene(a: &Scene, b: &Scene) {
 fn the_shipped_obj_imports_as_the_description_and_bakes() {
     let from_toml = lrr_precompute::scene::load(&cornell()).unwrap();
     let from_obj = lrr_precompute::scene::load(&cornell_obj()).unwrap();
-    assert!(from_obj.warnings.is_empty(), "{:?}", from_obj.warnings);
+    // Only the red wall, a non-planar quad (issue 18 reports it with its deviation).
+    assert_eq!(from_obj.warnings.len(), 1, "{:?}", from_obj.warnings);
+    assert!(from_obj.warnings[0].contains("non-planar"));
     assert_eq!(from_obj.surfaces.len(), 8);
     assert_same_scene(&from_obj, &from_toml);
     assert_rows_sum_below_one_and_bakes(&cornell_obj());
@@ -241,8 +243,11 @@ fn repeated_obj_faces_are_dropped_with_warnings_naming_their_lines() {
     let obj = dir.join("cornell-box.obj");
     std::fs::write(&obj, lines.join("\n") + "\n").unwrap();
     let scene = lrr_precompute::scene::load(&obj).unwrap();
-    assert_eq!(scene.warnings.len(), 2, "{:?}", scene.warnings);
-    for (w, at) in scene.warnings.iter().zip(&expected) {
+    let warnings: Vec<&String> = (scene.warnings.iter())
+        .filter(|w| !w.contains("non-planar")) // the red wall
+        .collect();
+    assert_eq!(warnings.len(), 2, "{:?}", scene.warnings);
+    for (w, at) in warnings.iter().zip(&expected) {
         assert!(
             w.contains(at.as_str()) && w.contains("duplicates"),
             "{w} (expected {at})"

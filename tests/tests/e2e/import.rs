@@ -24,12 +24,22 @@ fn degenerate_faces_are_dropped_with_file_and_line_and_non_planar_quads_split() 
          g lamp\nusemtl lamp\nf 6 9 8 7\n",
     );
     let scene = lrr_precompute::scene::load(&obj).unwrap();
-    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    assert_eq!(scene.warnings.len(), 2, "{:?}", scene.warnings);
     assert!(
         scene.warnings[0].contains("s.obj:15") && scene.warnings[0].contains("degenerate"),
         "{:?}",
         scene.warnings
     );
+    // The lamp quad's vertex 8 is 0.2 above the others: 0.0495 off its mean plane (4.85%).
+    assert!(
+        scene.warnings[1].contains("s.obj:18")
+            && scene.warnings[1].contains("non-planar")
+            && scene.warnings[1].contains("4.951e-2"),
+        "{:?}",
+        scene.warnings
+    );
+    assert_eq!(scene.repairs.degenerate, 1);
+    assert_eq!(scene.repairs.non_planar, 1);
     // floor stays one quad; the non-planar lamp quad becomes two triangles.
     assert_eq!(scene.faces.len(), 3);
     assert_eq!(
