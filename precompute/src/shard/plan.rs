@@ -137,6 +137,8 @@ fn mesh(d: &mut Dec) -> Decoded<Mesh> {
         order: d.u32s()?,
         index: d.u32s()?,
         weights: d.f64s()?,
+        // Meshing happened in `lrr plan`, which reported it; a plan does not store the report.
+        meshing: crate::mesh::MeshReport::default(),
     };
     d.end()?;
     if mesh.order.len() != mesh.n() || mesh.weights.len() != mesh.n() {
