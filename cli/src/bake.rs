@@ -193,17 +193,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
         "element size {:.4}, patch size {:.4}, {} samples/pair, visibility: {}, {} rays",
         report.element_size, report.patch_size, report.samples, report.visibility, report.rays
     )?;
-    let times: Vec<String> = progress
-        .timings()
-        .iter()
-        .map(|(s, t)| format!("{s} {t:.2}s"))
-        .collect();
-    writeln!(
-        out,
-        "time: {} (total {:.2}s)",
-        times.join(", "),
-        report.total_seconds
-    )?;
+    crate::summary::print_times(out, &progress, report.total_seconds)?;
     report.meshing.print(out)?;
     let op = lrr_runtime::Operator::from_file(file)?;
     summary::print_surfaces(&op, out)?;

@@ -102,16 +102,6 @@ pub fn run(a: &ShardArgs, out: &mut dyn Write) -> Result<()> {
             String::new()
         }
     )?;
-    let times: Vec<String> = progress
-        .timings()
-        .iter()
-        .map(|(s, t)| format!("{s} {t:.2}s"))
-        .collect();
-    writeln!(
-        out,
-        "time: {} (total {:.2}s)",
-        times.join(", "),
-        report.total_seconds
-    )?;
+    crate::summary::print_times(out, &progress, report.total_seconds)?;
     Ok(())
 }

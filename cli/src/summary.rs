@@ -86,6 +86,25 @@ pub fn summarise(op: &Operator, radiosity: &[[f32; 3]]) -> Vec<SurfaceSummary> {
         .collect()
 }
 
+/// The line `time: stage 1.23s, … (total 4.56s)` of a bake or a shard.
+pub fn print_times(
+    out: &mut dyn Write,
+    progress: &lrr_precompute::progress::Progress,
+    total_seconds: f64,
+) -> Result<()> {
+    let times: Vec<String> = progress
+        .timings()
+        .iter()
+        .map(|(s, t)| format!("{s} {t:.2}s"))
+        .collect();
+    writeln!(
+        out,
+        "time: {} (total {total_seconds:.2}s)",
+        times.join(", ")
+    )?;
+    Ok(())
+}
+
 /// Prints the per-surface table for the baked emission.
 pub fn print_surfaces(op: &Operator, out: &mut dyn Write) -> Result<()> {
     let b = op.evaluate_baked();
