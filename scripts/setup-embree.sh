@@ -35,15 +35,8 @@ if [ "$(uname -s)-$(uname -m)" != "Linux-x86_64" ]; then
   fail "the pinned Embree wheel is for Linux x86_64, this is $(uname -s) $(uname -m); install Embree 4 yourself and set LRR_EMBREE_DIR to the folder holding libembree4.so"
 fi
 
-as_root() {
-  if [ "$(id -u)" = 0 ]; then
-    "$@"
-  elif command -v sudo >/dev/null; then
-    sudo "$@"
-  else
-    fail "need root to run: $*"
-  fi
-}
+# shellcheck source=scripts/as-root.sh
+. "$(dirname "${BASH_SOURCE[0]}")/as-root.sh"
 
 # 1. libclang for bindgen (clang-sys looks in the llvm-*/lib folders and the linker's paths).
 # (libclang-cpp is another library; bindgen needs libclang.so or libclang-N.so.)

@@ -10,16 +10,8 @@ cd "$(dirname "$0")/.."
 
 say() { echo "setup-gpu: $*" >&2; }
 
-as_root() {
-  if [ "$(id -u)" = 0 ]; then
-    "$@"
-  elif command -v sudo >/dev/null; then
-    sudo "$@"
-  else
-    say "error: need root to run: $*"
-    exit 1
-  fi
-}
+# shellcheck source=scripts/as-root.sh
+. scripts/as-root.sh
 
 have_lavapipe() {
   compgen -G "/usr/share/vulkan/icd.d/lvp_icd*.json" >/dev/null &&

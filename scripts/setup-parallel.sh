@@ -7,16 +7,8 @@ set -euo pipefail
 
 say() { echo "setup-parallel: $*" >&2; }
 
-as_root() {
-  if [ "$(id -u)" = 0 ]; then
-    "$@"
-  elif command -v sudo >/dev/null; then
-    sudo "$@"
-  else
-    say "error: need root to run: $*"
-    exit 1
-  fi
-}
+# shellcheck source=scripts/as-root.sh
+. "$(dirname "${BASH_SOURCE[0]}")/as-root.sh"
 
 have_gnu_parallel() {
   command -v parallel >/dev/null && parallel --version 2>/dev/null | grep -q 'GNU parallel'

@@ -23,15 +23,8 @@ fail() {
   say "error: $*"
   exit 1
 }
-as_root() {
-  if [ "$(id -u)" = 0 ]; then
-    "$@"
-  elif command -v sudo >/dev/null; then
-    sudo "$@"
-  else
-    fail "need root to run: $*"
-  fi
-}
+# shellcheck source=scripts/as-root.sh
+. "$(dirname "${BASH_SOURCE[0]}")/as-root.sh"
 
 command -v python3 >/dev/null || fail "python3 is missing: install Python 3.8-3.13 first"
 python3 -m pip --version >/dev/null 2>&1 ||
