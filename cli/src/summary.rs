@@ -187,14 +187,18 @@ impl MeshingSummary {
         writeln!(
             out,
             "meshing: {} region(s) of {} faces merged into one face, {} region(s) of {} faces \
-             remeshed as grids ({} elements), smallest element angle {:.1}° (grids {:.1}°); {}",
+             remeshed as grids ({} elements), smallest element angle {:.1}°{}; {}",
             self.merged_regions,
             self.merged_faces,
             self.grid_regions,
             self.grid_faces,
             self.grid_elements,
             self.min_element_angle_degrees,
-            self.grid_min_element_angle_degrees,
+            if self.grid_elements > 0 {
+                format!(" (grids {:.1}°)", self.grid_min_element_angle_degrees)
+            } else {
+                String::new()
+            },
             times.join(", ")
         )?;
         Ok(())
