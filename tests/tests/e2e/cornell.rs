@@ -7,7 +7,7 @@ use lrr_precompute::scene::description::SceneDescription;
 use lrr_runtime::Operator;
 
 use crate::util::{
-    bake, cornell, cornell_obj, description_to_obj, lrr_json, root, shared_cornell_obj, temp_dir,
+    bake, cornell, cornell_obj, description_to_obj, lrr_json, root, archive_cornell_obj, temp_dir,
 };
 
 #[test]
@@ -259,15 +259,12 @@ fn repeated_obj_faces_are_dropped_with_warnings_naming_their_lines() {
     );
 }
 
-/// The public archive OBJ of the Cornell box (Morgan McGuire's, in `../shared/scenes/`, beside
-/// the checkout): an optional cross-check of the importer on a file the project did not write.
-/// A fresh clone has no `../shared`, so the test is ignored unless asked for; `.ci/run` runs it
-/// when the folder exists.
+/// The public archive OBJ of the Cornell box (Morgan McGuire's, public domain, committed in
+/// `tests/data/cornell-box-archive/`): the importer on a file the project did not write.
 #[test]
-#[ignore = "optional cross-check: needs ../shared/scenes/cornell-box (not in a fresh clone)"]
 fn the_public_obj_imports_with_warnings_for_its_quirks() {
     // The archive OBJ repeats two faces (its "Bottom Face" lines); they are dropped.
-    let scene = lrr_precompute::scene::load(&shared_cornell_obj()).unwrap();
+    let scene = lrr_precompute::scene::load(&archive_cornell_obj()).unwrap();
     let dups: Vec<&String> = scene
         .warnings
         .iter()
@@ -278,7 +275,7 @@ fn the_public_obj_imports_with_warnings_for_its_quirks() {
         dups.iter().all(|w| w.contains("CornellBox-Original.obj:")),
         "{dups:?}"
     );
-    assert_rows_sum_below_one_and_bakes(&shared_cornell_obj());
+    assert_rows_sum_below_one_and_bakes(&archive_cornell_obj());
 }
 
 /// The Cornell box OBJ at `path` is closed except the front: every row of the view factors

@@ -22,11 +22,10 @@ pub fn cornell_obj() -> PathBuf {
     root().join("scenes/cornell-box/cornell-box.obj")
 }
 
-/// The public Cornell box OBJ in `../shared`, beside the checkout. A fresh clone does not have
-/// it: only the optional cross-check `cornell::the_public_obj_imports_with_warnings_for_its_quirks`
-/// (ignored unless asked for; `.ci/run` runs it when the folder exists) reads it.
-pub fn shared_cornell_obj() -> PathBuf {
-    root().join("../shared/scenes/cornell-box/CornellBox-Original.obj")
+/// The public archive Cornell box OBJ (public domain, committed unchanged with its MTL in
+/// `tests/data/cornell-box-archive/`, see its README).
+pub fn archive_cornell_obj() -> PathBuf {
+    root().join("tests/data/cornell-box-archive/CornellBox-Original.obj")
 }
 
 /// A scene description written as Wavefront OBJ and MTL text, returned as `(obj, mtl)`.
