@@ -7,7 +7,7 @@ use lrr_precompute::scene::description::SceneDescription;
 use lrr_runtime::Operator;
 
 use crate::util::{
-    bake, cornell, cornell_obj, description_to_obj, lrr_json, root, archive_cornell_obj, temp_dir,
+    archive_cornell_obj, bake, cornell, cornell_obj, description_to_obj, lrr_json, root, temp_dir,
 };
 
 #[test]
