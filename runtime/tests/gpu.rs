@@ -274,6 +274,10 @@ fn bad_input_gets_the_cpu_errors_and_writes_nothing() {
     let mut out = vec![[0.0f32; 3]; op.n()];
     let got = eval.evaluate(Rgb::triples(&e), RgbMut::triples(&mut out));
     let want = cpu.evaluate(Rgb::triples(&e), RgbMut::triples(&mut out));
+    assert_eq!(got, Err(GpuError::Runtime(want.clone().unwrap_err())));
+    assert!(out.iter().flatten().all(|v| *v == 0.0));
+    // The hybrid refuses it in its CPU segment sums, with the same error.
+    let got = eval.evaluate_hybrid(Rgb::triples(&e), RgbMut::triples(&mut out));
     assert_eq!(got, Err(GpuError::Runtime(want.unwrap_err())));
     assert!(out.iter().flatten().all(|v| *v == 0.0));
     let got = eval.evaluate_groups(&[1.0], RgbMut::triples(&mut out));

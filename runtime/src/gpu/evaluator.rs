@@ -438,9 +438,14 @@ impl GpuEvaluator {
 
     /// Validates the emission and writes it into the next upload slot.
     fn upload(&mut self, emission: &Rgb<'_>) -> Result<Source, GpuError> {
+        Ok(Source::Slot(self.write_emission(emission, true)?))
+    }
+
+    /// Writes the emission into the next upload slot and returns it; with `scan`, first refuses
+    /// non-finite or negative values (the hybrid's segment sums have already refused them).
+    fn write_emission(&mut self, emission: &Rgb<'_>, scan: bool) -> Result<usize, GpuError> {
         let n = self.buffers.n as usize;
         emission.check(n, "emission")?;
-        let slot = self.next;
         let values: &[f32] = match *emission {
             Rgb::Interleaved(v) => v,
             Rgb::Planar(_) => {
@@ -449,7 +454,8 @@ impl GpuEvaluator {
                 &self.scratch
             }
         };
-        if let Some(bad) = values.iter().position(|&v| !crate::kernel::emission_ok(v)) {
+        let bad = scan.then(|| values.iter().position(|&v| !crate::kernel::emission_ok(v)));
+        if let Some(Some(bad)) = bad {
             let id = bad / 3;
             return Err(input(format!(
                 "emission of element {id} is {:?}: emission must be finite and non-negative",
@@ -457,15 +463,17 @@ impl GpuEvaluator {
             ))
             .into());
         }
-        self.next = 1 - slot;
+        let slot = self.next;
         self.gpu
             .queue
             .write_buffer(&self.slots[slot].emission, 0, bytes_of(values));
-        Ok(Source::Slot(slot))
+        self.next = 1 - slot;
+        Ok(slot)
     }
 
-    /// Validates and uploads the emission, computes `Z` on this thread and uploads it where
-    /// the gather reads it (`Z`, or `X` for the plain layout).
+    /// Computes `Z` on this thread (the segment sums refuse bad emission before anything is
+    /// written), uploads it where the gather reads it (`Z`, or `X` for the plain layout), then
+    /// the emission.
     fn upload_hybrid(&mut self, emission: &Rgb<'_>) -> Result<Source, GpuError> {
         let (n, k, kp) = (
             self.buffers.n as usize,
@@ -493,10 +501,7 @@ impl GpuEvaluator {
             &self.buffers.x
         };
         self.gpu.queue.write_buffer(target, 0, bytes_of(&h.z));
-        let Source::Slot(slot) = self.upload(emission)? else {
-            unreachable!("upload fills a slot")
-        };
-        Ok(Source::Hybrid(slot))
+        Ok(Source::Hybrid(self.write_emission(emission, false)?))
     }
 
     fn upload_groups(&mut self, intensities: &[f32]) -> Result<Source, GpuError> {
