@@ -6,7 +6,7 @@ use std::io::Write;
 
 use anyhow::{Result, bail};
 use clap::Args;
-use lrr_runtime::gpu::{Gpu, GpuBench, GpuOptions, bench_operator};
+use lrr_runtime::gpu::{Gpu, GpuBench, GpuOptions, bench_operator, bounds_check_cost};
 use lrr_runtime::{Layout, Operator, Precision};
 use serde::Serialize;
 
@@ -139,11 +139,7 @@ pub fn run(
         let bench = bench_operator(&gpu, op, args.frames)?;
         let mut row = GpuRow::new(scene, p, &gpu, &bench);
         if let Some(checked) = &checked {
-            let with = bench_operator(checked, op, args.frames)?;
-            row.bounds_check_cost = match (with.gpu_frame, bench.gpu_frame) {
-                (Some(with), Some(without)) => Some(with.as_secs_f64() / without.as_secs_f64()),
-                _ => Some(with.end_to_end.as_secs_f64() / bench.end_to_end.as_secs_f64()),
-            };
+            row.bounds_check_cost = Some(bounds_check_cost(&gpu, checked, op, args.frames)?);
         }
         eprintln!(
             "lrr bench: GPU {scene} {}×{} {} done ({:.1} fps end to end)",

@@ -139,6 +139,45 @@ pub fn bench_operator(gpu: &Gpu, op: &Operator, frames: usize) -> Result<GpuBenc
     })
 }
 
+/// Frame time with naga's bounds checks on every pass (`checked`, a device opened with
+/// [`GpuOptions::bounds_checks`](super::GpuOptions::bounds_checks)) over the time without
+/// (`gpu`): `frames` (at least 1) frames of each, alternated after one warm-up each, medians
+/// of GPU time (of end-to-end time when either adapter has no timestamps).
+pub fn bounds_check_cost(
+    gpu: &Gpu,
+    checked: &Gpu,
+    op: &Operator,
+    frames: usize,
+) -> Result<f64, GpuError> {
+    let mut evals = [GpuEvaluator::new(gpu, op)?, GpuEvaluator::new(checked, op)?];
+    let e = op.baked_emission();
+    let mut out = vec![[0.0f32; 3]; op.n()];
+    let mut times: [Vec<FrameTiming>; 2] = [Vec::new(), Vec::new()];
+    for round in 0..=frames.max(1) {
+        for (eval, t) in evals.iter_mut().zip(&mut times) {
+            eval.evaluate(Rgb::triples(&e), RgbMut::triples(&mut out))?;
+            if round > 0 {
+                t.push(eval.last_timing().expect("set by evaluate"));
+            }
+        }
+    }
+    let gpu_time = times.iter().all(|t| t.iter().all(|f| f.gpu.is_some()));
+    let [without, with] = times.map(|t| {
+        median(
+            t.iter()
+                .map(|f| {
+                    if gpu_time {
+                        f.gpu.unwrap_or_default()
+                    } else {
+                        f.end_to_end
+                    }
+                })
+                .collect(),
+        )
+    });
+    Ok(with.as_secs_f64() / without.as_secs_f64())
+}
+
 /// Wall time per frame of `frames` (at least 1) frames submitted by `submit` back to back and
 /// waited for once.
 fn per_frame(

@@ -58,7 +58,7 @@ mod device;
 mod evaluator;
 mod pipelines;
 
-pub use bench::{GpuBench, bench_operator};
+pub use bench::{GpuBench, bench_operator, bounds_check_cost};
 pub use device::{AdapterSummary, Gpu, GpuOptions, adapters};
 pub use evaluator::{FrameTiming, GpuEvaluator};
 pub use lrr_shaders::{Reduce, Storage};
