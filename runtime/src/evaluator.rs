@@ -136,11 +136,7 @@ impl Evaluator {
     /// (exact modulo 2³² for f32, 2¹⁶ for f16) so that no read can be optimised away. For
     /// benchmarks.
     pub fn read_pass(&mut self) -> Result<u64, RuntimeError> {
-        let mut sum = 0u64;
-        self.pool.run(Task::Read, &self.z, |chunk| {
-            sum = sum.wrapping_add(chunk.sum)
-        })?;
-        Ok(sum)
+        self.pool.read_sum(&self.z)
     }
 
     /// Steps 2–4 of a frame once `X` is in `self.x`.

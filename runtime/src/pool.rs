@@ -225,6 +225,14 @@ impl Pool {
         chunks + 4 * self.workers.len() * self.z_len
     }
 
+    /// [`Task::Read`] over every chunk: the wrapping sum of the words each chunk read (the
+    /// read rooflines of the evaluator and of the dense baseline).
+    pub(crate) fn read_sum(&mut self, z: &[f32]) -> Result<u64, RuntimeError> {
+        let mut sum = 0u64;
+        self.run(Task::Read, z, |chunk| sum = sum.wrapping_add(chunk.sum))?;
+        Ok(sum)
+    }
+
     /// Runs `task` over every chunk with every thread; `z` is the caller's copy. `finished`
     /// sees each chunk once, on the caller's thread, as soon as it is done (in any order).
     pub(crate) fn run(

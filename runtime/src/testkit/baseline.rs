@@ -186,11 +186,7 @@ impl DenseV {
     /// `Y_k` with the same threads and chunks (as [`Evaluator::read_pass`](crate::Evaluator::read_pass)
     /// does for the factored frame) and returns a wrapping sum of the stored words.
     pub fn read_pass(&mut self) -> Result<u64, RuntimeError> {
-        let mut sum = 0u64;
-        self.pool.run(Task::Read, &self.z, |chunk| {
-            sum = sum.wrapping_add(chunk.sum)
-        })?;
-        Ok(sum)
+        self.pool.read_sum(&self.z)
     }
 }
 
