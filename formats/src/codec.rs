@@ -251,6 +251,7 @@ pub(crate) fn decode(c: &Container<'_>) -> Result<OperatorFile, FormatError> {
         emission: bytes::f32s(exact(c, kind::EMISSION, sizes.rgb, 4, "n * 3")?),
         geometry: decode_geometry(require(c, kind::GEOMETRY)?, &sizes)?,
         lights,
+        display: Default::default(),
     })
 }
 

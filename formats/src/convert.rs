@@ -82,6 +82,7 @@ impl OperatorFile {
             emission: self.emission.clone(),
             geometry: self.geometry.clone(),
             lights: self.lights.clone(),
+            display: self.display.clone(),
         }
     }
 }

@@ -5,6 +5,7 @@
 //! `codec.rs` ([`OperatorFile::from_bytes`], [`OperatorFile::to_bytes`]). This module holds the
 //! types alone and imports nothing of the crate but the binary16 conversions.
 
+use crate::display::Display;
 use crate::half::{f16_to_f32, f32_to_f16};
 
 /// The largest 1-norm condition number `‖A‖₁ ‖A⁻¹‖₁` of a system `A = I - Vᵀ diag(ρ_c) F_k`
@@ -202,6 +203,36 @@ pub struct Geometry {
     pub normals: Vec<f32>,
 }
 
+impl Geometry {
+    /// Number of display triangles: `sum(vertex_count[e] - 2)` (see `display.rs`).
+    pub fn triangle_count(&self) -> usize {
+        self.vertex_count
+            .iter()
+            .map(|&c| usize::from(c).saturating_sub(2))
+            .sum()
+    }
+
+    /// The display triangles in id order: `(file position, [v0, v1, v2])`, the fan of each
+    /// element (`(v_0, v_i, v_{i+1})`), elements in file order.
+    pub fn triangles(&self) -> impl Iterator<Item = (u32, [[f32; 3]; 3])> + '_ {
+        self.vertex_count
+            .iter()
+            .enumerate()
+            .flat_map(move |(e, &c)| {
+                let corner = move |i: usize| {
+                    let at = e * 12 + i * 3;
+                    [
+                        self.vertices[at],
+                        self.vertices[at + 1],
+                        self.vertices[at + 2],
+                    ]
+                };
+                (1..usize::from(c).saturating_sub(1))
+                    .map(move |i| (e as u32, [corner(0), corner(i), corner(i + 1)]))
+            })
+    }
+}
+
 /// The whole operator file, decoded. Elements are stored in *file order* (sorted by patch).
 #[derive(Debug, Clone, PartialEq)]
 pub struct OperatorFile {
@@ -233,6 +264,9 @@ pub struct OperatorFile {
     pub geometry: Geometry,
     /// Light groups, possibly none (then no LIGHTS section is written).
     pub lights: Vec<LightGroup>,
+    /// For display (format 1.2, all optional): smooth weights, materials, point lights, cameras,
+    /// BVH. `Display::default()` writes none of them.
+    pub display: Display,
 }
 
 impl OperatorFile {

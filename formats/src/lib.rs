@@ -132,6 +132,7 @@
 //!         normals: vec![0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
 //!     },
 //!     lights: Vec::new(),
+//!     display: Default::default(),
 //! };
 //! // A light group: file position 0 at intensity 1 (x = Vᵀ E_g is computed from the file).
 //! let lamp = file.light_group("lamp", vec![0], vec![1.0, 1.0, 1.0])?;
@@ -168,6 +169,7 @@ mod checksum;
 mod codec;
 mod container;
 mod convert;
+mod display;
 mod error;
 mod file;
 mod half;
@@ -184,6 +186,7 @@ pub use container::{
     ALIGN, Container, FLAG_REQUIRED, HEADER_CHECKSUM_OFFSET, HEADER_LEN, MAGIC, SECTION_ENTRY_LEN,
     Section, VERSION_MAJOR, VERSION_MINOR,
 };
+pub use display::{Bvh, BvhNode, Camera, Display, Material, Materials, PointLight, Smooth};
 pub use error::{ErrorKind, FormatError};
 pub use file::{
     Geometry, Layout, LightGroup, MAX_CONDITION, OperatorData, OperatorFile, Precision,

@@ -42,6 +42,7 @@ pub(crate) fn sample(precision: Precision, channels: u32) -> OperatorFile {
             normals: [0.0, 0.0, 1.0].repeat(6),
         },
         lights: Vec::new(),
+        display: Default::default(),
     }
 }
 

@@ -165,6 +165,7 @@ impl Skeleton {
             emission: flat(&self.emission),
             geometry: self.geometry.clone(),
             lights: Vec::new(),
+            display: Default::default(),
         }
     }
 

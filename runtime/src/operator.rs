@@ -178,6 +178,7 @@ mod tests {
                 normals: vec![0.0, 0.0, -1.0, 0.0, 0.0, 1.0],
             },
             lights: Vec::new(),
+            display: Default::default(),
         };
         Operator::from_file(file).unwrap()
     }

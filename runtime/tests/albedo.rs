@@ -207,6 +207,7 @@ fn two_patches(f: [f32; 2]) -> Operator {
             normals: [0.0, 0.0, 1.0].repeat(3),
         },
         lights: Vec::new(),
+        display: Default::default(),
     };
     Operator::from_file(file).unwrap()
 }

@@ -109,6 +109,7 @@ mod tests {
             name: "m".into(),
             reflectance: [0.5; 3],
             emission: [0.0; 3],
+            optics: Default::default(),
         });
         s.surfaces.push("needle".into());
         let v = [

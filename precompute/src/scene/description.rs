@@ -182,6 +182,7 @@ impl SceneDescription {
                 name: m.name.clone(),
                 reflectance: m.reflectance,
                 emission: m.radiance.map(|k| k * std::f64::consts::PI),
+                optics: Default::default(),
             };
             scene.add_material(material, &format!("{origin}: material '{}'", m.name))?;
         }

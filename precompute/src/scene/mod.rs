@@ -13,7 +13,7 @@ pub mod obj;
 mod polygon;
 pub mod procedural;
 
-pub use model::{Face, Material, Repairs, Scene, SizeHints};
+pub use model::{Camera, Face, Material, Optics, PointLight, Repairs, Scene, SizeHints};
 
 use crate::error::{Error, Result};
 

@@ -18,6 +18,65 @@ pub struct Material {
     pub reflectance: [f64; 3],
     /// RGB emitted exitance `E = π·Ke` (W/m² style).
     pub emission: [f64; 3],
+    /// What a ray tracer adds beyond the diffuse term (none for the radiosity itself).
+    pub optics: Optics,
+}
+
+/// The non-diffuse part of a material, for the ray tracer (MTL `Ks`/`Ns`/`illum`/`Ni`/`Tf`/`d`,
+/// glTF metallic and transmission, description overrides). Default: purely diffuse.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Optics {
+    /// Phong highlight colour `Ks`, each in [0, 1].
+    pub specular: [f64; 3],
+    /// Phong exponent `Ns`, >= 0.
+    pub shininess: f64,
+    /// Perfect-mirror reflectance, each in [0, 1].
+    pub mirror: [f64; 3],
+    /// Transmission filter (glass), each in [0, 1].
+    pub transmission: [f64; 3],
+    /// Index of refraction, >= 1.
+    pub ior: f64,
+}
+
+impl Default for Optics {
+    fn default() -> Self {
+        Self {
+            specular: [0.0; 3],
+            shininess: 0.0,
+            mirror: [0.0; 3],
+            transmission: [0.0; 3],
+            ior: 1.0,
+        }
+    }
+}
+
+/// A point light of the scene (description, glTF `KHR_lights_punctual`): highlights and shadow
+/// rays in the ray tracer only.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointLight {
+    /// Name.
+    pub name: String,
+    /// Position in scene units.
+    pub position: [f64; 3],
+    /// Radiant intensity per channel.
+    pub intensity: [f64; 3],
+    /// The light group (a material or surface name of an emitter) whose intensity it follows.
+    pub group: Option<String>,
+}
+
+/// A pinhole camera of the scene (description, glTF).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Camera {
+    /// Name.
+    pub name: String,
+    /// Eye position.
+    pub eye: [f64; 3],
+    /// Point looked at.
+    pub target: [f64; 3],
+    /// Up direction.
+    pub up: [f64; 3],
+    /// Vertical field of view in degrees.
+    pub fov_y_deg: f64,
 }
 
 impl Material {
@@ -120,6 +179,10 @@ pub struct Scene {
     pub hints: SizeHints,
     /// Counts of the import's repairs (each also has a warning).
     pub repairs: Repairs,
+    /// Point lights for the ray tracer.
+    pub point_lights: Vec<PointLight>,
+    /// Cameras.
+    pub cameras: Vec<Camera>,
     /// Exact-duplicate detection: sorted quantised vertices → face index.
     seen: HashMap<Vec<[i64; 3]>, usize>,
 }

@@ -52,6 +52,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             name: m.name.clone(),
             reflectance: kd,
             emission: ke.map(|k| k * std::f64::consts::PI),
+            optics: Default::default(),
         };
         material_ids.push(scene.add_material(material, &location)?);
     }
@@ -71,6 +72,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                     name: "default".into(),
                     reflectance: [DEFAULT_REFLECTANCE; 3],
                     emission: [0.0; 3],
+                    optics: Default::default(),
                 });
                 scene.materials.len() - 1
             }),

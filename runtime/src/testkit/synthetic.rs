@@ -66,6 +66,7 @@ pub fn file(
         emission: vec![0.0; 3 * n],
         geometry: grid(n),
         lights: Vec::new(),
+        display: Default::default(),
     };
     let rho: Vec<[f32; 3]> = (0..n)
         .map(|_| {

@@ -1,0 +1,165 @@
+//! What the file holds for display (format 1.2, every section optional): the smooth
+//! reconstruction weights, the materials a ray tracer shades with, point lights, cameras and a
+//! flattened BVH over the display triangles. This module holds the types alone (plain data, like
+//! `file.rs`); the sections' bytes and invariants live beside the other sections'.
+//!
+//! # Display triangles
+//!
+//! The display triangles are not stored: they are the fan triangulation of [`Geometry`]
+//! (`crate::Geometry`), element by element in file order. Element `e` with `c` vertices
+//! `v_0 … v_{c-1}` gives the triangles `(v_0, v_i, v_{i+1})` for `i = 1 … c - 2`, numbered on from
+//! those of element `e - 1`: a triangle's number is its id in [`Bvh::triangles`], and
+//! [`Geometry::triangles`](crate::Geometry::triangles) enumerates them.
+//!
+//! # Smooth reconstruction
+//!
+//! A *smooth vertex* is a corner shared by elements of one smooth surface (same surface, same
+//! material, no crease and no contact line between them). Its value is the weighted sum of the
+//! radiosity of the elements that share it ([`Smooth::offsets`], [`Smooth::positions`],
+//! [`Smooth::weights`]); inside an element the value is interpolated from its corners' values by
+//! mean value coordinates (for a triangle: barycentric coordinates; for a parallelogram: bilinear
+//! interpolation). Corners are those of [`Geometry`](crate::Geometry), in the same order.
+
+/// Reconstruction weights: radiosity at any surface point from the element values.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Smooth {
+    /// `n * 4`: the smooth vertex of each element corner, file order; the unused fourth corner
+    /// of a triangle is [`Smooth::NONE`]. Every used corner names a vertex `< offsets.len() - 1`.
+    pub corners: Vec<u32>,
+    /// `V + 1` offsets, `offsets[0] = 0`, non-decreasing, last = `positions.len()`: smooth vertex
+    /// `v` sums `positions[offsets[v]..offsets[v + 1]]` (at least one each).
+    pub offsets: Vec<u32>,
+    /// File positions (`< n`) contributing to each smooth vertex.
+    pub positions: Vec<u32>,
+    /// Their weights: finite, in (0, 1], summing to 1 (within 1e-5) per smooth vertex.
+    pub weights: Vec<f32>,
+}
+
+impl Smooth {
+    /// The corner value of a triangle's unused fourth corner.
+    pub const NONE: u32 = u32::MAX;
+
+    /// Number of smooth vertices `V`.
+    pub fn vertex_count(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+}
+
+/// How a surface looks to a ray tracer, beyond its diffuse reflectance (which the radiosity
+/// already holds). All colours linear RGB.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    /// Name (UTF-8, may be empty), for messages and `lrr render --explain`.
+    pub name: String,
+    /// Diffuse reflectance ρ (informational: the radiosity is already shaded with it), in [0, 1].
+    pub diffuse: [f32; 3],
+    /// Phong highlight colour `Ks` (MTL `Ks`), in [0, 1]; zero: no highlight.
+    pub specular: [f32; 3],
+    /// Phong exponent (MTL `Ns`), finite, >= 0.
+    pub shininess: f32,
+    /// Perfect-mirror reflectance, in [0, 1]; zero: no reflection ray.
+    pub mirror: [f32; 3],
+    /// Transmission filter of a dielectric (MTL `Tf`, or `1 - d`), in [0, 1]; zero: opaque.
+    pub transmission: [f32; 3],
+    /// Index of refraction (MTL `Ni`), finite, >= 1 (used only where `transmission` is non-zero;
+    /// the mirror and refraction terms are then weighted by Fresnel).
+    pub ior: f32,
+}
+
+impl Material {
+    /// A purely diffuse material of reflectance `diffuse`.
+    pub fn diffuse(name: impl Into<String>, diffuse: [f32; 3]) -> Self {
+        Self {
+            name: name.into(),
+            diffuse,
+            specular: [0.0; 3],
+            shininess: 0.0,
+            mirror: [0.0; 3],
+            transmission: [0.0; 3],
+            ior: 1.0,
+        }
+    }
+}
+
+/// The materials and which element uses which.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Materials {
+    /// At least one material.
+    pub materials: Vec<Material>,
+    /// `n`: material of each file position, `< materials.len()`.
+    pub element_material: Vec<u32>,
+}
+
+/// A point light for highlights and shadow rays (the radiosity carries the diffuse light of the
+/// scene's emitting surfaces; a point light adds only the Phong term, so nothing is counted twice).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointLight {
+    /// Name (UTF-8, may be empty).
+    pub name: String,
+    /// Position, finite.
+    pub position: [f32; 3],
+    /// Radiant intensity per channel (irradiance `I cos θ / d²`), finite, >= 0.
+    pub intensity: [f32; 3],
+    /// Index of the light group (section LIGHTS) whose frame intensity and colour scale this
+    /// light, or [`PointLight::FIXED`] for a light that does not follow any group.
+    pub group: u32,
+}
+
+impl PointLight {
+    /// The `group` of a light that follows no group.
+    pub const FIXED: u32 = u32::MAX;
+}
+
+/// A pinhole camera.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Camera {
+    /// Name (UTF-8, unique within the file, may be empty for a single camera).
+    pub name: String,
+    /// Eye position, finite.
+    pub eye: [f32; 3],
+    /// Point looked at, finite, not the eye.
+    pub target: [f32; 3],
+    /// Up direction, finite, not parallel to `target - eye`.
+    pub up: [f32; 3],
+    /// Vertical field of view in degrees, in (0, 180).
+    pub fov_y_deg: f32,
+}
+
+/// A node of the flattened binary BVH.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BvhNode {
+    /// Lower corner of the node's box, finite.
+    pub min: [f32; 3],
+    /// Upper corner, `>= min`.
+    pub max: [f32; 3],
+    /// Interior node (`count == 0`): index of the first child; the second is `first + 1`, both
+    /// greater than this node's index. Leaf: index of its first entry in [`Bvh::triangles`].
+    pub first: u32,
+    /// Leaf: number of triangles (at least 1); 0 for an interior node.
+    pub count: u32,
+}
+
+/// A flattened binary BVH over the display triangles, built at bake time, so that the runtime
+/// traces without building anything. Node 0 is the root.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Bvh {
+    /// The nodes; the root first. Empty only when there are no triangles.
+    pub nodes: Vec<BvhNode>,
+    /// Triangle ids (see the module docs) in leaf order: a permutation of all display triangles.
+    pub triangles: Vec<u32>,
+}
+
+/// Everything for display; each part may be absent (files without them still load).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Display {
+    /// Smooth reconstruction weights (section SMOOTH).
+    pub smooth: Option<Smooth>,
+    /// Materials for the ray tracer (section MATERIALS).
+    pub materials: Option<Materials>,
+    /// Point lights (section POINT_LIGHTS; none: not written).
+    pub point_lights: Vec<PointLight>,
+    /// Cameras (section CAMERAS; none: not written).
+    pub cameras: Vec<Camera>,
+    /// The BVH over the display triangles (section BVH).
+    pub bvh: Option<Bvh>,
+}
