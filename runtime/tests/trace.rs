@@ -328,7 +328,12 @@ fn fresnel_at_normal_incidence_is_the_closed_form() {
         rect_z(0.0, -5.0, -5.0, 5.0, 5.0, true, 1),
         rect_z(2.0, -5.0, -5.0, 5.0, 5.0, false, 0),
     ];
-    let file = file_of(&faces, vec![diffuse(), glass(ior, tint.map(|c| c as f32))], Vec::new(), 0);
+    let file = file_of(
+        &faces,
+        vec![diffuse(), glass(ior, tint.map(|c| c as f32))],
+        Vec::new(),
+        0,
+    );
     let b = [[0.0; 3], [PI as f32; 3]];
     let cam = camera([0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 1.0);
     let (image, _) = render(&file, &cam, 1, 1, &b, &[]);
