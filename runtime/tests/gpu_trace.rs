@@ -8,7 +8,9 @@
 //! [`REL`] = 1e-4 relative (measured on lavapipe: see each test's printout). A ray that passes
 //! within rounding of an edge or a silhouette may hit another triangle on the GPU than on the
 //! CPU, and then its pixel differs by whatever the two surfaces show; those pixels are counted
-//! and bounded by [`MAX_OFF_FRACTION`] of the image.
+//! and bounded by [`MAX_OFF_FRACTION`] of the image. On a CPU adapter (lavapipe) the images
+//! agree much more closely, and the tests hold it to that: no pixel off, 1e-6 relative (measured:
+//! bit-identical without highlights, 2.2e-7 with them, from `pow`).
 
 #![cfg(feature = "gpu")]
 
@@ -243,6 +245,16 @@ fn compare(
         report.rays,
         cpu_report.rays,
     );
+    if gpu().is_cpu() {
+        // lavapipe compiles through LLVM without fusing or approximating: the same hits
+        // everywhere, and only pow differs in the last bits (measured: 0 and 2.2e-7).
+        assert!(
+            a.off == 0 && a.worst_within <= 1e-6,
+            "{name}: on a CPU adapter {} pixels differ beyond {REL:e}, worst within {:.2e}",
+            a.off,
+            a.worst_within
+        );
+    }
     assert!(
         (a.off as f64) <= MAX_OFF_FRACTION * pixels as f64,
         "{name}: {} of {pixels} pixels differ beyond {REL:e} (worst {:.2e})",

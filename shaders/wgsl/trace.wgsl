@@ -11,13 +11,13 @@
 //
 // Indices (the argument for building this pass without bounds checks; the host checks all of
 // it once, in TraceScene::new and runtime/src/gpu/trace.rs):
-// - nodes: node 0 exists when node_count > 0; an interior node's children first, first + 1 are
+// - nodes: node 0 exists (the host renders a scene without triangles black, without this pass); an interior node's children first, first + 1 are
 //   after it and in the list; a leaf's first + count <= the triangle count; depth < 64, so the
 //   traversal stacks (at most one entry per level) never overflow;
 // - tris, tri_element: one entry per leaf-order triangle; tri_element < n;
 // - element_id, normals, element_material: n entries; element_id < n (a permutation);
 //   element_material < the material count;
-// - radiosity: at least 3 n f32; lights: light_count entries;
+// - radiosity: at least 3 n f32; lights: light_count entries (at least one bound);
 // - image: pixel_count <= its length; counts: 3 per tile, tile < their count / 3;
 // - the ray stack: a popped ray pushes at most two, with depth + 1 <= max_depth <= 16, so at
 //   most max_depth + 2 <= RAY_STACK entries are live.
@@ -272,7 +272,7 @@ struct Hit {
 // distance), the nearer child first, a popped node skipped when a closer hit was found.
 fn closest_hit(ray: Ray, t_min: f32, t_max: f32) -> Hit {
     var best = Hit(t_max, NO_HIT);
-    if arrayLength(&nodes) == 0u || enter(0u, ray, best.t) < 0.0 {
+    if enter(0u, ray, best.t) < 0.0 {
         return best;
     }
     var stack_node: array<u32, MAX_BVH_DEPTH>;
@@ -336,7 +336,7 @@ fn closest_hit(ray: Ray, t_min: f32, t_max: f32) -> Hit {
 // bvh.rs `occluded`: whether any triangle blocks the ray in (t_min, t_max); the first hit ends
 // it.
 fn occluded(ray: Ray, t_min: f32, t_max: f32) -> bool {
-    if arrayLength(&nodes) == 0u || enter(0u, ray, t_max) < 0.0 {
+    if enter(0u, ray, t_max) < 0.0 {
         return false;
     }
     var stack: array<u32, MAX_BVH_DEPTH>;

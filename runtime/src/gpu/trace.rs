@@ -163,7 +163,8 @@ impl GpuTracer {
             lights: storage(
                 gpu,
                 "point lights",
-                &vec![0.0f32; lights * LIGHT_BYTES / 4],
+                // At least one (zero) light: a binding holds at least one element.
+                &vec![0.0f32; lights.max(1) * LIGHT_BYTES / 4],
                 wgpu::BufferUsages::COPY_DST,
             ),
             host_radiosity: None,
@@ -358,6 +359,25 @@ impl GpuTracer {
                 self.gpu.limits.max_buffer_size,
                 self.gpu.adapter_name()
             )));
+        }
+        if self.tracer.scene().nodes.is_empty() {
+            // No triangles: every ray misses (a binding cannot be empty; nothing to trace).
+            let image = Image {
+                width,
+                height,
+                pixels: vec![[0.0; 3]; pixels as usize],
+            };
+            let rays = count_rays.then(|| RayCounts {
+                primary: pixels,
+                ..RayCounts::default()
+            });
+            let report = GpuRenderReport {
+                decision,
+                rays,
+                tiles: 0,
+                wall: start.elapsed(),
+            };
+            return Ok((image, report));
         }
         let need = 12 * u64::from(self.n);
         if radiosity.size() < need || !radiosity.usage().contains(wgpu::BufferUsages::STORAGE) {
