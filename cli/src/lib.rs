@@ -15,6 +15,9 @@ mod bake;
 mod bench;
 mod bench_gpu;
 mod bench_operators;
+mod bench_render;
+#[cfg(feature = "embree")]
+mod bench_render_embree;
 mod bench_visibility;
 mod emission;
 mod exr_image;
