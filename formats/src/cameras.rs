@@ -79,9 +79,8 @@ impl Camera {
     /// naming the camera and the field. For writers that want to refuse a bad camera before
     /// they build a file.
     pub fn check(&self) -> Result<(), FormatError> {
-        check_camera(self).map_err(|problem| {
-            FormatError::invalid(format!("camera {:?}: {problem}", self.name))
-        })
+        check_camera(self)
+            .map_err(|problem| FormatError::invalid(format!("camera {:?}: {problem}", self.name)))
     }
 }
 

@@ -87,9 +87,8 @@ impl Material {
     /// Checks this material's invariants: an `Invalid` error naming the material and the field.
     /// For writers that want to refuse a bad material before they build a file.
     pub fn check(&self) -> Result<(), FormatError> {
-        check_material(self).map_err(|problem| {
-            FormatError::invalid(format!("material {:?}: {problem}", self.name))
-        })
+        check_material(self)
+            .map_err(|problem| FormatError::invalid(format!("material {:?}: {problem}", self.name)))
     }
 }
 

@@ -83,12 +83,15 @@ pub(crate) fn build(geometry: &Geometry) -> Bvh {
 
 /// Component-wise minimum and maximum of `points`.
 fn bounds(points: impl Iterator<Item = [f32; 3]>) -> ([f32; 3], [f32; 3]) {
-    points.fold(([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), |(lo, hi), p| {
-        (
-            std::array::from_fn(|j| lo[j].min(p[j])),
-            std::array::from_fn(|j| hi[j].max(p[j])),
-        )
-    })
+    points.fold(
+        ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+        |(lo, hi), p| {
+            (
+                std::array::from_fn(|j| lo[j].min(p[j])),
+                std::array::from_fn(|j| hi[j].max(p[j])),
+            )
+        },
+    )
 }
 
 #[cfg(test)]
@@ -103,7 +106,11 @@ mod tests {
             normals: Vec::new(),
         };
         for e in 0..count {
-            let x = if e % 7 == 0 { 100.0 * e as f32 } else { e as f32 };
+            let x = if e % 7 == 0 {
+                100.0 * e as f32
+            } else {
+                e as f32
+            };
             g.vertex_count.push(if e % 3 == 0 { 3 } else { 4 });
             g.vertices
                 .extend([x, 0.0, 0.0, x + 1.0, 0.0, 0.0, x + 1.0, 1.0, 0.0]);

@@ -131,7 +131,10 @@ fn point_lights(scene: &Scene, mesh: &Mesh) -> Result<Vec<PointLight>> {
     let mut lights = Vec::with_capacity(scene.point_lights.len());
     for light in &scene.point_lights {
         let fail = |problem: String| {
-            Error::scene(&scene.name, format!("point light '{}': {problem}", light.name))
+            Error::scene(
+                &scene.name,
+                format!("point light '{}': {problem}", light.name),
+            )
         };
         let group = match &light.group {
             None => PointLight::FIXED,
@@ -168,10 +171,13 @@ fn group_of(
     name: &str,
 ) -> std::result::Result<u32, String> {
     if let Some(s) = scene.surfaces.iter().position(|s| s == name) {
-        return groups[s].ok_or_else(|| format!("its group '{name}' is a surface that emits nothing"));
+        return groups[s]
+            .ok_or_else(|| format!("its group '{name}' is a surface that emits nothing"));
     }
     let Some(m) = scene.materials.iter().position(|m| m.name == name) else {
-        return Err(format!("its group '{name}' is no surface or material of the scene"));
+        return Err(format!(
+            "its group '{name}' is no surface or material of the scene"
+        ));
     };
     let mut surfaces: Vec<u32> = mesh
         .elements
