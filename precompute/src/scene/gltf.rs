@@ -73,6 +73,7 @@ pub fn import(bytes: &[u8], base: &Path, name: &str, origin: &str) -> Result<Sce
         .map_err(|e| err(format!("cannot parse the glTF JSON: {e}")))?;
     let mut scene = Scene::new(name);
     check_extensions(&root, origin, &mut scene.warnings)?;
+    check_position_references(&root, origin)?;
     let doc = gltf::Document::from_json(root)
         .map_err(|e| err(format!("the glTF does not validate: {e}")))?;
     let mut importer = Importer {
@@ -201,6 +202,31 @@ fn check_extensions(root: &json::Root, origin: &str, warnings: &mut Vec<String>)
             warnings.push(format!(
                 "{origin}: extension {ext} is used but not supported; its data is ignored"
             ));
+        }
+    }
+    Ok(())
+}
+
+/// Checks what the gltf crate's validation indexes without a bounds check (1.4.1 panics on a
+/// POSITION attribute naming a missing accessor; found by this importer's tests).
+fn check_position_references(root: &json::Root, origin: &str) -> Result<()> {
+    let position = json::validation::Checked::Valid(json::mesh::Semantic::Positions);
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(a) = primitive.attributes.get(&position)
+                && a.value() >= root.accessors.len()
+            {
+                return Err(Error::scene(
+                    origin,
+                    format!(
+                        "{} primitive {p}: POSITION refers to accessor {}, but the file has {} \
+                         accessors",
+                        named("mesh", m, mesh.name.as_deref()),
+                        a.value(),
+                        root.accessors.len()
+                    ),
+                ));
+            }
         }
     }
     Ok(())

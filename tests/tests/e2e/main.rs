@@ -8,6 +8,7 @@ mod cornell;
 mod files;
 mod furnace;
 mod fuzz_replay;
+mod gltf;
 mod import;
 mod meshing;
 mod reference;
