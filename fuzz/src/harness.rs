@@ -400,7 +400,7 @@ pub fn scene_description(data: &[u8], dir: &Path) -> bool {
                 .chars()
                 .all(|c| c.is_ascii_alphanumeric() || "._-".contains(c))
     };
-    if !desc.includes.iter().all(|i| plain(&i.obj)) {
+    if !desc.includes.iter().all(|i| i.path().is_some_and(plain)) {
         return false;
     }
     desc.build("fuzz.toml", dir).is_ok()
