@@ -9,6 +9,7 @@ mod display;
 mod files;
 mod furnace;
 mod fuzz_replay;
+mod gltf;
 mod import;
 mod meshing;
 mod reference;
