@@ -30,9 +30,8 @@ const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32
 pub(crate) struct Ray {
     pub origin: V3,
     inv: V3,
-    /// The watertight test's axis permutation (`kz` the dominant axis) and shear.
-    kx: usize,
-    ky: usize,
+    /// The watertight test's dominant axis `kz` (`kx = kz + 1`, `ky = kz + 2`, mod 3) and
+    /// shear.
     kz: usize,
     shear: V3,
 }
@@ -49,10 +48,9 @@ impl Ray {
         } else {
             2
         };
-        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        // Woop et al. swap kx and ky when dir[kz] < 0 to keep the winding for culling; a
+        // two-sided test needs no swap (U, V, W and det all change sign together).
+        let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
         // A zero component's reciprocal is made huge but finite, so that `0 * inv` is never
         // NaN in the slab test.
         let recip = |d: f32| {
@@ -65,8 +63,6 @@ impl Ray {
         Ray {
             origin,
             inv: [recip(dir[0]), recip(dir[1]), recip(dir[2])],
-            kx,
-            ky,
             kz,
             shear: [dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]],
         }
@@ -83,22 +79,28 @@ pub(crate) struct Hit {
 /// Entry distance of `ray` into `node`'s box within `(0, t_max)`, or `None`.
 #[inline(always)]
 fn enter(node: &BvhNode, ray: &Ray, t_max: f32) -> Option<f32> {
+    // Plain comparisons (one `minss`/`maxss` each) rather than `f32::min`, whose NaN rule
+    // costs a compare and a blend more per use: nothing here is NaN (finite boxes, finite
+    // reciprocals, finite origins).
+    let lo = |a: f32, b: f32| if a < b { a } else { b };
+    let hi = |a: f32, b: f32| if a > b { a } else { b };
     let mut near = 0.0f32;
     let mut far = t_max;
     for a in 0..3 {
         let t0 = (node.min[a] - ray.origin[a]) * ray.inv[a];
         let t1 = (node.max[a] - ray.origin[a]) * ray.inv[a];
-        near = near.max(t0.min(t1));
-        far = far.min(t0.max(t1) * FAR_SCALE);
+        near = hi(near, lo(t0, t1));
+        far = lo(far, hi(t0, t1) * FAR_SCALE);
     }
     (near <= far).then_some(near)
 }
 
 /// The watertight test of `ray` against the triangle `v`: its distance in `(t_min, t_max)`, or
 /// `None`. Two-sided (no culling).
+/// `KZ` is the ray's dominant axis, a constant so that the permutation costs nothing.
 #[inline(always)]
-fn triangle(ray: &Ray, v: &[f32; 9], t_min: f32, t_max: f32) -> Option<f32> {
-    let (kx, ky, kz) = (ray.kx, ray.ky, ray.kz);
+fn triangle<const KZ: usize>(ray: &Ray, v: &[f32; 9], t_min: f32, t_max: f32) -> Option<f32> {
+    let (kx, ky, kz) = ((KZ + 1) % 3, (KZ + 2) % 3, KZ);
     let o = ray.origin;
     let rel = |i: usize| [v[i] - o[0], v[i + 1] - o[1], v[i + 2] - o[2]];
     let (a, b, c) = (rel(0), rel(3), rel(6));
@@ -130,6 +132,20 @@ fn triangle(ray: &Ray, v: &[f32; 9], t_min: f32, t_max: f32) -> Option<f32> {
 
 /// The nearest triangle `ray` hits in `(t_min, t_max)`.
 pub(crate) fn closest_hit(scene: &TraceScene, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+    match ray.kz {
+        0 => closest_hit_kz::<0>(scene, ray, t_min, t_max),
+        1 => closest_hit_kz::<1>(scene, ray, t_min, t_max),
+        _ => closest_hit_kz::<2>(scene, ray, t_min, t_max),
+    }
+}
+
+/// [`closest_hit`] for rays whose dominant axis is `KZ`.
+fn closest_hit_kz<const KZ: usize>(
+    scene: &TraceScene,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<Hit> {
     let nodes = &scene.nodes;
     if nodes.is_empty() {
         return None;
@@ -150,7 +166,7 @@ pub(crate) fn closest_hit(scene: &TraceScene, ray: &Ray, t_min: f32, t_max: f32)
                 .iter()
                 .enumerate()
             {
-                if let Some(t) = triangle(ray, tri, t_min, best.t) {
+                if let Some(t) = triangle::<KZ>(ray, tri, t_min, best.t) {
                     best = Hit {
                         t,
                         tri: (first + i) as u32,
@@ -201,6 +217,15 @@ pub(crate) fn closest_hit(scene: &TraceScene, ray: &Ray, t_min: f32, t_max: f32)
 
 /// Whether any triangle blocks `ray` in `(t_min, t_max)` (shadow rays: the first hit ends it).
 pub(crate) fn occluded(scene: &TraceScene, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    match ray.kz {
+        0 => occluded_kz::<0>(scene, ray, t_min, t_max),
+        1 => occluded_kz::<1>(scene, ray, t_min, t_max),
+        _ => occluded_kz::<2>(scene, ray, t_min, t_max),
+    }
+}
+
+/// [`occluded`] for rays whose dominant axis is `KZ`.
+fn occluded_kz<const KZ: usize>(scene: &TraceScene, ray: &Ray, t_min: f32, t_max: f32) -> bool {
     let nodes = &scene.nodes;
     if nodes.is_empty() || enter(&nodes[0], ray, t_max).is_none() {
         return false;
@@ -215,7 +240,7 @@ pub(crate) fn occluded(scene: &TraceScene, ray: &Ray, t_min: f32, t_max: f32) ->
             let tris = &scene.tris[first..first + n.count as usize];
             if tris
                 .iter()
-                .any(|tri| triangle(ray, tri, t_min, t_max).is_some())
+                .any(|tri| triangle::<KZ>(ray, tri, t_min, t_max).is_some())
             {
                 return true;
             }
