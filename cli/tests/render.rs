@@ -186,6 +186,9 @@ fn render_on_the_gpu_matches_the_cpu() {
         }
         lit += usize::from(c[0] > 0.0);
     }
-    assert!(lit > 64 * 48 / 2, "the grid fills the view: {lit} lit pixels");
+    assert!(
+        lit > 64 * 48 / 2,
+        "the grid fills the view: {lit} lit pixels"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

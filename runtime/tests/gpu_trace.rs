@@ -80,11 +80,35 @@ fn block(faces: &mut Vec<Face>, lo: [f32; 3], hi: [f32; 3], cells: u32, m: u32) 
     let [dx, dy, dz] = [hi[0] - x0, hi[1] - y0, hi[2] - z0];
     let c = cells;
     grid(faces, [x0, y0, z0], [0.0, dy, 0.0], [dx, 0.0, 0.0], c, c, m); // -z
-    grid(faces, [x0, y0, hi[2]], [dx, 0.0, 0.0], [0.0, dy, 0.0], c, c, m); // +z
+    grid(
+        faces,
+        [x0, y0, hi[2]],
+        [dx, 0.0, 0.0],
+        [0.0, dy, 0.0],
+        c,
+        c,
+        m,
+    ); // +z
     grid(faces, [x0, y0, z0], [0.0, 0.0, dz], [0.0, dy, 0.0], c, c, m); // -x
-    grid(faces, [hi[0], y0, z0], [0.0, dy, 0.0], [0.0, 0.0, dz], c, c, m); // +x
+    grid(
+        faces,
+        [hi[0], y0, z0],
+        [0.0, dy, 0.0],
+        [0.0, 0.0, dz],
+        c,
+        c,
+        m,
+    ); // +x
     grid(faces, [x0, y0, z0], [dx, 0.0, 0.0], [0.0, 0.0, dz], c, c, m); // -y
-    grid(faces, [x0, hi[1], z0], [0.0, 0.0, dz], [dx, 0.0, 0.0], c, c, m); // +y
+    grid(
+        faces,
+        [x0, hi[1], z0],
+        [0.0, 0.0, dz],
+        [dx, 0.0, 0.0],
+        c,
+        c,
+        m,
+    ); // +y
 }
 
 /// A closed room (walls facing inwards, `cells` quads a side) from 0 to 4 on each axis; the wall
@@ -182,7 +206,12 @@ struct Agreement {
 fn agreement(gpu: &Image, cpu: &Image) -> Agreement {
     assert_eq!((gpu.width, gpu.height), (cpu.width, cpu.height));
     // Relative to the pixel, with a floor of 1e-3 of the image's mean for black pixels.
-    let mean = cpu.pixels.iter().flatten().map(|&c| f64::from(c)).sum::<f64>()
+    let mean = cpu
+        .pixels
+        .iter()
+        .flatten()
+        .map(|&c| f64::from(c))
+        .sum::<f64>()
         / (3 * cpu.pixels.len()) as f64;
     let floor = 1e-3 * mean.max(1e-30);
     let mut a = Agreement {
@@ -279,7 +308,12 @@ fn a_diffuse_room_matches_the_cpu_twin_per_pixel() {
     room(&mut faces, 6, 0);
     block(&mut faces, [1.0, 0.0, 1.0], [2.2, 1.5, 2.0], 3, 0);
     block(&mut faces, [2.6, 0.0, 2.2], [3.4, 2.5, 3.0], 2, 0);
-    let file = file_of(&faces, vec![Material::diffuse("white", [0.7; 3])], vec![], 0);
+    let file = file_of(
+        &faces,
+        vec![Material::diffuse("white", [0.7; 3])],
+        vec![],
+        0,
+    );
     let cam = camera([2.0, 2.0, 3.9], [2.0, 1.5, 0.0]);
     // Small tiles: the image crosses many tile boundaries, one not on a row's end.
     let report = compare("diffuse room", &file, &cam, (97, 61), &[], Some(64 * 7));
@@ -367,13 +401,18 @@ fn point_lights_highlights_and_shadows_match_the_cpu_twin_per_pixel() {
 /// own 1e-5 agreement plus [`REL`]).
 #[test]
 fn the_tracer_reads_the_relighting_buffer_without_readback() {
-    let mut file = testkit::synthetic::file(256, 8, 3, Precision::F32, Layout::Factored, 7).unwrap();
+    let mut file =
+        testkit::synthetic::file(256, 8, 3, Precision::F32, Layout::Factored, 7).unwrap();
     file.display.bvh = Some(testkit::bvh::build(&file.geometry));
     let op = Operator::from_file(file).unwrap();
     let tracer = Tracer::new(op.file()).unwrap();
     let (lo, hi) = bounds(&op.file().geometry.vertices);
     let centre: [f32; 3] = std::array::from_fn(|c| 0.5 * (lo[c] + hi[c]));
-    let eye = [centre[0], centre[1], hi[2] + 2.0 * (hi[0] - lo[0]).max(hi[1] - lo[1])];
+    let eye = [
+        centre[0],
+        centre[1],
+        hi[2] + 2.0 * (hi[0] - lo[0]).max(hi[1] - lo[1]),
+    ];
     let cam = camera(eye, centre);
     let (w, h) = (80, 60);
     let view = View::new(&cam, w, h).unwrap();
@@ -452,7 +491,12 @@ fn the_unchecked_pipeline_equals_the_checked_one() {
 fn bad_calls_are_clear_errors() {
     let mut faces = Vec::new();
     room(&mut faces, 2, 0);
-    let file = file_of(&faces, vec![Material::diffuse("white", [0.7; 3])], vec![], 1);
+    let file = file_of(
+        &faces,
+        vec![Material::diffuse("white", [0.7; 3])],
+        vec![],
+        1,
+    );
     let tracer = Tracer::new(&file).unwrap();
     let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
     let view = View::new(&camera([2.0, 2.0, 3.0], [2.0, 2.0, 0.0]), 8, 8).unwrap();
@@ -478,6 +522,9 @@ fn bad_calls_are_clear_errors() {
         usage: gpu::wgpu::BufferUsages::STORAGE,
         mapped_at_creation: false,
     });
-    let e = gt.render(&view, &tiny, &[1.0], 8, 8).unwrap_err().to_string();
+    let e = gt
+        .render(&view, &tiny, &[1.0], 8, 8)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("radiosity buffer holds 16 bytes"), "{e}");
 }

@@ -479,10 +479,7 @@ impl GpuTracer {
         let image = Image {
             width,
             height,
-            pixels: rgba
-                .chunks_exact(4)
-                .map(|p| [p[0], p[1], p[2]])
-                .collect(),
+            pixels: rgba.chunks_exact(4).map(|p| [p[0], p[1], p[2]]).collect(),
         };
         let rays = count_rays.then(|| {
             let mut sum = RayCounts::default();

@@ -64,4 +64,3 @@ pub use tracer::{Image, Lighting, RenderReport, TILE_ROWS, Tracer};
 // For the GPU twin (runtime/src/gpu/trace.rs).
 #[cfg(feature = "gpu")]
 pub(crate) use math::V3;
-
