@@ -41,9 +41,9 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
 use lrr_precompute::bake::{BakeSettings, DEFAULT_SAMPLES};
-use lrr_precompute::scene::BakeDefaults;
 use lrr_precompute::patches::PatchMethod;
 use lrr_precompute::patches::coherence::DEFAULT_THRESHOLD as DEFAULT_COHERENCE_THRESHOLD;
+use lrr_precompute::scene::BakeDefaults;
 use lrr_precompute::visibility::Backend;
 
 /// lrr: low-rank radiosity. Bake a lighting operator from a scene, inspect it, probe it.
@@ -103,7 +103,7 @@ pub struct MeshArgs {
     #[arg(long, value_name = "METHOD", value_enum)]
     pub method: Option<MethodArg>,
     /// 2MSC: largest estimated error share of a patch (docs/MESHING.md); smaller gives more
-    /// patches [default: `[bake] threshold`, else 1e-3].
+    /// patches [default: `[bake] threshold`, else 1e-4].
     #[arg(long, value_name = "T")]
     pub threshold: Option<f64>,
     /// 2MSC: patches of at most this area (scene units²) are not split further

@@ -14,7 +14,9 @@ pub mod obj;
 mod polygon;
 pub mod procedural;
 
-pub use model::{BakeDefaults, Camera, Face, Material, Optics, PointLight, Repairs, Scene, SizeHints};
+pub use model::{
+    BakeDefaults, Camera, Face, Material, Optics, PointLight, Repairs, Scene, SizeHints,
+};
 
 use crate::error::{Error, Result};
 
