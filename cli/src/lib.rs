@@ -35,9 +35,9 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
 use lrr_precompute::bake::{BakeSettings, DEFAULT_SAMPLES};
-use lrr_precompute::scene::BakeDefaults;
 use lrr_precompute::patches::PatchMethod;
 use lrr_precompute::patches::coherence::DEFAULT_THRESHOLD as DEFAULT_COHERENCE_THRESHOLD;
+use lrr_precompute::scene::BakeDefaults;
 use lrr_precompute::visibility::Backend;
 
 /// lrr: low-rank radiosity. Bake a lighting operator from a scene, inspect it, probe it.

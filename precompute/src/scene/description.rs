@@ -91,7 +91,11 @@ pub struct SceneDescription {
     #[serde(default, rename = "include", skip_serializing_if = "Vec::is_empty")]
     pub includes: Vec<IncludeDesc>,
     /// Changes to materials by name, applied after the includes (`[[material_override]]`).
-    #[serde(default, rename = "material_override", skip_serializing_if = "Vec::is_empty")]
+    #[serde(
+        default,
+        rename = "material_override",
+        skip_serializing_if = "Vec::is_empty"
+    )]
     pub overrides: Vec<MaterialOverride>,
     /// Light groups by material and surface name (`[[light_group]]`).
     #[serde(default, rename = "light_group", skip_serializing_if = "Vec::is_empty")]
@@ -462,7 +466,9 @@ impl SceneDescription {
                 _ => {
                     return Err(Error::scene(
                         origin,
-                        format!("include {i}: give exactly one of obj = \"FILE.obj\" and gltf = \"FILE.glb\""),
+                        format!(
+                            "include {i}: give exactly one of obj = \"FILE.obj\" and gltf = \"FILE.glb\""
+                        ),
                     ));
                 }
             };
@@ -479,7 +485,11 @@ impl SceneDescription {
             )),
             (m, b) => Ok(m.or(b).map(|x| x * s)),
         };
-        scene.hints.element_size = size("element_size", self.mesh.element_size, self.bake.element_size)?;
+        scene.hints.element_size = size(
+            "element_size",
+            self.mesh.element_size,
+            self.bake.element_size,
+        )?;
         scene.hints.patch_size = size("patch_size", self.mesh.patch_size, self.bake.patch_size)?;
         for (name, v) in [
             ("element_size", scene.hints.element_size),
@@ -547,7 +557,10 @@ impl SceneDescription {
                 if !scene.surfaces.contains(n) {
                     return Err(Error::scene(
                         origin,
-                        format!("{what}: no surface '{n}'; the scene has {}", list(scene.surfaces.iter().map(String::as_str))),
+                        format!(
+                            "{what}: no surface '{n}'; the scene has {}",
+                            list(scene.surfaces.iter().map(String::as_str))
+                        ),
                     ));
                 }
             }
@@ -606,11 +619,18 @@ impl SceneDescription {
         }
         // Two groups' names may clash with a surface that still emits on its own: refuse.
         for group in &self.light_groups {
-            let id = scene.surfaces.iter().position(|s| s == &group.name).expect("group surface");
+            let id = scene
+                .surfaces
+                .iter()
+                .position(|s| s == &group.name)
+                .expect("group surface");
             let strays = scene.faces.iter().enumerate().any(|(f, face)| {
                 face.surface == id
                     && taken[f].is_none()
-                    && scene.materials[face.material].emission.iter().any(|&e| e > 0.0)
+                    && scene.materials[face.material]
+                        .emission
+                        .iter()
+                        .any(|&e| e > 0.0)
             });
             if strays {
                 return Err(Error::scene(
@@ -667,7 +687,9 @@ impl SceneDescription {
                 _ => {
                     return Err(Error::scene(
                         origin,
-                        format!("{what}: give either intensity = [r, g, b] or power = W (with an optional colour)"),
+                        format!(
+                            "{what}: give either intensity = [r, g, b] or power = W (with an optional colour)"
+                        ),
                     ));
                 }
             };
@@ -681,7 +703,10 @@ impl SceneDescription {
                 let emits = |surface: Option<usize>, material: Option<usize>| {
                     scene.faces.iter().any(|f| {
                         (Some(f.surface) == surface || Some(f.material) == material)
-                            && scene.materials[f.material].emission.iter().any(|&e| e > 0.0)
+                            && scene.materials[f.material]
+                                .emission
+                                .iter()
+                                .any(|&e| e > 0.0)
                     })
                 };
                 let surface = scene.surfaces.iter().position(|s| s == g);
@@ -689,7 +714,9 @@ impl SceneDescription {
                 if !emits(surface, material) {
                     return Err(Error::scene(
                         origin,
-                        format!("{what}: group '{g}' is no emitting surface, material or light_group of the scene"),
+                        format!(
+                            "{what}: group '{g}' is no emitting surface, material or light_group of the scene"
+                        ),
                     ));
                 }
             }
@@ -710,7 +737,10 @@ impl SceneDescription {
             match v {
                 Some(x) if !allowed.contains(&x.as_str()) => Err(Error::scene(
                     origin,
-                    format!("[bake] {name} = \"{x}\"; expected one of {}", allowed.join(", ")),
+                    format!(
+                        "[bake] {name} = \"{x}\"; expected one of {}",
+                        allowed.join(", ")
+                    ),
                 )),
                 _ => Ok(()),
             }
@@ -718,17 +748,29 @@ impl SceneDescription {
         one_of("method", &b.method, &["2mf", "2msc"])?;
         one_of("precision", &b.precision, &["f32", "f16"])?;
         one_of("layout", &b.layout, &["factored", "plain"])?;
-        if let Some(t) = b.threshold.filter(|t| !(t.is_finite() && *t > 0.0 && *t <= 1.0)) {
-            return Err(Error::scene(origin, format!("[bake] threshold {t} must be in (0, 1]")));
+        if let Some(t) = b
+            .threshold
+            .filter(|t| !(t.is_finite() && *t > 0.0 && *t <= 1.0))
+        {
+            return Err(Error::scene(
+                origin,
+                format!("[bake] threshold {t} must be in (0, 1]"),
+            ));
         }
         if let Some(a) = b.min_patch_area.filter(|a| !(a.is_finite() && *a >= 0.0)) {
-            return Err(Error::scene(origin, format!("[bake] min_patch_area {a} must be >= 0")));
+            return Err(Error::scene(
+                origin,
+                format!("[bake] min_patch_area {a} must be >= 0"),
+            ));
         }
         if b.samples == Some(0) {
             return Err(Error::scene(origin, "[bake] samples must be at least 1"));
         }
         if b.output.as_deref() == Some("") {
-            return Err(Error::scene(origin, "[bake] output is empty; name the operator file"));
+            return Err(Error::scene(
+                origin,
+                "[bake] output is empty; name the operator file",
+            ));
         }
         Ok(BakeDefaults {
             method: b.method.clone(),
@@ -753,7 +795,10 @@ fn list<'a>(names: impl Iterator<Item = &'a str>) -> String {
     if seen.is_empty() {
         "none".into()
     } else {
-        seen.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
+        seen.iter()
+            .map(|n| format!("'{n}'"))
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 }
 
@@ -847,15 +892,19 @@ fn merge(scene: &mut Scene, sub: Scene, s: f64) {
     scene.warnings.extend(sub.warnings);
     scene.repairs.add(&sub.repairs);
     let scaled = |p: [f64; 3]| p.map(|x| x * s);
-    scene.cameras.extend(sub.cameras.into_iter().map(|c| Camera {
-        eye: scaled(c.eye),
-        target: scaled(c.target),
-        ..c
-    }));
-    scene.point_lights.extend(sub.point_lights.into_iter().map(|l| PointLight {
-        position: scaled(l.position),
-        ..l
-    }));
+    scene
+        .cameras
+        .extend(sub.cameras.into_iter().map(|c| Camera {
+            eye: scaled(c.eye),
+            target: scaled(c.target),
+            ..c
+        }));
+    scene
+        .point_lights
+        .extend(sub.point_lights.into_iter().map(|l| PointLight {
+            position: scaled(l.position),
+            ..l
+        }));
     for f in sub.faces {
         let name = &sub.surfaces[f.surface];
         let surface = scene.surface(name);

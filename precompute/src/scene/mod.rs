@@ -13,8 +13,11 @@ mod model;
 pub mod obj;
 mod polygon;
 pub mod procedural;
+pub mod showcase;
 
-pub use model::{BakeDefaults, Camera, Face, Material, Optics, PointLight, Repairs, Scene, SizeHints};
+pub use model::{
+    BakeDefaults, Camera, Face, Material, Optics, PointLight, Repairs, Scene, SizeHints,
+};
 
 use crate::error::{Error, Result};
 
