@@ -95,7 +95,7 @@ pub struct MeshArgs {
     #[arg(long, value_name = "METHOD", value_enum)]
     pub method: Option<MethodArg>,
     /// 2MSC: largest estimated error share of a patch (docs/MESHING.md); smaller gives more
-    /// patches [default: `[bake] threshold`, else 1e-3].
+    /// patches [default: `[bake] threshold`, else 1e-4].
     #[arg(long, value_name = "T")]
     pub threshold: Option<f64>,
     /// 2MSC: patches of at most this area (scene units²) are not split further

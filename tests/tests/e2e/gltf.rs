@@ -23,7 +23,7 @@ pub struct Builder {
 impl Builder {
     /// Appends bytes as a bufferView (4-byte aligned); returns its index.
     pub fn view(&mut self, bytes: &[u8], stride: Option<usize>) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let mut v = json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()});
@@ -110,11 +110,11 @@ impl Builder {
             .root(json!({"byteLength": self.bin.len()}))
             .to_string()
             .into_bytes();
-        while json.len() % 4 != 0 {
+        while !json.len().is_multiple_of(4) {
             json.push(b' ');
         }
         let mut bin = self.bin.clone();
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         let total = 12 + 8 + json.len() + 8 + bin.len();
@@ -532,8 +532,8 @@ fn room_bakes_like_its_description() {
         let area: f64 = (1..c - 1)
             .map(|i| 0.5 * (v(i) - v(0)).cross(v(i + 1) - v(0)).length())
             .sum();
-        for ch in 0..3 {
-            power[ch] += area * f64::from(fa.emission[3 * e + ch]);
+        for (ch, p) in power.iter_mut().enumerate() {
+            *p += area * f64::from(fa.emission[3 * e + ch]);
         }
     }
     let pi = std::f64::consts::PI;

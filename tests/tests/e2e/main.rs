@@ -14,6 +14,7 @@ mod import;
 mod meshing;
 mod reference;
 mod resilience;
+mod scene_description;
 mod shards;
 mod storage;
 mod util;
