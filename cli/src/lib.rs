@@ -15,12 +15,18 @@ mod bake;
 mod bench;
 mod bench_gpu;
 mod bench_operators;
+mod bench_render;
+#[cfg(feature = "embree")]
+mod bench_render_embree;
 mod bench_visibility;
+mod emission;
+mod exr_image;
 mod info;
 mod merge;
 mod plan;
 mod probe;
 pub mod record;
+mod render;
 mod scene;
 mod shard;
 mod solve;
@@ -65,6 +71,8 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Radiosity at surface points, from an operator file.
     Probe(probe::ProbeArgs),
+    /// Ray trace a frame of an operator file (B/π, highlights, mirrors, glass) into a PNG or EXR.
+    Render(render::RenderArgs),
     /// Form factors between the scene's named surfaces (visibility included).
     ViewFactors(view_factors::ViewFactorsArgs),
     /// Solve the radiosity of a scene without writing a file (low-rank, or --exact).
@@ -245,6 +253,7 @@ where
         Command::Merge(a) => merge::run(&a, out),
         Command::Info(a) => info::run(&a, out),
         Command::Probe(a) => probe::run(&a, out),
+        Command::Render(a) => render::run(&a, out),
         Command::ViewFactors(a) => view_factors::run(&a, out),
         Command::Solve(a) => solve::run(&a, out),
         Command::Scene(a) => scene::run(&a, out),
