@@ -16,6 +16,9 @@ mod bench;
 mod bench_gpu;
 mod bench_operators;
 mod bench_visibility;
+mod emission;
+pub mod export;
+mod exr_image;
 mod info;
 mod merge;
 mod plan;
@@ -64,6 +67,9 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Radiosity at surface points, from an operator file.
     Probe(probe::ProbeArgs),
+    /// A frame as files other tools read: an EXR lightmap atlas, or the scene as glTF with the
+    /// radiosity per vertex (the format from the extension of -o).
+    Export(export::ExportArgs),
     /// Form factors between the scene's named surfaces (visibility included).
     ViewFactors(view_factors::ViewFactorsArgs),
     /// Solve the radiosity of a scene without writing a file (low-rank, or --exact).
@@ -224,6 +230,7 @@ where
         Command::Merge(a) => merge::run(&a, out),
         Command::Info(a) => info::run(&a, out),
         Command::Probe(a) => probe::run(&a, out),
+        Command::Export(a) => export::run(&a, out),
         Command::ViewFactors(a) => view_factors::run(&a, out),
         Command::Solve(a) => solve::run(&a, out),
         Command::Scene(a) => scene::run(&a, out),
