@@ -158,7 +158,9 @@ pub fn radiance_atlas(
     radiosity: &[[f32; 3]],
 ) -> Atlas {
     let field = Field::new(op.file(), radiosity);
-    let value = |s: usize, p: glam::DVec3| field.at(s, p).map(|v| v / std::f32::consts::PI);
+    let value = |s: usize, p: glam::DVec3| {
+        (!field.hidden(s)).then(|| field.at(s, p).map(|v| v / std::f32::consts::PI))
+    };
     raster::rasterise(&op.file().geometry, charts, layout, &value)
 }
 

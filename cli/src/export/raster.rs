@@ -1,6 +1,7 @@
 //! Rasterising a field into the atlas: every texel whose centre lies inside an element takes
 //! the field's value at that centre (elements in file order; a centre on a shared edge goes to
-//! the first); then each chart's rectangle is dilated, ring by ring, until every texel in it
+//! the first; an element without a value, such as one hidden under a block, is left to
+//! dilation like the space between charts); then each chart's rectangle is dilated, ring by ring, until every texel in it
 //! (padding included) holds the mean of its filled 8-neighbours, so bilinear filtering at a
 //! chart's edge never reads an empty texel. A chart too small to hold a texel centre gets its
 //! first element's centroid value at the texel under that centroid.
@@ -32,12 +33,13 @@ pub struct Atlas {
     pub state: Vec<Texel>,
 }
 
-/// Rasterises `value(file position, point)` over `charts` laid out by `layout`.
+/// Rasterises `value(file position, point)` (`None`: no value, dilate) over `charts` laid out
+/// by `layout`.
 pub fn rasterise(
     g: &Geometry,
     charts: &[Chart],
     layout: &Layout,
-    value: &dyn Fn(usize, DVec3) -> [f32; 3],
+    value: &dyn Fn(usize, DVec3) -> Option<[f32; 3]>,
 ) -> Atlas {
     let (w, h) = (layout.width, layout.height);
     let mut atlas = Atlas {
@@ -70,7 +72,7 @@ fn fill_element(
     layout: &Layout,
     c: usize,
     s: usize,
-    value: &dyn Fn(usize, DVec3) -> [f32; 3],
+    value: &dyn Fn(usize, DVec3) -> Option<[f32; 3]>,
 ) {
     let t: Vec<DVec2> = corners(g, s)
         .iter()
@@ -94,24 +96,27 @@ fn fill_element(
                 let (a, b) = (t[k], t[(k + 1) % t.len()]);
                 (b - a).perp_dot(p - a) / (b - a).length().max(f64::MIN_POSITIVE) >= -tolerance
             });
-            if inside {
-                let point = chart.lift(layout.chart_point(c, p));
-                atlas.pixels[i] = value(s, point);
+            if !inside {
+                continue;
+            }
+            let point = chart.lift(layout.chart_point(c, p));
+            if let Some(v) = value(s, point) {
+                atlas.pixels[i] = v;
                 atlas.state[i] = Texel::Inside;
             }
         }
     }
 }
 
-/// For a chart that holds no texel centre: its first element's value at its centroid, at the
-/// texel under that centroid.
+/// For a chart that holds no texel centre with a value: its first element's value at its
+/// centroid (zero if the chart has no value anywhere), at the texel under that centroid.
 fn seed_centroid(
     atlas: &mut Atlas,
     g: &Geometry,
     chart: &Chart,
     layout: &Layout,
     c: usize,
-    value: &dyn Fn(usize, DVec3) -> [f32; 3],
+    value: &dyn Fn(usize, DVec3) -> Option<[f32; 3]>,
 ) {
     let s = chart.elements[0] as usize;
     let pts = corners(g, s);
@@ -121,7 +126,7 @@ fn seed_centroid(
     let x = (t.x.floor() as usize).clamp(r[0], r[2] - 1);
     let y = (t.y.floor() as usize).clamp(r[1], r[3] - 1);
     let i = y * atlas.width + x;
-    atlas.pixels[i] = value(s, centroid);
+    atlas.pixels[i] = value(s, centroid).unwrap_or([0.0; 3]);
     atlas.state[i] = Texel::Dilated;
 }
 
