@@ -3,6 +3,9 @@
 //! unless scripts/setup-exports.sh has run, as scripts/test does) the files checked by readers
 //! this project did not write (scripts/check-exports.py: OpenEXR, the Khronos glTF validator).
 
+// Indexed loops over texels and RGB channels read like the checks they make.
+#![allow(clippy::needless_range_loop)]
+
 use std::path::{Path, PathBuf};
 
 use exr::prelude::*;

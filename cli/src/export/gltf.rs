@@ -131,7 +131,7 @@ impl Bin {
         data: &[u8],
         target: Option<json::buffer::Target>,
     ) -> json::Index<json::buffer::View> {
-        while self.bytes.len() % 4 != 0 {
+        while !self.bytes.len().is_multiple_of(4) {
             self.bytes.push(0);
         }
         let offset = self.bytes.len();
@@ -335,7 +335,7 @@ pub fn document(
     });
     root.scene = Some(json::Index::new(0));
     root.extensions_used.push("KHR_materials_unlit".into());
-    while bin.bytes.len() % 4 != 0 {
+    while !bin.bytes.len().is_multiple_of(4) {
         bin.bytes.push(0);
     }
     root.buffers.push(json::Buffer {

@@ -215,12 +215,12 @@ fn export_exr(
     Ok(())
 }
 
+/// A named frame's radiosity per element (original ids); no name: all groups together.
+type Frame = (Option<String>, Vec<[f32; 3]>);
+
 /// One frame per light group: the group alone at its intensity (1 unless `--group` says), and
 /// one named `ungrouped` for baked emission outside every group, if any.
-fn group_frames(
-    op: &Operator,
-    lighting: &Lighting,
-) -> Result<Vec<(Option<String>, Vec<[f32; 3]>)>> {
+fn group_frames(op: &Operator, lighting: &Lighting) -> Result<Vec<Frame>> {
     let count = op.light_groups().len();
     let intensities = match lighting {
         Lighting::Baked => vec![1.0; count],
