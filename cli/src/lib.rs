@@ -24,6 +24,7 @@ mod merge;
 mod plan;
 mod probe;
 pub mod record;
+mod relight;
 mod scene;
 mod shard;
 mod solve;
@@ -70,6 +71,9 @@ pub enum Command {
     /// A frame as files other tools read: an EXR lightmap atlas, or the scene as glTF with the
     /// radiosity per vertex (the format from the extension of -o).
     Export(export::ExportArgs),
+    /// Light groups animated by keyframes (intensity, colour), a lightmap EXR per frame, with
+    /// the achieved frame rate.
+    Relight(relight::RelightArgs),
     /// Form factors between the scene's named surfaces (visibility included).
     ViewFactors(view_factors::ViewFactorsArgs),
     /// Solve the radiosity of a scene without writing a file (low-rank, or --exact).
@@ -231,6 +235,7 @@ where
         Command::Info(a) => info::run(&a, out),
         Command::Probe(a) => probe::run(&a, out),
         Command::Export(a) => export::run(&a, out),
+        Command::Relight(a) => relight::run(&a, out),
         Command::ViewFactors(a) => view_factors::run(&a, out),
         Command::Solve(a) => solve::run(&a, out),
         Command::Scene(a) => scene::run(&a, out),

@@ -455,3 +455,107 @@ fn readers_we_did_not_write_accept_the_exports() {
     );
     assert!(text.contains(" passed, 0 failed"), "{text}");
 }
+
+#[test]
+fn relight_writes_a_lightmap_per_frame_following_the_keyframes() {
+    let d = dir("relight");
+    let file = lit_quad(
+        &d,
+        &[
+            ("warm", [4.0, 2.0, 1.0], 0.1),
+            ("cool", [1.0, 2.0, 5.0], 0.6),
+        ],
+    );
+    let anim = d.join("anim.toml");
+    std::fs::write(
+        &anim,
+        "fps = 2.0\n[[group]]\nname = \"cool\"\nkeys = [\n  { time = 0.0, intensity = 1.0 },\n  \
+         { time = 1.0, intensity = 0.5, colour = [1.0, 0.0, 2.0] },\n]\n",
+    )
+    .unwrap();
+    let frames = d.join("frames");
+    let common = ["--size", "64", "--samples", "float"];
+    let text = lrr(&[
+        &[
+            "relight",
+            s(&file),
+            "--animation",
+            s(&anim),
+            "-o",
+            s(&frames),
+            "-q",
+        ][..],
+        &common,
+    ]
+    .concat());
+    assert!(
+        text.contains("wrote 3 frames") && text.contains("frames/s"),
+        "{text}"
+    );
+    // Each frame against exports of the groups alone: warm stays at 1, cool follows its keys
+    // (t = 0.5 s: halfway between intensity 1 colour 1 and intensity 0.5 colour (1, 0, 2)).
+    let groups = d.join("groups.exr");
+    lrr(&[
+        &["export", s(&file), "-o", s(&groups), "--layers", "groups"][..],
+        &common,
+    ]
+    .concat());
+    let groups = read_exr(&groups);
+    let (cool, warm) = (&groups[0].3, &groups[1].3);
+    for (f, scale) in [
+        (0, [1.0, 1.0, 1.0]),
+        (1, [0.75, 0.5, 1.0]),
+        (2, [0.5, 0.0, 1.0]),
+    ] {
+        let frame = read_exr(&frames.join(format!("frame-{f:05}.exr")));
+        for (i, got) in frame[0].3.iter().enumerate() {
+            for c in 0..3 {
+                let want = warm[i][c] + scale[c] * cool[i][c];
+                assert!(
+                    (got[c] - want).abs() <= 1e-5 * want.max(1e-3),
+                    "frame {f} texel {i}: {got:?} against {want}"
+                );
+            }
+        }
+    }
+    // Bad animations are errors naming the file and the problem.
+    std::fs::write(
+        &anim,
+        "fps = 2.0\n[[group]]\nname = \"nope\"\nkeys = [{ time = 0.0, intensity = 1.0 }]\n",
+    )
+    .unwrap();
+    let mut sink = Vec::new();
+    let e = lrr_cli::run(
+        [
+            "lrr",
+            "relight",
+            s(&file),
+            "--animation",
+            s(&anim),
+            "-o",
+            s(&frames),
+        ],
+        &mut sink,
+    )
+    .unwrap_err();
+    assert!(
+        format!("{e:#}")
+            .contains("group 'nope' is not a light group of the file (it has: warm, cool)"),
+        "{e:#}"
+    );
+    std::fs::write(&anim, "fps = 2.0\n[[group]]\nname = \"cool\"\nkeys = [{ time = 1.0, intensity = 1.0 }, { time = 1.0, intensity = 2.0 }]\n").unwrap();
+    let e = lrr_cli::run(
+        [
+            "lrr",
+            "relight",
+            s(&file),
+            "--animation",
+            s(&anim),
+            "-o",
+            s(&frames),
+        ],
+        &mut sink,
+    )
+    .unwrap_err();
+    assert!(format!("{e:#}").contains("times must increase"), "{e:#}");
+}
