@@ -15,6 +15,9 @@ mod bake;
 mod bench;
 mod bench_gpu;
 mod bench_operators;
+mod bench_render;
+#[cfg(feature = "embree")]
+mod bench_render_embree;
 mod bench_visibility;
 mod emission;
 pub mod export;
@@ -25,6 +28,7 @@ mod plan;
 mod probe;
 pub mod record;
 mod relight;
+mod render;
 mod scene;
 mod shard;
 mod solve;
@@ -75,6 +79,8 @@ pub enum Command {
     /// Light groups animated by keyframes (intensity, colour), a lightmap EXR per frame, with
     /// the achieved frame rate.
     Relight(relight::RelightArgs),
+    /// Ray trace a frame of an operator file (B/π, highlights, mirrors, glass) into a PNG or EXR.
+    Render(render::RenderArgs),
     /// Form factors between the scene's named surfaces (visibility included).
     ViewFactors(view_factors::ViewFactorsArgs),
     /// Solve the radiosity of a scene without writing a file (low-rank, or --exact).
@@ -257,6 +263,7 @@ where
         Command::Probe(a) => probe::run(&a, out),
         Command::Export(a) => export::run(&a, out),
         Command::Relight(a) => relight::run(&a, out),
+        Command::Render(a) => render::run(&a, out),
         Command::ViewFactors(a) => view_factors::run(&a, out),
         Command::Solve(a) => solve::run(&a, out),
         Command::Scene(a) => scene::run(&a, out),

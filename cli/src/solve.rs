@@ -85,7 +85,7 @@ pub fn solve(scene: &Scene, a: &MeshArgs, exact: bool) -> Result<Solution> {
         })??
     } else {
         let baked = bake(scene, &settings, &progress)?;
-        let op = lrr_runtime::Operator::from_file(lrr_precompute::write::operator_file(&baked))?;
+        let op = lrr_runtime::Operator::from_file(lrr_precompute::write::operator_file(&baked)?)?;
         let b = op.evaluate_baked();
         let b = b.iter().map(|x| x.map(f64::from)).collect();
         (baked.mesh, b, "low-rank")

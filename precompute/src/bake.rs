@@ -229,6 +229,8 @@ pub struct Baked {
     pub emission: Vec<[f64; 3]>,
     /// Surface names, indexed by `Element::surface`.
     pub surfaces: Vec<String>,
+    /// What the file holds for display (format 1.2): materials, point lights, cameras, BVH.
+    pub display: lrr_formats::Display,
     /// Occlusion rays cast by the form-factor pass.
     pub rays: u64,
     /// Element-patch pairs skipped because they face away from each other.
@@ -245,6 +247,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
     crate::pool::with_threads(settings.threads, || {
         let prepared = Prepared::new(scene, sizes, settings.method, settings.visibility, progress)?;
+        let display = crate::display::build(scene, &prepared.mesh, progress)?;
         let ff = prepared.form_factors(settings.samples);
         let (fk, checkpoint) = prepared.element_patch_matrix(
             &ff,
@@ -277,6 +280,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             reflectance,
             emission,
             surfaces: scene.surfaces.clone(),
+            display,
             rays,
             culled_pairs: culled,
             checkpoint,

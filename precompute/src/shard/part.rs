@@ -19,7 +19,7 @@ use std::io::{BufReader, BufWriter, Read, Write};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use lrr_formats::{Geometry, Xxh64, checksum};
+use lrr_formats::{Display, Geometry, Xxh64, checksum};
 
 use crate::error::{Error, Result};
 use crate::write::{Skeleton, SurfaceRanges};
@@ -334,6 +334,7 @@ pub(crate) fn encode_skeleton(s: &Skeleton) -> Vec<u8> {
     e.bytes(&s.geometry.vertex_count);
     e.f32s(&s.geometry.vertices);
     e.f32s(&s.geometry.normals);
+    e.bytes(&s.display.to_container_bytes());
     e.0
 }
 
@@ -362,7 +363,7 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
     }
     let channels = d.usize()?;
     let rgb = |v: Vec<f64>| v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    let skeleton = Skeleton {
+    let mut skeleton = Skeleton {
         scene_name,
         method,
         refinement,
@@ -384,9 +385,12 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
             vertices: d.f32s()?,
             normals: d.f32s()?,
         },
+        display: Display::default(),
     };
-    d.end()?;
     let n = skeleton.order.len();
+    skeleton.display = Display::from_container_bytes(&d.bytes()?, n as u32)
+        .map_err(|e| format!("the display sections: {e}"))?;
+    d.end()?;
     let sizes_agree = [
         skeleton.weights.len(),
         skeleton.reflectance.len(),

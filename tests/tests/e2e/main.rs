@@ -5,6 +5,7 @@ mod accuracy;
 mod analytic;
 mod capi;
 mod cornell;
+mod display;
 mod files;
 mod furnace;
 mod fuzz_replay;
