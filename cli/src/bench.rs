@@ -65,8 +65,8 @@ pub struct RuntimeBench {
     /// `cpu`: the table above. `gpu`: the wgpu evaluator on the best adapter (GPU time and end
     /// to end, a plain read kernel over the same bytes, the CPU path, the papers' hybrid), an
     /// error naming the adapters found when none is usable. `auto`: the GPU when usable.
-    #[arg(long, value_enum, default_value_t = crate::probe::Device::Cpu)]
-    pub device: crate::probe::Device,
+    #[arg(long, value_enum, default_value_t = crate::emission::Device::Cpu)]
+    pub device: crate::emission::Device,
     #[command(flatten)]
     pub gpu: crate::bench_gpu::GpuBenchArgs,
 }
@@ -113,7 +113,7 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
         BenchKind::Visibility(v) => return crate::bench_visibility::run(v, out),
         BenchKind::Render(r) => return crate::bench_render::run(r, out),
     };
-    if b.device != crate::probe::Device::Cpu {
+    if b.device != crate::emission::Device::Cpu {
         let operators = Operators {
             sizes: &b.sizes,
             precisions: &b.precisions,

@@ -11,7 +11,7 @@ use lrr_runtime::{Layout, Operator, Precision};
 use serde::Serialize;
 
 use crate::bench_operators::{Operators, cornell_operator, parse_size, precisions, recast};
-use crate::probe::{Device, one_line};
+use crate::emission::{Device, one_line};
 
 /// Flags of the GPU benchmark.
 #[derive(Debug, Args)]

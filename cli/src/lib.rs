@@ -20,12 +20,14 @@ mod bench_render;
 mod bench_render_embree;
 mod bench_visibility;
 mod emission;
+pub mod export;
 mod exr_image;
 mod info;
 mod merge;
 mod plan;
 mod probe;
 pub mod record;
+mod relight;
 mod render;
 mod scene;
 mod shard;
@@ -71,6 +73,12 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Radiosity at surface points, from an operator file.
     Probe(probe::ProbeArgs),
+    /// A frame as files other tools read: an EXR lightmap atlas, or the scene as glTF with the
+    /// radiosity per vertex (the format from the extension of -o).
+    Export(export::ExportArgs),
+    /// Light groups animated by keyframes (intensity, colour), a lightmap EXR per frame, with
+    /// the achieved frame rate.
+    Relight(relight::RelightArgs),
     /// Ray trace a frame of an operator file (B/π, highlights, mirrors, glass) into a PNG or EXR.
     Render(render::RenderArgs),
     /// Form factors between the scene's named surfaces (visibility included).
@@ -253,6 +261,8 @@ where
         Command::Merge(a) => merge::run(&a, out),
         Command::Info(a) => info::run(&a, out),
         Command::Probe(a) => probe::run(&a, out),
+        Command::Export(a) => export::run(&a, out),
+        Command::Relight(a) => relight::run(&a, out),
         Command::Render(a) => render::run(&a, out),
         Command::ViewFactors(a) => view_factors::run(&a, out),
         Command::Solve(a) => solve::run(&a, out),

@@ -5,9 +5,10 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lrr_runtime::gpu::{Gpu, GpuError, GpuEvaluator, GpuOptions};
-use lrr_runtime::{Operator, Rgb, RgbMut};
+use lrr_runtime::Operator;
 use serde::{Deserialize, Serialize};
+
+use crate::emission::{Device, EmissionArgs, radiosity};
 
 #[derive(Debug, Args)]
 pub struct ProbeArgs {
@@ -23,51 +24,8 @@ pub struct ProbeArgs {
     /// none is usable) or `auto` (the GPU when there is one, else the CPU, saying so).
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     pub device: Device,
-}
-
-/// `--device`: which evaluator computes the frame.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Device {
-    /// The CPU evaluator (std threads, AVX2 where the CPU has it).
-    Cpu,
-    /// The wgpu evaluator on the best usable adapter.
-    Gpu,
-    /// The GPU when one is usable, else the CPU (with a note on stderr).
-    Auto,
-}
-
-/// An error's message on one line (the command line's errors are one line each).
-pub(crate) fn one_line(e: &GpuError) -> String {
-    e.to_string()
-        .split_whitespace()
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-/// The radiosity of the baked emission per element (original ids), on `device`.
-fn radiosity(op: &Operator, device: Device) -> Result<Vec<[f32; 3]>> {
-    match device {
-        Device::Cpu => Ok(op.evaluate_baked()),
-        Device::Gpu => {
-            gpu_radiosity(op).map_err(|e| anyhow::anyhow!("--device gpu: {}", one_line(&e)))
-        }
-        Device::Auto => gpu_radiosity(op).or_else(|e| {
-            eprintln!(
-                "lrr: note: --device auto: evaluating on the CPU ({})",
-                one_line(&e)
-            );
-            Ok(op.evaluate_baked())
-        }),
-    }
-}
-
-fn gpu_radiosity(op: &Operator) -> Result<Vec<[f32; 3]>, GpuError> {
-    let gpu = Gpu::new(&GpuOptions::default())?;
-    eprintln!("lrr: note: evaluating on {}", gpu.describe());
-    let mut eval = GpuEvaluator::new(&gpu, op)?;
-    let mut b = vec![[0.0f32; 3]; op.n()];
-    eval.evaluate(Rgb::triples(&op.baked_emission()), RgbMut::triples(&mut b))?;
-    Ok(b)
+    #[command(flatten)]
+    pub emission: EmissionArgs,
 }
 
 #[derive(Debug, Deserialize)]
@@ -102,7 +60,8 @@ pub fn run(a: &ProbeArgs, out: &mut dyn Write) -> Result<()> {
             );
         }
     }
-    let radiosity = radiosity(&op, a.device)?;
+    let lighting = a.emission.lighting(&op)?;
+    let radiosity = radiosity(&op, &lighting, a.device)?;
     let probes: Vec<Probe> = points
         .iter()
         .map(|p| {

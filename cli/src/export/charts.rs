@@ -1,0 +1,296 @@
+//! Lightmap charts from an operator file's geometry: connected sets of coplanar elements
+//! (same plane within a tolerance relative to the element sizes, sharing a piece of an edge),
+//! each flattened onto its plane.
+//!
+//! Two elements share an edge when at least two distinct points of one lie on the other's
+//! boundary (shared corners, T-junctions of adaptive subdivision and imprinting, offset grids);
+//! touching at a single corner does not join charts. Candidate pairs come from a uniform grid
+//! over element boxes, so the work is near linear in the element count.
+
+use std::collections::HashMap;
+
+use glam::{DVec2, DVec3};
+use lrr_formats::Geometry;
+
+/// One chart: elements (file positions, increasing) flattened onto one plane.
+#[derive(Debug, Clone)]
+pub struct Chart {
+    /// File positions of the chart's elements, increasing.
+    pub elements: Vec<u32>,
+    /// The plane's frame: `point = origin + x u + y v`, with `u × v` the elements' normal.
+    pub origin: DVec3,
+    pub u: DVec3,
+    pub v: DVec3,
+    /// Extent of the flattened elements: `x` in `[0, size.x]`, `y` in `[0, size.y]`.
+    pub size: DVec2,
+}
+
+impl Chart {
+    /// The chart coordinates of a point of its plane.
+    pub fn flatten(&self, p: DVec3) -> DVec2 {
+        let d = p - self.origin;
+        DVec2::new(d.dot(self.u), d.dot(self.v))
+    }
+
+    /// The point of the plane at chart coordinates `q`.
+    pub fn lift(&self, q: DVec2) -> DVec3 {
+        self.origin + q.x * self.u + q.y * self.v
+    }
+}
+
+/// An element's corners in f64.
+pub fn corners(g: &Geometry, s: usize) -> Vec<DVec3> {
+    (0..usize::from(g.vertex_count[s]))
+        .map(|i| {
+            let b = 12 * s + 3 * i;
+            DVec3::new(
+                f64::from(g.vertices[b]),
+                f64::from(g.vertices[b + 1]),
+                f64::from(g.vertices[b + 2]),
+            )
+        })
+        .collect()
+}
+
+/// An element's unit normal.
+pub fn normal(g: &Geometry, s: usize) -> DVec3 {
+    DVec3::new(
+        f64::from(g.normals[3 * s]),
+        f64::from(g.normals[3 * s + 1]),
+        f64::from(g.normals[3 * s + 2]),
+    )
+    .normalize_or_zero()
+}
+
+/// Largest angle between the normals of elements of one chart (radians).
+const ANGLE: f64 = 1e-3;
+/// Distance tolerance, relative to the median element's longest edge.
+const RELATIVE_DISTANCE: f64 = 1e-4;
+
+/// The charts of `g`, ordered by their first element.
+pub fn charts(g: &Geometry) -> Vec<Chart> {
+    let n = g.vertex_count.len();
+    let polys: Vec<Vec<DVec3>> = (0..n).map(|s| corners(g, s)).collect();
+    let normals: Vec<DVec3> = (0..n).map(|s| normal(g, s)).collect();
+    let eps = RELATIVE_DISTANCE * median_edge(&polys);
+    let mut sets = UnionFind::new(n);
+    for (a, b) in candidate_pairs(&polys, eps) {
+        if coplanar(&polys, &normals, a, b, eps) && share_edge(&polys[a], &polys[b], eps) {
+            sets.union(a, b);
+        }
+    }
+    let mut members: HashMap<usize, Vec<u32>> = HashMap::new();
+    for s in 0..n {
+        members.entry(sets.find(s)).or_default().push(s as u32);
+    }
+    let mut groups: Vec<Vec<u32>> = members.into_values().collect();
+    groups.sort_unstable_by_key(|m| m[0]);
+    groups
+        .into_iter()
+        .map(|elements| flatten(&polys, &normals, elements))
+        .collect()
+}
+
+/// The chart frame of `elements`: the normal of the first, `u` along its first edge, the
+/// origin at the corner of the flattened bounding box.
+fn flatten(polys: &[Vec<DVec3>], normals: &[DVec3], elements: Vec<u32>) -> Chart {
+    let first = &polys[elements[0] as usize];
+    let n = normals[elements[0] as usize];
+    let edge = first[1] - first[0];
+    let u = (edge - n * edge.dot(n)).normalize();
+    let v = n.cross(u);
+    let mut lo = DVec2::splat(f64::INFINITY);
+    let mut hi = DVec2::splat(f64::NEG_INFINITY);
+    for &s in &elements {
+        for p in &polys[s as usize] {
+            let d = *p - first[0];
+            let q = DVec2::new(d.dot(u), d.dot(v));
+            lo = lo.min(q);
+            hi = hi.max(q);
+        }
+    }
+    Chart {
+        elements,
+        origin: first[0] + lo.x * u + lo.y * v,
+        u,
+        v,
+        size: hi - lo,
+    }
+}
+
+fn median_edge(polys: &[Vec<DVec3>]) -> f64 {
+    let mut longest: Vec<f64> = polys
+        .iter()
+        .map(|p| {
+            (0..p.len())
+                .map(|i| p[i].distance(p[(i + 1) % p.len()]))
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    if longest.is_empty() {
+        return 1.0;
+    }
+    let mid = longest.len() / 2;
+    *longest.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// Pairs `(a, b)`, `a < b`, whose boxes (grown by `eps`) share a grid cell, each once.
+fn candidate_pairs(polys: &[Vec<DVec3>], eps: f64) -> Vec<(usize, usize)> {
+    let boxes: Vec<(DVec3, DVec3)> = polys
+        .iter()
+        .map(|p| {
+            let lo = p.iter().fold(DVec3::INFINITY, |a, b| a.min(*b)) - eps;
+            let hi = p.iter().fold(DVec3::NEG_INFINITY, |a, b| a.max(*b)) + eps;
+            (lo, hi)
+        })
+        .collect();
+    // Cells of twice the median box diagonal: most elements fall in a few cells.
+    let mut diag: Vec<f64> = boxes.iter().map(|(lo, hi)| lo.distance(*hi)).collect();
+    let mid = diag.len() / 2;
+    let cell = 2.0 * diag.select_nth_unstable_by(mid, f64::total_cmp).1.max(eps);
+    let key = |p: DVec3| (p / cell).floor().as_i64vec3();
+    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    for (s, (lo, hi)) in boxes.iter().enumerate() {
+        let (a, b) = (key(*lo), key(*hi));
+        for x in a.x..=b.x {
+            for y in a.y..=b.y {
+                for z in a.z..=b.z {
+                    grid.entry([x, y, z]).or_default().push(s);
+                }
+            }
+        }
+    }
+    let overlap = |a: usize, b: usize| {
+        let ((la, ha), (lb, hb)) = (boxes[a], boxes[b]);
+        la.cmple(hb).all() && lb.cmple(ha).all()
+    };
+    let mut pairs = Vec::new();
+    for cell in grid.values() {
+        for (i, &a) in cell.iter().enumerate() {
+            for &b in &cell[i + 1..] {
+                if overlap(a, b) {
+                    pairs.push((a.min(b), a.max(b)));
+                }
+            }
+        }
+    }
+    pairs.sort_unstable();
+    pairs.dedup();
+    pairs
+}
+
+/// Same orientation and every corner of each on the other's plane.
+fn coplanar(polys: &[Vec<DVec3>], normals: &[DVec3], a: usize, b: usize, eps: f64) -> bool {
+    let (na, nb) = (normals[a], normals[b]);
+    if na.dot(nb) < ANGLE.cos() {
+        return false;
+    }
+    let on = |p: &[DVec3], n: DVec3, q: &[DVec3]| q.iter().all(|x| (*x - p[0]).dot(n).abs() <= eps);
+    on(&polys[a], na, &polys[b]) && on(&polys[b], nb, &polys[a])
+}
+
+/// At least two distinct points of one polygon lie on the other's boundary.
+fn share_edge(a: &[DVec3], b: &[DVec3], eps: f64) -> bool {
+    let mut touching: Vec<DVec3> = Vec::new();
+    for (p, q) in [(a, b), (b, a)] {
+        for x in p {
+            if on_boundary(*x, q, eps) && touching.iter().all(|t| t.distance(*x) > eps) {
+                touching.push(*x);
+            }
+        }
+    }
+    touching.len() >= 2
+}
+
+fn on_boundary(x: DVec3, poly: &[DVec3], eps: f64) -> bool {
+    (0..poly.len()).any(|i| segment_distance(x, poly[i], poly[(i + 1) % poly.len()]) <= eps)
+}
+
+fn segment_distance(x: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let t = ((x - a).dot(ab) / ab.length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+    x.distance(a + t * ab)
+}
+
+/// Disjoint sets with path halving; the smaller index becomes the root, so the result does not
+/// depend on the order of unions.
+struct UnionFind(Vec<usize>);
+
+impl UnionFind {
+    fn new(n: usize) -> Self {
+        Self((0..n).collect())
+    }
+
+    fn find(&mut self, mut x: usize) -> usize {
+        while self.0[x] != x {
+            self.0[x] = self.0[self.0[x]];
+            x = self.0[x];
+        }
+        x
+    }
+
+    fn union(&mut self, a: usize, b: usize) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        let (lo, hi) = (ra.min(rb), ra.max(rb));
+        self.0[hi] = lo;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Geometry of quads given by their corners (normals from the vertex order).
+    fn geometry(quads: &[[[f32; 3]; 4]]) -> Geometry {
+        let mut g = Geometry {
+            vertex_count: vec![],
+            vertices: vec![],
+            normals: vec![],
+        };
+        for q in quads {
+            g.vertex_count.push(4);
+            g.vertices.extend(q.iter().flatten());
+            let p: Vec<DVec3> = q
+                .iter()
+                .map(|c| DVec3::from_array(c.map(f64::from)))
+                .collect();
+            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+            g.normals.extend([n.x as f32, n.y as f32, n.z as f32]);
+        }
+        g
+    }
+
+    fn square(x: f32, y: f32, s: f32, z: f32) -> [[f32; 3]; 4] {
+        [[x, y, z], [x + s, y, z], [x + s, y + s, z], [x, y + s, z]]
+    }
+
+    #[test]
+    fn a_grid_with_a_t_junction_is_one_chart_and_a_step_or_a_corner_splits_it() {
+        // Two small squares beside one big one (T-junction), a square touching at a corner only,
+        // and one a little above the plane.
+        let g = geometry(&[
+            square(0.0, 0.0, 2.0, 0.0),
+            square(2.0, 0.0, 1.0, 0.0),
+            square(2.0, 1.0, 1.0, 0.0),
+            square(3.0, 2.0, 1.0, 0.0),
+            square(-1.0, 0.0, 1.0, 0.01),
+        ]);
+        let c = charts(&g);
+        let sets: Vec<Vec<u32>> = c.iter().map(|c| c.elements.clone()).collect();
+        assert_eq!(sets, vec![vec![0, 1, 2], vec![3], vec![4]]);
+        assert!((c[0].size - DVec2::new(3.0, 2.0)).abs().max_element() < 1e-6);
+        // The frame flattens and lifts back, and u × v is the normal.
+        let p = DVec3::new(2.5, 1.5, 0.0);
+        assert!(c[0].lift(c[0].flatten(p)).distance(p) < 1e-9);
+        assert!((c[0].u.cross(c[0].v) - DVec3::Z).length() < 1e-9);
+    }
+
+    #[test]
+    fn opposite_sides_of_a_wall_are_different_charts() {
+        let front = square(0.0, 0.0, 1.0, 0.0);
+        let mut back = front;
+        back.reverse();
+        let c = charts(&geometry(&[front, back]));
+        assert_eq!(c.len(), 2);
+    }
+}

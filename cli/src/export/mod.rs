@@ -1,0 +1,341 @@
+//! `lrr export OUT.lrr -o FILE`: a frame of a baked operator as files other tools read, the
+//! format from the extension (docs/EXPORTS.md):
+//! - `.exr`: a lightmap atlas of the exitant radiance `B/π` (OpenEXR, linear RGB), all light
+//!   groups together or one layer per group (`--layers groups`);
+//! - `.glb` / `.gltf`: the baked scene with `exposure × B/π` per vertex (`COLOR_0`), and with
+//!   `--lightmap` the atlas as a texture with its UVs.
+//!
+//! The pieces, bottom first: [`charts`] (coplanar connected elements, flattened),
+//! [`atlas`] (packing with etagere), [`field`] (the frame's radiosity over the surface),
+//! [`raster`] (texels from the field, dilated), [`gltf`] (the glTF document).
+
+pub mod atlas;
+pub mod charts;
+pub mod field;
+pub mod gltf;
+pub mod raster;
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Result, bail};
+use clap::Args;
+use lrr_runtime::{Operator, RgbMut};
+
+use crate::emission::{EmissionArgs, Lighting, radiosity_cpu};
+use crate::exr_image::{self, ExrSamples, RgbLayer};
+use atlas::{Layout, Sizing};
+use charts::Chart;
+use field::Field;
+use raster::Atlas;
+
+#[derive(Debug, Args)]
+pub struct ExportArgs {
+    /// Operator file.
+    pub file: PathBuf,
+    /// Output: `.exr` (lightmap atlas), `.glb` or `.gltf` (scene with vertex colours).
+    #[arg(long, short, value_name = "FILE")]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub emission: EmissionArgs,
+    /// glTF: add the lightmap atlas as the base colour texture (PNG) with its UVs as
+    /// TEXCOORD_0; the vertex values then move to the attribute `_RADIOSITY`.
+    #[arg(long)]
+    pub lightmap: bool,
+    /// Lightmap: a square atlas of N×N texels, the texel density the largest that packs
+    /// [default: 1024 unless --texel-density is given].
+    #[arg(long, value_name = "N", conflicts_with = "texel_density")]
+    pub size: Option<usize>,
+    /// Lightmap: texels per scene unit; the atlas is the smallest square (a multiple of 4
+    /// texels) that packs.
+    #[arg(long, value_name = "T")]
+    pub texel_density: Option<f64>,
+    /// Lightmap: texels of dilated border around each chart (bilinear filtering needs 1; mip
+    /// levels more).
+    #[arg(long, value_name = "P", default_value_t = 2)]
+    pub padding: usize,
+    /// EXR: `all` (one RGB image, channels R, G, B) or `groups` (one layer per light group,
+    /// channels NAME.R, NAME.G, NAME.B, each the group alone at its --group intensity, so an
+    /// engine relights them by weighting the layers).
+    #[arg(long, value_enum, default_value_t = Layers::All)]
+    pub layers: Layers,
+    /// EXR sample type: `half` or `float`.
+    #[arg(long, value_enum, default_value_t = ExrSamples::Half)]
+    pub samples: ExrSamples,
+    /// glTF: the factor on B/π in the vertex colours and the texture, which are clamped to 1
+    /// [default: 1 over the brightest value on a surface that does not emit].
+    #[arg(long, value_name = "E")]
+    pub exposure: Option<f32>,
+}
+
+/// `--layers`: what the EXR holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Layers {
+    /// The frame's radiosity, all groups together.
+    All,
+    /// One layer per light group.
+    Groups,
+}
+
+/// What the output's extension asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Format {
+    Exr,
+    Glb,
+    Gltf,
+}
+
+pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<()> {
+    let format = format(&a.output)?;
+    check_flags(a, format)?;
+    let op = Operator::load(&a.file).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
+    let lighting = a.emission.lighting(&op)?;
+    match format {
+        Format::Exr => export_exr(a, &op, &lighting, out),
+        Format::Glb | Format::Gltf => export_gltf(a, &op, &lighting, format == Format::Glb, out),
+    }
+}
+
+fn format(path: &Path) -> Result<Format> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("exr") => Ok(Format::Exr),
+        Some("glb") => Ok(Format::Glb),
+        Some("gltf") => Ok(Format::Gltf),
+        _ => bail!(
+            "{}: unknown export format; the extension chooses it: .exr (lightmap), .glb or .gltf (scene)",
+            path.display()
+        ),
+    }
+}
+
+/// Flags that do not apply to the format are errors, not silently ignored.
+fn check_flags(a: &ExportArgs, format: Format) -> Result<()> {
+    let name = a.output.display();
+    if format == Format::Exr {
+        if a.lightmap {
+            bail!("--lightmap is for glTF outputs ({name} is an EXR lightmap already)");
+        }
+        if a.exposure.is_some() {
+            bail!("--exposure is for glTF outputs (an EXR holds B/π unscaled)");
+        }
+    } else {
+        if a.layers != Layers::All {
+            bail!("--layers groups is for EXR outputs, not {name}");
+        }
+        if !a.lightmap && (a.size.is_some() || a.texel_density.is_some()) {
+            bail!("--size and --texel-density size a lightmap: add --lightmap for {name}");
+        }
+        if let Some(e) = a.exposure
+            && !(e.is_finite() && e > 0.0)
+        {
+            bail!("--exposure {e}: must be a finite number > 0");
+        }
+    }
+    Ok(())
+}
+
+/// The charts of the file and their layout as the flags ask.
+fn lay_out(a: &ExportArgs, op: &Operator) -> Result<(Vec<Chart>, Layout)> {
+    let charts = charts::charts(&op.file().geometry);
+    let sizing = match (a.size, a.texel_density) {
+        (_, Some(t)) => Sizing::Density(t),
+        (Some(n), None) => Sizing::Size(n),
+        (None, None) => Sizing::Size(1024),
+    };
+    let layout = atlas::pack(&charts, sizing, a.padding)?;
+    Ok((charts, layout))
+}
+
+/// The atlas of the exitant radiance `B/π` of `radiosity` (per element, original ids).
+pub fn radiance_atlas(
+    op: &Operator,
+    charts: &[Chart],
+    layout: &Layout,
+    radiosity: &[[f32; 3]],
+) -> Atlas {
+    let field = Field::new(op.file(), radiosity);
+    let value = |s: usize, p: glam::DVec3| {
+        (!field.hidden(s)).then(|| field.at(s, p).map(|v| v / std::f32::consts::PI))
+    };
+    raster::rasterise(&op.file().geometry, charts, layout, &value)
+}
+
+fn export_exr(
+    a: &ExportArgs,
+    op: &Operator,
+    lighting: &Lighting,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let (charts, layout) = lay_out(a, op)?;
+    let frames = match a.layers {
+        Layers::All => vec![(None, radiosity_cpu(op, lighting)?)],
+        Layers::Groups => group_frames(op, lighting)?,
+    };
+    let atlases: Vec<(Option<String>, Atlas)> = frames
+        .iter()
+        .map(|(name, b)| (name.clone(), radiance_atlas(op, &charts, &layout, b)))
+        .collect();
+    let layers: Vec<RgbLayer> = atlases
+        .iter()
+        .map(|(name, atlas)| RgbLayer {
+            name: name.as_deref(),
+            pixels: &atlas.pixels,
+        })
+        .collect();
+    let note = format!(
+        "exitant radiance B/pi (linear RGB, emission units per sr), reconstruction {}, \
+         {} charts, {:.6} texels per scene unit, padding {}",
+        Field::new(op.file(), &frames[0].1).method(),
+        charts.len(),
+        layout.density,
+        layout.padding
+    );
+    exr_image::write_rgb(
+        &a.output,
+        layout.width,
+        layout.height,
+        &layers,
+        a.samples,
+        &note,
+    )?;
+    writeln!(
+        out,
+        "wrote {}: {}×{} texels, {} layer(s), {} charts at {:.4} texels per scene unit",
+        a.output.display(),
+        layout.width,
+        layout.height,
+        layers.len(),
+        charts.len(),
+        layout.density
+    )?;
+    Ok(())
+}
+
+/// A named frame's radiosity per element (original ids); no name: all groups together.
+type Frame = (Option<String>, Vec<[f32; 3]>);
+
+/// One frame per light group: the group alone at its intensity (1 unless `--group` says), and
+/// one named `ungrouped` for baked emission outside every group, if any.
+fn group_frames(op: &Operator, lighting: &Lighting) -> Result<Vec<Frame>> {
+    let count = op.light_groups().len();
+    let intensities = match lighting {
+        Lighting::Baked => vec![1.0; count],
+        Lighting::Groups(a) => a.clone(),
+        Lighting::Emission(_) => bail!("--layers groups takes --group intensities, not --emission"),
+    };
+    if count == 0 {
+        bail!("--layers groups: the file has no light groups (re-bake a scene with emitters)");
+    }
+    let mut frames = Vec::new();
+    for (g, name) in op.light_groups().enumerate() {
+        let mut a = vec![0.0; count];
+        a[g] = intensities[g];
+        let mut b = vec![[0.0f32; 3]; op.n()];
+        op.evaluate_groups(&a, RgbMut::triples(&mut b))?;
+        frames.push((Some(name.to_string()), b));
+    }
+    if let Some(rest) = ungrouped_emission(op) {
+        let mut b = vec![[0.0f32; 3]; op.n()];
+        op.evaluate(&rest, &mut b)?;
+        frames.push((Some("ungrouped".to_string()), b));
+    }
+    Ok(frames)
+}
+
+/// The baked emission of elements in no light group (original ids), if any emits.
+fn ungrouped_emission(op: &Operator) -> Option<Vec<[f32; 3]>> {
+    let file = op.file();
+    let mut grouped = vec![false; op.n()];
+    for g in &file.lights {
+        for &s in &g.positions {
+            grouped[s as usize] = true;
+        }
+    }
+    let mut rest = vec![[0.0f32; 3]; op.n()];
+    let mut any = false;
+    for (s, &id) in file.order.iter().enumerate() {
+        let e = [
+            file.emission[3 * s],
+            file.emission[3 * s + 1],
+            file.emission[3 * s + 2],
+        ];
+        if !grouped[s] && e.iter().any(|&v| v > 0.0) {
+            rest[id as usize] = e;
+            any = true;
+        }
+    }
+    any.then_some(rest)
+}
+
+fn export_gltf(
+    a: &ExportArgs,
+    op: &Operator,
+    lighting: &Lighting,
+    binary: bool,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let radiosity = radiosity_cpu(op, lighting)?;
+    let g = &op.file().geometry;
+    let field = Field::new(op.file(), &radiosity);
+    let exposure = a
+        .exposure
+        .unwrap_or_else(|| gltf::auto_exposure(op.file(), &field));
+    let laid_out = if a.lightmap {
+        Some(lay_out(a, op)?)
+    } else {
+        None
+    };
+    let lightmap = match &laid_out {
+        Some((charts, layout)) => {
+            let atlas = radiance_atlas(op, charts, layout, &radiosity);
+            // The atlas holds B/π; the PNG is exposure × that.
+            let png = gltf::png(
+                atlas.width,
+                atlas.height,
+                &atlas.pixels,
+                exposure * std::f32::consts::PI,
+            )?;
+            Some(gltf::Lightmap {
+                charts,
+                layout,
+                png,
+            })
+        }
+        None => None,
+    };
+    let mesh = gltf::mesh(g, &field, exposure, lightmap.as_ref());
+    let note = serde_json::json!({
+        "lrr": {
+            "quantity": "min(1, exposure * B/pi): exitant radiance of the Lambertian surfaces, linear RGB, clamped",
+            "exposure": exposure,
+            "vertex_values": if a.lightmap { "_RADIOSITY" } else { "COLOR_0" },
+            "lightmap": if a.lightmap { "baseColorTexture on TEXCOORD_0 (PNG, sRGB, clamped to 1)" } else { "none" },
+            "reconstruction": field.method(),
+            "source": a.file.display().to_string(),
+        }
+    });
+    let (root, bin) = gltf::document(&mesh, lightmap.as_ref().map(|l| l.png.as_slice()), &note)?;
+    let bytes = gltf::encode(root, bin, binary)?;
+    gltf::write(&a.output, &bytes)?;
+    writeln!(
+        out,
+        "wrote {}: {} vertices, {} triangles, exposure {exposure:.6e} on B/π{}",
+        a.output.display(),
+        mesh.positions.len(),
+        mesh.indices.len() / 3,
+        match &laid_out {
+            Some((charts, layout)) => format!(
+                ", lightmap {}×{} texels ({} charts)",
+                layout.width,
+                layout.height,
+                charts.len()
+            ),
+            None => String::new(),
+        }
+    )?;
+    Ok(())
+}
