@@ -3,7 +3,9 @@
 
 use std::path::Path;
 
-use lrr_formats::{Geometry, Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
+use lrr_formats::{
+    Display, Geometry, Layout, OperatorData, OperatorFile, Precision, Smooth, StoredMatrix,
+};
 
 use serde::Serialize;
 
@@ -45,6 +47,8 @@ pub(crate) struct Skeleton {
     pub surface_at: Vec<u32>,
     /// Per file position: the element's polygon and normal, in f32.
     pub geometry: Geometry,
+    /// The smooth reconstruction weights (`mesh::smooth`).
+    pub smooth: Smooth,
 }
 
 /// What a [`Skeleton`] is cut from (a finished bake, or a shard's meshes).
@@ -61,6 +65,7 @@ pub(crate) struct SkeletonInputs<'a> {
     pub emission: &'a [[f64; 3]],
     pub surfaces: &'a [String],
     pub channels: usize,
+    pub smooth: &'a Smooth,
 }
 
 impl Skeleton {
@@ -111,6 +116,7 @@ impl Skeleton {
             emission: i.emission.to_vec(),
             surface_at: (0..n).map(|s| i.mesh.element_at(s).surface).collect(),
             geometry,
+            smooth: i.smooth.clone(),
         }
     }
 
@@ -127,6 +133,7 @@ impl Skeleton {
             emission: &b.emission,
             surfaces: &b.surfaces,
             channels: b.cores.channels,
+            smooth: &b.smooth,
         })
     }
 
@@ -165,7 +172,10 @@ impl Skeleton {
             emission: flat(&self.emission),
             geometry: self.geometry.clone(),
             lights: Vec::new(),
-            display: Default::default(),
+            display: Display {
+                smooth: Some(self.smooth.clone()),
+                ..Default::default()
+            },
         }
     }
 

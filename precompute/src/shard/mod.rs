@@ -176,6 +176,7 @@ pub fn bake_shard(
             emission: &emission,
             surfaces: &scene.surfaces,
             channels: prepared.channels(),
+            smooth: &prepared.smooth(),
         });
         let skeleton = part::encode_skeleton(&skeleton);
         let header = PartHeader {

@@ -19,7 +19,7 @@ use std::io::{BufReader, BufWriter, Read, Write};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use lrr_formats::{Geometry, Xxh64, checksum};
+use lrr_formats::{Geometry, Smooth, Xxh64, checksum};
 
 use crate::error::{Error, Result};
 use crate::write::{Skeleton, SurfaceRanges};
@@ -334,6 +334,10 @@ pub(crate) fn encode_skeleton(s: &Skeleton) -> Vec<u8> {
     e.bytes(&s.geometry.vertex_count);
     e.f32s(&s.geometry.vertices);
     e.f32s(&s.geometry.normals);
+    for v in [&s.smooth.corners, &s.smooth.offsets, &s.smooth.positions] {
+        e.u64s(v.iter().map(|&x| u64::from(x)));
+    }
+    e.f32s(&s.smooth.weights);
     e.0
 }
 
@@ -384,6 +388,12 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
             vertices: d.f32s()?,
             normals: d.f32s()?,
         },
+        smooth: Smooth {
+            corners: d.u32s()?,
+            offsets: d.u32s()?,
+            positions: d.u32s()?,
+            weights: d.f32s()?,
+        },
     };
     d.end()?;
     let n = skeleton.order.len();
@@ -396,6 +406,7 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
     ]
     .iter()
     .all(|&l| l == n)
+        && skeleton.smooth.corners.len() == 4 * n
         && skeleton.index.len() >= 2
         && skeleton.index[0] == 0
         && skeleton.index.windows(2).all(|w| w[0] <= w[1])

@@ -1,0 +1,290 @@
+//! Smooth reconstruction weights (`lrr_formats::Smooth`): which element corners share a value,
+//! and which element values make it.
+//!
+//! A corner's *smooth vertex* gathers the elements around its position that lie on the same
+//! smooth surface: same surface and material, normals within [`CREASE_DEGREES`], and reached
+//! from the corner's element across edges that leave the position (an edge ray shared by both
+//! elements) and do not lie on a contact line (where `imprint` cut a face because another face
+//! stands on it: the light on its two sides differs). Elements meeting only at the position
+//! (across the corner of a block standing on a floor) are joined only through such edges, so
+//! the lit floor around a block's corner shares one vertex and the dark floor under it another.
+//!
+//! Meshes do not conform everywhere (each imprinted piece and each region is subdivided on its
+//! own): a corner lying inside an edge of a neighbour on the same smooth surface (a
+//! T-junction) also takes that neighbour's value, the edge giving it two rays.
+//!
+//! The value of a smooth vertex is the area-weighted mean of its elements' values (measured
+//! against the path-traced reference, docs/ACCURACY.md: area weights beat corner-angle weights
+//! slightly on all three reference scenes). Positions coincide within `1e-7` of the scene's
+//! extent. Everything runs in file order over maps used only for look-ups: the same mesh
+//! gives the same bytes.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use lrr_formats::Smooth;
+
+use super::element::Element;
+use super::imprint::{Contact, Imprinter};
+use crate::scene::Scene;
+
+/// Largest angle between the normals of two elements that share a smooth vertex (degrees).
+/// Above it the edge is a crease (a box's corner: 90°); below it a tessellated curved surface
+/// is smoothed (the 1 280-triangle sphere's neighbours differ by about 9°).
+pub const CREASE_DEGREES: f64 = 30.0;
+/// Positions closer than this fraction of the scene's extent are one position.
+const POSITION_TOLERANCE: f64 = 1e-7;
+/// Two edge rays are one when their directions' dot product exceeds `1 - RAY_TOLERANCE`.
+const RAY_TOLERANCE: f64 = 1e-9;
+
+/// The smooth reconstruction weights of the fine mesh `elements` (file order) of `scene`.
+pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
+    let tol = POSITION_TOLERANCE * scene.extent().max(f64::MIN_POSITIVE);
+    let (corner_pos, positions) = positions(elements, tol);
+    let incidence = Incidence::new(elements, &positions, &corner_pos, tol);
+    let contacts = contacts_per_face(scene, elements);
+    let cos_crease = CREASE_DEGREES.to_radians().cos();
+    let mut out = Smooth {
+        corners: vec![Smooth::NONE; elements.len() * 4],
+        offsets: vec![0],
+        positions: Vec::new(),
+        weights: Vec::new(),
+    };
+    for (p, &x) in positions.iter().enumerate() {
+        let around = incidence.around(p, x, elements);
+        let joined = |a: &Incident, b: &Incident| {
+            let (ea, eb) = (elements[a.element], elements[b.element]);
+            let m = |e: &Element| scene.faces[e.face as usize].material;
+            ea.surface == eb.surface
+                && m(ea) == m(eb)
+                && ea.polygon.normal.dot(eb.polygon.normal) >= cos_crease
+                && a.shares_free_ray(b, x, [&contacts[&ea.face][..], &contacts[&eb.face][..]], tol)
+        };
+        for group in components(&around, joined) {
+            if !group.iter().any(|&i| around[i].corner.is_some()) {
+                continue; // only T-junction neighbours: no corner takes this value
+            }
+            let vertex = out.offsets.len() as u32 - 1;
+            let total: f64 = group.iter().map(|&i| around[i].weight).sum();
+            for &i in &group {
+                let a = &around[i];
+                if let Some(c) = a.corner {
+                    out.corners[a.element * 4 + c] = vertex;
+                }
+                out.positions.push(a.element as u32);
+                let w = (a.weight / total) as f32;
+                out.weights.push(if w > 0.0 { w } else { f32::MIN_POSITIVE });
+            }
+            out.offsets.push(out.positions.len() as u32);
+        }
+    }
+    out
+}
+
+/// The distinct corner positions (within `tol`) in order of first appearance, and each
+/// corner's position index (`elements.len() * 4`, unused corners `usize::MAX`).
+fn positions(elements: &[&Element], tol: f64) -> (Vec<usize>, Vec<DVec3>) {
+    let cell = |x: DVec3| (x / tol).floor().as_i64vec3().to_array();
+    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    let mut positions: Vec<DVec3> = Vec::new();
+    let mut corner_pos = vec![usize::MAX; elements.len() * 4];
+    for (s, e) in elements.iter().enumerate() {
+        for (i, &v) in e.polygon.vertices().iter().enumerate() {
+            let c = cell(v);
+            let found = neighbours(c)
+                .filter_map(|k| grid.get(&k))
+                .flatten()
+                .copied()
+                .filter(|&p| positions[p].distance(v) <= tol)
+                .min();
+            corner_pos[s * 4 + i] = found.unwrap_or_else(|| {
+                positions.push(v);
+                grid.entry(c).or_default().push(positions.len() - 1);
+                positions.len() - 1
+            });
+        }
+    }
+    (corner_pos, positions)
+}
+
+/// The 27 cells around and including `c`.
+fn neighbours(c: [i64; 3]) -> impl Iterator<Item = [i64; 3]> {
+    (0..27).map(move |i| [c[0] + i % 3 - 1, c[1] + (i / 3) % 3 - 1, c[2] + i / 9 - 1])
+}
+
+/// An element around a position: by a corner, or by an edge the position lies inside.
+#[derive(Debug, Clone, Copy)]
+struct Incident {
+    element: usize,
+    /// The corner at the position; `None`: the position lies inside an edge (a T-junction).
+    corner: Option<usize>,
+    /// Unit directions of the two edges leaving the position, and their lengths.
+    rays: [(DVec3, f64); 2],
+    /// Weight of the element's value at this position (its area).
+    weight: f64,
+}
+
+impl Incident {
+    /// True when `self` and `other` leave the position `x` along one edge that lies on no
+    /// contact segment of either element's face.
+    fn shares_free_ray(&self, other: &Incident, x: DVec3, contacts: [&[Contact]; 2], tol: f64) -> bool {
+        self.rays.iter().any(|&(d, la)| {
+            other.rays.iter().any(|&(e, lb)| {
+                d.dot(e) > 1.0 - RAY_TOLERANCE && {
+                    let mid = x + d * (0.5 * la.min(lb));
+                    !contacts.iter().any(|cs| cs.iter().any(|c| c.holds(mid, d, 10.0 * tol)))
+                }
+            })
+        })
+    }
+}
+
+/// Elements by the grid cells their boxes meet (for T-junction search) and by their corners.
+struct Incidence {
+    cell_size: f64,
+    grid: HashMap<[i64; 3], Vec<usize>>,
+    /// Per position: (element, corner) pairs, in file order.
+    by_position: Vec<Vec<(usize, usize)>>,
+    tol: f64,
+}
+
+impl Incidence {
+    fn new(elements: &[&Element], positions: &[DVec3], corner_pos: &[usize], tol: f64) -> Self {
+        let mut by_position = vec![Vec::new(); positions.len()];
+        for (k, &p) in corner_pos.iter().enumerate() {
+            if p != usize::MAX {
+                by_position[p].push((k / 4, k % 4));
+            }
+        }
+        let mut sizes: Vec<f64> = elements.iter().map(|e| e.polygon.max_edge()).collect();
+        sizes.sort_by(f64::total_cmp);
+        let cell_size = sizes.get(sizes.len() / 2).copied().unwrap_or(1.0).max(tol);
+        let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+        for (s, e) in elements.iter().enumerate() {
+            let v = e.polygon.vertices();
+            let lo = v.iter().fold(v[0], |a, &b| a.min(b)) - DVec3::splat(tol);
+            let hi = v.iter().fold(v[0], |a, &b| a.max(b)) + DVec3::splat(tol);
+            let (a, b) = (
+                (lo / cell_size).floor().as_i64vec3(),
+                (hi / cell_size).floor().as_i64vec3(),
+            );
+            for z in a.z..=b.z {
+                for y in a.y..=b.y {
+                    for x in a.x..=b.x {
+                        grid.entry([x, y, z]).or_default().push(s);
+                    }
+                }
+            }
+        }
+        Self {
+            cell_size,
+            grid,
+            by_position,
+            tol,
+        }
+    }
+
+    /// The elements around position `p` at `x`: those with a corner there, then those with
+    /// `x` inside an edge, each in file order.
+    fn around(&self, p: usize, x: DVec3, elements: &[&Element]) -> Vec<Incident> {
+        let mut out: Vec<Incident> = self.by_position[p]
+            .iter()
+            .map(|&(s, i)| {
+                let v = elements[s].polygon.vertices();
+                let n = v.len();
+                let ray = |to: DVec3| ((to - x).normalize(), (to - x).length());
+                Incident {
+                    element: s,
+                    corner: Some(i),
+                    rays: [ray(v[(i + 1) % n]), ray(v[(i + n - 1) % n])],
+                    weight: elements[s].polygon.area(),
+                }
+            })
+            .collect();
+        let c = (x / self.cell_size).floor().as_i64vec3().to_array();
+        let Some(candidates) = self.grid.get(&c) else {
+            return out;
+        };
+        for &s in candidates {
+            if self.by_position[p].iter().any(|&(e, _)| e == s) {
+                continue;
+            }
+            let v = elements[s].polygon.vertices();
+            for i in 0..v.len() {
+                let (a, b) = (v[i], v[(i + 1) % v.len()]);
+                let ab = b - a;
+                let t = (x - a).dot(ab) / ab.length_squared();
+                let inside = t * ab.length() > self.tol && (1.0 - t) * ab.length() > self.tol;
+                if inside && (a + ab * t).distance(x) <= self.tol {
+                    let d = ab.normalize();
+                    out.push(Incident {
+                        element: s,
+                        corner: None,
+                        rays: [(d, (b - x).length()), (-d, (a - x).length())],
+                        weight: elements[s].polygon.area(),
+                    });
+                    break;
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Groups of `items` connected by `joined` (union-find), each group's members in increasing
+/// index, groups in order of their first member.
+fn components<T>(items: &[T], joined: impl Fn(&T, &T) -> bool) -> Vec<Vec<usize>> {
+    let mut parent: Vec<usize> = (0..items.len()).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for a in 0..items.len() {
+        for b in a + 1..items.len() {
+            if joined(&items[a], &items[b]) {
+                let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+                parent[ra.max(rb)] = ra.min(rb);
+            }
+        }
+    }
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    let mut slot = vec![usize::MAX; items.len()];
+    for i in 0..items.len() {
+        let r = root(&mut parent, i);
+        if slot[r] == usize::MAX {
+            slot[r] = groups.len();
+            groups.push(Vec::new());
+        }
+        groups[slot[r]].push(i);
+    }
+    groups
+}
+
+/// The contact lines (`imprint`) in the plane of each face that has elements.
+fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> HashMap<u32, Vec<Contact>> {
+    let mut bounds: HashMap<u32, (DVec3, DVec3)> = HashMap::new();
+    let mut faces: Vec<u32> = Vec::new();
+    for e in elements {
+        let v = e.polygon.vertices();
+        let lo = v.iter().fold(v[0], |a, &b| a.min(b));
+        let hi = v.iter().fold(v[0], |a, &b| a.max(b));
+        bounds
+            .entry(e.face)
+            .and_modify(|b| *b = (b.0.min(lo), b.1.max(hi)))
+            .or_insert_with(|| {
+                faces.push(e.face);
+                (lo, hi)
+            });
+    }
+    let imprinter = Imprinter::new(&scene.faces);
+    faces
+        .into_iter()
+        .map(|f| {
+            let plane = &scene.faces[f as usize].polygon;
+            (f, imprinter.contacts(plane, bounds[&f], Some(f as usize)))
+        })
+        .collect()
+}
