@@ -34,6 +34,8 @@ pub(super) struct Contact {
     segment: (DVec3, DVec3),
     /// True when the other face passes through the plane (an interpenetration), not along it.
     pub through: bool,
+    /// Index of the other face.
+    pub face: usize,
 }
 
 impl<'f> Imprinter<'f> {
@@ -69,6 +71,7 @@ impl<'f> Imprinter<'f> {
                     plane: *other,
                     segment,
                     through,
+                    face: g,
                 });
             }
         }
