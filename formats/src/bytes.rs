@@ -43,6 +43,15 @@ pub(crate) fn u64_at(bytes: &[u8], at: usize) -> Option<u64> {
     array_at(bytes, at).map(u64::from_le_bytes)
 }
 
+pub(crate) fn f32_at(bytes: &[u8], at: usize) -> Option<f32> {
+    array_at(bytes, at).map(f32::from_le_bytes)
+}
+
+/// Three consecutive `f32` at `at` (zeros past the end: callers check lengths first).
+pub(crate) fn vec3_at(bytes: &[u8], at: usize) -> [f32; 3] {
+    [0, 4, 8].map(|d| f32_at(bytes, at.saturating_add(d)).unwrap_or_default())
+}
+
 /// Decodes `bytes.len() / 4` little-endian `u32` (a trailing partial value is ignored).
 pub(crate) fn u32s(bytes: &[u8]) -> Vec<u32> {
     bytes

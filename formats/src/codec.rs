@@ -12,13 +12,14 @@ use std::path::Path;
 
 use crate::atomic::{write_atomic, write_atomic_with};
 use crate::bytes::{self, checked_product};
-use crate::container::Container;
+use crate::container::{Container, VERSION_MAJOR};
+use crate::display::Display;
 use crate::error::{ErrorKind, FormatError};
 use crate::file::{Geometry, Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
 use crate::kind;
-use crate::lights;
 use crate::validate::{Sizes, check_dims, check_fk};
 use crate::writer::{ContainerWriter, Streamed};
+use crate::{bvh, cameras, lights, materials, point_lights, smooth};
 
 /// Bytes in the DIMS payload: n, k, channels, precision, layout, 3 reserved, all u32.
 pub(crate) const DIMS_LEN: usize = 32;
@@ -58,6 +59,10 @@ impl OperatorFile {
         write_atomic(path, &bytes)
     }
 }
+
+/// The minor version stamped on files without display sections: the version that describes
+/// them completely, so that they keep the bytes a 1.1 writer gave them.
+pub(crate) const MINOR_WITHOUT_DISPLAY: u16 = 1;
 
 /// Sections before FK in a factored file: METADATA, DIMS, ORDER, INDEX, WEIGHTS.
 const SECTIONS_BEFORE_FK: usize = 5;
@@ -160,6 +165,30 @@ fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter {
         // Optional: a reader of format 1.0 skips it and still evaluates per-element emission.
         w.add(kind::LIGHTS, false, lights::encode(&file.lights));
     }
+    // Format 1.2, all optional: a reader that only evaluates skips them.
+    let d = &file.display;
+    if let Some(s) = &d.smooth {
+        w.add(kind::SMOOTH, false, smooth::encode(s));
+    }
+    if let Some(m) = &d.materials {
+        w.add(kind::MATERIALS, false, materials::encode(m));
+    }
+    if !d.point_lights.is_empty() {
+        w.add(
+            kind::POINT_LIGHTS,
+            false,
+            point_lights::encode(&d.point_lights),
+        );
+    }
+    if !d.cameras.is_empty() {
+        w.add(kind::CAMERAS, false, cameras::encode(&d.cameras));
+    }
+    if let Some(b) = &d.bvh {
+        w.add(kind::BVH, false, bvh::encode(b));
+    }
+    if *d == Display::default() {
+        w.set_version(VERSION_MAJOR, MINOR_WITHOUT_DISPLAY);
+    }
     w
 }
 
@@ -237,6 +266,25 @@ pub(crate) fn decode(c: &Container<'_>) -> Result<OperatorFile, FormatError> {
         Some(payload) => lights::decode(payload, sizes.index - 1)?,
         None => Vec::new(),
     };
+    let display = Display {
+        smooth: c
+            .section(kind::SMOOTH)
+            .map(|p| smooth::decode(p, sizes.n))
+            .transpose()?,
+        materials: c
+            .section(kind::MATERIALS)
+            .map(|p| materials::decode(p, sizes.n))
+            .transpose()?,
+        point_lights: match c.section(kind::POINT_LIGHTS) {
+            Some(p) => point_lights::decode(p)?,
+            None => Vec::new(),
+        },
+        cameras: match c.section(kind::CAMERAS) {
+            Some(p) => cameras::decode(p)?,
+            None => Vec::new(),
+        },
+        bvh: c.section(kind::BVH).map(bvh::decode).transpose()?,
+    };
     Ok(OperatorFile {
         metadata_json,
         n,
@@ -251,7 +299,7 @@ pub(crate) fn decode(c: &Container<'_>) -> Result<OperatorFile, FormatError> {
         emission: bytes::f32s(exact(c, kind::EMISSION, sizes.rgb, 4, "n * 3")?),
         geometry: decode_geometry(require(c, kind::GEOMETRY)?, &sizes)?,
         lights,
-        display: Default::default(),
+        display,
     })
 }
 
@@ -365,16 +413,43 @@ fn unknown_code(field: &str, code: u32) -> FormatError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testdata::sample;
+    use crate::testdata::{display_sample, sample};
 
     #[test]
     fn round_trip_is_exact() {
-        for file in [sample(Precision::F32, 3), sample(Precision::F16, 1)] {
+        for file in [
+            sample(Precision::F32, 3),
+            sample(Precision::F16, 1),
+            display_sample(),
+        ] {
             let bytes = encode(&file);
             let back = decode(&Container::parse(&bytes).unwrap()).unwrap();
             assert_eq!(back, file);
             assert_eq!(encode(&back), bytes);
         }
+    }
+
+    #[test]
+    fn version_is_the_lowest_that_describes_the_file() {
+        let plain = encode(&sample(Precision::F32, 3));
+        assert_eq!(Container::parse(&plain).unwrap().version(), (1, 1));
+        let full = encode(&display_sample());
+        let c = Container::parse(&full).unwrap();
+        assert_eq!(c.version(), (1, crate::VERSION_MINOR));
+        let display = [
+            kind::SMOOTH,
+            kind::MATERIALS,
+            kind::POINT_LIGHTS,
+            kind::CAMERAS,
+            kind::BVH,
+        ];
+        assert_eq!(c.kinds().collect::<Vec<_>>()[11..], display);
+        assert!(c.sections()[11..].iter().all(|s| !s.required()));
+        // Any one display section makes a 1.2 file.
+        let mut one = sample(Precision::F32, 3);
+        one.display.cameras = display_sample().display.cameras;
+        let c_bytes = encode(&one);
+        assert_eq!(Container::parse(&c_bytes).unwrap().version(), (1, 2));
     }
 
     #[test]

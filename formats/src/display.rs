@@ -26,8 +26,8 @@ pub struct Smooth {
     /// `n * 4`: the smooth vertex of each element corner, file order; the unused fourth corner
     /// of a triangle is [`Smooth::NONE`]. Every used corner names a vertex `< offsets.len() - 1`.
     pub corners: Vec<u32>,
-    /// `V + 1` offsets, `offsets[0] = 0`, non-decreasing, last = `positions.len()`: smooth vertex
-    /// `v` sums `positions[offsets[v]..offsets[v + 1]]` (at least one each).
+    /// `V + 1` offsets, `offsets[0] = 0`, increasing (at least one position per vertex), last =
+    /// `positions.len()`: smooth vertex `v` sums `positions[offsets[v]..offsets[v + 1]]`.
     pub offsets: Vec<u32>,
     /// File positions (`< n`) contributing to each smooth vertex.
     pub positions: Vec<u32>,

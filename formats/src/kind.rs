@@ -1,7 +1,8 @@
 //! Section kinds: the `u32` codes in the section table.
 //!
 //! Every kind listed here is known to this reader. The writer marks all of them *required* except
-//! [`LIGHTS`] (optional, so that readers of format 1.0 skip it); a reader that meets a required
+//! [`LIGHTS`] (optional, so that readers of format 1.0 skip it) and the display sections of format
+//! 1.2, [`SMOOTH`] to [`BVH`] (optional: a reader that only evaluates skips them); a reader that meets a required
 //! kind it does not know refuses the file, and skips unknown optional ones. New kinds take new
 //! codes; a code is never reused for another meaning.
 
@@ -30,10 +31,22 @@ pub const GEOMETRY: u32 = 10;
 pub const YK: u32 = 11;
 /// Light groups: names, positions, emission and `Vᵀ E_g` (format 1.1, optional).
 pub const LIGHTS: u32 = 12;
+/// Smooth reconstruction weights: corners -> smooth vertices -> weighted elements (format 1.2,
+/// optional).
+pub const SMOOTH: u32 = 13;
+/// Materials for display and the material of every element (format 1.2, optional).
+pub const MATERIALS: u32 = 14;
+/// Point lights: position, intensity, light group (format 1.2, optional).
+pub const POINT_LIGHTS: u32 = 15;
+/// Pinhole cameras (format 1.2, optional).
+pub const CAMERAS: u32 = 16;
+/// The flattened binary BVH over the display triangles (format 1.2, optional).
+pub const BVH: u32 = 17;
 
 /// Every kind this reader knows, by code. The writer stores them in this order, leaving out the
-/// operator sections of the other layout (FK and CORES, or YK) and an empty LIGHTS.
-pub const KNOWN: [u32; 12] = [
+/// operator sections of the other layout (FK and CORES, or YK), an empty LIGHTS and the display
+/// sections the file lacks.
+pub const KNOWN: [u32; 17] = [
     METADATA,
     DIMS,
     ORDER,
@@ -46,6 +59,11 @@ pub const KNOWN: [u32; 12] = [
     GEOMETRY,
     YK,
     LIGHTS,
+    SMOOTH,
+    MATERIALS,
+    POINT_LIGHTS,
+    CAMERAS,
+    BVH,
 ];
 
 /// The name of a known kind (`"FK"`), `None` for unknown codes.
@@ -63,6 +81,11 @@ pub fn name(kind: u32) -> Option<&'static str> {
         GEOMETRY => "GEOMETRY",
         YK => "YK",
         LIGHTS => "LIGHTS",
+        SMOOTH => "SMOOTH",
+        MATERIALS => "MATERIALS",
+        POINT_LIGHTS => "POINT_LIGHTS",
+        CAMERAS => "CAMERAS",
+        BVH => "BVH",
         _ => return None,
     })
 }
@@ -94,5 +117,7 @@ mod tests {
         assert_eq!(name(0), None);
         assert_eq!(describe(99), "kind 99");
         assert_eq!(describe(CORES), "CORES (kind 7)");
+        assert_eq!(describe(BVH), "BVH (kind 17)");
+        assert_eq!(KNOWN.last(), Some(&BVH));
     }
 }

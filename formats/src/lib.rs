@@ -10,7 +10,7 @@
 //! - [`OperatorFile`]: the decoded, validated operator (see DESIGN.md §2 for the maths:
 //!   `B~_c = E_c + rho_c ⊙ F_k M_c (Vᵀ E_c)`, or `B~_c = E_c - Y_c (Vᵀ E_c)` in the plain layout).
 //!
-//! # Layout, version 1.1
+//! # Layout, version 1.2
 //!
 //! All integers little-endian. The header (64 bytes):
 //!
@@ -43,7 +43,8 @@
 //! ends with the last payload. The checksums detect corruption (any single changed byte for
 //! certain), not tampering: anyone can recompute them.
 //!
-//! The sections of an operator file, all written as required except LIGHTS:
+//! The sections of an operator file, all written as required except LIGHTS and the display
+//! sections (13 to 17), which are optional:
 //!
 //! | kind | name | payload |
 //! |-----:|------|---------|
@@ -59,6 +60,11 @@
 //! | 10 | [`GEOMETRY`](kind::GEOMETRY) | `n` × u8 vertex counts, zero-padded to 4 bytes; `n * 12` × f32 vertices; `n * 3` × f32 normals |
 //! | 11 | [`YK`](kind::YK) | plain layout only (1.1): `channels * n * k` × f32 or u16 (binary16): channel-major, each channel `n x k` row-major, rows in file order |
 //! | 12 | [`LIGHTS`](kind::LIGHTS) | optional (1.1), absent when there are no groups: the light groups, see below |
+//! | 13 | [`SMOOTH`](kind::SMOOTH) | optional (1.2): smooth reconstruction weights ([`Smooth`]), see below |
+//! | 14 | [`MATERIALS`](kind::MATERIALS) | optional (1.2): materials for display and each element's ([`Materials`]) |
+//! | 15 | [`POINT_LIGHTS`](kind::POINT_LIGHTS) | optional (1.2), absent when there are none: [`PointLight`]s |
+//! | 16 | [`CAMERAS`](kind::CAMERAS) | optional (1.2), absent when there are none: [`Camera`]s |
+//! | 17 | [`BVH`](kind::BVH) | optional (1.2): the flattened BVH over the display triangles ([`Bvh`]) |
 //!
 //! The factored layout stores FK and CORES and no YK; the plain layout stores YK and neither FK
 //! nor CORES. A file holding a section of the other layout is refused.
@@ -87,6 +93,44 @@
 //!
 //! The payload ends with the last record.
 //!
+//! ## The display sections (1.2)
+//!
+//! What a renderer needs beyond the radiosity (see [`Display`] for their meaning, the fan
+//! triangulation of GEOMETRY that numbers the display triangles, and every invariant). Every
+//! field is naturally aligned: each payload is a head of two u32, fixed-size records of 4-byte
+//! fields, and (last) names as UTF-8 bytes. A reader skips a reserved word.
+//!
+//! SMOOTH, with `V` smooth vertices and `P` (element, weight) pairs:
+//!
+//! | offset | size | field |
+//! |-------:|-----:|-------|
+//! | 0 | 4 | `V` |
+//! | 4 | 4 | `P` |
+//! | 8 | `16 n` | corners: `n * 4` × u32, the smooth vertex of each element corner ([`Smooth::NONE`] for a triangle's 4th) |
+//! | then | `4 (V + 1)` | offsets: u32, vertex `v` sums pairs `offsets[v]..offsets[v + 1]` |
+//! | then | `4 P` | positions: u32, file positions |
+//! | then | `4 P` | weights: f32 |
+//!
+//! MATERIALS, POINT_LIGHTS and CAMERAS share one shape: a head of the record count and a
+//! reserved word, the records, a block (MATERIALS only: `n` × u32, the material of each file
+//! position), then every record's name in record order, back to back (the record holds its
+//! byte length `L`; no padding); the payload ends with the last name. Records:
+//!
+//! | section | bytes | fields (offset: f32 × 3 or one 4-byte word) |
+//! |---------|------:|--------|
+//! | MATERIALS | 64 | 0 diffuse, 12 shininess, 16 specular, 28 ior, 32 mirror, 44 `L` (u32), 48 transmission, 60 reserved |
+//! | POINT_LIGHTS | 32 | 0 position, 12 group (u32; [`PointLight::FIXED`]: none), 16 intensity, 28 `L` (u32) |
+//! | CAMERAS | 48 | 0 eye, 12 fov_y_deg, 16 target, 28 `L` (u32), 32 up, 44 reserved |
+//!
+//! BVH, with `N` nodes over `T` display triangles:
+//!
+//! | offset | size | field |
+//! |-------:|-----:|-------|
+//! | 0 | 4 | `N` |
+//! | 4 | 4 | `T` (the triangle count of GEOMETRY) |
+//! | 8 | `32 N` | nodes: min (f32 × 3), first (u32), max (f32 × 3), count (u32); node 0 the root |
+//! | then | `4 T` | triangle ids (u32) in leaf order |
+//!
 //! # Compatibility
 //!
 //! A reader refuses another major version, naming both versions. It reads any minor version of
@@ -94,7 +138,10 @@
 //! refuse, with an error, when they are marked required. Version 1.1 added the plain layout
 //! (layout code 1, section YK, required) and light groups (LIGHTS, optional): a 1.0 reader
 //! refuses plain files and reads factored files with light groups as if they had none; this
-//! reader reads 1.0 files unchanged.
+//! reader reads 1.0 files unchanged. Version 1.2 added the display sections SMOOTH, MATERIALS,
+//! POINT_LIGHTS, CAMERAS and BVH, all optional: a 1.1 reader evaluates a 1.2 file as if they
+//! were not there. A file is stamped with the lowest minor version that describes it: 1.1
+//! without display sections (the bytes a 1.1 writer gave), 1.2 with any.
 //!
 //! A reader also refuses ([`ErrorKind`] says which kind of fault): a wrong magic; a table or
 //! payload past the end of the file; a payload offset that is misaligned or inside the table;
@@ -164,7 +211,9 @@
 #![warn(missing_docs)]
 
 mod atomic;
+mod bvh;
 mod bytes;
+mod cameras;
 mod checksum;
 mod codec;
 mod container;
@@ -175,6 +224,10 @@ mod file;
 mod half;
 pub mod kind;
 mod lights;
+mod materials;
+mod point_lights;
+mod records;
+mod smooth;
 #[cfg(test)]
 mod testdata;
 mod validate;

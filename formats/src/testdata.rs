@@ -1,6 +1,7 @@
 //! A small valid operator for unit tests (tests/corrupt.rs keeps its own copy: it sees only the
 //! public API).
 
+use crate::display::{Bvh, BvhNode, Camera, Display, Material, Materials, PointLight, Smooth};
 use crate::file::{Geometry, OperatorData, OperatorFile, Precision, StoredMatrix};
 use crate::half::f32_to_f16;
 
@@ -57,4 +58,105 @@ pub(crate) fn plain_sample(precision: Precision, channels: u32) -> OperatorFile 
         },
         ..sample(precision, channels)
     }
+}
+
+/// [`sample`] (f32, RGB) with a light group "lamp" and every display section: smooth vertices at
+/// the shared corners (elements side by side along x), materials "white" and "glass", point
+/// lights "key" (group 0) and "fill" (fixed), cameras "front" and "top", and a BVH of 5 nodes
+/// over the 9 display triangles.
+pub(crate) fn display_sample() -> OperatorFile {
+    let mut f = sample(Precision::F32, 3);
+    let lamp = f.light_group("lamp", vec![0], vec![5.0; 3]).unwrap();
+    f.lights.push(lamp);
+    // Corner (x, 0) is smooth vertex x, corner (x, 1) is 7 + x.
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); 14];
+    let mut corners = Vec::new();
+    for (e, &count) in f.geometry.vertex_count.iter().enumerate() {
+        for j in 0..4 {
+            if j >= usize::from(count) {
+                corners.push(Smooth::NONE);
+                continue;
+            }
+            let at = e * 12 + j * 3;
+            let (x, y) = (f.geometry.vertices[at], f.geometry.vertices[at + 1]);
+            let v = x as u32 + 7 * y as u32;
+            members[v as usize].push(e as u32);
+            corners.push(v);
+        }
+    }
+    let mut smooth = Smooth {
+        corners,
+        offsets: vec![0],
+        ..Smooth::default()
+    };
+    for m in &members {
+        smooth.positions.extend(m);
+        smooth
+            .weights
+            .extend(m.iter().map(|_| 1.0 / m.len() as f32));
+        smooth.offsets.push(smooth.positions.len() as u32);
+    }
+    let glass = Material {
+        specular: [0.5; 3],
+        shininess: 20.0,
+        mirror: [0.1, 0.1, 0.1],
+        transmission: [0.9, 0.95, 1.0],
+        ior: 1.5,
+        ..Material::diffuse("glass", [0.05; 3])
+    };
+    let node = |min: [f32; 3], max: [f32; 3], first, count| BvhNode {
+        min,
+        max,
+        first,
+        count,
+    };
+    f.display = Display {
+        smooth: Some(smooth),
+        materials: Some(Materials {
+            materials: vec![Material::diffuse("white", [0.7; 3]), glass],
+            element_material: vec![0, 0, 1, 0, 0, 1],
+        }),
+        point_lights: vec![
+            PointLight {
+                name: "key".into(),
+                position: [3.0, 0.5, 2.0],
+                intensity: [10.0, 9.0, 8.0],
+                group: 0,
+            },
+            PointLight {
+                name: "fill".into(),
+                position: [-1.0, 0.5, 2.0],
+                intensity: [1.0; 3],
+                group: PointLight::FIXED,
+            },
+        ],
+        cameras: vec![
+            Camera {
+                name: "front".into(),
+                eye: [3.0, 0.5, 5.0],
+                target: [3.0, 0.5, 0.0],
+                up: [0.0, 1.0, 0.0],
+                fov_y_deg: 45.0,
+            },
+            Camera {
+                name: "top".into(),
+                eye: [3.0, 5.0, 0.5],
+                target: [3.0, 0.0, 0.5],
+                up: [0.0, 0.0, -1.0],
+                fov_y_deg: 60.0,
+            },
+        ],
+        // Elements 0-2 (triangles 0-4) left, 3 (triangle 5) and 4-5 (triangles 6-8) right.
+        bvh: Some(Bvh {
+            nodes: vec![
+                node([0.0; 3], [6.0, 1.0, 0.0], 1, 0),
+                node([0.0; 3], [3.0, 1.0, 0.0], 0, 5),
+                node([3.0, 0.0, 0.0], [6.0, 1.0, 0.0], 3, 0),
+                node([3.0, 0.0, 0.0], [4.0, 1.0, 0.0], 5, 1),
+                node([4.0, 0.0, 0.0], [6.0, 1.0, 0.0], 6, 3),
+            ],
+            triangles: vec![4, 3, 2, 1, 0, 5, 6, 7, 8],
+        }),
+    };
+    f
 }

@@ -8,7 +8,7 @@ use crate::bytes::checked_product;
 use crate::error::FormatError;
 use crate::file::{OperatorData, OperatorFile, StoredMatrix};
 use crate::half::f16_to_f32;
-use crate::lights;
+use crate::{bvh, cameras, lights, materials, point_lights, smooth};
 
 /// How far a stored normal's length may be from 1.
 const NORMAL_TOLERANCE: f64 = 1e-3;
@@ -105,7 +105,25 @@ impl OperatorFile {
         )?;
         check_rgb("EMISSION", &f.emission, |v| v >= 0.0, ">= 0")?;
         check_geometry(f)?;
-        lights::check(f)
+        lights::check(f)?;
+        check_display(f)
+    }
+}
+
+/// The display sections (format 1.2), each against the file's elements and light groups.
+fn check_display(f: &OperatorFile) -> Result<(), FormatError> {
+    let d = &f.display;
+    if let Some(s) = &d.smooth {
+        smooth::check(f, s)?;
+    }
+    if let Some(m) = &d.materials {
+        materials::check(f, m)?;
+    }
+    point_lights::check(f, &d.point_lights)?;
+    cameras::check(&d.cameras)?;
+    match &d.bvh {
+        Some(b) => bvh::check(f, b),
+        None => Ok(()),
     }
 }
 

@@ -2,9 +2,12 @@
 
 mod common;
 
-use common::{entry_at, entry_of, rebuild, reseal, samples, set_entry_u64, table_end, with_word};
+use common::{
+    DISPLAY_KINDS, entry_at, entry_of, rebuild, reseal, samples, set_entry_u64, table_end,
+    with_word,
+};
 use lrr_formats::{
-    Container, ContainerWriter, ErrorKind, FormatError, Layout, OperatorFile, Precision,
+    Container, ContainerWriter, Display, ErrorKind, FormatError, Layout, OperatorFile, Precision,
     f32_to_f16, kind,
 };
 
@@ -19,14 +22,17 @@ fn round_trip_is_byte_exact() {
         let back = OperatorFile::from_bytes(&bytes).unwrap();
         assert_eq!(back, file);
         assert_eq!(back.to_bytes().unwrap(), bytes);
-        // Payloads are aligned, so they can be used in place; only LIGHTS is optional.
+        // Payloads are aligned, so they can be used in place; LIGHTS and the display sections
+        // are optional.
         let c = Container::parse(&bytes).unwrap();
         assert!(c.sections().iter().all(|s| s.offset % 64 == 0));
+        let optional = |k| k == kind::LIGHTS || DISPLAY_KINDS.contains(&k);
         assert!(
             c.sections()
                 .iter()
-                .all(|s| s.required() == (s.kind != kind::LIGHTS))
+                .all(|s| s.required() != optional(s.kind))
         );
+        let display = file.display != Display::default();
         let expected: Vec<u32> = kind::KNOWN
             .into_iter()
             .filter(|&k| match file.layout() {
@@ -34,9 +40,11 @@ fn round_trip_is_byte_exact() {
                 Layout::PlainYk => k != kind::FK && k != kind::CORES,
             })
             .filter(|&k| k != kind::LIGHTS || !file.lights.is_empty())
+            .filter(|&k| !DISPLAY_KINDS.contains(&k) || display)
             .collect();
         assert_eq!(c.kinds().collect::<Vec<_>>(), expected);
-        assert_eq!(c.version(), (1, 1));
+        // A file is stamped with the lowest minor version that describes it.
+        assert_eq!(c.version(), (1, if display { 2 } else { 1 }));
     }
 }
 

@@ -5,8 +5,9 @@
 #![allow(dead_code)] // each test binary uses a different part
 
 use lrr_formats::{
-    ALIGN, Container, ContainerWriter, Geometry, HEADER_CHECKSUM_OFFSET, HEADER_LEN, OperatorData,
-    OperatorFile, Precision, SECTION_ENTRY_LEN, StoredMatrix, checksum,
+    ALIGN, Bvh, BvhNode, Camera, Container, ContainerWriter, Display, Geometry,
+    HEADER_CHECKSUM_OFFSET, HEADER_LEN, Material, Materials, OperatorData, OperatorFile,
+    PointLight, Precision, SECTION_ENTRY_LEN, Smooth, StoredMatrix, checksum,
 };
 
 /// n = 6 elements in k = 2 patches; elements 1, 3, 5 are triangles, the others quads.
@@ -69,16 +70,109 @@ pub fn with_lights(mut file: OperatorFile) -> OperatorFile {
     file
 }
 
+/// Every display section (format 1.2) on `file` (the elements of `sample`, light groups as
+/// `with_lights`): smooth vertices at shared corners, two materials, a point light following
+/// group 1 and a fixed one, one camera and a BVH of three nodes over the 9 display triangles.
+pub fn with_display(mut file: OperatorFile) -> OperatorFile {
+    // Corner (x, y) of the strip of unit elements along x is smooth vertex x + 7 y.
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); 14];
+    let mut corners = Vec::new();
+    for (e, &count) in file.geometry.vertex_count.iter().enumerate() {
+        for j in 0..4 {
+            let at = e * 12 + j * 3;
+            let (x, y) = (file.geometry.vertices[at], file.geometry.vertices[at + 1]);
+            let v = x as u32 + 7 * y as u32;
+            if j < usize::from(count) {
+                members[v as usize].push(e as u32);
+                corners.push(v);
+            } else {
+                corners.push(Smooth::NONE);
+            }
+        }
+    }
+    let mut smooth = Smooth {
+        corners,
+        offsets: vec![0],
+        ..Smooth::default()
+    };
+    for m in &members {
+        smooth.positions.extend(m);
+        smooth
+            .weights
+            .extend(m.iter().map(|_| 1.0 / m.len() as f32));
+        smooth.offsets.push(smooth.positions.len() as u32);
+    }
+    let mirror = Material {
+        mirror: [0.8, 0.85, 0.9],
+        specular: [0.2; 3],
+        shininess: 50.0,
+        ..Material::diffuse("mirror ✨", [0.1; 3])
+    };
+    let node = |min, max, first, count| BvhNode {
+        min,
+        max,
+        first,
+        count,
+    };
+    file.display = Display {
+        smooth: Some(smooth),
+        materials: Some(Materials {
+            materials: vec![Material::diffuse("wall", [0.5; 3]), mirror],
+            element_material: vec![1, 0, 0, 0, 0, 1],
+        }),
+        point_lights: vec![
+            PointLight {
+                name: "bulb".into(),
+                position: [1.0, 2.0, 3.0],
+                intensity: [4.0, 4.0, 4.0],
+                group: 1,
+            },
+            PointLight {
+                name: String::new(),
+                position: [-1.0, 2.0, 3.0],
+                intensity: [0.5, 0.0, 0.25],
+                group: PointLight::FIXED,
+            },
+        ],
+        cameras: vec![Camera {
+            name: String::new(),
+            eye: [3.0, 0.5, 4.0],
+            target: [3.0, 0.5, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: 40.0,
+        }],
+        bvh: Some(Bvh {
+            nodes: vec![
+                node([0.0; 3], [6.0, 1.0, 0.0], 1, 0),
+                node([0.0; 3], [3.0, 1.0, 0.0], 0, 5),
+                node([3.0, 0.0, 0.0], [6.0, 1.0, 0.0], 5, 4),
+            ],
+            triangles: vec![0, 1, 2, 3, 4, 8, 7, 6, 5],
+        }),
+    };
+    file
+}
+
 /// Every kind of file: f32 RGB factored with light groups, f16 grey factored, f16 RGB plain with
-/// light groups, f32 grey plain.
-pub fn samples() -> [OperatorFile; 4] {
+/// light groups, f32 grey plain, and f32 RGB factored with light groups and every display section.
+pub fn samples() -> [OperatorFile; 5] {
     [
         with_lights(sample(Precision::F32, 3)),
         sample(Precision::F16, 1),
         with_lights(plain_sample(Precision::F16, 3)),
         plain_sample(Precision::F32, 1),
+        with_display(with_lights(sample(Precision::F32, 3))),
     ]
 }
+
+/// The display sections of format 1.2, in the order they are written.
+pub const DISPLAY_KINDS: [u32; 5] = [
+    lrr_formats::kind::SMOOTH,
+    lrr_formats::kind::MATERIALS,
+    lrr_formats::kind::POINT_LIGHTS,
+    lrr_formats::kind::CAMERAS,
+    lrr_formats::kind::BVH,
+];
 
 pub fn u32_at(bytes: &[u8], at: usize) -> u32 {
     u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap())
