@@ -1,4 +1,5 @@
-//! `lrr probe`: radiosity at surface points.
+//! `lrr probe`: radiosity at surface points, smooth (interpolated from the file's per-vertex
+//! weights, `lrr_runtime::Reconstruction`) or flat (the value of the element the point falls in).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -6,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lrr_runtime::gpu::{Gpu, GpuError, GpuEvaluator, GpuOptions};
-use lrr_runtime::{Operator, Rgb, RgbMut};
+use lrr_runtime::{Operator, Reconstruction, Rgb, RgbMut};
 use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Args)]
@@ -23,6 +24,20 @@ pub struct ProbeArgs {
     /// none is usable) or `auto` (the GPU when there is one, else the CPU, saying so).
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     pub device: Device,
+    /// How a point's value comes from the element values: `smooth` (per-vertex values
+    /// interpolated inside the element; the default when the file has smooth weights) or
+    /// `flat` (the value of the element the point falls in; the default otherwise, saying so).
+    #[arg(long, value_enum)]
+    pub reconstruct: Option<Reconstruct>,
+}
+
+/// `--reconstruct`: the value at a point from the element values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Reconstruct {
+    /// The constant value of the element the point falls in.
+    Flat,
+    /// Smooth-vertex values interpolated by mean value coordinates (section SMOOTH).
+    Smooth,
 }
 
 /// `--device`: which evaluator computes the frame.
@@ -84,6 +99,28 @@ struct Probe {
     element: u32,
 }
 
+/// The smooth reconstruction `--reconstruct` asks for (`None`: flat).
+fn reconstruction<'f>(op: &'f Operator, a: &ProbeArgs) -> Result<Option<Reconstruction<'f>>> {
+    let has_smooth = op.file().display.smooth.is_some();
+    match a.reconstruct {
+        Some(Reconstruct::Flat) => Ok(None),
+        Some(Reconstruct::Smooth) if !has_smooth => bail!(
+            "{}: --reconstruct smooth needs the smooth weights (section SMOOTH) that bakes of \
+             format 1.2 carry; re-bake the file with this lrr, or use --reconstruct flat",
+            a.file.display()
+        ),
+        None if !has_smooth => {
+            eprintln!(
+                "lrr: note: {} has no smooth weights (section SMOOTH; re-bake to get them): \
+                 probing the flat reconstruction",
+                a.file.display()
+            );
+            Ok(None)
+        }
+        _ => Ok(Some(Reconstruction::new(op.file())?)),
+    }
+}
+
 pub fn run(a: &ProbeArgs, out: &mut dyn Write) -> Result<()> {
     let op = Operator::load(&a.file).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     let text = std::fs::read_to_string(&a.points)
@@ -103,15 +140,25 @@ pub fn run(a: &ProbeArgs, out: &mut dyn Write) -> Result<()> {
         }
     }
     let radiosity = radiosity(&op, a.device)?;
+    let smooth = reconstruction(&op, a)?;
+    let mut vertices = Vec::new();
+    if let Some(r) = &smooth {
+        vertices = vec![[0.0f32; 3]; r.vertex_count()];
+        r.vertex_values(&radiosity, &mut vertices)?;
+    }
     let probes: Vec<Probe> = points
         .iter()
         .map(|p| {
-            let element = op
-                .locate(p.position, p.normal)
+            let position = op
+                .locate_position(p.position, p.normal)
                 .expect("an operator has at least one element");
+            let element = op.file().order[position];
             Probe {
                 position: p.position,
-                radiosity: radiosity[element as usize],
+                radiosity: match &smooth {
+                    Some(r) => r.at(&vertices, position, p.position),
+                    None => radiosity[element as usize],
+                },
                 element,
             }
         })

@@ -135,7 +135,11 @@ fn check(s: &Smooth, n: usize, counts: &[u8]) -> Result<(), RuntimeError> {
     for (k, &c) in s.corners.iter().enumerate() {
         let used = k % 4 < usize::from(counts[k / 4]);
         if used && c as usize >= vertices {
-            return bad(&format!("corner {} of element {} names no vertex", k % 4, k / 4));
+            return bad(&format!(
+                "corner {} of element {} names no vertex",
+                k % 4,
+                k / 4
+            ));
         }
     }
     let offsets_ok = s.offsets.first() == Some(&0)
@@ -430,7 +434,10 @@ mod tests {
                 let a = r.at(&v, left, [1.0, y as f32, 0.0]);
                 let c = r.at(&v, right, [1.0, y as f32, 0.0]);
                 for k in 0..3 {
-                    assert!((a[k] - c[k]).abs() <= 1e-5 * (1.0 + a[k].abs()), "{a:?} {c:?}");
+                    assert!(
+                        (a[k] - c[k]).abs() <= 1e-5 * (1.0 + a[k].abs()),
+                        "{a:?} {c:?}"
+                    );
                 }
             }
         }
@@ -439,7 +446,12 @@ mod tests {
     #[test]
     fn mean_value_coordinates_reproduce_position_and_clamp_outside() {
         let n = [0.0, 0.0, 1.0];
-        let quad = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.5, 1.0, 0.0], [-0.5, 1.5, 0.0]];
+        let quad = [
+            [0.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [2.5, 1.0, 0.0],
+            [-0.5, 1.5, 0.0],
+        ];
         let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
         for p in points(100) {
             let x = [0.2 + 1.6 * p[0], 0.1 + 0.9 * p[1], 0.3]; // inside the quad, off its plane
@@ -450,10 +462,16 @@ mod tests {
             let x = [0.9 * p[0] * (1.0 - p[1]), 0.9 * p[1], 0.0];
             let w = mean_value_weights(&tri, n, x);
             let bary = [1.0 - x[0] - x[1], x[0], x[1], 0.0];
-            assert!((0..4).all(|i| (w[i] - bary[i]).abs() < 1e-12), "{w:?} {bary:?}");
+            assert!(
+                (0..4).all(|i| (w[i] - bary[i]).abs() < 1e-12),
+                "{w:?} {bary:?}"
+            );
         }
         // on a vertex, on an edge, beyond an edge
-        assert_eq!(mean_value_weights(&tri, n, [1.0, 0.0, 0.0]), [0.0, 1.0, 0.0, 0.0]);
+        assert_eq!(
+            mean_value_weights(&tri, n, [1.0, 0.0, 0.0]),
+            [0.0, 1.0, 0.0, 0.0]
+        );
         let on = mean_value_weights(&tri, n, [0.25, 0.0, 0.0]);
         assert!((on[0] - 0.75).abs() < 1e-12 && (on[1] - 0.25).abs() < 1e-12 && on[2] == 0.0);
         let out = mean_value_weights(&tri, n, [0.25, -0.1, 0.0]);

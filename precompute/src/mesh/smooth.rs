@@ -61,7 +61,13 @@ pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
             ea.surface == eb.surface
                 && m(ea) == m(eb)
                 && ea.polygon.normal.dot(eb.polygon.normal) >= cos_crease
-                && a.shares_free_ray(b, x, [ea.face, eb.face], [&contacts[&ea.face][..], &contacts[&eb.face][..]], tol)
+                && a.shares_free_ray(
+                    b,
+                    x,
+                    [ea.face, eb.face],
+                    [&contacts[&ea.face][..], &contacts[&eb.face][..]],
+                    tol,
+                )
         };
         for group in components(&around, joined) {
             if !group.iter().any(|&i| around[i].corner.is_some()) {
@@ -76,7 +82,8 @@ pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
                 }
                 out.positions.push(a.element as u32);
                 let w = (a.weight / total) as f32;
-                out.weights.push(if w > 0.0 { w } else { f32::MIN_POSITIVE });
+                out.weights
+                    .push(if w > 0.0 { w } else { f32::MIN_POSITIVE });
             }
             out.offsets.push(out.positions.len() as u32);
         }
