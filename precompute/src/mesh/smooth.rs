@@ -312,3 +312,219 @@ fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> HashMap<u32, Vec<C
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::{MeshSizes, fine_mesh};
+    use crate::scene::description::BoxDesc;
+    use crate::scene::procedural;
+    use std::path::Path;
+
+    /// The fine mesh of `scene` at `element_size` and its smooth weights (generation order
+    /// stands in for file order: the weights do not depend on the order).
+    fn mesh_and_weights(scene: &Scene, element_size: f64) -> (Vec<Element>, Smooth) {
+        let sizes = MeshSizes {
+            element_size,
+            patch_size: 4.0 * element_size,
+        };
+        let (elements, _, _) = fine_mesh(scene, sizes).unwrap();
+        let refs: Vec<&Element> = elements.iter().collect();
+        let smooth = weights(scene, &refs);
+        (elements, smooth)
+    }
+
+    /// The elements of each smooth vertex.
+    fn members(s: &Smooth) -> Vec<Vec<usize>> {
+        (0..s.vertex_count())
+            .map(|v| {
+                let r = s.offsets[v] as usize..s.offsets[v + 1] as usize;
+                s.positions[r].iter().map(|&p| p as usize).collect()
+            })
+            .collect()
+    }
+
+    /// Weights in (0, 1] summing to 1, every used corner named, each corner's element among
+    /// its vertex's members.
+    fn assert_well_formed(elements: &[Element], s: &Smooth) {
+        assert_eq!(s.corners.len(), 4 * elements.len());
+        for v in 0..s.vertex_count() {
+            let r = s.offsets[v] as usize..s.offsets[v + 1] as usize;
+            let w = &s.weights[r.clone()];
+            assert!(!w.is_empty() && w.iter().all(|&x| x > 0.0 && x <= 1.0));
+            assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+        }
+        let m = members(s);
+        for (e, el) in elements.iter().enumerate() {
+            for i in 0..4 {
+                let c = s.corners[4 * e + i];
+                if i < el.polygon.count {
+                    assert!(m[c as usize].contains(&e), "element {e} corner {i}");
+                } else {
+                    assert_eq!(c, Smooth::NONE);
+                }
+            }
+        }
+    }
+
+    /// The walls of a closed room meet at 90°: no smooth vertex spans two walls; inside a wall
+    /// the grid's vertices have their four elements.
+    #[test]
+    fn creases_are_not_smoothed_across() {
+        let scene = procedural::furnace(0.5, 1.0)
+            .build("t", Path::new("."))
+            .unwrap();
+        let (elements, s) = mesh_and_weights(&scene, 0.25);
+        assert_well_formed(&elements, &s);
+        let mut four = 0;
+        for m in members(&s) {
+            let surface = elements[m[0]].surface;
+            assert!(m.iter().all(|&e| elements[e].surface == surface), "{m:?}");
+            four += usize::from(m.len() == 4);
+        }
+        // 6 walls of 4×4 elements: 3×3 interior vertices each
+        assert_eq!(four, 6 * 9);
+    }
+
+    /// Two materials on one plane (a floor of two faces): the vertices along their common edge
+    /// are doubled, one per material.
+    #[test]
+    fn materials_are_not_smoothed_across() {
+        let mut scene = procedural::furnace(0.5, 1.0)
+            .build("t", Path::new("."))
+            .unwrap();
+        let floor = scene.surfaces.iter().position(|s| s == "cube.-z").unwrap();
+        let mut other = scene.materials[0].clone();
+        other.name = "other".into();
+        scene.materials.push(other);
+        let f = scene.faces.iter().position(|x| x.surface == floor).unwrap();
+        let half = |x0: f64, x1: f64| {
+            crate::geometry::Polygon::new(&[
+                DVec3::new(x0, 0.0, 0.0),
+                DVec3::new(x1, 0.0, 0.0),
+                DVec3::new(x1, 1.0, 0.0),
+                DVec3::new(x0, 1.0, 0.0),
+            ])
+        };
+        let (mut a, mut b) = (half(0.0, 0.5).unwrap(), half(0.5, 1.0).unwrap());
+        a.normal = scene.faces[f].polygon.normal;
+        b.normal = a.normal;
+        scene.faces[f].polygon = a;
+        let mut second = scene.faces[f].clone();
+        second.polygon = b;
+        second.material = scene.materials.len() - 1;
+        scene.faces.push(second);
+        let (elements, s) = mesh_and_weights(&scene, 0.25);
+        assert_well_formed(&elements, &s);
+        let material = |e: usize| scene.faces[elements[e].face as usize].material;
+        let mut on_seam = 0;
+        for m in members(&s) {
+            assert!(m.iter().all(|&e| material(e) == material(m[0])), "{m:?}");
+            let x = |e: usize| elements[e].polygon.centroid().x;
+            on_seam += usize::from(
+                elements[m[0]].surface == floor as u32
+                    && m.iter().all(|&e| (x(e) - 0.5).abs() < 0.25),
+            );
+        }
+        assert_eq!(
+            on_seam,
+            2 * 5,
+            "one vertex per material at each of the 5 seam positions"
+        );
+    }
+
+    /// A box standing on a floor: where it stands (x = 1, 0.25 < y < 0.75) the floor's vertices
+    /// split into the two sides; along the rest of the cut line (y < 0.25) they join.
+    #[test]
+    fn contact_lines_are_not_smoothed_across_and_the_cut_line_beyond_is() {
+        let mut d = procedural::furnace(0.5, 1.0);
+        d.boxes[0].max = [2.0, 1.0, 1.0];
+        d.boxes.push(BoxDesc {
+            name: "block".into(),
+            material: "wall".into(),
+            min: [1.0, 0.25, 0.0],
+            max: [1.5, 0.75, 0.5],
+            inward: false,
+            omit: vec![],
+        });
+        let scene = d.build("t", Path::new(".")).unwrap();
+        let floor = scene.surfaces.iter().position(|s| s == "cube.-z").unwrap() as u32;
+        let (elements, s) = mesh_and_weights(&scene, 0.125);
+        assert_well_formed(&elements, &s);
+        let (mut split, mut joined) = (0, 0);
+        for (e, el) in elements.iter().enumerate() {
+            if el.surface != floor {
+                continue;
+            }
+            for (i, v) in el.polygon.vertices().iter().enumerate() {
+                if (v.x - 1.0).abs() > 1e-12 || v.y <= 0.0 || v.y >= 1.0 {
+                    continue;
+                }
+                let m = &members(&s)[s.corners[4 * e + i] as usize];
+                let sides: Vec<bool> = m
+                    .iter()
+                    .map(|&o| elements[o].polygon.centroid().x > 1.0)
+                    .collect();
+                let both = sides.contains(&true) && sides.contains(&false);
+                if v.y > 0.25 + 1e-9 && v.y < 0.75 - 1e-9 {
+                    assert!(
+                        !both,
+                        "a vertex at {v} under the block's side joins both sides"
+                    );
+                    split += 1;
+                } else if v.y < 0.25 - 1e-9 || v.y > 0.75 + 1e-9 {
+                    assert!(both, "a vertex at {v} beside the block is split: {m:?}");
+                    joined += 1;
+                }
+            }
+        }
+        assert!(split >= 6 && joined >= 6, "{split} split, {joined} joined");
+    }
+
+    /// The Cornell box: the meshes of imprinted pieces do not conform, and corners inside a
+    /// neighbour's edge take its value (T-junctions); a tessellated sphere joins its triangles.
+    #[test]
+    fn t_junctions_and_tessellated_surfaces_join() {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/cornell-box.toml");
+        let scene = crate::scene::load(&path).unwrap();
+        let (elements, s) = mesh_and_weights(&scene, scene.extent() / 20.0);
+        assert_well_formed(&elements, &s);
+        let t_junctions = members(&s)
+            .iter()
+            .enumerate()
+            .filter(|(v, m)| {
+                m.iter()
+                    .any(|&e| !s.corners[4 * e..4 * e + 4].contains(&(*v as u32)))
+            })
+            .count();
+        assert!(
+            t_junctions >= 10,
+            "{t_junctions} vertices with T-junction members"
+        );
+
+        let scene = procedural::dense_sphere(2)
+            .build("t", Path::new("."))
+            .unwrap();
+        let sphere = scene.surfaces.iter().position(|x| x == "sphere").unwrap() as u32;
+        let (elements, s) = mesh_and_weights(&scene, 1.0);
+        assert_well_formed(&elements, &s);
+        let on_sphere: Vec<Vec<usize>> = members(&s)
+            .into_iter()
+            .filter(|m| elements[m[0]].surface == sphere)
+            .collect();
+        // an icosphere of level 2: 162 vertices, 5 or 6 triangles each
+        assert_eq!(on_sphere.len(), 162);
+        assert!(on_sphere.iter().all(|m| m.len() == 5 || m.len() == 6));
+    }
+
+    #[test]
+    fn the_same_mesh_gives_the_same_weights() {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/cornell-box.toml");
+        let scene = crate::scene::load(&path).unwrap();
+        let (_, a) = mesh_and_weights(&scene, scene.extent() / 20.0);
+        let (_, b) = mesh_and_weights(&scene, scene.extent() / 20.0);
+        assert_eq!(a, b);
+    }
+}
