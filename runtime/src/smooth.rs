@@ -3,7 +3,8 @@
 //!
 //! Two steps, so that per-point work is small:
 //! 1. once per frame, [`Reconstruction::vertex_values`]: each smooth vertex's value, the
-//!    weighted sum of its elements' `B` (O(size of SMOOTH));
+//!    weighted sum of its elements' `B` (O(size of SMOOTH)), clamped at zero (a vertex on a
+//!    surface's boundary extrapolates, with negative weights);
 //! 2. per point, [`Reconstruction::at`]: the element's corner values interpolated by mean value
 //!    coordinates (Floater 2003; on a triangle these are the barycentric coordinates), O(corners)
 //!    with no allocation. Mean value coordinates reproduce linear fields exactly and reduce to
@@ -83,7 +84,8 @@ impl<'f> Reconstruction<'f> {
                     sum[c] += w * f64::from(e[c]);
                 }
             }
-            *value = sum.map(|x| x as f32);
+            // Boundary vertices extrapolate (negative weights): never below zero.
+            *value = sum.map(|x| x.max(0.0) as f32);
         }
         Ok(())
     }
@@ -476,6 +478,28 @@ mod tests {
         assert!((on[0] - 0.75).abs() < 1e-12 && (on[1] - 0.25).abs() < 1e-12 && on[2] == 0.0);
         let out = mean_value_weights(&tri, n, [0.25, -0.1, 0.0]);
         assert!((out[0] - 0.75).abs() < 1e-12 && (out[1] - 0.25).abs() < 1e-12);
+    }
+
+    /// A boundary vertex extrapolates with a negative weight: its value follows the weights,
+    /// and never goes below zero.
+    #[test]
+    fn extrapolated_vertex_values_are_clamped_at_zero() {
+        let (g, mut s) = grid(2, 1, false);
+        // vertex 0 (corner (0, 0) of element 0): 1.5 B_0 - 0.5 B_1
+        let end = s.offsets[1] as usize;
+        s.positions.splice(0..end, [0, 1]);
+        s.weights.splice(0..end, [1.5, -0.5]);
+        let shift = 2 - end as i64;
+        for o in s.offsets.iter_mut().skip(1) {
+            *o = (*o as i64 + shift) as u32;
+        }
+        let f = file(g, s);
+        let r = Reconstruction::new(&f).unwrap();
+        let mut v = vec![[0.0; 3]; r.vertex_count()];
+        r.vertex_values(&[[1.0, 1.0, 0.2], [0.5, 3.0, 0.2]], &mut v)
+            .unwrap();
+        assert_eq!(v[0], [1.25, 0.0, 0.2]);
+        assert_eq!(r.at(&v, 0, [0.0, 0.0, 0.0]), v[0]);
     }
 
     #[test]
