@@ -27,7 +27,7 @@
 //!
 //! Inside a surface, the value of a smooth vertex is the mean of its elements' values weighted by
 //! their angle at the position (π for an edge through it). Measured against the path-traced reference
-//! (docs/ACCURACY.md; means everywhere, before the boundary extrapolation below), angle weights
+//! (docs/ACCURACY.md; means everywhere, before the boundary extrapolation above), angle weights
 //! beat area weights a little: median / p90 on the Cornell
 //! box 2.07% / 11.6% against 2.12% / 12.0%, on the cluttered room 1.69% / 13.6% against
 //! 1.67% / 15.0%, the same on the dense sphere. Positions coincide within `1e-7` of the scene's
