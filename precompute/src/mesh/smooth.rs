@@ -190,7 +190,8 @@ fn plane_weights(
         a += glam::DMat3::from_cols(r * r.x, r * r.y, r * r.z) * *w;
     }
     let scale = a.x_axis.x * a.y_axis.y * a.z_axis.z;
-    if !(a.determinant() > 1e-9 * scale) {
+    let det = a.determinant();
+    if det.is_nan() || det <= 1e-9 * scale {
         return None;
     }
     let z = a.inverse() * DVec3::X;
