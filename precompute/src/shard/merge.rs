@@ -12,7 +12,8 @@
 //!    operator file (`OperatorFile::write_streamed`, atomic: a damaged record or any error
 //!    leaves no output).
 //!
-//! Memory: the process itself (8 MiB reserved), the skeleton (about 250 bytes per element),
+//! Memory: the process itself (8 MiB reserved), the skeleton (about 250 bytes per element, and
+//! three copies of the smooth weights: decoded, in the file, encoded),
 //! the systems and cores
 //! (about `(2c + 3)·k²·8` bytes) and a buffer of rows sized to what `--max-memory` leaves;
 //! never `F_k` itself. The plain layout (`Y_k`) is assembled in memory and refused when it
@@ -320,7 +321,14 @@ fn plan_memory(
     );
     // Skeleton and its bytes, the file's copies (order, index, f32 arrays, geometry), lights.
     let per_element = 130 + 100 + 16;
-    let fixed = PROCESS + n * per_element + (2 * c + 3) * k * k * 8 + header.skeleton_len as u128;
+    // The smooth weights: the skeleton's, the file's copy and the encoded section.
+    let sm = &skeleton.smooth;
+    let smooth = 3 * (4 * (sm.corners.len() + sm.offsets.len()) + 8 * sm.positions.len()) as u128;
+    let fixed = PROCESS
+        + n * per_element
+        + smooth
+        + (2 * c + 3) * k * k * 8
+        + header.skeleton_len as u128;
     // Per buffered row: the bytes read, f64 values, f32 values, the encoded payload.
     let per_row = k * (8 + 8 + 4 + 4);
     let limit = settings
