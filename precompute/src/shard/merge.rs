@@ -324,11 +324,8 @@ fn plan_memory(
     // The smooth weights: the skeleton's, the file's copy and the encoded section.
     let sm = &skeleton.smooth;
     let smooth = 3 * (4 * (sm.corners.len() + sm.offsets.len()) + 8 * sm.positions.len()) as u128;
-    let fixed = PROCESS
-        + n * per_element
-        + smooth
-        + (2 * c + 3) * k * k * 8
-        + header.skeleton_len as u128;
+    let fixed =
+        PROCESS + n * per_element + smooth + (2 * c + 3) * k * k * 8 + header.skeleton_len as u128;
     // Per buffered row: the bytes read, f64 values, f32 values, the encoded payload.
     let per_row = k * (8 + 8 + 4 + 4);
     let limit = settings
