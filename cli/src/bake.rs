@@ -13,15 +13,17 @@ use crate::{MeshArgs, load_scene, summary};
 use lrr_precompute::bake::bake;
 use lrr_precompute::checkpoint;
 use lrr_precompute::checkpoint::CheckpointSettings;
+use lrr_precompute::scene::BakeDefaults;
 use lrr_precompute::write;
 
 #[derive(Debug, Args)]
 pub struct BakeArgs {
-    /// Scene: an OBJ file or an lrr scene description (.toml).
+    /// Scene: an OBJ file, a glTF 2.0 file (.gltf, .glb) or an lrr scene description (.toml).
     pub scene: PathBuf,
-    /// Operator file to write (replaced atomically).
+    /// Operator file to write (replaced atomically) [default: the scene description's
+    /// `[bake] output`].
     #[arg(short, long, value_name = "OUT.lrr")]
-    pub output: PathBuf,
+    pub output: Option<PathBuf>,
     #[command(flatten)]
     pub mesh: MeshArgs,
     /// Also write a JSON report (sizes, condition number, seconds per stage).
@@ -35,13 +37,13 @@ pub struct BakeArgs {
     #[arg(long, value_name = "ROWS")]
     pub checkpoint_rows: Option<usize>,
     /// Storage of the n×k matrix: f32, or f16 (half the bytes a frame reads; see
-    /// docs/PERFORMANCE.md for the error it costs).
-    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
-    pub precision: PrecisionArg,
+    /// docs/PERFORMANCE.md for the error it costs) [default: `[bake] precision`, else f32].
+    #[arg(long, value_enum)]
+    pub precision: Option<PrecisionArg>,
     /// Operator layout: factored (shared F_k + k×k cores, a third of the bytes) or plain
-    /// (the papers' per-channel Y_k).
-    #[arg(long, value_enum, default_value_t = LayoutArg::Factored)]
-    pub layout: LayoutArg,
+    /// (the papers' per-channel Y_k) [default: `[bake] layout`, else factored].
+    #[arg(long, value_enum)]
+    pub layout: Option<LayoutArg>,
     /// Bake only shard I of N (I from 0; `env/N` takes I from SLURM_ARRAY_TASK_ID or
     /// JOB_COMPLETION_INDEX) into the part file OUT (`{i}` in it becomes I); `lrr merge`
     /// joins the parts. Resumes its own checkpoint by itself. docs/DISTRIBUTED.md.
@@ -83,12 +85,31 @@ pub enum LayoutArg {
 }
 
 impl BakeArgs {
-    fn storage(&self) -> write::Storage {
+    /// Flags given explicitly win over the scene description's `[bake]`, which wins over the
+    /// built-in defaults (f32, factored).
+    fn storage(&self, d: &BakeDefaults) -> write::Storage {
+        let precision = self.precision.unwrap_or(match d.precision.as_deref() {
+            Some("f16") => PrecisionArg::F16,
+            _ => PrecisionArg::F32,
+        });
+        let layout = self.layout.unwrap_or(match d.layout.as_deref() {
+            Some("plain") => LayoutArg::Plain,
+            _ => LayoutArg::Factored,
+        });
         write::Storage {
-            precision: self.precision.into(),
-            layout: self.layout.into(),
+            precision: precision.into(),
+            layout: layout.into(),
         }
     }
+}
+
+/// The operator file to write: `-o`, else the description's `[bake] output`.
+fn output_path(a: &BakeArgs, d: &BakeDefaults) -> Result<PathBuf> {
+    a.output.clone().or_else(|| d.output.clone()).ok_or_else(|| {
+        anyhow::anyhow!(
+            "no output file: give -o OUT.lrr, or output = \"OUT.lrr\" in the scene description's [bake] table"
+        )
+    })
 }
 
 #[derive(Serialize)]
@@ -114,9 +135,12 @@ struct Report<'a> {
 
 pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     if let Some(spec) = &a.shard {
+        let output = a.output.as_ref().ok_or_else(|| {
+            anyhow::anyhow!("--shard needs -o PART (with {{i}} for the shard index)")
+        })?;
         let shard = crate::shard::ShardArgs {
             scene: &a.scene,
-            output: &a.output,
+            output,
             mesh: &a.mesh,
             spec,
             checkpoint_rows: a.checkpoint_rows,
@@ -130,8 +154,9 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     let stage = progress.stage("import", 0);
     let scene = load_scene(&a.scene)?;
     stage.finish();
-    let mut settings = a.mesh.settings();
-    let checkpoint_path = checkpoint::path_for(&a.output);
+    let output = output_path(a, &scene.bake)?;
+    let mut settings = a.mesh.settings_for(&scene)?;
+    let checkpoint_path = checkpoint::path_for(&output);
     if !a.resume && checkpoint_path.exists() {
         eprintln!(
             "lrr: note: starting over; {} holds an interrupted bake (add --resume to continue it)",
@@ -145,17 +170,17 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     });
     let mut baked = bake(&scene, &settings, &progress)?;
     let stage = progress.stage("write", 0);
-    let file = write::write(&baked, &a.output, a.storage())
-        .with_context(|| format!("writing the operator file {}", a.output.display()))?;
+    let file = write::write(&baked, &output, a.storage(&scene.bake))
+        .with_context(|| format!("writing the operator file {}", output.display()))?;
     if let Some(c) = baked.checkpoint.take() {
         c.remove()?;
     }
     stage.finish();
-    let file_bytes = std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0);
+    let file_bytes = std::fs::metadata(&output).map(|m| m.len()).unwrap_or(0);
     let stages: BTreeMap<String, f64> = progress.timings().into_iter().collect();
     let report = Report {
         scene: &baked.scene_name,
-        output: a.output.display().to_string(),
+        output: output.display().to_string(),
         n: baked.n(),
         k: baked.k(),
         channels: baked.cores.channels,

@@ -28,6 +28,10 @@ pub enum BenchKind {
     /// Occlusion rays/s of the visibility backends (Embree, obvhs, the default path) on the
     /// form-factor rays of the Cornell box and a cluttered room, one thread and all cores.
     Visibility(crate::bench_visibility::VisibilityBench),
+    /// Ray tracer rays/s by kind (primary, shadow, secondary) at 1920x1080 against Embree's
+    /// single-ray queries on the same rays, one thread; whole frames with the decided effects
+    /// against all forced on.
+    Render(crate::bench_render::RenderBench),
 }
 
 #[derive(Debug, Args)]
@@ -107,6 +111,7 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
     let b = match &a.what {
         BenchKind::Runtime(b) => b,
         BenchKind::Visibility(v) => return crate::bench_visibility::run(v, out),
+        BenchKind::Render(r) => return crate::bench_render::run(r, out),
     };
     if b.device != crate::probe::Device::Cpu {
         let operators = Operators {

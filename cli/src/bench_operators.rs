@@ -55,7 +55,7 @@ pub(crate) fn cornell_operator() -> Result<Operator> {
     )?;
     Ok(Operator::from_file(lrr_precompute::write::operator_file(
         &baked,
-    ))?)
+    )?)?)
 }
 
 /// The same operator with F_k stored in another precision.

@@ -15,12 +15,18 @@ mod bake;
 mod bench;
 mod bench_gpu;
 mod bench_operators;
+mod bench_render;
+#[cfg(feature = "embree")]
+mod bench_render_embree;
 mod bench_visibility;
+mod emission;
+mod exr_image;
 mod info;
 mod merge;
 mod plan;
 mod probe;
 pub mod record;
+mod render;
 mod scene;
 mod shard;
 mod solve;
@@ -37,6 +43,7 @@ use clap::{Args, Parser, Subcommand};
 use lrr_precompute::bake::{BakeSettings, DEFAULT_SAMPLES};
 use lrr_precompute::patches::PatchMethod;
 use lrr_precompute::patches::coherence::DEFAULT_THRESHOLD as DEFAULT_COHERENCE_THRESHOLD;
+use lrr_precompute::scene::BakeDefaults;
 use lrr_precompute::visibility::Backend;
 
 /// lrr: low-rank radiosity. Bake a lighting operator from a scene, inspect it, probe it.
@@ -64,6 +71,8 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Radiosity at surface points, from an operator file.
     Probe(probe::ProbeArgs),
+    /// Ray trace a frame of an operator file (B/π, highlights, mirrors, glass) into a PNG or EXR.
+    Render(render::RenderArgs),
     /// Form factors between the scene's named surfaces (visibility included).
     ViewFactors(view_factors::ViewFactorsArgs),
     /// Solve the radiosity of a scene without writing a file (low-rank, or --exact).
@@ -89,20 +98,22 @@ pub struct MeshArgs {
     #[arg(long, value_name = "L")]
     pub patch_size: Option<f64>,
     /// How patches are built: `2mf` (uniform cut at the patch size) or `2msc` (adaptive:
-    /// split while a patch lacks spatial coherence; `k` is an output).
-    #[arg(long, value_name = "METHOD", value_enum, default_value_t = MethodArg::TwoFixed)]
-    pub method: MethodArg,
+    /// split while a patch lacks spatial coherence; `k` is an output) [default: the scene
+    /// description's `[bake] method`, else 2mf].
+    #[arg(long, value_name = "METHOD", value_enum)]
+    pub method: Option<MethodArg>,
     /// 2MSC: largest estimated error share of a patch (docs/MESHING.md); smaller gives more
-    /// patches.
-    #[arg(long, value_name = "T", default_value_t = DEFAULT_COHERENCE_THRESHOLD)]
-    pub threshold: f64,
+    /// patches [default: `[bake] threshold`, else 1e-4].
+    #[arg(long, value_name = "T")]
+    pub threshold: Option<f64>,
     /// 2MSC: patches of at most this area (scene units²) are not split further
-    /// [default: chosen by the method].
+    /// [default: `[bake] min_patch_area`, else chosen by the method].
     #[arg(long, value_name = "A")]
     pub min_patch_area: Option<f64>,
-    /// Quadrature points and visibility rays per element-patch pair (a square gives a midpoint rule).
-    #[arg(long, value_name = "S", default_value_t = DEFAULT_SAMPLES)]
-    pub samples: u32,
+    /// Quadrature points and visibility rays per element-patch pair (a square gives a midpoint
+    /// rule) [default: `[bake] samples`, else 16].
+    #[arg(long, value_name = "S")]
+    pub samples: Option<u32>,
     /// Occlusion backend: `obvhs` (pure Rust, exact f64 triangle test) or `embree` (Embree 4,
     /// builds with the cargo feature `embree` only; see scripts/setup-embree.sh).
     #[arg(long, value_name = "BACKEND", value_enum, default_value_t = VisibilityArg::Obvhs)]
@@ -169,28 +180,46 @@ fn parse_bytes(text: &str) -> std::result::Result<u64, String> {
 }
 
 impl MeshArgs {
+    /// The settings the flags name, with the built-in defaults for those not given.
     pub fn settings(&self) -> BakeSettings {
-        BakeSettings {
+        self.settings_over(&BakeDefaults::default())
+            .expect("built-in defaults are valid")
+    }
+
+    /// The settings for `scene`: flags given explicitly win over its description's `[bake]`
+    /// table, which wins over the built-in defaults (sizes: flags, then the scene's hints,
+    /// then fractions of its extent, as before).
+    pub fn settings_for(&self, scene: &lrr_precompute::scene::Scene) -> Result<BakeSettings> {
+        self.settings_over(&scene.bake)
+    }
+
+    fn settings_over(&self, d: &BakeDefaults) -> Result<BakeSettings> {
+        let method = match (self.method, d.method.as_deref()) {
+            (Some(m), _) => m,
+            (None, Some("2msc")) => MethodArg::SpatialCoherence,
+            (None, Some("2mf") | None) => MethodArg::TwoFixed,
+            (None, Some(other)) => anyhow::bail!("[bake] method '{other}' is not 2mf or 2msc"),
+        };
+        let method = match method {
+            MethodArg::SpatialCoherence => PatchMethod::SpatialCoherence {
+                threshold: self
+                    .threshold
+                    .or(d.threshold)
+                    .unwrap_or(DEFAULT_COHERENCE_THRESHOLD),
+                min_patch_area: self.min_patch_area.or(d.min_patch_area),
+            },
+            MethodArg::TwoFixed => PatchMethod::TwoFixed,
+        };
+        Ok(BakeSettings {
             element_size: self.element_size,
             patch_size: self.patch_size,
-            method: self.method(),
-            samples: self.samples,
+            method,
+            samples: self.samples.or(d.samples).unwrap_or(DEFAULT_SAMPLES),
             visibility: self.visibility.into(),
             threads: self.threads,
             max_memory: self.max_memory,
             checkpoint: None,
-        }
-    }
-
-    /// The patch method the flags name.
-    pub fn method(&self) -> PatchMethod {
-        match self.method {
-            MethodArg::SpatialCoherence => PatchMethod::SpatialCoherence {
-                threshold: self.threshold,
-                min_patch_area: self.min_patch_area,
-            },
-            MethodArg::TwoFixed => PatchMethod::TwoFixed,
-        }
+        })
     }
 
     pub fn progress(&self) -> lrr_precompute::progress::Progress {
@@ -224,6 +253,7 @@ where
         Command::Merge(a) => merge::run(&a, out),
         Command::Info(a) => info::run(&a, out),
         Command::Probe(a) => probe::run(&a, out),
+        Command::Render(a) => render::run(&a, out),
         Command::ViewFactors(a) => view_factors::run(&a, out),
         Command::Solve(a) => solve::run(&a, out),
         Command::Scene(a) => scene::run(&a, out),

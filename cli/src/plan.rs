@@ -28,7 +28,7 @@ pub fn run(a: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let start = Instant::now();
     let progress = a.mesh.progress();
     let scene = load_scene(&a.scene)?;
-    let (n, k) = write_plan(&scene, &a.mesh.settings(), &a.output, &progress)?;
+    let (n, k) = write_plan(&scene, &a.mesh.settings_for(&scene)?, &a.output, &progress)?;
     writeln!(
         out,
         "planned {} → {}: n = {n} elements, k = {k} patches ({:.2}s); bake the shards with \

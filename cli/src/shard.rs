@@ -55,7 +55,7 @@ pub fn run(a: &ShardArgs, out: &mut dyn Write) -> Result<()> {
     let stage = progress.stage("import", 0);
     let scene = load_scene(a.scene)?;
     stage.finish();
-    let mut settings = a.mesh.settings();
+    let mut settings = a.mesh.settings_for(&scene)?;
     settings.checkpoint = Some(CheckpointSettings {
         path: lrr_precompute::checkpoint::path_for(&output),
         resume: true,

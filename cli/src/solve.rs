@@ -57,7 +57,7 @@ pub struct Solution {
 
 /// Solves the scene on its fine mesh, exactly or by the low-rank operator.
 pub fn solve(scene: &Scene, a: &MeshArgs, exact: bool) -> Result<Solution> {
-    let settings = a.settings();
+    let settings = a.settings_for(scene)?;
     let progress = a.progress();
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
     let (mesh, radiosity, method) = if exact {
@@ -85,7 +85,7 @@ pub fn solve(scene: &Scene, a: &MeshArgs, exact: bool) -> Result<Solution> {
         })??
     } else {
         let baked = bake(scene, &settings, &progress)?;
-        let op = lrr_runtime::Operator::from_file(lrr_precompute::write::operator_file(&baked))?;
+        let op = lrr_runtime::Operator::from_file(lrr_precompute::write::operator_file(&baked)?)?;
         let b = op.evaluate_baked();
         let b = b.iter().map(|x| x.map(f64::from)).collect();
         (baked.mesh, b, "low-rank")

@@ -35,7 +35,7 @@ pub struct ViewFactors {
 /// Surface-to-surface form factors: `F_ij = Σ_{e∈i} A_e Σ_{p⊂j} F_ep / A_i`, from the same
 /// element-to-patch form factors a bake computes (patches never straddle surfaces).
 pub fn view_factors(scene: &Scene, a: &MeshArgs) -> Result<ViewFactors> {
-    let settings = a.settings();
+    let settings = a.settings_for(scene)?;
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
     let progress = a.progress();
     let result = with_threads(settings.threads, || -> Result<ViewFactors> {

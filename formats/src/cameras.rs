@@ -74,6 +74,16 @@ pub(crate) fn check(cameras: &[Camera]) -> Result<(), FormatError> {
     Ok(())
 }
 
+impl Camera {
+    /// Checks this camera's invariants alone (all but the unique name): an `Invalid` error
+    /// naming the camera and the field. For writers that want to refuse a bad camera before
+    /// they build a file.
+    pub fn check(&self) -> Result<(), FormatError> {
+        check_camera(self)
+            .map_err(|problem| FormatError::invalid(format!("camera {:?}: {problem}", self.name)))
+    }
+}
+
 fn check_camera(c: &Camera) -> Result<(), String> {
     for (field, v) in [("eye", c.eye), ("target", c.target), ("up", c.up)] {
         if let Some(j) = v.iter().position(|x| !x.is_finite()) {

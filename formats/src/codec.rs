@@ -165,8 +165,16 @@ fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter {
         // Optional: a reader of format 1.0 skips it and still evaluates per-element emission.
         w.add(kind::LIGHTS, false, lights::encode(&file.lights));
     }
-    // Format 1.2, all optional: a reader that only evaluates skips them.
-    let d = &file.display;
+    add_display(&mut w, &file.display);
+    if file.display == Display::default() {
+        w.set_version(VERSION_MAJOR, MINOR_WITHOUT_DISPLAY);
+    }
+    w
+}
+
+/// The display sections of `d` (format 1.2), all optional: a reader that only evaluates skips
+/// them.
+fn add_display(w: &mut ContainerWriter, d: &Display) {
     if let Some(s) = &d.smooth {
         w.add(kind::SMOOTH, false, smooth::encode(s));
     }
@@ -186,10 +194,47 @@ fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter {
     if let Some(b) = &d.bvh {
         w.add(kind::BVH, false, bvh::encode(b));
     }
-    if *d == Display::default() {
-        w.set_version(VERSION_MAJOR, MINOR_WITHOUT_DISPLAY);
+}
+
+/// The display sections of `c` for `n` elements; lengths are checked, values are not.
+fn decode_display(c: &Container<'_>, n: usize) -> Result<Display, FormatError> {
+    Ok(Display {
+        smooth: c
+            .section(kind::SMOOTH)
+            .map(|p| smooth::decode(p, n))
+            .transpose()?,
+        materials: c
+            .section(kind::MATERIALS)
+            .map(|p| materials::decode(p, n))
+            .transpose()?,
+        point_lights: match c.section(kind::POINT_LIGHTS) {
+            Some(p) => point_lights::decode(p)?,
+            None => Vec::new(),
+        },
+        cameras: match c.section(kind::CAMERAS) {
+            Some(p) => cameras::decode(p)?,
+            None => Vec::new(),
+        },
+        bvh: c.section(kind::BVH).map(bvh::decode).transpose()?,
+    })
+}
+
+impl Display {
+    /// The display sections alone, in a container of their own: the payloads an operator file
+    /// holds, for tools that carry them apart from a file (the sharded bake's part files). Not
+    /// validated: the invariants need the file ([`OperatorFile::validate`]).
+    pub fn to_container_bytes(&self) -> Vec<u8> {
+        let mut w = ContainerWriter::new();
+        add_display(&mut w, self);
+        w.to_bytes()
     }
-    w
+
+    /// Reads what [`to_container_bytes`](Self::to_container_bytes) wrote, for a file of `n`
+    /// elements. The container and the lengths are checked (never a panic, whatever the bytes),
+    /// the values are not: [`OperatorFile::validate`] checks them against the file.
+    pub fn from_container_bytes(bytes: &[u8], n: u32) -> Result<Self, FormatError> {
+        decode_display(&Container::parse(bytes)?, n as usize)
+    }
 }
 
 fn matrix_payload(m: &StoredMatrix) -> Vec<u8> {
@@ -266,25 +311,7 @@ pub(crate) fn decode(c: &Container<'_>) -> Result<OperatorFile, FormatError> {
         Some(payload) => lights::decode(payload, sizes.index - 1)?,
         None => Vec::new(),
     };
-    let display = Display {
-        smooth: c
-            .section(kind::SMOOTH)
-            .map(|p| smooth::decode(p, sizes.n))
-            .transpose()?,
-        materials: c
-            .section(kind::MATERIALS)
-            .map(|p| materials::decode(p, sizes.n))
-            .transpose()?,
-        point_lights: match c.section(kind::POINT_LIGHTS) {
-            Some(p) => point_lights::decode(p)?,
-            None => Vec::new(),
-        },
-        cameras: match c.section(kind::CAMERAS) {
-            Some(p) => cameras::decode(p)?,
-            None => Vec::new(),
-        },
-        bvh: c.section(kind::BVH).map(bvh::decode).transpose()?,
-    };
+    let display = decode_display(c, sizes.n)?;
     Ok(OperatorFile {
         metadata_json,
         n,
@@ -450,6 +477,22 @@ mod tests {
         one.display.cameras = display_sample().display.cameras;
         let c_bytes = encode(&one);
         assert_eq!(Container::parse(&c_bytes).unwrap().version(), (1, 2));
+    }
+
+    #[test]
+    fn display_container_round_trips() {
+        let d = display_sample().display;
+        let bytes = d.to_container_bytes();
+        assert_eq!(Display::from_container_bytes(&bytes, 6).unwrap(), d);
+        let empty = Display::default().to_container_bytes();
+        assert_eq!(
+            Display::from_container_bytes(&empty, 6).unwrap(),
+            Display::default()
+        );
+        assert!(Display::from_container_bytes(&bytes, 7).is_err());
+        for len in 0..bytes.len() {
+            assert!(Display::from_container_bytes(&bytes[..len], 6).is_err());
+        }
     }
 
     #[test]

@@ -83,6 +83,15 @@ pub(crate) fn check(f: &OperatorFile, m: &Materials) -> Result<(), FormatError> 
     Ok(())
 }
 
+impl Material {
+    /// Checks this material's invariants: an `Invalid` error naming the material and the field.
+    /// For writers that want to refuse a bad material before they build a file.
+    pub fn check(&self) -> Result<(), FormatError> {
+        check_material(self)
+            .map_err(|problem| FormatError::invalid(format!("material {:?}: {problem}", self.name)))
+    }
+}
+
 fn check_material(m: &Material) -> Result<(), String> {
     let unit = |v: f32| (0.0..=1.0).contains(&v);
     let colours = [

@@ -57,7 +57,31 @@ pub(crate) fn check(f: &OperatorFile, lights: &[PointLight]) -> Result<(), Forma
     Ok(())
 }
 
+impl PointLight {
+    /// Checks this light's position and intensity (its group needs the file): an `Invalid`
+    /// error naming the light and the field. For writers that want to refuse a bad light before
+    /// they build a file.
+    pub fn check_values(&self) -> Result<(), FormatError> {
+        check_values(self).map_err(|problem| {
+            FormatError::invalid(format!("point light {:?}: {problem}", self.name))
+        })
+    }
+}
+
 fn check_light(f: &OperatorFile, light: &PointLight) -> Result<(), String> {
+    check_values(light)?;
+    if light.group != PointLight::FIXED && light.group as usize >= f.lights.len() {
+        return Err(format!(
+            "group {} names no light group (the file has {}; {} for a light that follows none)",
+            light.group,
+            f.lights.len(),
+            PointLight::FIXED
+        ));
+    }
+    Ok(())
+}
+
+fn check_values(light: &PointLight) -> Result<(), String> {
     if let Some(c) = light.position.iter().position(|v| !v.is_finite()) {
         return Err(format!(
             "position coordinate {c}: value {} must be finite",
@@ -73,14 +97,6 @@ fn check_light(f: &OperatorFile, light: &PointLight) -> Result<(), String> {
             "intensity channel {}: value {} must be finite and >= 0",
             ["r", "g", "b"][c],
             light.intensity[c]
-        ));
-    }
-    if light.group != PointLight::FIXED && light.group as usize >= f.lights.len() {
-        return Err(format!(
-            "group {} names no light group (the file has {}; {} for a light that follows none)",
-            light.group,
-            f.lights.len(),
-            PointLight::FIXED
         ));
     }
     Ok(())

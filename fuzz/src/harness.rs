@@ -10,7 +10,7 @@
 use std::path::Path;
 
 use lrr_formats::{Container, ContainerWriter, checksum, kind};
-use lrr_precompute::scene::{description::SceneDescription, obj};
+use lrr_precompute::scene::{description::SceneDescription, gltf, obj};
 use lrr_runtime::Operator;
 
 /// `operator_bytes`: any bytes through the loader. A file that loads must evaluate its own
@@ -400,8 +400,14 @@ pub fn scene_description(data: &[u8], dir: &Path) -> bool {
                 .chars()
                 .all(|c| c.is_ascii_alphanumeric() || "._-".contains(c))
     };
-    if !desc.includes.iter().all(|i| plain(&i.obj)) {
+    if !desc.includes.iter().all(|i| i.path().is_some_and(plain)) {
         return false;
     }
     desc.build("fuzz.toml", dir).is_ok()
+}
+
+/// `gltf_import`: the bytes as a `.gltf` (JSON) or `.glb` file imported from `dir` (relative
+/// URIs resolve there and may not leave it; see [`prepare_scene_dir`] for what it holds).
+pub fn gltf_import(data: &[u8], dir: &Path) -> bool {
+    gltf::import(data, dir, "fuzz", "fuzz.gltf").is_ok()
 }

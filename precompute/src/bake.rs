@@ -9,7 +9,7 @@ use crate::checkpoint::{self, Checkpoint, CheckpointSettings};
 use crate::cores::{Cores, OperatorInputs, build_cores};
 use crate::error::{Error, Result};
 use crate::formfactor::FormFactors;
-use crate::mesh::{Element, MeshSizes};
+use crate::mesh::MeshSizes;
 use crate::patches::{Mesh, PatchMethod};
 use crate::progress::Progress;
 use crate::scene::Scene;
@@ -187,14 +187,6 @@ impl<'s> Prepared<'s> {
         )
     }
 
-    /// The smooth reconstruction weights of the fine mesh (file order; `mesh::smooth`).
-    pub(crate) fn smooth(&self) -> lrr_formats::Smooth {
-        let elements: Vec<&Element> = (0..self.mesh.n())
-            .map(|s| self.mesh.element_at(s))
-            .collect();
-        crate::mesh::smooth::weights(self.scene, &elements)
-    }
-
     /// Channels of the cores: 1 for a grey scene, else 3.
     pub(crate) fn channels(&self) -> usize {
         if self.scene.is_grey() { 1 } else { 3 }
@@ -237,8 +229,8 @@ pub struct Baked {
     pub emission: Vec<[f64; 3]>,
     /// Surface names, indexed by `Element::surface`.
     pub surfaces: Vec<String>,
-    /// The smooth reconstruction weights (file order).
-    pub smooth: lrr_formats::Smooth,
+    /// What the file holds for display (format 1.2): materials, point lights, cameras, BVH.
+    pub display: lrr_formats::Display,
     /// Occlusion rays cast by the form-factor pass.
     pub rays: u64,
     /// Element-patch pairs skipped because they face away from each other.
@@ -255,6 +247,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
     crate::pool::with_threads(settings.threads, || {
         let prepared = Prepared::new(scene, sizes, settings.method, settings.visibility, progress)?;
+        let display = crate::display::build(scene, &prepared.mesh, progress)?;
         let ff = prepared.form_factors(settings.samples);
         let (fk, checkpoint) = prepared.element_patch_matrix(
             &ff,
@@ -264,9 +257,6 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
         )?;
         let (reflectance, emission) = prepared.file_order_materials();
         let channels = prepared.channels();
-        let stage = progress.stage("smooth", 0);
-        let smooth = prepared.smooth();
-        stage.finish();
         let stage = progress.stage("operator", 0);
         let cores = build_cores(&OperatorInputs {
             fk: &fk,
@@ -290,7 +280,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             reflectance,
             emission,
             surfaces: scene.surfaces.clone(),
-            smooth,
+            display,
             rays,
             culled_pairs: culled,
             checkpoint,

@@ -20,7 +20,7 @@
 //! // A furnace: a closed cube, uniform reflectance 0.5, uniform emission π.
 //! let scene = procedural::furnace(0.5, 1.0).build("furnace", std::path::Path::new(".")).unwrap();
 //! let baked = bake::bake(&scene, &bake::BakeSettings::default(), &Progress::hidden()).unwrap();
-//! let file = lrr_precompute::write::operator_file(&baked);
+//! let file = lrr_precompute::write::operator_file(&baked).unwrap();
 //! let op = lrr_runtime::Operator::from_file(file).unwrap();
 //! let b = op.evaluate_baked();
 //! // B = E / (1 - ρ) = 2π everywhere.
@@ -34,6 +34,7 @@
 pub mod bake;
 pub mod checkpoint;
 mod cores;
+pub mod display;
 pub mod error;
 pub mod exact;
 pub mod formfactor;

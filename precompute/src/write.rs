@@ -3,9 +3,7 @@
 
 use std::path::Path;
 
-use lrr_formats::{
-    Display, Geometry, Layout, OperatorData, OperatorFile, Precision, Smooth, StoredMatrix,
-};
+use lrr_formats::{Display, Geometry, Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
 
 use serde::Serialize;
 
@@ -47,8 +45,8 @@ pub(crate) struct Skeleton {
     pub surface_at: Vec<u32>,
     /// Per file position: the element's polygon and normal, in f32.
     pub geometry: Geometry,
-    /// The smooth reconstruction weights (`mesh::smooth`).
-    pub smooth: Smooth,
+    /// The display sections (format 1.2: materials, point lights, cameras, BVH).
+    pub display: Display,
 }
 
 /// What a [`Skeleton`] is cut from (a finished bake, or a shard's meshes).
@@ -65,30 +63,13 @@ pub(crate) struct SkeletonInputs<'a> {
     pub emission: &'a [[f64; 3]],
     pub surfaces: &'a [String],
     pub channels: usize,
-    pub smooth: &'a Smooth,
+    /// From `display::build`.
+    pub display: &'a Display,
 }
 
 impl Skeleton {
     pub(crate) fn new(i: &SkeletonInputs) -> Self {
         let n = i.mesh.n();
-        let mut geometry = Geometry {
-            vertex_count: Vec::with_capacity(n),
-            vertices: Vec::with_capacity(n * 12),
-            normals: Vec::with_capacity(n * 3),
-        };
-        for s in 0..n {
-            let p = &i.mesh.element_at(s).polygon;
-            geometry.vertex_count.push(p.count as u8);
-            // Triangles leave their fourth slot zero (Polygon keeps unused slots zeroed).
-            for v in &p.vertices {
-                geometry
-                    .vertices
-                    .extend([v.x as f32, v.y as f32, v.z as f32]);
-            }
-            geometry
-                .normals
-                .extend([p.normal.x as f32, p.normal.y as f32, p.normal.z as f32]);
-        }
         let refinement = match i.method {
             PatchMethod::TwoFixed => None,
             PatchMethod::SpatialCoherence {
@@ -115,8 +96,8 @@ impl Skeleton {
             reflectance: i.reflectance.to_vec(),
             emission: i.emission.to_vec(),
             surface_at: (0..n).map(|s| i.mesh.element_at(s).surface).collect(),
-            geometry,
-            smooth: i.smooth.clone(),
+            geometry: crate::display::geometry(i.mesh),
+            display: i.display.clone(),
         }
     }
 
@@ -133,7 +114,7 @@ impl Skeleton {
             emission: &b.emission,
             surfaces: &b.surfaces,
             channels: b.cores.channels,
-            smooth: &b.smooth,
+            display: &b.display,
         })
     }
 
@@ -148,7 +129,8 @@ impl Skeleton {
     }
 
     /// The operator file with this `F_k` (f32, or empty for a streamed write) and cores, in
-    /// f32, without light groups.
+    /// f32, without light groups (the display's point lights name them: add them with
+    /// [`add_light_groups`](Self::add_light_groups) before the file is validated).
     pub(crate) fn file(&self, fk: StoredMatrix, cores: &Cores) -> OperatorFile {
         let flat = |v: &[[f64; 3]]| {
             v.iter()
@@ -172,10 +154,7 @@ impl Skeleton {
             emission: flat(&self.emission),
             geometry: self.geometry.clone(),
             lights: Vec::new(),
-            display: Display {
-                smooth: Some(self.smooth.clone()),
-                ..Default::default()
-            },
+            display: self.display.clone(),
         }
     }
 
@@ -220,9 +199,10 @@ impl Skeleton {
     }
 }
 
-/// Assembles the operator file of a bake (elements in file order).
-pub fn operator_file(b: &Baked) -> OperatorFile {
-    Skeleton::of(b).file(f32_matrix(&b.fk), &b.cores)
+/// Assembles the operator file of a bake (elements in file order, `F_k` in f32, factored) with
+/// its light groups, as [`write`] stores it by default.
+pub fn operator_file(b: &Baked) -> Result<OperatorFile> {
+    stored_file(b, Storage::default())
 }
 
 /// `F_k` as the file stores it before any change of precision: f32.

@@ -77,6 +77,8 @@
 //! - `testkit` (cargo feature `testkit`): synthetic operators, the f64 reference evaluation and
 //!   the papers' dense-`V_k` baseline, for tests and benchmarks.
 //! - `gpu` (cargo feature `gpu`): the same frames on a GPU through wgpu.
+//! - [`trace`]: the CPU ray tracer over the file's display data, shaded with a frame's
+//!   radiosity.
 
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
@@ -100,6 +102,7 @@ mod runs;
 mod smooth;
 #[cfg(feature = "testkit")]
 pub mod testkit;
+pub mod trace;
 
 pub use error::RuntimeError;
 pub use evaluator::Evaluator;

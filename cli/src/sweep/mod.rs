@@ -244,8 +244,9 @@ fn measure(
             exact.element_size
         )));
     }
-    let f32_op = Operator::from_file(operator_file(&baked)).map_err(runtime_error)?;
-    let mut f16_file = operator_file(&baked);
+    let f32_file = operator_file(&baked)?;
+    let mut f16_file = f32_file.clone();
+    let f32_op = Operator::from_file(f32_file).map_err(runtime_error)?;
     store_matrix_as(&mut f16_file, Precision::F16);
     let f16_op = Operator::from_file(f16_file).map_err(runtime_error)?;
     let emission = f32_op.baked_emission();

@@ -1,4 +1,6 @@
-//! The lrr scene description: a TOML file of materials, polygon surfaces, boxes and OBJ includes.
+//! The lrr scene description: a TOML file of materials, polygon surfaces, boxes, OBJ and glTF
+//! includes, material overrides, light groups, cameras, point lights and bake settings, so that
+//! `lrr bake scene.toml` is a reproducible build step. Unknown keys are errors naming them.
 //!
 //! ```toml
 //! name = "two squares"
@@ -10,6 +12,8 @@
 //! name = "grey"
 //! reflectance = [0.5, 0.5, 0.5]     # Kd, each in [0, 1)
 //! radiance = [0.0, 0.0, 0.0]        # Ke; emitted exitance is π·Ke
+//! mirror = [0.1, 0.1, 0.1]          # optional optics for the ray tracer: specular, shininess,
+//!                                   # mirror, transmission, ior (default: purely diffuse)
 //! [[surface]]
 //! name = "bottom"
 //! material = "grey"
@@ -23,6 +27,34 @@
 //! omit = ["+z"]                     # faces left out
 //! [[include]]
 //! obj = "model.obj"                 # relative to this file
+//! [[include]]
+//! gltf = "model.glb"                # .gltf or .glb
+//! [[material_override]]             # any material by name, the description's or an include's
+//! name = "Glass"
+//! transmission = [0.9, 0.9, 0.9]    # also reflectance, radiance and the other optics
+//! ior = 1.5
+//! [[light_group]]                   # the emitting faces of these materials and surfaces
+//! name = "ceiling"                  # (OBJ groups, glTF nodes, description surfaces) become
+//! materials = ["lamp"]              # one emitting surface, hence one light group of the file
+//! surfaces = ["spot.1", "spot.2"]
+//! [[camera]]
+//! name = "front"
+//! eye = [0, 1, 4]
+//! target = [0, 1, 0]
+//! up = [0, 1, 0]                    # default +y
+//! fov_y_deg = 40
+//! [[point_light]]
+//! name = "bulb"
+//! position = [0, 1.9, 0]
+//! intensity = [5, 5, 5]             # W/sr per channel; or colour = [..] and power = W (4π sr)
+//! group = "ceiling"                 # optional: follows this light group's intensity
+//! [bake]                            # defaults for `lrr bake`; explicit flags win
+//! output = "model.lrr"              # relative to this file (then `-o` may be left out)
+//! element_size = 0.1                # or in [mesh], not both
+//! patch_size = 0.25
+//! method = "2msc"                   # "2mf" (default) or "2msc"; threshold, min_patch_area
+//! samples = 16
+//! precision = "f16"                 # "f32" (default) or "f16"; layout = "factored" | "plain"
 //! ```
 
 use std::path::Path;
@@ -30,7 +62,7 @@ use std::path::Path;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use super::model::{Material, Scene};
+use super::model::{BakeDefaults, Camera, Material, Optics, PointLight, Scene};
 use crate::error::{Error, Result};
 
 /// A parsed scene description file (the TOML above).
@@ -55,9 +87,203 @@ pub struct SceneDescription {
     /// Axis-aligned boxes (`[[box]]`), one surface per face.
     #[serde(default, rename = "box", skip_serializing_if = "Vec::is_empty")]
     pub boxes: Vec<BoxDesc>,
-    /// OBJ files merged into the scene (`[[include]]`).
+    /// OBJ and glTF files merged into the scene (`[[include]]`).
     #[serde(default, rename = "include", skip_serializing_if = "Vec::is_empty")]
     pub includes: Vec<IncludeDesc>,
+    /// Changes to materials by name, applied after the includes (`[[material_override]]`).
+    #[serde(
+        default,
+        rename = "material_override",
+        skip_serializing_if = "Vec::is_empty"
+    )]
+    pub overrides: Vec<MaterialOverride>,
+    /// Light groups by material and surface name (`[[light_group]]`).
+    #[serde(default, rename = "light_group", skip_serializing_if = "Vec::is_empty")]
+    pub light_groups: Vec<LightGroupDesc>,
+    /// Cameras (`[[camera]]`).
+    #[serde(default, rename = "camera", skip_serializing_if = "Vec::is_empty")]
+    pub cameras: Vec<CameraDesc>,
+    /// Point lights for the ray tracer (`[[point_light]]`).
+    #[serde(default, rename = "point_light", skip_serializing_if = "Vec::is_empty")]
+    pub point_lights: Vec<PointLightDesc>,
+    /// Bake settings (`[bake]`).
+    #[serde(default, skip_serializing_if = "BakeDesc::is_empty")]
+    pub bake: BakeDesc,
+}
+
+/// Optical properties beyond the diffuse reflectance, for the ray tracer (all optional).
+macro_rules! optics_fields {
+    ($(#[$m:meta])* pub struct $name:ident { $($(#[$fm:meta])* pub $f:ident: $t:ty,)* }) => {
+        $(#[$m])*
+        pub struct $name {
+            $($(#[$fm])* pub $f: $t,)*
+            /// Phong highlight colour, each in [0, 1].
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub specular: Option<[f64; 3]>,
+            /// Phong exponent, >= 0.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub shininess: Option<f64>,
+            /// Perfect-mirror reflectance, each in [0, 1].
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub mirror: Option<[f64; 3]>,
+            /// Transmission filter (glass), each in [0, 1].
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub transmission: Option<[f64; 3]>,
+            /// Index of refraction, >= 1.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub ior: Option<f64>,
+        }
+        impl $name {
+            /// `base` with the optics this entry sets, checked; `what` names it in errors.
+            fn optics(&self, base: Optics, origin: &str, what: &str) -> Result<Optics> {
+                let mut o = base;
+                let unit = |name: &str, v: Option<[f64; 3]>, to: &mut [f64; 3]| -> Result<()> {
+                    if let Some(v) = v {
+                        if v.iter().any(|x| !(x.is_finite() && (0.0..=1.0).contains(x))) {
+                            return Err(Error::scene(
+                                origin,
+                                format!("{what}: {name} {v:?} must be three numbers in [0, 1]"),
+                            ));
+                        }
+                        *to = v;
+                    }
+                    Ok(())
+                };
+                unit("specular", self.specular, &mut o.specular)?;
+                unit("mirror", self.mirror, &mut o.mirror)?;
+                unit("transmission", self.transmission, &mut o.transmission)?;
+                if let Some(n) = self.shininess {
+                    if !(n.is_finite() && n >= 0.0) {
+                        return Err(Error::scene(origin, format!("{what}: shininess {n} must be >= 0")));
+                    }
+                    o.shininess = n;
+                }
+                if let Some(i) = self.ior {
+                    if !(i.is_finite() && i >= 1.0) {
+                        return Err(Error::scene(origin, format!("{what}: ior {i} must be >= 1")));
+                    }
+                    o.ior = i;
+                }
+                Ok(o)
+            }
+        }
+    };
+}
+
+optics_fields! {
+/// A change to every material of a name (`[[material_override]]`), the description's own or an
+/// included file's; unset fields keep their value.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialOverride {
+    /// Name of the material(s) to change.
+    pub name: String,
+    /// New reflectance, each in [0, 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reflectance: Option<[f64; 3]>,
+    /// New emitted radiance (exitance π·radiance).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radiance: Option<[f64; 3]>,
+}
+}
+
+/// A light group (`[[light_group]]`): the emitting faces of the named materials and surfaces
+/// become one emitting surface of this name, which the bake makes one light group of the file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightGroupDesc {
+    /// Name of the group (and of its surface).
+    pub name: String,
+    /// Materials whose emitting faces join it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub materials: Vec<String>,
+    /// Surfaces (OBJ groups/objects, glTF nodes, description surfaces) whose emitting faces
+    /// join it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub surfaces: Vec<String>,
+}
+
+/// A pinhole camera (`[[camera]]`), in description units.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    /// Name.
+    pub name: String,
+    /// Eye position.
+    pub eye: [f64; 3],
+    /// Point looked at.
+    pub target: [f64; 3],
+    /// Up direction (default +y).
+    #[serde(default = "y_up")]
+    pub up: [f64; 3],
+    /// Vertical field of view in degrees, in (0, 180).
+    pub fov_y_deg: f64,
+}
+
+fn y_up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+
+/// A point light (`[[point_light]]`): `intensity`, or `power` (W, over 4π sr) with an optional
+/// `colour` (default white).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointLightDesc {
+    /// Name.
+    pub name: String,
+    /// Position, in description units.
+    pub position: [f64; 3],
+    /// Radiant intensity per channel (W/sr).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub intensity: Option<[f64; 3]>,
+    /// Colour the power is spread over (default white).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub colour: Option<[f64; 3]>,
+    /// Emitted power (W per channel at colour 1): intensity = colour · power / 4π.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub power: Option<f64>,
+    /// The light group (an emitting surface, material or `[[light_group]]`) it follows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub group: Option<String>,
+}
+
+/// Bake settings (`[bake]`); `lrr bake` flags given explicitly win over them.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BakeDesc {
+    /// Operator file, relative to the description.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
+    /// Element size (description units; not with `[mesh] element_size`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub element_size: Option<f64>,
+    /// Patch size (description units; not with `[mesh] patch_size`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub patch_size: Option<f64>,
+    /// `2mf` or `2msc`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub method: Option<String>,
+    /// 2MSC threshold, in (0, 1].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub threshold: Option<f64>,
+    /// 2MSC smallest patch area (description units²).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_patch_area: Option<f64>,
+    /// Quadrature points per element-patch pair.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples: Option<u32>,
+    /// `f32` or `f16`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub precision: Option<String>,
+    /// `factored` or `plain`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layout: Option<String>,
+}
+
+impl BakeDesc {
+    fn is_empty(&self) -> bool {
+        *self == BakeDesc::default()
+    }
 }
 
 /// Mesh size hints of a description (`[mesh]`), in description units before `scale`.
@@ -78,8 +304,9 @@ impl MeshHints {
     }
 }
 
-/// A Lambertian material (`[[material]]`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+optics_fields! {
+/// A Lambertian material (`[[material]]`), with optional optics for the ray tracer.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialDesc {
     /// Name surfaces and boxes refer to.
@@ -89,6 +316,7 @@ pub struct MaterialDesc {
     /// RGB emitted radiance (Ke); the emitted exitance is `E = π·Ke`. Default 0.
     #[serde(default)]
     pub radiance: [f64; 3],
+}
 }
 
 /// A named surface of explicit polygons (`[[surface]]`).
@@ -123,12 +351,43 @@ pub struct BoxDesc {
     pub omit: Vec<String>,
 }
 
-/// An OBJ file to merge (`[[include]]`).
+/// An OBJ or glTF file to merge (`[[include]]`): exactly one of `obj` and `gltf`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IncludeDesc {
-    /// Path of the OBJ file, relative to the description file.
-    pub obj: String,
+    /// Path of an OBJ file, relative to the description file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub obj: Option<String>,
+    /// Path of a glTF 2.0 file (`.gltf` or `.glb`), relative to the description file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gltf: Option<String>,
+}
+
+impl IncludeDesc {
+    /// The included file's path as written (whichever of `obj` and `gltf` is set).
+    pub fn path(&self) -> Option<&str> {
+        self.obj.as_deref().or(self.gltf.as_deref())
+    }
+}
+
+impl Default for SceneDescription {
+    /// An empty description (scale 1).
+    fn default() -> Self {
+        Self {
+            name: None,
+            scale: 1.0,
+            mesh: MeshHints::default(),
+            materials: Vec::new(),
+            surfaces: Vec::new(),
+            boxes: Vec::new(),
+            includes: Vec::new(),
+            overrides: Vec::new(),
+            light_groups: Vec::new(),
+            cameras: Vec::new(),
+            point_lights: Vec::new(),
+            bake: BakeDesc::default(),
+        }
+    }
 }
 
 fn one() -> f64 {
@@ -153,9 +412,13 @@ impl SceneDescription {
     pub fn parse(text: &str, origin: &str) -> Result<Self> {
         toml::from_str(text).map_err(|e| {
             let msg = e.message().to_string();
-            let line = e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
+            let line = e.span().map(|s| {
+                text.as_bytes()[..s.start.min(text.len())]
+                    .iter()
+                    .filter(|&&b| b == b'\n')
+                    .count()
+                    + 1
+            });
             match line {
                 Some(l) => Error::scene(format!("{origin}:{l}"), msg),
                 None => Error::scene(origin, msg),
@@ -178,11 +441,12 @@ impl SceneDescription {
             ));
         }
         for m in &self.materials {
+            let what = format!("material '{}'", m.name);
             let material = Material {
                 name: m.name.clone(),
                 reflectance: m.reflectance,
                 emission: m.radiance.map(|k| k * std::f64::consts::PI),
-                optics: Default::default(),
+                optics: m.optics(Optics::default(), origin, &what)?,
             };
             scene.add_material(material, &format!("{origin}: material '{}'", m.name))?;
         }
@@ -199,13 +463,38 @@ impl SceneDescription {
         for b in &self.boxes {
             add_box(&mut scene, b, s, origin)?;
         }
-        for inc in &self.includes {
-            let path = base.join(&inc.obj);
-            let sub = super::obj::load(&path)?;
+        for (i, inc) in self.includes.iter().enumerate() {
+            let sub = match (&inc.obj, &inc.gltf) {
+                (Some(obj), None) => super::obj::load(&base.join(obj))?,
+                (None, Some(gltf)) => super::gltf::load(&base.join(gltf))?,
+                _ => {
+                    return Err(Error::scene(
+                        origin,
+                        format!(
+                            "include {i}: give exactly one of obj = \"FILE.obj\" and gltf = \"FILE.glb\""
+                        ),
+                    ));
+                }
+            };
             merge(&mut scene, sub, s);
         }
-        scene.hints.element_size = self.mesh.element_size.map(|x| x * s);
-        scene.hints.patch_size = self.mesh.patch_size.map(|x| x * s);
+        self.apply_overrides(&mut scene, origin)?;
+        self.apply_light_groups(&mut scene, origin)?;
+        self.add_cameras_and_lights(&mut scene, origin)?;
+        scene.bake = self.bake_defaults(origin, base)?;
+        let size = |name: &str, mesh: Option<f64>, bake: Option<f64>| match (mesh, bake) {
+            (Some(_), Some(_)) => Err(Error::scene(
+                origin,
+                format!("{name} is given in both [mesh] and [bake]; keep one"),
+            )),
+            (m, b) => Ok(m.or(b).map(|x| x * s)),
+        };
+        scene.hints.element_size = size(
+            "element_size",
+            self.mesh.element_size,
+            self.bake.element_size,
+        )?;
+        scene.hints.patch_size = size("patch_size", self.mesh.patch_size, self.bake.patch_size)?;
         for (name, v) in [
             ("element_size", scene.hints.element_size),
             ("patch_size", scene.hints.patch_size),
@@ -213,11 +502,307 @@ impl SceneDescription {
             if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0)) {
                 return Err(Error::scene(
                     origin,
-                    format!("[mesh] {name} must be a positive length, found {v}"),
+                    format!("{name} must be a positive length, found {v}"),
                 ));
             }
         }
         Ok(scene)
+    }
+
+    /// `[[material_override]]`: every material of the name changes; a name that matches none
+    /// is an error listing the materials there are.
+    fn apply_overrides(&self, scene: &mut Scene, origin: &str) -> Result<()> {
+        for o in &self.overrides {
+            let what = format!("material_override '{}'", o.name);
+            let mut found = false;
+            for m in scene.materials.iter_mut().filter(|m| m.name == o.name) {
+                found = true;
+                if let Some(r) = o.reflectance {
+                    m.reflectance = r;
+                }
+                if let Some(l) = o.radiance {
+                    m.emission = l.map(|k| k * std::f64::consts::PI);
+                }
+                m.optics = o.optics(m.optics, origin, &what)?;
+                m.validate(&format!("{origin}: {what}"))?;
+            }
+            if !found {
+                return Err(Error::scene(
+                    origin,
+                    format!(
+                        "{what}: no material of that name; the scene has {}",
+                        list(scene.materials.iter().map(|m| m.name.as_str()))
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// `[[light_group]]`: the emitting faces of the named materials and surfaces move to one
+    /// surface named after the group (the bake makes a light group per emitting surface).
+    fn apply_light_groups(&self, scene: &mut Scene, origin: &str) -> Result<()> {
+        let mut taken: Vec<Option<usize>> = vec![None; scene.faces.len()];
+        let mut moves = Vec::new();
+        for (g, group) in self.light_groups.iter().enumerate() {
+            let what = format!("light_group '{}'", group.name);
+            for m in &group.materials {
+                if !scene.materials.iter().any(|x| &x.name == m) {
+                    return Err(Error::scene(
+                        origin,
+                        format!(
+                            "{what}: no material '{m}'; the scene has {}",
+                            list(scene.materials.iter().map(|m| m.name.as_str()))
+                        ),
+                    ));
+                }
+            }
+            for n in &group.surfaces {
+                if !scene.surfaces.contains(n) {
+                    return Err(Error::scene(
+                        origin,
+                        format!(
+                            "{what}: no surface '{n}'; the scene has {}",
+                            list(scene.surfaces.iter().map(String::as_str))
+                        ),
+                    ));
+                }
+            }
+            let mut count = 0;
+            for (f, face) in scene.faces.iter().enumerate() {
+                let material = &scene.materials[face.material];
+                let selected = group.materials.contains(&material.name)
+                    || group.surfaces.contains(&scene.surfaces[face.surface]);
+                if !selected || material.emission.iter().all(|&e| e == 0.0) {
+                    continue;
+                }
+                if let Some(other) = taken[f] {
+                    return Err(Error::scene(
+                        origin,
+                        format!(
+                            "{what}: an emitting face of surface '{}' is also in light_group '{}'; \
+                             a face can be in one group only",
+                            scene.surfaces[face.surface], self.light_groups[other].name
+                        ),
+                    ));
+                }
+                taken[f] = Some(g);
+                count += 1;
+            }
+            if count == 0 {
+                return Err(Error::scene(
+                    origin,
+                    format!("{what}: its materials and surfaces hold no emitting face"),
+                ));
+            }
+            moves.push(g);
+        }
+        for g in moves {
+            let id = scene.surface(&self.light_groups[g].name);
+            for (f, t) in taken.iter().enumerate() {
+                if *t == Some(g) {
+                    scene.faces[f].surface = id;
+                }
+            }
+        }
+        // A surface left without faces is dropped (the ids of the others shift down).
+        let used: Vec<bool> = (0..scene.surfaces.len())
+            .map(|i| scene.faces.iter().any(|f| f.surface == i))
+            .collect();
+        let mut new_id = vec![0; used.len()];
+        let mut kept = Vec::new();
+        for (i, name) in scene.surfaces.iter().enumerate() {
+            if used[i] {
+                new_id[i] = kept.len();
+                kept.push(name.clone());
+            }
+        }
+        scene.surfaces = kept;
+        for f in &mut scene.faces {
+            f.surface = new_id[f.surface];
+        }
+        // Two groups' names may clash with a surface that still emits on its own: refuse.
+        for group in &self.light_groups {
+            let id = scene
+                .surfaces
+                .iter()
+                .position(|s| s == &group.name)
+                .expect("group surface");
+            let strays = scene.faces.iter().enumerate().any(|(f, face)| {
+                face.surface == id
+                    && taken[f].is_none()
+                    && scene.materials[face.material]
+                        .emission
+                        .iter()
+                        .any(|&e| e > 0.0)
+            });
+            if strays {
+                return Err(Error::scene(
+                    origin,
+                    format!(
+                        "light_group '{}': a surface of that name has emitting faces outside the \
+                         group; rename the group",
+                        group.name
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn add_cameras_and_lights(&self, scene: &mut Scene, origin: &str) -> Result<()> {
+        let s = self.scale;
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        for c in &self.cameras {
+            let (eye, target, up) = (DVec3::from(c.eye), DVec3::from(c.target), DVec3::from(c.up));
+            let ok = finite(&c.eye)
+                && finite(&c.target)
+                && finite(&c.up)
+                && (target - eye).length() > 0.0
+                && up.cross(target - eye).length() > 0.0
+                && c.fov_y_deg > 0.0
+                && c.fov_y_deg < 180.0;
+            if !ok {
+                return Err(Error::scene(
+                    origin,
+                    format!(
+                        "camera '{}': eye and target must differ, up must not be parallel to \
+                         the view, and fov_y_deg must be in (0, 180)",
+                        c.name
+                    ),
+                ));
+            }
+            scene.cameras.push(Camera {
+                name: c.name.clone(),
+                eye: (eye * s).to_array(),
+                target: (target * s).to_array(),
+                up: up.normalize().to_array(),
+                fov_y_deg: c.fov_y_deg,
+            });
+        }
+        for l in &self.point_lights {
+            let what = format!("point_light '{}'", l.name);
+            let intensity = match (l.intensity, l.power) {
+                (Some(i), None) if l.colour.is_none() => i,
+                (None, Some(p)) => {
+                    let c = l.colour.unwrap_or([1.0; 3]);
+                    c.map(|c| c * p / (4.0 * std::f64::consts::PI))
+                }
+                _ => {
+                    return Err(Error::scene(
+                        origin,
+                        format!(
+                            "{what}: give either intensity = [r, g, b] or power = W (with an optional colour)"
+                        ),
+                    ));
+                }
+            };
+            if !finite(&l.position) || intensity.iter().any(|i| !(i.is_finite() && *i >= 0.0)) {
+                return Err(Error::scene(
+                    origin,
+                    format!("{what}: position must be finite and intensity finite and >= 0"),
+                ));
+            }
+            if let Some(g) = &l.group {
+                let emits = |surface: Option<usize>, material: Option<usize>| {
+                    scene.faces.iter().any(|f| {
+                        (Some(f.surface) == surface || Some(f.material) == material)
+                            && scene.materials[f.material]
+                                .emission
+                                .iter()
+                                .any(|&e| e > 0.0)
+                    })
+                };
+                let surface = scene.surfaces.iter().position(|s| s == g);
+                let material = scene.materials.iter().position(|m| &m.name == g);
+                if !emits(surface, material) {
+                    return Err(Error::scene(
+                        origin,
+                        format!(
+                            "{what}: group '{g}' is no emitting surface, material or light_group of the scene"
+                        ),
+                    ));
+                }
+            }
+            scene.point_lights.push(PointLight {
+                name: l.name.clone(),
+                position: (DVec3::from(l.position) * s).to_array(),
+                intensity,
+                group: l.group.clone(),
+            });
+        }
+        Ok(())
+    }
+
+    /// `[bake]` checked, in scene units.
+    fn bake_defaults(&self, origin: &str, base: &Path) -> Result<BakeDefaults> {
+        let b = &self.bake;
+        let one_of = |name: &str, v: &Option<String>, allowed: &[&str]| -> Result<()> {
+            match v {
+                Some(x) if !allowed.contains(&x.as_str()) => Err(Error::scene(
+                    origin,
+                    format!(
+                        "[bake] {name} = \"{x}\"; expected one of {}",
+                        allowed.join(", ")
+                    ),
+                )),
+                _ => Ok(()),
+            }
+        };
+        one_of("method", &b.method, &["2mf", "2msc"])?;
+        one_of("precision", &b.precision, &["f32", "f16"])?;
+        one_of("layout", &b.layout, &["factored", "plain"])?;
+        if let Some(t) = b
+            .threshold
+            .filter(|t| !(t.is_finite() && *t > 0.0 && *t <= 1.0))
+        {
+            return Err(Error::scene(
+                origin,
+                format!("[bake] threshold {t} must be in (0, 1]"),
+            ));
+        }
+        if let Some(a) = b.min_patch_area.filter(|a| !(a.is_finite() && *a >= 0.0)) {
+            return Err(Error::scene(
+                origin,
+                format!("[bake] min_patch_area {a} must be >= 0"),
+            ));
+        }
+        if b.samples == Some(0) {
+            return Err(Error::scene(origin, "[bake] samples must be at least 1"));
+        }
+        if b.output.as_deref() == Some("") {
+            return Err(Error::scene(
+                origin,
+                "[bake] output is empty; name the operator file",
+            ));
+        }
+        Ok(BakeDefaults {
+            method: b.method.clone(),
+            threshold: b.threshold,
+            min_patch_area: b.min_patch_area.map(|a| a * self.scale * self.scale),
+            samples: b.samples,
+            precision: b.precision.clone(),
+            layout: b.layout.clone(),
+            output: b.output.as_ref().map(|o| base.join(o)),
+        })
+    }
+}
+
+/// "'a', 'b', 'c'" (or "none").
+fn list<'a>(names: impl Iterator<Item = &'a str>) -> String {
+    let mut seen: Vec<&str> = Vec::new();
+    for n in names {
+        if !seen.contains(&n) {
+            seen.push(n);
+        }
+    }
+    if seen.is_empty() {
+        "none".into()
+    } else {
+        seen.iter()
+            .map(|n| format!("'{n}'"))
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 }
 
@@ -310,6 +895,20 @@ fn merge(scene: &mut Scene, sub: Scene, s: f64) {
     scene.materials.extend(sub.materials);
     scene.warnings.extend(sub.warnings);
     scene.repairs.add(&sub.repairs);
+    let scaled = |p: [f64; 3]| p.map(|x| x * s);
+    scene
+        .cameras
+        .extend(sub.cameras.into_iter().map(|c| Camera {
+            eye: scaled(c.eye),
+            target: scaled(c.target),
+            ..c
+        }));
+    scene
+        .point_lights
+        .extend(sub.point_lights.into_iter().map(|l| PointLight {
+            position: scaled(l.position),
+            ..l
+        }));
     for f in sub.faces {
         let name = &sub.surfaces[f.surface];
         let surface = scene.surface(name);

@@ -1,6 +1,6 @@
 //! Scenes: Lambertian polygons with materials, grouped into named surfaces.
 //!
-//! Importers ([`obj`], [`description`]) turn files into a [`Scene`]; [`procedural`] writes scene
+//! Importers ([`obj`], [`gltf`], [`description`]) turn files into a [`Scene`]; [`procedural`] writes scene
 //! descriptions for the furnace and the analytic test pairs. Every face that reaches the mesher
 //! is a planar convex polygon of 3 or 4 vertices whose counter-clockwise normal is its (only)
 //! front: `Scene::add_polygon` splits non-planar or concave quads and larger polygons into
@@ -8,16 +8,20 @@
 //! from.
 
 pub mod description;
+pub mod gltf;
 mod model;
 pub mod obj;
 mod polygon;
 pub mod procedural;
 
-pub use model::{Camera, Face, Material, Optics, PointLight, Repairs, Scene, SizeHints};
+pub use model::{
+    BakeDefaults, Camera, Face, Material, Optics, PointLight, Repairs, Scene, SizeHints,
+};
 
 use crate::error::{Error, Result};
 
-/// Loads a scene from an OBJ file or a scene description (`.toml`), by extension.
+/// Loads a scene from an OBJ file, a glTF 2.0 file (`.gltf`, `.glb`) or a scene description
+/// (`.toml`), by extension.
 pub fn load(path: &std::path::Path) -> Result<Scene> {
     let ext = path
         .extension()
@@ -27,10 +31,11 @@ pub fn load(path: &std::path::Path) -> Result<Scene> {
     let scene = match ext.as_str() {
         "obj" => obj::load(path)?,
         "toml" => description::load(path)?,
+        "gltf" | "glb" => gltf::load(path)?,
         _ => {
             return Err(Error::scene(
                 path.display().to_string(),
-                "unknown scene type; expected an OBJ file (.obj) or an lrr scene description (.toml)",
+                "unknown scene type; expected an OBJ file (.obj), glTF 2.0 (.gltf, .glb) or an lrr scene description (.toml)",
             ));
         }
     };

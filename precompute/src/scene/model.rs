@@ -139,6 +139,27 @@ pub struct SizeHints {
     pub patch_size: Option<f64>,
 }
 
+/// Bake settings a scene description's `[bake]` table asks for (explicit command-line flags win
+/// over them). Checked when the description is built: `method` is `2mf` or `2msc`, `precision`
+/// `f32` or `f16`, `layout` `factored` or `plain`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BakeDefaults {
+    /// Patch method: `2mf` or `2msc`.
+    pub method: Option<String>,
+    /// 2MSC threshold.
+    pub threshold: Option<f64>,
+    /// 2MSC smallest patch area (scene units², after `scale`).
+    pub min_patch_area: Option<f64>,
+    /// Quadrature points per element-patch pair.
+    pub samples: Option<u32>,
+    /// Stored precision: `f32` or `f16`.
+    pub precision: Option<String>,
+    /// Operator layout: `factored` or `plain`.
+    pub layout: Option<String>,
+    /// Operator file to write (resolved against the description's folder).
+    pub output: Option<std::path::PathBuf>,
+}
+
 /// What the import repaired, counted (the warnings name each case).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Repairs {
@@ -183,6 +204,8 @@ pub struct Scene {
     pub point_lights: Vec<PointLight>,
     /// Cameras.
     pub cameras: Vec<Camera>,
+    /// Bake settings of the scene description (`[bake]`).
+    pub bake: BakeDefaults,
     /// Exact-duplicate detection: sorted quantised vertices → face index.
     seen: HashMap<Vec<[i64; 3]>, usize>,
 }

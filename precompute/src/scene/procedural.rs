@@ -8,18 +8,14 @@ fn grey(name: &str, rho: f64, radiance: f64) -> MaterialDesc {
         name: name.into(),
         reflectance: [rho; 3],
         radiance: [radiance; 3],
+        ..Default::default()
     }
 }
 
 fn empty(name: String) -> SceneDescription {
     SceneDescription {
         name: Some(name),
-        scale: 1.0,
-        mesh: MeshHints::default(),
-        materials: Vec::new(),
-        surfaces: Vec::new(),
-        boxes: Vec::new(),
-        includes: Vec::new(),
+        ..Default::default()
     }
 }
 
@@ -124,6 +120,7 @@ pub fn dense_sphere(subdivisions: u32) -> SceneDescription {
         name: "clay".into(),
         reflectance: [0.75, 0.45, 0.3],
         radiance: [0.0; 3],
+        ..Default::default()
     });
     d.materials.push(grey("light", 0.0, 10.0));
     d.boxes.push(BoxDesc {
@@ -244,6 +241,7 @@ pub fn cluttered(grid: usize, seed: u64) -> SceneDescription {
         name: "clutter".into(),
         reflectance: [0.7, 0.5, 0.3],
         radiance: [0.0; 3],
+        ..Default::default()
     });
     d.materials.push(grey("lamp", 0.5, 8.0));
     let (side, height) = (4.0, 2.5);
@@ -474,6 +472,7 @@ pub fn messy() -> SceneDescription {
         name: "wood".into(),
         reflectance: [0.6, 0.45, 0.3],
         radiance: [0.0; 3],
+        ..Default::default()
     });
     d.materials.push(grey("lamp", 0.5, 8.0));
     let boxed = |name: &str, material: &str, min: [f64; 3], max: [f64; 3], omit: &[&str]| BoxDesc {

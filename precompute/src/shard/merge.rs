@@ -322,8 +322,9 @@ fn plan_memory(
     // Skeleton and its bytes, the file's copies (order, index, f32 arrays, geometry), lights.
     let per_element = 130 + 100 + 16;
     // The smooth weights: the skeleton's, the file's copy and the encoded section.
-    let sm = &skeleton.smooth;
-    let smooth = 3 * (4 * (sm.corners.len() + sm.offsets.len()) + 8 * sm.positions.len()) as u128;
+    let smooth = skeleton.display.smooth.as_ref().map_or(0, |sm| {
+        3 * (4 * (sm.corners.len() + sm.offsets.len()) + 8 * sm.positions.len()) as u128
+    });
     let fixed =
         PROCESS + n * per_element + smooth + (2 * c + 3) * k * k * 8 + header.skeleton_len as u128;
     // Per buffered row: the bytes read, f64 values, f32 values, the encoded payload.

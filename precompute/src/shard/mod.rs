@@ -154,6 +154,7 @@ pub fn bake_shard(
             progress,
             mesh,
         )?;
+        let display = crate::display::build(scene, &prepared.mesh, progress)?;
         let stage = progress.stage("cut", 0);
         let costs = cost::row_costs(&prepared.mesh, prepared.occluder.is_some());
         let cut = cost::boundaries(&costs, shard.count);
@@ -176,7 +177,7 @@ pub fn bake_shard(
             emission: &emission,
             surfaces: &scene.surfaces,
             channels: prepared.channels(),
-            smooth: &prepared.smooth(),
+            display: &display,
         });
         let skeleton = part::encode_skeleton(&skeleton);
         let header = PartHeader {

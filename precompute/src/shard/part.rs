@@ -19,7 +19,7 @@ use std::io::{BufReader, BufWriter, Read, Write};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use lrr_formats::{Geometry, Smooth, Xxh64, checksum};
+use lrr_formats::{Display, Geometry, Xxh64, checksum};
 
 use crate::error::{Error, Result};
 use crate::write::{Skeleton, SurfaceRanges};
@@ -334,10 +334,7 @@ pub(crate) fn encode_skeleton(s: &Skeleton) -> Vec<u8> {
     e.bytes(&s.geometry.vertex_count);
     e.f32s(&s.geometry.vertices);
     e.f32s(&s.geometry.normals);
-    for v in [&s.smooth.corners, &s.smooth.offsets, &s.smooth.positions] {
-        e.u64s(v.iter().map(|&x| u64::from(x)));
-    }
-    e.f32s(&s.smooth.weights);
+    e.bytes(&s.display.to_container_bytes());
     e.0
 }
 
@@ -366,7 +363,7 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
     }
     let channels = d.usize()?;
     let rgb = |v: Vec<f64>| v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    let skeleton = Skeleton {
+    let mut skeleton = Skeleton {
         scene_name,
         method,
         refinement,
@@ -388,15 +385,12 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
             vertices: d.f32s()?,
             normals: d.f32s()?,
         },
-        smooth: Smooth {
-            corners: d.u32s()?,
-            offsets: d.u32s()?,
-            positions: d.u32s()?,
-            weights: d.f32s()?,
-        },
+        display: Display::default(),
     };
-    d.end()?;
     let n = skeleton.order.len();
+    skeleton.display = Display::from_container_bytes(&d.bytes()?, n as u32)
+        .map_err(|e| format!("the display sections: {e}"))?;
+    d.end()?;
     let sizes_agree = [
         skeleton.weights.len(),
         skeleton.reflectance.len(),
@@ -406,7 +400,6 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
     ]
     .iter()
     .all(|&l| l == n)
-        && skeleton.smooth.corners.len() == 4 * n
         && skeleton.index.len() >= 2
         && skeleton.index[0] == 0
         && skeleton.index.windows(2).all(|w| w[0] <= w[1])

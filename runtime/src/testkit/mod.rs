@@ -3,8 +3,10 @@
 //!
 //! - [`synthetic`]: generated operators, valid and deterministic, of any size;
 //! - [`reference`](mod@reference): the f64 evaluation of a file, the yardstick of the fast paths;
+//! - [`bvh`]: a BVH builder for files made in memory (the runtime itself never builds one);
 //! - [`baseline`]: the papers' dense-`V_k` evaluation, for `lrr bench runtime`.
 
 pub mod baseline;
+pub mod bvh;
 pub mod reference;
 pub mod synthetic;

@@ -10,11 +10,12 @@ use crate::util::{root, temp_dir};
 #[path = "../../../fuzz/src/harness.rs"]
 mod harness;
 
-const TARGETS: [&str; 4] = [
+const TARGETS: [&str; 5] = [
     "operator_bytes",
     "operator_mutated",
     "obj_import",
     "scene_description",
+    "gltf_import",
 ];
 
 /// Runs one input through the target's body; `true` when it was accepted.
@@ -24,6 +25,7 @@ fn run(target: &str, data: &[u8], dir: &Path) -> bool {
         "operator_mutated" => harness::operator_mutated(data),
         "obj_import" => harness::obj_import(data, dir),
         "scene_description" => harness::scene_description(data, dir),
+        "gltf_import" => harness::gltf_import(data, dir),
         other => panic!("fuzz folder {other} is not a fuzz target"),
     }
 }

@@ -1,0 +1,407 @@
+//! `lrr bench render`: rays per second of the CPU ray tracer by kind (primary and secondary
+//! closest hits, shadow any hits) at 1920×1080, against Embree's single-ray queries
+//! (`rtcIntersect1`, `rtcOccluded1`) on the same rays in the same run, one thread each,
+//! alternated; and whole frames with the effects the scene needs against all effects forced on
+//! (what simulating only what the scene calls for saves).
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use lrr_formats::{Camera, Display, Geometry, Layout, OperatorFile, PointLight, Precision};
+use lrr_precompute::scene::procedural;
+use lrr_runtime::testkit;
+use lrr_runtime::trace::{Effects, Lighting, RayBatch, TraceHit, Tracer, View};
+
+#[derive(Debug, Args)]
+pub struct RenderBench {
+    /// Operator file with a BVH and a camera [default: the generated dense scene: the dense
+    /// sphere (subdivision 6) in its room, every triangle split in 4 (328 k triangles), BVH by
+    /// the testkit's binned SAH builder, two point lights].
+    #[arg(long, value_name = "FILE.lrr")]
+    pub file: Option<PathBuf>,
+    /// Image size.
+    #[arg(long, value_name = "WxH", default_value = "1920x1080")]
+    pub size: String,
+    /// Rounds (tracer and Embree alternated in each; medians reported).
+    #[arg(long, default_value_t = 5)]
+    pub runs: usize,
+    /// Threads of the whole-frame renders [default: all cores]. Ray kinds run on one thread.
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// The scene under test: file, camera, what it is.
+struct Bench {
+    file: OperatorFile,
+    camera: Camera,
+    what: String,
+}
+
+pub fn run(b: &RenderBench, out: &mut dyn Write) -> Result<()> {
+    if b.runs == 0 {
+        bail!("--runs must be at least 1");
+    }
+    let (w, h) = crate::bench_operators::parse_size(&b.size)
+        .with_context(|| format!("--size {}: expected WxH like 1920x1080", b.size))?;
+    let bench = match &b.file {
+        Some(path) => from_file(path)?,
+        None => dense()?,
+    };
+    let tracer = Tracer::new(&bench.file)?;
+    let view = View::new(&bench.camera, w as u32, h as u32)?;
+    writeln!(
+        out,
+        "scene: {} ({} triangles); {w}x{h}; ray kinds on 1 thread, {} rounds",
+        bench.what,
+        tracer.triangle_count(),
+        b.runs
+    )?;
+    let primary = tracer.primary_rays(&view, w as u32, h as u32);
+    let hits = tracer.closest_hits(&primary);
+    let shadow = tracer.shadow_rays(&primary, &hits);
+    let secondary = tracer.reflected_rays(&primary, &hits);
+    let tris: Vec<[[f32; 3]; 3]> = bench.file.geometry.triangles().map(|(_, t)| t).collect();
+    let embree = baseline::Baseline::build(&tris)?;
+    writeln!(
+        out,
+        "{:<10} {:>9} {:>14} {:>14} {:>22} {:>9}",
+        "kind", "rays", "tracer Mray/s", "embree Mray/s", "tracer/embree (range)", "disagree"
+    )?;
+    for (kind, rays) in [
+        ("primary", &primary),
+        ("shadow", &shadow),
+        ("secondary", &secondary),
+    ] {
+        if rays.is_empty() {
+            writeln!(out, "{kind:<10} {:>9}", 0)?;
+            continue;
+        }
+        let closest = kind != "shadow";
+        let m = measure(&tracer, &embree, rays, closest, b.runs);
+        let (e_rate, ratio) = match (m.embree_s, m.ratios.is_empty()) {
+            (Some(e), false) => {
+                let (lo, mid, hi) = spread(m.ratios.clone());
+                (
+                    format!("{:.2}", rays.len() as f64 / e / 1e6),
+                    format!("{mid:.2} ({lo:.2}-{hi:.2})"),
+                )
+            }
+            _ => ("n/a".into(), "n/a".into()),
+        };
+        writeln!(
+            out,
+            "{kind:<10} {:>9} {:>14.2} {:>14} {:>22} {:>9}",
+            rays.len(),
+            rays.len() as f64 / m.tracer_s / 1e6,
+            e_rate,
+            ratio,
+            m.disagree.map_or("n/a".into(), |d| d.to_string())
+        )?;
+    }
+    if !baseline::AVAILABLE {
+        writeln!(
+            out,
+            "embree: not in this build (run scripts/setup-embree.sh, then build with --features embree)"
+        )?;
+    }
+    frames(&tracer, &bench, &view, (w as u32, h as u32), b, out)
+}
+
+/// Medians of one ray kind.
+struct Measured {
+    tracer_s: f64,
+    embree_s: Option<f64>,
+    /// Per round: Embree's time / the tracer's (the tracer's rate over Embree's).
+    ratios: Vec<f64>,
+    /// Rays where the two disagree (hit or miss, or the triangle at a distinct distance).
+    disagree: Option<usize>,
+}
+
+fn measure(
+    tracer: &Tracer,
+    embree: &baseline::Baseline,
+    rays: &RayBatch,
+    closest: bool,
+    runs: usize,
+) -> Measured {
+    let (mut ts, mut es, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    let mut disagree = None;
+    for round in 0..runs {
+        let time_tracer = || {
+            let start = Instant::now();
+            let answer = if closest {
+                Answer::Hits(tracer.closest_hits(rays))
+            } else {
+                Answer::Blocked(tracer.occluded(rays))
+            };
+            (start.elapsed().as_secs_f64(), answer)
+        };
+        let time_embree = || {
+            let start = Instant::now();
+            let answer = embree.answer(rays, closest);
+            answer.map(|a| (start.elapsed().as_secs_f64(), a))
+        };
+        // Alternate which goes first.
+        let (t, e) = if round % 2 == 0 {
+            let t = time_tracer();
+            (t, time_embree())
+        } else {
+            let e = time_embree();
+            (time_tracer(), e)
+        };
+        ts.push(t.0);
+        if let Some((e_s, e_answer)) = e {
+            es.push(e_s);
+            ratios.push(e_s / t.0);
+            disagree = Some(t.1.differences(&e_answer));
+        }
+    }
+    Measured {
+        tracer_s: spread(ts).1,
+        embree_s: (!es.is_empty()).then(|| spread(es).1),
+        ratios,
+        disagree,
+    }
+}
+
+/// What a batch answered.
+pub(crate) enum Answer {
+    Hits(Vec<Option<TraceHit>>),
+    #[cfg_attr(not(feature = "embree"), allow(dead_code))]
+    Embree(Vec<Option<(f32, u32)>>),
+    Blocked(Vec<bool>),
+}
+
+impl Answer {
+    fn differences(&self, other: &Answer) -> usize {
+        match (self, other) {
+            (Answer::Hits(a), Answer::Embree(b)) => a
+                .iter()
+                .zip(b)
+                .filter(|(a, b)| match (a, b) {
+                    (Some(a), Some((t, id))) => {
+                        a.triangle != *id && (a.t - t).abs() > 1e-4 * t.max(1e-6)
+                    }
+                    (None, None) => false,
+                    _ => true,
+                })
+                .count(),
+            (Answer::Blocked(a), Answer::Blocked(b)) => {
+                a.iter().zip(b).filter(|(a, b)| a != b).count()
+            }
+            _ => 0,
+        }
+    }
+}
+
+/// (min, median, max).
+fn spread(mut v: Vec<f64>) -> (f64, f64, f64) {
+    v.sort_by(f64::total_cmp);
+    (v[0], v[v.len() / 2], v[v.len() - 1])
+}
+
+/// Whole frames on all threads: the decided effects against all forced on, alternated.
+fn frames(
+    tracer: &Tracer,
+    bench: &Bench,
+    view: &View,
+    (w, h): (u32, u32),
+    b: &RenderBench,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let threads = b
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let radiosity: Vec<[f32; 3]> = (0..bench.file.n as usize)
+        .map(|i| [(i % 7) as f32, 1.0, 0.5])
+        .collect();
+    let groups = vec![1.0f32; bench.file.lights.len()];
+    let lighting = Lighting {
+        radiosity: &radiosity,
+        group_intensities: &groups,
+    };
+    let decision = tracer.decide(&lighting)?;
+    let (mut decided, mut all, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    let mut counts = None;
+    for round in 0..b.runs {
+        let mut time = |effects: Effects| -> Result<f64> {
+            let start = Instant::now();
+            let (_, c) = tracer.render_with(view, &lighting, effects, w, h, threads)?;
+            if effects == decision.effects {
+                counts = Some(c);
+            }
+            Ok(start.elapsed().as_secs_f64())
+        };
+        let (d, a) = if round % 2 == 0 {
+            let d = time(decision.effects)?;
+            (d, time(Effects::all())?)
+        } else {
+            let a = time(Effects::all())?;
+            (time(decision.effects)?, a)
+        };
+        decided.push(d);
+        all.push(a);
+        ratios.push(a / d);
+    }
+    let c = counts.unwrap_or_default();
+    let d = spread(decided).1;
+    let rays = (c.primary + c.shadow + c.secondary) as f64;
+    let (lo, mid, hi) = spread(ratios);
+    write!(
+        out,
+        "frames on {threads} thread(s), effects decided:\n{}",
+        decision.text()
+    )?;
+    writeln!(
+        out,
+        "  {:.1} ms per frame ({:.2} Mray/s: {} primary, {} shadow, {} secondary); all effects \
+         forced on: {:.1} ms, x{mid:.2} ({lo:.2}-{hi:.2}) the decided frame's time",
+        d * 1e3,
+        rays / d / 1e6,
+        c.primary,
+        c.shadow,
+        c.secondary,
+        spread(all).1 * 1e3
+    )?;
+    Ok(())
+}
+
+fn from_file(path: &Path) -> Result<Bench> {
+    let file = OperatorFile::read(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let camera = file
+        .display
+        .cameras
+        .first()
+        .cloned()
+        .with_context(|| format!("{}: the file has no camera to bench with", path.display()))?;
+    Ok(Bench {
+        what: path.display().to_string(),
+        file,
+        camera,
+    })
+}
+
+/// The dense sphere scene as display triangles, each split in 4, in an operator file made in
+/// memory (the operator itself is synthetic: the bench traces, it does not relight).
+fn dense() -> Result<Bench> {
+    let scene = procedural::dense_sphere(procedural::MAX_SPHERE_SUBDIVISIONS)
+        .build("dense", Path::new("."))?;
+    let mut tris = Vec::new();
+    for f in &scene.faces {
+        let v: Vec<[f32; 3]> = f
+            .polygon
+            .vertices()
+            .iter()
+            .map(|p| p.as_vec3().to_array())
+            .collect();
+        for i in 1..v.len() - 1 {
+            split4(&[v[0], v[i], v[i + 1]], &mut tris);
+        }
+    }
+    let n = tris.len();
+    let mut file = testkit::synthetic::file(n, 1, 1, Precision::F32, Layout::Factored, 1)?;
+    file.order = (0..n as u32).collect();
+    let mut vertices = Vec::with_capacity(12 * n);
+    let mut normals = Vec::with_capacity(3 * n);
+    for t in &tris {
+        t.iter().for_each(|p| vertices.extend(p));
+        vertices.extend([0.0; 3]);
+        let (a, b) = (
+            glam::Vec3::from(t[1]) - glam::Vec3::from(t[0]),
+            glam::Vec3::from(t[2]) - glam::Vec3::from(t[0]),
+        );
+        normals.extend(a.cross(b).normalize_or_zero().to_array());
+    }
+    file.geometry = Geometry {
+        vertex_count: vec![3; n],
+        vertices,
+        normals,
+    };
+    let light = |name: &str, position| PointLight {
+        name: name.into(),
+        position,
+        intensity: [0.2; 3],
+        group: PointLight::FIXED,
+    };
+    file.display = Display {
+        point_lights: vec![
+            light("top", [0.5, 0.9, 0.5]),
+            light("corner", [0.15, 0.8, 0.85]),
+        ],
+        bvh: Some(testkit::bvh::build(&file.geometry)),
+        ..Display::default()
+    };
+    Ok(Bench {
+        what: "dense sphere (subdivision 6, triangles split in 4) in its room, testkit SAH BVH"
+            .into(),
+        file,
+        camera: Camera {
+            name: "bench".into(),
+            eye: [0.5, 0.55, 0.98],
+            target: [0.5, 0.4, 0.5],
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: 60.0,
+        },
+    })
+}
+
+/// The 4 triangles of `t` split at its edge midpoints.
+fn split4(t: &[[f32; 3]; 3], out: &mut Vec<[[f32; 3]; 3]>) {
+    let mid = |a: [f32; 3], b: [f32; 3]| {
+        [
+            0.5 * (a[0] + b[0]),
+            0.5 * (a[1] + b[1]),
+            0.5 * (a[2] + b[2]),
+        ]
+    };
+    let [a, b, c] = *t;
+    let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
+    out.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+}
+
+/// Embree, or nothing in a build without it.
+mod baseline {
+    use super::{Answer, RayBatch};
+    use anyhow::Result;
+
+    #[cfg(feature = "embree")]
+    pub const AVAILABLE: bool = true;
+    #[cfg(not(feature = "embree"))]
+    pub const AVAILABLE: bool = false;
+
+    pub struct Baseline {
+        #[cfg(feature = "embree")]
+        scene: crate::bench_render_embree::EmbreeScene,
+    }
+
+    impl Baseline {
+        #[cfg(feature = "embree")]
+        pub fn build(tris: &[[[f32; 3]; 3]]) -> Result<Self> {
+            Ok(Baseline {
+                scene: crate::bench_render_embree::EmbreeScene::build(tris)?,
+            })
+        }
+
+        #[cfg(not(feature = "embree"))]
+        pub fn build(_tris: &[[[f32; 3]; 3]]) -> Result<Self> {
+            Ok(Baseline {})
+        }
+
+        #[cfg(feature = "embree")]
+        pub fn answer(&self, rays: &RayBatch, closest: bool) -> Option<Answer> {
+            Some(if closest {
+                Answer::Embree(self.scene.closest_hits(rays))
+            } else {
+                Answer::Blocked(self.scene.occluded(rays))
+            })
+        }
+
+        #[cfg(not(feature = "embree"))]
+        pub fn answer(&self, _rays: &RayBatch, _closest: bool) -> Option<Answer> {
+            None
+        }
+    }
+}

@@ -1,0 +1,129 @@
+//! `lrr render` end to end on a file made in memory (a grid of unit squares with the testkit's
+//! BVH and a camera): the EXR holds `B/π` of the element under each pixel, the PNG is the
+//! image's size, `--explain` says why, and the refusals are clear.
+
+use std::f32::consts::PI;
+use std::path::Path;
+
+use lrr_formats::{Camera, OperatorFile};
+use lrr_runtime::{Layout, Operator, Precision, testkit};
+
+/// A 64-element grid (8 × 8 unit squares at z = 0) with a BVH and a camera looking down at it.
+fn write_file(path: &Path, bvh: bool) -> OperatorFile {
+    let mut file = testkit::synthetic::file(64, 8, 3, Precision::F32, Layout::Factored, 3).unwrap();
+    if bvh {
+        file.display.bvh = Some(testkit::bvh::build(&file.geometry));
+    }
+    file.display.cameras.push(Camera {
+        name: "top".into(),
+        eye: [4.0, 4.0, 6.0],
+        target: [4.0, 4.0, 0.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 60.0,
+    });
+    file.write(path).unwrap();
+    file
+}
+
+fn run(args: &[&str]) -> anyhow::Result<String> {
+    let mut out = Vec::new();
+    let mut argv = vec!["lrr", "render"];
+    argv.extend_from_slice(args);
+    lrr_cli::run(argv, &mut out)?;
+    Ok(String::from_utf8(out).unwrap())
+}
+
+#[test]
+fn the_exr_holds_b_over_pi_and_the_png_is_the_image() {
+    let dir = std::env::temp_dir().join(format!("lrr-render-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let lrr = dir.join("grid.lrr");
+    write_file(&lrr, true);
+    let op = Operator::load(&lrr).unwrap();
+    let b = op.evaluate_baked();
+    let exr = dir.join("grid.exr");
+    let text = run(&[
+        lrr.to_str().unwrap(),
+        "--size",
+        "41x41",
+        "--exr-samples",
+        "float",
+        "--explain",
+        "-o",
+        exr.to_str().unwrap(),
+    ])
+    .unwrap();
+    assert!(text.contains("secondary rays: off"), "{text}");
+    assert!(
+        text.contains("1681 primary, 0 shadow, 0 secondary"),
+        "{text}"
+    );
+    let image = exr::prelude::read_first_rgba_layer_from_file(
+        &exr,
+        |size, _| vec![[0.0f32; 3]; size.width() * size.height()],
+        |px: &mut Vec<[f32; 3]>, pos, (r, g, b_, _a): (f32, f32, f32, f32)| {
+            px[pos.y() * 41 + pos.x()] = [r, g, b_];
+        },
+    )
+    .unwrap();
+    let pixels = &image.layer_data.channel_data.pixels;
+    // The centre pixel looks straight down at (4, 4): the square at x in [4, 5), y in [4, 5),
+    // file position 4 * 8 + 4 of the grid, whose original id the file's order gives.
+    let file = OperatorFile::read(&lrr).unwrap();
+    let id = file.order[4 * 8 + 4] as usize;
+    // The ray through the centre pixel hits (4, 4) exactly, a corner: pixel (21, 19), one
+    // right and one up, looks at x ≈ y ≈ 4.17, inside the square.
+    let got = pixels[19 * 41 + 21];
+    for c in 0..3 {
+        let want = b[id][c] / PI;
+        assert!(
+            (got[c] - want).abs() <= 1e-6 * want.abs().max(1e-6),
+            "{got:?} vs {:?}",
+            b[id]
+        );
+    }
+    let png = dir.join("grid.png");
+    let text = run(&[
+        lrr.to_str().unwrap(),
+        "--size",
+        "32x20",
+        "-o",
+        png.to_str().unwrap(),
+    ])
+    .unwrap();
+    assert!(text.contains("exposure:"), "{text}");
+    let decoder = png::Decoder::new(std::fs::File::open(&png).unwrap());
+    let reader = decoder.read_info().unwrap();
+    assert_eq!((reader.info().width, reader.info().height), (32, 20));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn refusals_are_clear() {
+    let dir = std::env::temp_dir().join(format!("lrr-render-refusals-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let with = dir.join("with.lrr");
+    let without = dir.join("without.lrr");
+    write_file(&with, true);
+    write_file(&without, false);
+    let out = dir.join("x.png");
+    let (with, without, out) = (
+        with.to_str().unwrap(),
+        without.to_str().unwrap(),
+        out.to_str().unwrap(),
+    );
+    let err = |args: &[&str]| run(args).unwrap_err().to_string();
+    let e = err(&[without, "-o", out]);
+    assert!(e.contains("no BVH") && e.contains("re-bake"), "{e}");
+    let e = err(&[with, "--device", "gpu", "-o", out]);
+    assert!(e.contains("not built yet") && e.contains("issue 15"), "{e}");
+    let e = err(&[with, "--camera", "side", "-o", out]);
+    assert!(e.contains("no such camera") && e.contains("'top'"), "{e}");
+    let e = err(&[with, "-o", "x.jpg"]);
+    assert!(e.contains(".png") && e.contains(".exr"), "{e}");
+    let e = err(&[with, "--group", "nope=2", "-o", out]);
+    assert!(e.contains("no light group 'nope'"), "{e}");
+    let e = err(&[with, "--up", "0,0,1", "-o", out]);
+    assert!(e.contains("parallel"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,0 +1,236 @@
+//! What the bake stores for display (format 1.2, [`lrr_formats::Display`]): the display
+//! geometry, the material of every element, the scene's point lights (each following the
+//! light group of its emitter) and cameras, and the BVH over the display triangles (`bvh`).
+//!
+//! Built once the fine mesh exists, before the form factors, so that a bad point light or
+//! camera is refused before hours of work; `write::Skeleton` carries the result into the file
+//! (and a sharded bake's parts into the merged file) unchanged.
+
+mod bvh;
+
+use lrr_formats::{Camera, Display, Geometry, Material, Materials, PointLight};
+
+use crate::error::{Error, Result};
+use crate::patches::Mesh;
+use crate::progress::Progress;
+use crate::scene::{Optics, Scene};
+
+/// The display sections of a bake of `scene` meshed as `mesh` (the smooth weights from
+/// `mesh::smooth`). Errors
+/// name the scene and the light, camera or material at fault.
+pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display> {
+    let materials = materials(scene, mesh)?;
+    let point_lights = point_lights(scene, mesh)?;
+    let cameras = cameras(scene)?;
+    let stage = progress.stage("bvh", 0);
+    let bvh = bvh::build(&geometry(mesh));
+    stage.finish();
+    let stage = progress.stage("smooth", 0);
+    let elements: Vec<_> = (0..mesh.n()).map(|s| mesh.element_at(s)).collect();
+    let smooth = crate::mesh::smooth::weights(scene, &elements);
+    stage.finish();
+    Ok(Display {
+        smooth: Some(smooth),
+        materials: Some(materials),
+        point_lights,
+        cameras,
+        bvh: Some(bvh),
+    })
+}
+
+/// The fine mesh for display, in file order and f32 (section GEOMETRY).
+pub(crate) fn geometry(mesh: &Mesh) -> Geometry {
+    let n = mesh.n();
+    let mut geometry = Geometry {
+        vertex_count: Vec::with_capacity(n),
+        vertices: Vec::with_capacity(n * 12),
+        normals: Vec::with_capacity(n * 3),
+    };
+    for s in 0..n {
+        let p = &mesh.element_at(s).polygon;
+        geometry.vertex_count.push(p.count as u8);
+        // Triangles leave their fourth slot zero (Polygon keeps unused slots zeroed).
+        for v in &p.vertices {
+            geometry
+                .vertices
+                .extend([v.x as f32, v.y as f32, v.z as f32]);
+        }
+        geometry
+            .normals
+            .extend([p.normal.x as f32, p.normal.y as f32, p.normal.z as f32]);
+    }
+    geometry
+}
+
+fn f32s(v: [f64; 3]) -> [f32; 3] {
+    v.map(|x| x as f32)
+}
+
+/// Every scene material (diffuse ρ and optics) and the material of each file position.
+fn materials(scene: &Scene, mesh: &Mesh) -> Result<Materials> {
+    let mut materials = Vec::with_capacity(scene.materials.len());
+    for m in &scene.materials {
+        let Optics {
+            specular,
+            shininess,
+            mirror,
+            transmission,
+            ior,
+        } = m.optics;
+        let material = Material {
+            name: m.name.clone(),
+            diffuse: f32s(m.reflectance),
+            specular: f32s(specular),
+            shininess: shininess as f32,
+            mirror: f32s(mirror),
+            transmission: f32s(transmission),
+            ior: ior as f32,
+        };
+        material
+            .check()
+            .map_err(|e| Error::scene(&scene.name, e.message))?;
+        materials.push(material);
+    }
+    let element_material = (0..mesh.n())
+        .map(|s| scene.faces[mesh.element_at(s).face as usize].material as u32)
+        .collect();
+    Ok(Materials {
+        materials,
+        element_material,
+    })
+}
+
+/// The light group index of each surface: `write::Skeleton::add_light_groups` makes one group
+/// per surface with an emitting element, in surface order.
+fn light_groups(scene: &Scene, mesh: &Mesh) -> Vec<Option<u32>> {
+    let mut emits = vec![false; scene.surfaces.len()];
+    for e in &mesh.elements {
+        let material = &scene.materials[scene.faces[e.face as usize].material];
+        if material.emission.iter().any(|&x| x > 0.0) {
+            emits[e.surface as usize] = true;
+        }
+    }
+    let mut next = 0;
+    emits
+        .iter()
+        .map(|&emits| {
+            emits.then(|| {
+                next += 1;
+                next - 1
+            })
+        })
+        .collect()
+}
+
+/// The scene's point lights, each with the index of its group: a group name is an emitting
+/// surface's (its own group), or an emitting material's used by exactly one emitting surface.
+fn point_lights(scene: &Scene, mesh: &Mesh) -> Result<Vec<PointLight>> {
+    let groups = light_groups(scene, mesh);
+    let emitters: Vec<&str> = scene
+        .surfaces
+        .iter()
+        .zip(&groups)
+        .filter(|(_, g)| g.is_some())
+        .map(|(s, _)| s.as_str())
+        .collect();
+    let mut lights = Vec::with_capacity(scene.point_lights.len());
+    for light in &scene.point_lights {
+        let fail = |problem: String| {
+            Error::scene(
+                &scene.name,
+                format!("point light '{}': {problem}", light.name),
+            )
+        };
+        let group = match &light.group {
+            None => PointLight::FIXED,
+            Some(name) => group_of(scene, mesh, &groups, name).map_err(|problem| {
+                fail(format!(
+                    "{problem}; the light groups are the emitting surfaces: {}",
+                    if emitters.is_empty() {
+                        "none (the scene emits nothing)".to_string()
+                    } else {
+                        emitters.join(", ")
+                    }
+                ))
+            })?,
+        };
+        let point = PointLight {
+            name: light.name.clone(),
+            position: f32s(light.position),
+            intensity: f32s(light.intensity),
+            group,
+        };
+        point
+            .check_values()
+            .map_err(|e| Error::scene(&scene.name, e.message))?;
+        lights.push(point);
+    }
+    Ok(lights)
+}
+
+/// The group a point light names (see [`point_lights`]), or why there is none.
+fn group_of(
+    scene: &Scene,
+    mesh: &Mesh,
+    groups: &[Option<u32>],
+    name: &str,
+) -> std::result::Result<u32, String> {
+    if let Some(s) = scene.surfaces.iter().position(|s| s == name) {
+        return groups[s]
+            .ok_or_else(|| format!("its group '{name}' is a surface that emits nothing"));
+    }
+    let Some(m) = scene.materials.iter().position(|m| m.name == name) else {
+        return Err(format!(
+            "its group '{name}' is no surface or material of the scene"
+        ));
+    };
+    let mut surfaces: Vec<u32> = mesh
+        .elements
+        .iter()
+        .filter(|e| scene.faces[e.face as usize].material == m)
+        .map(|e| e.surface)
+        .filter(|&s| groups[s as usize].is_some())
+        .collect();
+    surfaces.sort_unstable();
+    surfaces.dedup();
+    match surfaces[..] {
+        [s] => Ok(groups[s as usize].unwrap_or(PointLight::FIXED)),
+        [] => Err(format!(
+            "its group '{name}' is a material that no emitting surface uses"
+        )),
+        _ => Err(format!(
+            "its group '{name}' is a material of several emitting surfaces ({}): name one \
+             surface",
+            surfaces
+                .iter()
+                .map(|&s| scene.surfaces[s as usize].as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )),
+    }
+}
+
+/// The scene's cameras.
+fn cameras(scene: &Scene) -> Result<Vec<Camera>> {
+    let mut cameras: Vec<Camera> = Vec::with_capacity(scene.cameras.len());
+    for c in &scene.cameras {
+        let camera = Camera {
+            name: c.name.clone(),
+            eye: f32s(c.eye),
+            target: f32s(c.target),
+            up: f32s(c.up),
+            fov_y_deg: c.fov_y_deg as f32,
+        };
+        camera
+            .check()
+            .map_err(|e| Error::scene(&scene.name, e.message))?;
+        if cameras.iter().any(|other| other.name == camera.name) {
+            return Err(Error::scene(
+                &scene.name,
+                format!("two cameras are named '{}': names must be unique", c.name),
+            ));
+        }
+        cameras.push(camera);
+    }
+    Ok(cameras)
+}

@@ -1,0 +1,948 @@
+//! glTF 2.0 import (`.gltf` and `.glb`): the gltf crate parses and validates the JSON; the GLB
+//! container, buffers, images and accessors are read here, every range checked, so that bad
+//! input is an error naming the part (mesh, primitive, accessor by index and name), never a
+//! panic. docs/SCENES.md lists what maps to what.
+//!
+//! - Geometry: the nodes of the default scene (else scene 0, else every root node), each
+//!   mesh under its node's world transform (matrix or TRS; a mirroring transform keeps the
+//!   front side by reversing the winding). Primitives of mode TRIANGLES, TRIANGLE_STRIP and
+//!   TRIANGLE_FAN, indexed or not, become triangles through `Scene::add_polygon` (front:
+//!   counter-clockwise, as in glTF); points and lines are skipped with a warning. A surface per
+//!   node (its name, else its mesh's, else `node N`), `surface/material` when its mesh uses
+//!   several materials.
+//! - Materials: `c` = baseColorFactor × the linear average of the baseColor texture over its
+//!   texels (per material, not per element), `m` = metallic, `r` = roughness,
+//!   `t` = KHR_materials_transmission. Diffuse reflectance `ρ = c·(1−m)·(1−t) + c·m·r` (a
+//!   rough metal scatters almost diffusely), mirror `c·m·(1−r)` (a smooth metal is a mirror),
+//!   transmission filter `c·(1−m)·t`, ior from KHR_materials_ior (glTF's default 1.5 for
+//!   transmissive materials). ρ at or above [`MAX_REFLECTANCE`] is clamped with a warning.
+//!   Emission: emissiveFactor × KHR_materials_emissive_strength × the emissive texture's average
+//!   is the radiance `L`; the exitance is `π·L` (as OBJ's `Ke`).
+//! - Cameras (perspective) and KHR_lights_punctual point lights, placed by their nodes.
+//! - Extensions: required ones other than [`UNDERSTOOD`] are refused by name; used ones not
+//!   understood are warned about by name.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use base64::Engine;
+use glam::{DMat4, DQuat, DVec3};
+use gltf::json;
+
+use super::model::{Camera, Material, Optics, PointLight, Scene};
+use crate::error::{Error, Result};
+
+/// The extensions this importer reads (everything else is refused when required, warned about
+/// when used).
+pub const UNDERSTOOD: [&str; 4] = [
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_transmission",
+];
+
+/// Largest diffuse reflectance kept as is; above it a material is clamped (with a warning),
+/// since a reflectance of 1 makes a closed scene's radiosity system singular.
+pub const MAX_REFLECTANCE: f64 = 0.99;
+
+/// Reflectance of primitives without a material (with a warning; OBJ uses the same).
+const DEFAULT_REFLECTANCE: f64 = 0.5;
+
+/// Largest image (width × height) whose texels are averaged.
+const MAX_TEXELS: u64 = 1 << 26;
+
+/// Loads a `.gltf` or `.glb` file; external buffers and images must lie in its folder.
+pub fn load(path: &Path) -> Result<Scene> {
+    let origin = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("scene");
+    import(&bytes, base, name, &origin)
+}
+
+/// Imports glTF or GLB bytes; `base` is the folder relative URIs are resolved in (and must stay
+/// in), `name` the scene name, `origin` the file name for messages.
+pub fn import(bytes: &[u8], base: &Path, name: &str, origin: &str) -> Result<Scene> {
+    let err = |msg: String| Error::scene(origin, msg);
+    let (json_bytes, blob) = if bytes.starts_with(b"glTF") {
+        split_glb(bytes).map_err(|m| err(format!("malformed GLB: {m}")))?
+    } else {
+        (bytes, None)
+    };
+    let root: json::Root = json::deserialize::from_slice(json_bytes)
+        .map_err(|e| err(format!("cannot parse the glTF JSON: {e}")))?;
+    let mut scene = Scene::new(name);
+    check_extensions(&root, origin, &mut scene.warnings)?;
+    check_position_references(&root, origin)?;
+    let doc = gltf::Document::from_json(root)
+        .map_err(|e| err(format!("the glTF does not validate: {e}")))?;
+    let mut importer = Importer {
+        doc: &doc,
+        origin,
+        base,
+        blob,
+        buffers: HashMap::new(),
+        materials: HashMap::new(),
+        scene,
+    };
+    importer.buffers_checked()?;
+    let roots = importer.roots()?;
+    let mut stack: Vec<(usize, DMat4)> = roots
+        .into_iter()
+        .rev()
+        .map(|n| (n, DMat4::IDENTITY))
+        .collect();
+    let mut seen = vec![false; doc.nodes().len()];
+    while let Some((index, parent)) = stack.pop() {
+        if std::mem::replace(&mut seen[index], true) {
+            return Err(err(format!(
+                "node {index} is reached twice: the node hierarchy must be a tree (no node may \
+                 have two parents or be its own ancestor)"
+            )));
+        }
+        let node = doc.nodes().nth(index).expect("validated node index");
+        let world = parent * importer.local_transform(&node)?;
+        importer.node(&node, &world)?;
+        for child in node.children().collect::<Vec<_>>().into_iter().rev() {
+            stack.push((child.index(), world));
+        }
+    }
+    Ok(importer.scene)
+}
+
+/// The JSON chunk and the optional BIN chunk of a GLB container.
+fn split_glb(bytes: &[u8]) -> std::result::Result<(&[u8], Option<&[u8]>), String> {
+    let word = |at: usize| -> Option<u32> {
+        Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?))
+    };
+    let (Some(version), Some(length)) = (word(4), word(8)) else {
+        return Err(format!(
+            "{} bytes is shorter than the 12-byte header",
+            bytes.len()
+        ));
+    };
+    if version != 2 {
+        return Err(format!(
+            "container version {version}; only version 2 (glTF 2.0) is read"
+        ));
+    }
+    let length = length as usize;
+    if length < 20 || length > bytes.len() {
+        return Err(format!(
+            "the header declares {length} bytes but the file holds {} (truncated or damaged)",
+            bytes.len()
+        ));
+    }
+    let bytes = &bytes[..length];
+    let mut at = 12;
+    let mut chunks = Vec::new();
+    while at < length {
+        let (Some(len), Some(kind)) = (
+            bytes
+                .get(at..at + 4)
+                .map(|b| u32::from_le_bytes(b.try_into().unwrap())),
+            bytes.get(at + 4..at + 8),
+        ) else {
+            return Err(format!("chunk header at byte {at} runs past the end"));
+        };
+        let start = at + 8;
+        let end = start
+            .checked_add(len as usize)
+            .filter(|&e| e <= length)
+            .ok_or_else(|| {
+                format!(
+                    "chunk at byte {at} declares {len} bytes but only {} remain (truncated)",
+                    length - start.min(length)
+                )
+            })?;
+        chunks.push((kind, &bytes[start..end], at));
+        at = end.next_multiple_of(4);
+    }
+    match chunks.as_slice() {
+        [(b"JSON", json, _), rest @ ..] => {
+            let bin = match rest {
+                [] => None,
+                [(b"BIN\0", bin, _), ..] => Some(*bin),
+                [(kind, _, at), ..] => {
+                    return Err(format!(
+                        "the chunk at byte {at} has type {:?}; the second chunk must be BIN",
+                        String::from_utf8_lossy(kind)
+                    ));
+                }
+            };
+            Ok((json, bin))
+        }
+        _ => Err("the first chunk must be the JSON chunk".into()),
+    }
+}
+
+/// Refuses required extensions this importer cannot honour, warns about used ones it ignores.
+fn check_extensions(root: &json::Root, origin: &str, warnings: &mut Vec<String>) -> Result<()> {
+    for ext in &root.extensions_required {
+        if !UNDERSTOOD.contains(&ext.as_str()) {
+            let what = match ext.as_str() {
+                "KHR_mesh_quantization" => " (quantised vertex attributes)",
+                "KHR_draco_mesh_compression" => " (Draco-compressed meshes)",
+                "EXT_meshopt_compression" => " (meshoptimizer-compressed buffers)",
+                "KHR_texture_basisu" => " (Basis Universal textures)",
+                _ => "",
+            };
+            return Err(Error::scene(
+                origin,
+                format!(
+                    "the file requires the extension {ext}{what}, which lrr does not support; \
+                     export without it (lrr reads {})",
+                    UNDERSTOOD.join(", ")
+                ),
+            ));
+        }
+    }
+    for ext in &root.extensions_used {
+        if !UNDERSTOOD.contains(&ext.as_str()) {
+            warnings.push(format!(
+                "{origin}: extension {ext} is used but not supported; its data is ignored"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Checks what the gltf crate's validation indexes without a bounds check (1.4.1 panics on a
+/// POSITION attribute naming a missing accessor; found by this importer's tests).
+fn check_position_references(root: &json::Root, origin: &str) -> Result<()> {
+    let position = json::validation::Checked::Valid(json::mesh::Semantic::Positions);
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(a) = primitive.attributes.get(&position)
+                && a.value() >= root.accessors.len()
+            {
+                return Err(Error::scene(
+                    origin,
+                    format!(
+                        "{} primitive {p}: POSITION refers to accessor {}, but the file has {} \
+                         accessors",
+                        named("mesh", m, mesh.name.as_deref()),
+                        a.value(),
+                        root.accessors.len()
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The state of one import.
+struct Importer<'a> {
+    doc: &'a gltf::Document,
+    origin: &'a str,
+    base: &'a Path,
+    blob: Option<&'a [u8]>,
+    /// Loaded buffers by index (each at least its declared length).
+    buffers: HashMap<usize, Vec<u8>>,
+    /// glTF material index (None: the default material) → scene material.
+    materials: HashMap<Option<usize>, usize>,
+    scene: Scene,
+}
+
+/// "mesh 2 'chair'" and the like.
+fn named(kind: &str, index: usize, name: Option<&str>) -> String {
+    match name {
+        Some(n) => format!("{kind} {index} '{n}'"),
+        None => format!("{kind} {index}"),
+    }
+}
+
+impl<'a> Importer<'a> {
+    fn err(&self, msg: impl Into<String>) -> Error {
+        Error::scene(self.origin, msg)
+    }
+
+    /// Loads every buffer and checks it holds its declared length.
+    fn buffers_checked(&mut self) -> Result<()> {
+        for buffer in self.doc.buffers() {
+            let what = named("buffer", buffer.index(), buffer.name());
+            let data = match buffer.source() {
+                gltf::buffer::Source::Bin => match self.blob {
+                    Some(b) => b.to_vec(),
+                    None => {
+                        return Err(self.err(format!(
+                            "{what} refers to the GLB binary chunk, but the file has none \
+                             (a .gltf buffer needs a 'uri')"
+                        )));
+                    }
+                },
+                gltf::buffer::Source::Uri(uri) => self.uri_bytes(uri, &what)?,
+            };
+            if data.len() < buffer.length() {
+                return Err(self.err(format!(
+                    "{what} declares {} bytes but its data holds {} (truncated or wrong byteLength)",
+                    buffer.length(),
+                    data.len()
+                )));
+            }
+            self.buffers.insert(buffer.index(), data);
+        }
+        Ok(())
+    }
+
+    /// The bytes of a data URI or of a file in the scene's folder.
+    fn uri_bytes(&self, uri: &str, what: &str) -> Result<Vec<u8>> {
+        if let Some(rest) = uri.strip_prefix("data:") {
+            let Some((_, payload)) = rest.split_once(";base64,") else {
+                return Err(self.err(format!("{what}: only base64 data URIs are supported")));
+            };
+            return base64::engine::general_purpose::STANDARD
+                .decode(payload)
+                .map_err(|e| self.err(format!("{what}: bad base64 in its data URI: {e}")));
+        }
+        let path = self.local_path(uri, what)?;
+        std::fs::read(&path).map_err(|e| {
+            self.err(format!(
+                "{what}: cannot read '{}': {e}; external files must sit next to the glTF",
+                path.display()
+            ))
+        })
+    }
+
+    /// A relative URI resolved in the scene folder; refused when it leaves the folder.
+    fn local_path(&self, uri: &str, what: &str) -> Result<PathBuf> {
+        let decoded = percent_decode(uri)
+            .ok_or_else(|| self.err(format!("{what}: URI '{uri}' has a bad %-escape")))?;
+        let relative = Path::new(&decoded);
+        let outside = uri.contains("://")
+            || relative.is_absolute()
+            || relative.components().any(|c| {
+                !matches!(
+                    c,
+                    std::path::Component::Normal(_) | std::path::Component::CurDir
+                )
+            });
+        if outside {
+            return Err(self.err(format!(
+                "{what}: URI '{uri}' points outside the scene's folder; lrr reads only relative \
+                 paths inside it (or data: URIs, or the GLB binary chunk)"
+            )));
+        }
+        let path = self.base.join(relative);
+        // A link inside the folder may still lead out of it.
+        if let (Ok(folder), Ok(real)) = (self.base.canonicalize(), path.canonicalize())
+            && !real.starts_with(&folder)
+        {
+            return Err(self.err(format!(
+                "{what}: '{uri}' resolves to '{}', outside the scene's folder",
+                real.display()
+            )));
+        }
+        Ok(path)
+    }
+
+    /// The nodes to start from: the default scene's, scene 0's, or every root node.
+    fn roots(&self) -> Result<Vec<usize>> {
+        if let Some(s) = self
+            .doc
+            .default_scene()
+            .or_else(|| self.doc.scenes().next())
+        {
+            return Ok(s.nodes().map(|n| n.index()).collect());
+        }
+        let mut child = vec![false; self.doc.nodes().len()];
+        for n in self.doc.nodes() {
+            for c in n.children() {
+                child[c.index()] = true;
+            }
+        }
+        Ok((0..child.len()).filter(|&i| !child[i]).collect())
+    }
+
+    /// A node's local transform, checked finite (a rotation is normalised; zero is refused).
+    fn local_transform(&self, node: &gltf::Node) -> Result<DMat4> {
+        let what = named("node", node.index(), node.name());
+        let m = match node.transform() {
+            gltf::scene::Transform::Matrix { matrix } => {
+                DMat4::from_cols_array_2d(&matrix.map(|c| c.map(f64::from)))
+            }
+            gltf::scene::Transform::Decomposed {
+                translation,
+                rotation,
+                scale,
+            } => {
+                let q = DQuat::from_array(rotation.map(f64::from));
+                let len = q.length();
+                if !(len.is_finite() && len > 0.0) {
+                    return Err(self.err(format!(
+                        "{what}: rotation {rotation:?} is not a usable quaternion"
+                    )));
+                }
+                DMat4::from_scale_rotation_translation(
+                    DVec3::from_array(scale.map(f64::from)),
+                    q / len,
+                    DVec3::from_array(translation.map(f64::from)),
+                )
+            }
+        };
+        if !m.is_finite() {
+            return Err(self.err(format!(
+                "{what}: its transform holds a non-finite number (NaN or infinity)"
+            )));
+        }
+        Ok(m)
+    }
+
+    /// Imports what a node holds under its world transform.
+    fn node(&mut self, node: &gltf::Node, world: &DMat4) -> Result<()> {
+        if !world.is_finite() {
+            return Err(self.err(format!(
+                "{}: its world transform overflows (not finite)",
+                named("node", node.index(), node.name())
+            )));
+        }
+        if let Some(mesh) = node.mesh() {
+            self.mesh(node, &mesh, world)?;
+        }
+        if let Some(camera) = node.camera() {
+            self.camera(node, &camera, world);
+        }
+        if let Some(light) = node.light() {
+            self.light(node, &light, world);
+        }
+        Ok(())
+    }
+
+    fn mesh(&mut self, node: &gltf::Node, mesh: &gltf::Mesh, world: &DMat4) -> Result<()> {
+        let mesh_name = named("mesh", mesh.index(), mesh.name());
+        let base_surface = node
+            .name()
+            .or(mesh.name())
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("node {}", node.index()));
+        if node.skin().is_some() {
+            self.scene.warnings.push(format!(
+                "{}: {mesh_name} is skinned; imported in its bind pose",
+                self.origin
+            ));
+        }
+        let mut distinct: Vec<Option<usize>> = Vec::new();
+        for p in mesh.primitives() {
+            if !distinct.contains(&p.material().index()) {
+                distinct.push(p.material().index());
+            }
+        }
+        let mirrored = world.determinant() < 0.0;
+        for primitive in mesh.primitives() {
+            let what = format!("{mesh_name} primitive {}", primitive.index());
+            use gltf::mesh::Mode;
+            let mode = primitive.mode();
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                self.scene.warnings.push(format!(
+                    "{}: {what} is made of {mode:?}, not triangles; skipped",
+                    self.origin
+                ));
+                continue;
+            }
+            if primitive.morph_targets().next().is_some() {
+                self.scene.warnings.push(format!(
+                    "{}: {what} has morph targets; imported without them",
+                    self.origin
+                ));
+            }
+            let material = self.material(&primitive.material())?;
+            let surface_name = if distinct.len() > 1 {
+                format!("{base_surface}/{}", self.scene.materials[material].name)
+            } else {
+                base_surface.clone()
+            };
+            let surface = self.scene.surface(&surface_name);
+            let Some(positions) = primitive.get(&gltf::Semantic::Positions) else {
+                return Err(self.err(format!("{what} has no POSITION attribute")));
+            };
+            let positions = self.read_positions(&positions, &what)?;
+            let indices: Vec<u32> = match primitive.indices() {
+                Some(a) => self.read_indices(&a, &what, positions.len())?,
+                None => {
+                    let n = u32::try_from(positions.len())
+                        .map_err(|_| self.err(format!("{what}: more than 2³² vertices")))?;
+                    (0..n).collect()
+                }
+            };
+            let world_positions: Vec<DVec3> = positions
+                .iter()
+                .map(|p| world.transform_point3(*p))
+                .collect();
+            let triangles = triangles(mode, &indices);
+            for (t, tri) in triangles.into_iter().enumerate() {
+                let mut v = tri.map(|i| world_positions[i as usize]);
+                if mirrored {
+                    v.swap(1, 2);
+                }
+                let location = format!("{}: {what} triangle {t}", self.origin);
+                self.scene.add_polygon(&v, material, surface, &location)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn camera(&mut self, node: &gltf::Node, camera: &gltf::Camera, world: &DMat4) {
+        let json = &self.doc.as_json().cameras[camera.index()];
+        let name = camera
+            .name()
+            .or(node.name())
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("camera {}", camera.index()));
+        let Some(p) = json.perspective.as_ref().filter(|_| {
+            json.type_ == json::validation::Checked::Valid(json::camera::Type::Perspective)
+        }) else {
+            self.scene.warnings.push(format!(
+                "{}: camera '{name}' is orthographic; only perspective cameras are imported",
+                self.origin
+            ));
+            return;
+        };
+        let fov = f64::from(p.yfov).to_degrees();
+        let eye = world.transform_point3(DVec3::ZERO);
+        let forward = world.transform_vector3(DVec3::NEG_Z).normalize_or_zero();
+        let up = world.transform_vector3(DVec3::Y).normalize_or_zero();
+        if !(fov.is_finite() && fov > 0.0 && fov < 180.0)
+            || forward == DVec3::ZERO
+            || up == DVec3::ZERO
+        {
+            self.scene.warnings.push(format!(
+                "{}: camera '{name}' has a degenerate view (yfov {} rad or a collapsed \
+                 transform); skipped",
+                self.origin, p.yfov
+            ));
+            return;
+        }
+        self.scene.cameras.push(Camera {
+            name,
+            eye: eye.to_array(),
+            target: (eye + forward).to_array(),
+            up: up.to_array(),
+            fov_y_deg: fov,
+        });
+    }
+
+    fn light(
+        &mut self,
+        node: &gltf::Node,
+        light: &gltf::khr_lights_punctual::Light,
+        world: &DMat4,
+    ) {
+        let name = light
+            .name()
+            .or(node.name())
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("light {}", light.index()));
+        use gltf::khr_lights_punctual::Kind;
+        match light.kind() {
+            Kind::Point => {
+                let intensity = light
+                    .color()
+                    .map(|c| f64::from(c) * f64::from(light.intensity()));
+                if intensity.iter().any(|i| !(i.is_finite() && *i >= 0.0)) {
+                    self.scene.warnings.push(format!(
+                        "{}: point light '{name}' has intensity {intensity:?}; skipped",
+                        self.origin
+                    ));
+                    return;
+                }
+                self.scene.point_lights.push(PointLight {
+                    name,
+                    position: world.transform_point3(DVec3::ZERO).to_array(),
+                    intensity,
+                    group: None,
+                });
+            }
+            Kind::Spot { .. } | Kind::Directional => {
+                self.scene.warnings.push(format!(
+                    "{}: light '{name}' is a {} light; only point lights are imported",
+                    self.origin,
+                    if matches!(light.kind(), Kind::Directional) {
+                        "directional"
+                    } else {
+                        "spot"
+                    }
+                ));
+            }
+        }
+    }
+
+    /// The scene material of a glTF material (made on first use).
+    fn material(&mut self, m: &gltf::Material) -> Result<usize> {
+        if let Some(&id) = self.materials.get(&m.index()) {
+            return Ok(id);
+        }
+        let Some(index) = m.index() else {
+            self.scene.warnings.push(format!(
+                "{}: primitives without a material use grey reflectance {DEFAULT_REFLECTANCE}",
+                self.origin
+            ));
+            let id = self.scene.add_material(
+                Material {
+                    name: "default".into(),
+                    reflectance: [DEFAULT_REFLECTANCE; 3],
+                    emission: [0.0; 3],
+                    optics: Optics::default(),
+                },
+                self.origin,
+            )?;
+            self.materials.insert(None, id);
+            return Ok(id);
+        };
+        let what = named("material", index, m.name());
+        let name = m
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("material {index}"));
+        let pbr = m.pbr_metallic_roughness();
+        let factor = pbr.base_color_factor();
+        let mut c: [f64; 3] = [0, 1, 2].map(|i| f64::from(factor[i]));
+        if let Some(info) = pbr.base_color_texture() {
+            let avg = self.texture_average(&info.texture(), &what)?;
+            c = [0, 1, 2].map(|i| c[i] * avg[i]);
+        }
+        let clamp01 = |x: f32| f64::from(x).clamp(0.0, 1.0);
+        let metal = clamp01(pbr.metallic_factor());
+        let rough = clamp01(pbr.roughness_factor());
+        let trans = m
+            .transmission()
+            .map(|t| clamp01(t.transmission_factor()))
+            .unwrap_or(0.0);
+        for (label, tex) in [
+            (
+                "metallicRoughness",
+                pbr.metallic_roughness_texture().is_some(),
+            ),
+            (
+                "transmission",
+                m.transmission()
+                    .and_then(|t| t.transmission_texture())
+                    .is_some(),
+            ),
+        ] {
+            if tex {
+                self.scene.warnings.push(format!(
+                    "{}: {what}: its {label} texture is ignored (the factor is used)",
+                    self.origin
+                ));
+            }
+        }
+        let mut reflectance = c.map(|c| c * (1.0 - metal) * (1.0 - trans) + c * metal * rough);
+        if reflectance.iter().any(|r| *r > MAX_REFLECTANCE) {
+            self.scene.warnings.push(format!(
+                "{}: {what}: diffuse reflectance {reflectance:.3?} clamped to {MAX_REFLECTANCE} \
+                 (a reflectance of 1 never lets light decay)",
+                self.origin
+            ));
+            reflectance = reflectance.map(|r| r.min(MAX_REFLECTANCE));
+        }
+        let strength = m.emissive_strength().map(f64::from).unwrap_or(1.0);
+        let mut radiance = m.emissive_factor().map(|e| f64::from(e) * strength);
+        if let Some(info) = m.emissive_texture()
+            && radiance.iter().any(|r| *r != 0.0)
+        {
+            let avg = self.texture_average(&info.texture(), &what)?;
+            radiance = [0, 1, 2].map(|i| radiance[i] * avg[i]);
+        }
+        let transmission = c.map(|c| c * (1.0 - metal) * trans);
+        let ior = match m.ior() {
+            Some(i) => f64::from(i),
+            None if trans > 0.0 => 1.5,
+            None => 1.0,
+        };
+        let optics = Optics {
+            mirror: c.map(|c| (c * metal * (1.0 - rough)).min(1.0)),
+            transmission: transmission.map(|t| t.min(1.0)),
+            ior: if ior.is_finite() && ior >= 1.0 {
+                ior
+            } else {
+                1.0
+            },
+            ..Optics::default()
+        };
+        if m.double_sided() {
+            self.scene.warnings.push(format!(
+                "{}: {what} is double-sided; lrr imports the front side only (counter-clockwise)",
+                self.origin
+            ));
+        }
+        let material = Material {
+            name,
+            reflectance,
+            emission: radiance.map(|l| l * std::f64::consts::PI),
+            optics,
+        };
+        let id = self
+            .scene
+            .add_material(material, &format!("{}: {what}", self.origin))?;
+        self.materials.insert(Some(index), id);
+        Ok(id)
+    }
+
+    /// The average linear RGB of a texture's image (sRGB decoded), each in [0, 1].
+    fn texture_average(&self, texture: &gltf::Texture, user: &str) -> Result<[f64; 3]> {
+        let index = texture.source().index();
+        let image = &self.doc.as_json().images[index];
+        let what = format!("{user}: image {index}");
+        let encoded: Vec<u8> = match (&image.buffer_view, &image.uri) {
+            (Some(view), _) => {
+                let view = self
+                    .doc
+                    .views()
+                    .nth(view.value())
+                    .expect("validated view index");
+                self.view_bytes(&view, &what)?.to_vec()
+            }
+            (None, Some(uri)) => self.uri_bytes(uri, &what)?,
+            (None, None) => {
+                return Err(self.err(format!("{what} has neither a bufferView nor a uri")));
+            }
+        };
+        let mut reader = image::io::Reader::new(std::io::Cursor::new(&encoded));
+        let mut limits = image::io::Limits::default();
+        limits.max_alloc = Some(4 * MAX_TEXELS);
+        reader.limits(limits);
+        let decoded = reader
+            .with_guessed_format()
+            .map_err(|e| self.err(format!("{what}: {e}")))?
+            .decode()
+            .map_err(|e| {
+                self.err(format!(
+                    "{what} cannot be decoded (PNG or JPEG expected): {e}"
+                ))
+            })?;
+        let rgb = decoded.to_rgb8();
+        let texels = u64::from(rgb.width()) * u64::from(rgb.height());
+        if texels == 0 {
+            return Err(self.err(format!("{what} has no texels")));
+        }
+        let lut: Vec<f64> = (0..256).map(|v| srgb_to_linear(v as f64 / 255.0)).collect();
+        let mut sum = [0.0f64; 3];
+        for p in rgb.pixels() {
+            for c in 0..3 {
+                sum[c] += lut[p.0[c] as usize];
+            }
+        }
+        Ok(sum.map(|s| s / texels as f64))
+    }
+
+    /// The bytes of a buffer view, checked against its buffer.
+    fn view_bytes(&self, view: &gltf::buffer::View, what: &str) -> Result<&[u8]> {
+        let buffer = &self.buffers[&view.buffer().index()];
+        let declared = view.buffer().length();
+        view.offset()
+            .checked_add(view.length())
+            .filter(|&end| end <= declared)
+            .map(|end| &buffer[view.offset()..end])
+            .ok_or_else(|| {
+                self.err(format!(
+                    "{what}: bufferView {} (bytes {}..+{}) runs past the end of buffer {} ({} bytes)",
+                    view.index(),
+                    view.offset(),
+                    view.length(),
+                    view.buffer().index(),
+                    declared
+                ))
+            })
+    }
+
+    /// The raw elements of an accessor, `count` × `size` bytes packed (sparse values applied).
+    fn elements(&self, a: &gltf::Accessor, what: &str, size: usize) -> Result<Vec<u8>> {
+        let view = a.view().ok_or_else(|| {
+            self.err(format!(
+                "{what}: it has no bufferView (all zeros); lrr needs real vertex data"
+            ))
+        })?;
+        let data = self.view_bytes(&view, what)?;
+        let stride = view.stride().unwrap_or(size);
+        if stride < size {
+            return Err(self.err(format!(
+                "{what}: byteStride {stride} is smaller than an element ({size} bytes)"
+            )));
+        }
+        let count = a.count();
+        let end = if count == 0 {
+            Some(a.offset())
+        } else {
+            (count - 1)
+                .checked_mul(stride)
+                .and_then(|x| x.checked_add(a.offset()))
+                .and_then(|x| x.checked_add(size))
+        };
+        if end.is_none_or(|e| e > data.len()) {
+            return Err(self.err(format!(
+                "{what}: {count} elements of {size} bytes (stride {stride}, offset {}) do not \
+                 fit in bufferView {} of {} bytes",
+                a.offset(),
+                view.index(),
+                data.len()
+            )));
+        }
+        let mut out = Vec::with_capacity(count * size);
+        for i in 0..count {
+            let at = a.offset() + i * stride;
+            out.extend_from_slice(&data[at..at + size]);
+        }
+        if let Some(sparse) = a.sparse() {
+            let n = sparse.count();
+            let iv = sparse.indices().view();
+            let ibytes = self.view_bytes(&iv, what)?;
+            let isize = match sparse.indices().index_type() {
+                gltf::accessor::sparse::IndexType::U8 => 1,
+                gltf::accessor::sparse::IndexType::U16 => 2,
+                gltf::accessor::sparse::IndexType::U32 => 4,
+            };
+            let vv = sparse.values().view();
+            let vbytes = self.view_bytes(&vv, what)?;
+            let fits = |bytes: &[u8], offset: usize, each: usize| {
+                n.checked_mul(each)
+                    .and_then(|x| x.checked_add(offset))
+                    .is_some_and(|e| e <= bytes.len())
+            };
+            if !fits(ibytes, sparse.indices().offset(), isize)
+                || !fits(vbytes, sparse.values().offset(), size)
+            {
+                return Err(self.err(format!(
+                    "{what}: its {n} sparse indices or values do not fit in their bufferViews"
+                )));
+            }
+            for k in 0..n {
+                let at = sparse.indices().offset() + k * isize;
+                let mut word = [0u8; 4];
+                word[..isize].copy_from_slice(&ibytes[at..at + isize]);
+                let target = u32::from_le_bytes(word) as usize;
+                let Some(slot) = out.get_mut(target * size..(target + 1) * size) else {
+                    return Err(self.err(format!(
+                        "{what}: sparse index {target} is out of range ({count} elements)"
+                    )));
+                };
+                let v = sparse.values().offset() + k * size;
+                slot.copy_from_slice(&vbytes[v..v + size]);
+            }
+        }
+        Ok(out)
+    }
+
+    fn read_positions(&self, a: &gltf::Accessor, primitive: &str) -> Result<Vec<DVec3>> {
+        let what = format!(
+            "{primitive}: POSITION {}",
+            named("accessor", a.index(), a.name())
+        );
+        if a.dimensions() != gltf::accessor::Dimensions::Vec3
+            || a.data_type() != gltf::accessor::DataType::F32
+        {
+            return Err(self.err(format!(
+                "{what} is {:?} of {:?}; positions must be VEC3 of FLOAT (quantised positions \
+                 need KHR_mesh_quantization, which lrr does not support)",
+                a.dimensions(),
+                a.data_type()
+            )));
+        }
+        let raw = self.elements(a, &what, 12)?;
+        raw.chunks_exact(12)
+            .enumerate()
+            .map(|(i, e)| {
+                let f = |k: usize| {
+                    f64::from(f32::from_le_bytes(e[4 * k..4 * k + 4].try_into().unwrap()))
+                };
+                let p = DVec3::new(f(0), f(1), f(2));
+                if p.is_finite() {
+                    Ok(p)
+                } else {
+                    Err(self.err(format!("{what}: position {i} is {p}, not finite")))
+                }
+            })
+            .collect()
+    }
+
+    fn read_indices(
+        &self,
+        a: &gltf::Accessor,
+        primitive: &str,
+        vertices: usize,
+    ) -> Result<Vec<u32>> {
+        let what = format!(
+            "{primitive}: indices {}",
+            named("accessor", a.index(), a.name())
+        );
+        use gltf::accessor::DataType;
+        let size = match (a.dimensions(), a.data_type()) {
+            (gltf::accessor::Dimensions::Scalar, DataType::U8) => 1,
+            (gltf::accessor::Dimensions::Scalar, DataType::U16) => 2,
+            (gltf::accessor::Dimensions::Scalar, DataType::U32) => 4,
+            (d, t) => {
+                return Err(self.err(format!(
+                    "{what} is {d:?} of {t:?}; indices must be SCALAR of UNSIGNED_BYTE, \
+                     UNSIGNED_SHORT or UNSIGNED_INT"
+                )));
+            }
+        };
+        let raw = self.elements(a, &what, size)?;
+        raw.chunks_exact(size)
+            .enumerate()
+            .map(|(i, e)| {
+                let mut word = [0u8; 4];
+                word[..size].copy_from_slice(e);
+                let v = u32::from_le_bytes(word);
+                if (v as usize) < vertices {
+                    Ok(v)
+                } else {
+                    Err(self.err(format!(
+                        "{what}: index {i} is {v}, out of range for {vertices} vertices"
+                    )))
+                }
+            })
+            .collect()
+    }
+}
+
+/// The triangles of a primitive's index list, counter-clockwise as glTF defines them.
+fn triangles(mode: gltf::mesh::Mode, idx: &[u32]) -> Vec<[u32; 3]> {
+    use gltf::mesh::Mode;
+    match mode {
+        Mode::Triangles => idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+        Mode::TriangleStrip => (0..idx.len().saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [idx[i], idx[i + 1], idx[i + 2]]
+                } else {
+                    [idx[i + 1], idx[i], idx[i + 2]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (1..idx.len().saturating_sub(1))
+            .map(|i| [idx[i], idx[i + 1], idx[0]])
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// The sRGB transfer function, inverted.
+fn srgb_to_linear(v: f64) -> f64 {
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// `%XX` escapes of a URI decoded; None on a bad escape or non-UTF-8 result.
+fn percent_decode(uri: &str) -> Option<String> {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' {
+            let hex = std::str::from_utf8(b.get(i + 1..i + 3)?).ok()?;
+            out.push(u8::from_str_radix(hex, 16).ok()?);
+            i += 3;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).ok()
+}

@@ -1,0 +1,134 @@
+//! Rays in batches, by kind, for `lrr bench render`: the camera rays of a view, the closest
+//! hits of a batch, the shadow rays from hits to the point lights and the mirror reflections
+//! of hits, each traced on the calling thread by the loops the renderer runs.
+
+use super::bvh::{Ray, closest_hit, occluded};
+use super::camera::View;
+use super::math::{V3, dot, length, mad, normalize, scale, sub};
+use super::scene::TraceScene;
+
+/// Rays: origins, unit directions and the far end of each (`f32::INFINITY`: unbounded).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RayBatch {
+    /// Origins.
+    pub origins: Vec<[f32; 3]>,
+    /// Unit directions.
+    pub dirs: Vec<[f32; 3]>,
+    /// Far ends.
+    pub t_max: Vec<f32>,
+}
+
+impl RayBatch {
+    /// Number of rays.
+    pub fn len(&self) -> usize {
+        self.origins.len()
+    }
+
+    /// No rays.
+    pub fn is_empty(&self) -> bool {
+        self.origins.is_empty()
+    }
+
+    fn push(&mut self, origin: V3, dir: V3, t_max: f32) {
+        self.origins.push(origin);
+        self.dirs.push(dir);
+        self.t_max.push(t_max);
+    }
+}
+
+/// A closest hit: the distance and the display triangle's id (see `lrr_formats::display`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TraceHit {
+    /// Distance along the unit direction.
+    pub t: f32,
+    /// Display triangle id.
+    pub triangle: u32,
+    /// Leaf-order index (internal: what the shading reads).
+    pub(crate) leaf: u32,
+}
+
+/// The camera rays of `view` on a `width × height` image, row by row.
+pub(crate) fn primary(view: &View, width: u32, height: u32) -> RayBatch {
+    let mut batch = RayBatch::default();
+    for y in 0..height {
+        for x in 0..width {
+            batch.push(
+                view.eye(),
+                view.direction(x, y, width, height),
+                f32::INFINITY,
+            );
+        }
+    }
+    batch
+}
+
+/// The closest hit of each ray.
+pub(crate) fn closest(
+    scene: &TraceScene,
+    triangle_ids: &[u32],
+    batch: &RayBatch,
+) -> Vec<Option<TraceHit>> {
+    (0..batch.len())
+        .map(|i| {
+            let ray = Ray::new(batch.origins[i], batch.dirs[i]);
+            closest_hit(scene, &ray, 0.0, batch.t_max[i]).map(|h| TraceHit {
+                t: h.t,
+                triangle: triangle_ids[h.tri as usize],
+                leaf: h.tri,
+            })
+        })
+        .collect()
+}
+
+/// Whether each ray is blocked before its far end.
+pub(crate) fn any(scene: &TraceScene, batch: &RayBatch) -> Vec<bool> {
+    (0..batch.len())
+        .map(|i| {
+            let ray = Ray::new(batch.origins[i], batch.dirs[i]);
+            occluded(scene, &ray, 0.0, batch.t_max[i])
+        })
+        .collect()
+}
+
+/// The hit point and the normal facing the ray.
+fn surface(scene: &TraceScene, batch: &RayBatch, i: usize, hit: &TraceHit) -> (V3, V3) {
+    let d = batch.dirs[i];
+    let p = mad(batch.origins[i], d, hit.t);
+    let n = scene.normals[scene.tri_element[hit.leaf as usize] as usize];
+    (p, if dot(d, n) < 0.0 { n } else { scale(n, -1.0) })
+}
+
+/// From every hit, a shadow ray to every point light in front of the surface.
+pub(crate) fn shadow(scene: &TraceScene, batch: &RayBatch, hits: &[Option<TraceHit>]) -> RayBatch {
+    let mut out = RayBatch::default();
+    for (i, hit) in hits.iter().enumerate() {
+        let Some(hit) = hit else { continue };
+        let (p, n_f) = surface(scene, batch, i, hit);
+        let origin = mad(p, n_f, scene.epsilon);
+        for light in &scene.lights {
+            let to = sub(light.position, origin);
+            let dist = length(to);
+            if dist > 0.0 && dot(to, n_f) > 0.0 {
+                out.push(origin, scale(to, 1.0 / dist), dist * (1.0 - 1e-5));
+            }
+        }
+    }
+    out
+}
+
+/// From every hit, the mirror reflection.
+pub(crate) fn reflected(
+    scene: &TraceScene,
+    batch: &RayBatch,
+    hits: &[Option<TraceHit>],
+) -> RayBatch {
+    let mut out = RayBatch::default();
+    for (i, hit) in hits.iter().enumerate() {
+        let Some(hit) = hit else { continue };
+        let (p, n_f) = surface(scene, batch, i, hit);
+        let d = batch.dirs[i];
+        let r = normalize(mad(d, n_f, -2.0 * dot(d, n_f)));
+        out.push(mad(p, n_f, scene.epsilon), r, f32::INFINITY);
+    }
+    out
+}

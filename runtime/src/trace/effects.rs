@@ -1,0 +1,157 @@
+//! Simulate only what the scene calls for: which effects a frame needs, decided from the
+//! materials, the point lights and this frame's light-group intensities, and why.
+//!
+//! - *highlights* (the Phong term, one shadow ray per point light at every hit of a specular
+//!   material): only when some material has a specular colour and some point light shines
+//!   this frame (non-zero intensity, its group's intensity non-zero). The radiosity already
+//!   holds the diffuse light, so without highlights a point light changes nothing and no
+//!   shadow ray is cast.
+//! - *secondary rays* (mirror reflection, refraction with Fresnel weights): only when some
+//!   material has a mirror reflectance or a transmission filter.
+//! - *smooth*: the radiosity interpolated over smooth vertices, only when the file holds the
+//!   weights (section SMOOTH); otherwise the element's flat value. (The switch exists and the
+//!   loop is specialised on it; the reconstruction itself is not wired in yet, so it stays off.)
+//!
+//! The render loop is monomorphised over these three switches (const generics), so a scene
+//! without them runs a loop with no light loop, no ray stack and no reconstruction in it: a
+//! diffuse scene costs one closest hit and one load per pixel.
+
+use std::fmt::Write as _;
+
+use super::scene::TraceScene;
+
+/// Default limit of the ray tree: a primary ray and up to 8 bounces of reflection or
+/// refraction below it.
+pub const DEFAULT_MAX_DEPTH: u32 = 8;
+/// Largest depth limit (sizes the explicit ray stack).
+pub const MAX_DEPTH_LIMIT: u32 = 16;
+
+/// What a frame simulates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Effects {
+    /// Phong highlights from the point lights, each behind a shadow ray.
+    pub highlights: bool,
+    /// Mirror reflection and refraction rays (a ray tree up to `max_depth`).
+    pub secondary: bool,
+    /// Smooth reconstruction of the radiosity at hit points.
+    pub smooth: bool,
+    /// Bounces below a primary ray, at most [`MAX_DEPTH_LIMIT`].
+    pub max_depth: u32,
+}
+
+impl Effects {
+    /// Every effect on (for measuring what the decision saves; the image is the same).
+    pub fn all() -> Self {
+        Effects {
+            highlights: true,
+            secondary: true,
+            smooth: true,
+            max_depth: DEFAULT_MAX_DEPTH,
+        }
+    }
+}
+
+/// The decision and the reasons, one line per effect.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Decision {
+    /// What the frame simulates.
+    pub effects: Effects,
+    /// Why, for `lrr render --explain`.
+    pub reasons: Vec<String>,
+}
+
+impl Decision {
+    /// The reasons as text, one effect a line.
+    pub fn text(&self) -> String {
+        let mut s = String::new();
+        for r in &self.reasons {
+            let _ = writeln!(s, "{r}");
+        }
+        s
+    }
+}
+
+/// Names of the materials for which `pick` holds (at most 4, then a count).
+fn named(scene: &TraceScene, pick: impl Fn(usize) -> bool) -> (usize, String) {
+    let names: Vec<String> = (0..scene.optics.len())
+        .filter(|&i| pick(i))
+        .map(|i| match scene.material_names[i].as_str() {
+            "" => format!("#{i}"),
+            s => format!("'{s}'"),
+        })
+        .collect();
+    let shown = names.iter().take(4).cloned().collect::<Vec<_>>().join(", ");
+    let more = names.len().saturating_sub(4);
+    let text = if more > 0 {
+        format!("{shown} and {more} more")
+    } else {
+        shown
+    };
+    (names.len(), text)
+}
+
+/// The effects of a frame of `scene` whose point lights shine at `light_scale` times their
+/// intensity (one factor per light).
+pub(crate) fn decide(scene: &TraceScene, light_scale: &[f32], max_depth: u32) -> Decision {
+    let mut reasons = Vec::new();
+    let (specular, specular_names) = named(scene, |i| scene.optics[i].has_highlight());
+    let lit = scene
+        .lights
+        .iter()
+        .zip(light_scale)
+        .filter(|(l, s)| **s > 0.0 && l.intensity.iter().any(|&c| c > 0.0))
+        .count();
+    let highlights = specular > 0 && lit > 0;
+    reasons.push(match (specular, lit) {
+        (0, _) => "highlights and shadow rays: off (no material has a specular colour Ks)".into(),
+        (_, 0) if scene.lights.is_empty() => format!(
+            "highlights and shadow rays: off (specular {specular_names}, but the file has no \
+             point lights)"
+        ),
+        (_, 0) => format!(
+            "highlights and shadow rays: off (specular {specular_names}, but none of the {} \
+             point lights shines this frame)",
+            scene.lights.len()
+        ),
+        _ => format!(
+            "highlights and shadow rays: on (specular {specular_names}; {lit} point light(s) \
+             shining, one shadow ray each per specular hit)"
+        ),
+    });
+    let (mirrors, mirror_names) = named(scene, |i| scene.optics[i].reflects());
+    let (glass, glass_names) = named(scene, |i| scene.optics[i].transmits());
+    let secondary = mirrors + glass > 0;
+    reasons.push(if secondary {
+        let mut what = Vec::new();
+        if mirrors > 0 {
+            what.push(format!("mirror {mirror_names}"));
+        }
+        if glass > 0 {
+            what.push(format!("transmissive {glass_names} (Fresnel, refraction)"));
+        }
+        format!(
+            "secondary rays: on ({}; ray tree up to depth {max_depth})",
+            what.join("; ")
+        )
+    } else {
+        "secondary rays: off (no material has a mirror reflectance or a transmission filter)".into()
+    });
+    // The smooth reconstruction is not wired into the tracer yet: flat values, said so.
+    let smooth = false;
+    reasons.push(if scene.has_smooth {
+        "smooth radiosity: off (the file holds SMOOTH weights, but the tracer shades with flat \
+         element values for now)"
+            .into()
+    } else {
+        "smooth radiosity: off (the file has no SMOOTH section; flat element values)".into()
+    });
+    Decision {
+        effects: Effects {
+            highlights,
+            secondary,
+            smooth,
+            max_depth,
+        },
+        reasons,
+    }
+}

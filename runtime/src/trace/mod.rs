@@ -1,0 +1,62 @@
+//! The CPU ray tracer: a Whitted ray tree over an operator file's display data, shaded with a
+//! frame's radiosity.
+//!
+//! [`Tracer::new`] copies what the file holds for display (format 1.2): the display triangles
+//! (the fan triangulation of the geometry), the flattened binary BVH the bake built (the
+//! runtime builds none: a file without one is an error saying to re-bake), materials, point
+//! lights and cameras. [`Tracer::render`] takes a [`View`] (pinhole camera, vertical field of
+//! view in degrees) and a frame's [`Lighting`] (the evaluator's radiosity, the light groups'
+//! intensities) and returns linear RGB radiance per pixel:
+//!
+//! - the radiosity of the hit point as a radiance, `B / π` (flat element values for now);
+//! - Phong highlights from every point light, each behind a shadow ray;
+//! - mirror reflection and refraction (Snell, total internal reflection, Fresnel weights) as a
+//!   ray tree walked with an explicit stack up to a depth limit.
+//!
+//! Only what the scene calls for is simulated ([`Effects`], decided per frame and explained by
+//! [`Decision::text`]); the loop is monomorphised per decision. Closest-hit and any-hit
+//! traversal use the watertight ray/triangle test (`bvh.rs` says why). Tiles of rows go to std
+//! threads; the image does not depend on their number.
+//!
+//! The structure is the one a WGSL twin mirrors: flat arrays indexed by `u32`, fixed-size
+//! stacks, no recursion, no trait objects in the hot loop.
+//!
+//! ```
+//! use lrr_runtime::trace::{Lighting, Tracer, View};
+//! # use lrr_runtime::{Operator, testkit};
+//! # let mut file = testkit::synthetic::file(64, 4, 3, lrr_runtime::Precision::F32,
+//! #     lrr_runtime::Layout::Factored, 1)?;
+//! # file.display.bvh = Some(testkit::bvh::build(&file.geometry));
+//! # let op = Operator::from_file(file)?;
+//! let tracer = Tracer::new(op.file())?;
+//! let camera = lrr_formats::Camera {
+//!     name: String::new(),
+//!     eye: [4.0, 4.0, 10.0],
+//!     target: [4.0, 4.0, 0.0],
+//!     up: [0.0, 1.0, 0.0],
+//!     fov_y_deg: 60.0,
+//! };
+//! let view = View::new(&camera, 64, 48)?;
+//! let radiosity = op.evaluate_baked();
+//! let groups = vec![1.0; op.light_groups().len()];
+//! let lighting = Lighting { radiosity: &radiosity, group_intensities: &groups };
+//! let (image, report) = tracer.render(&view, &lighting, 64, 48, 2)?;
+//! assert_eq!(image.pixels.len(), 64 * 48);
+//! assert!(!report.decision.effects.secondary);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod batch;
+mod bvh;
+mod camera;
+mod effects;
+mod math;
+mod scene;
+mod shade;
+mod tracer;
+
+pub use batch::{RayBatch, TraceHit};
+pub use camera::View;
+pub use effects::{DEFAULT_MAX_DEPTH, Decision, Effects, MAX_DEPTH_LIMIT};
+pub use shade::RayCounts;
+pub use tracer::{Image, Lighting, RenderReport, TILE_ROWS, Tracer};
