@@ -31,6 +31,11 @@ pub struct RenderBench {
     /// Threads of the whole-frame renders [default: all cores]. Ray kinds run on one thread.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// `cpu`: the CPU twin by ray kind against Embree, and whole frames. `gpu`: whole frames of
+    /// the WGSL tracer (primary rays only, the decided effects, all effects forced on),
+    /// alternated, after one counted frame checked against the CPU twin per pixel.
+    #[arg(long, value_enum, default_value_t = crate::render::TraceDevice::Cpu)]
+    pub device: crate::render::TraceDevice,
 }
 
 /// The scene under test: file, camera, what it is.
@@ -52,6 +57,17 @@ pub fn run(b: &RenderBench, out: &mut dyn Write) -> Result<()> {
     };
     let tracer = Tracer::new(&bench.file)?;
     let view = View::new(&bench.camera, w as u32, h as u32)?;
+    if b.device == crate::render::TraceDevice::Gpu {
+        writeln!(
+            out,
+            "scene: {} ({} triangles); {w}x{h}; {} rounds",
+            bench.what,
+            tracer.triangle_count(),
+            b.runs
+        )?;
+        return gpu_frames(&tracer, &bench, &view, (w as u32, h as u32), b, out)
+            .map_err(|e| anyhow::anyhow!("--device gpu: {e}"));
+    }
     writeln!(
         out,
         "scene: {} ({} triangles); {w}x{h}; ray kinds on 1 thread, {} rounds",
@@ -266,6 +282,110 @@ fn frames(
         c.secondary,
         spread(all).1 * 1e3
     )?;
+    Ok(())
+}
+
+/// Whole frames of the GPU tracer: a counted frame of the decided effects compared with the CPU
+/// twin per pixel, then uncounted frames (primary rays only, decided, all effects forced on)
+/// alternated; wall time per frame, the tiles' submissions and the image's readback included.
+fn gpu_frames(
+    tracer: &Tracer,
+    bench: &Bench,
+    view: &View,
+    (w, h): (u32, u32),
+    b: &RenderBench,
+    out: &mut dyn Write,
+) -> std::result::Result<(), Box<dyn std::error::Error + Send + Sync>> {
+    use lrr_runtime::gpu::{Gpu, GpuOptions, GpuTracer};
+    let gpu = Gpu::new(&GpuOptions::default())?;
+    writeln!(out, "GPU: {}", gpu.describe())?;
+    if gpu.is_cpu() {
+        writeln!(
+            out,
+            "note: a CPU adapter (lavapipe): the rates below are correctness-only and say \
+             nothing about a GPU"
+        )?;
+    }
+    let mut gt = GpuTracer::new(&gpu, tracer)?;
+    let radiosity: Vec<[f32; 3]> = (0..bench.file.n as usize)
+        .map(|i| [(i % 7) as f32, 1.0, 0.5])
+        .collect();
+    let groups = vec![1.0f32; bench.file.lights.len()];
+    let lighting = Lighting {
+        radiosity: &radiosity,
+        group_intensities: &groups,
+    };
+    let buffer = gt.upload_radiosity(&radiosity)?;
+    let decision = tracer.decide(&lighting)?;
+    let decided = decision.effects;
+    let primary = Effects {
+        highlights: false,
+        secondary: false,
+        ..decided
+    };
+    let kinds = [
+        ("primary only", primary),
+        ("decided", decided),
+        ("all forced on", Effects::all()),
+    ];
+    // One counted frame of each, and the decided one against the CPU twin.
+    let mut counts = Vec::new();
+    for (i, (_, effects)) in kinds.into_iter().enumerate() {
+        let (image, report) = gt.render_with(view, &buffer, &groups, effects, true, w, h)?;
+        counts.push(report.rays.unwrap_or_default());
+        if i == 1 {
+            let threads = b.threads.unwrap_or(0);
+            let (cpu, _) = tracer.render(view, &lighting, w, h, threads)?;
+            let off = image
+                .pixels
+                .iter()
+                .zip(&cpu.pixels)
+                .filter(|(g, c)| {
+                    (0..3).any(|ch| (g[ch] - c[ch]).abs() > 1e-4 * c[ch].abs().max(1e-6))
+                })
+                .count();
+            writeln!(
+                out,
+                "against the CPU twin: {off} of {} pixels differ by more than 1e-4 relative",
+                w * h
+            )?;
+        }
+    }
+    let mut times: Vec<Vec<f64>> = vec![Vec::new(); kinds.len()];
+    for round in 0..b.runs {
+        for i in 0..kinds.len() {
+            // Alternate the order round by round.
+            let k = if round % 2 == 0 {
+                i
+            } else {
+                kinds.len() - 1 - i
+            };
+            let start = Instant::now();
+            gt.render_with(view, &buffer, &groups, kinds[k].1, false, w, h)?;
+            times[k].push(start.elapsed().as_secs_f64());
+        }
+    }
+    write!(out, "GPU frames, effects decided:\n{}", decision.text())?;
+    writeln!(
+        out,
+        "{:<14} {:>11} {:>11} {:>11} {:>11} {:>10} {:>8}",
+        "frame", "primary", "shadow", "secondary", "ms (median)", "Mray/s", "range ms"
+    )?;
+    for (((name, _), c), t) in kinds.iter().zip(&counts).zip(times) {
+        let (lo, mid, hi) = spread(t);
+        let rays = (c.primary + c.shadow + c.secondary) as f64;
+        writeln!(
+            out,
+            "{name:<14} {:>11} {:>11} {:>11} {:>11.1} {:>10.2} {:.1}-{:.1}",
+            c.primary,
+            c.shadow,
+            c.secondary,
+            mid * 1e3,
+            rays / mid / 1e6,
+            lo * 1e3,
+            hi * 1e3
+        )?;
+    }
     Ok(())
 }
 

@@ -1,4 +1,5 @@
-//! `lrr render`: a frame of an operator file ray traced on the CPU (`lrr_runtime::trace`),
+//! `lrr render`: a frame of an operator file ray traced on the CPU (`lrr_runtime::trace`) or
+//! the GPU (`lrr_runtime::gpu::GpuTracer`, shading the evaluator's radiosity where it lies),
 //! written as PNG (tone-mapped, exposure printed) or EXR (linear RGB) by the extension of `-o`.
 
 use std::io::Write;
@@ -8,8 +9,11 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lrr_formats::Camera;
-use lrr_runtime::Operator;
-use lrr_runtime::trace::{Image, Lighting as TraceLighting, MAX_DEPTH_LIMIT, Tracer, View};
+use lrr_runtime::gpu::{Gpu, GpuError, GpuEvaluator, GpuOptions, GpuTracer};
+use lrr_runtime::trace::{
+    Decision, Image, Lighting as TraceLighting, MAX_DEPTH_LIMIT, RayCounts, Tracer, View,
+};
+use lrr_runtime::{Operator, Rgb};
 
 use crate::emission::{self, EmissionArgs, Lighting};
 use crate::exr_image::{ExrSamples, RgbLayer, write_rgb};
@@ -37,7 +41,8 @@ pub struct RenderArgs {
     /// Image size in pixels.
     #[arg(long, value_name = "WxH", default_value = "800x600", value_parser = parse_size)]
     pub size: (u32, u32),
-    /// Where the rays are traced: `cpu`, or `gpu` (not built yet: issue 15).
+    /// Where the frame is relit and traced: `cpu`, or `gpu` (the wgpu evaluator and the WGSL
+    /// tracer; the radiosity stays on the GPU between the two).
     #[arg(long, value_enum, default_value_t = TraceDevice::Cpu)]
     pub device: TraceDevice,
     #[command(flatten)]
@@ -68,7 +73,7 @@ pub struct RenderArgs {
 pub enum TraceDevice {
     /// The CPU tracer (std threads).
     Cpu,
-    /// The GPU tracer (not built yet).
+    /// The wgpu evaluator and the WGSL tracer on the best usable adapter.
     Gpu,
 }
 
@@ -158,12 +163,6 @@ fn camera(a: &RenderArgs, tracer: &Tracer) -> Result<Camera> {
 }
 
 pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
-    if a.device == TraceDevice::Gpu {
-        bail!(
-            "--device gpu: the GPU ray tracer is not built yet (issue 15: the WGSL twin of the \
-             CPU tracer); use --device cpu"
-        );
-    }
     let format = format_of(&a.output)?;
     if a.max_depth > MAX_DEPTH_LIMIT {
         bail!("--max-depth {}: at most {MAX_DEPTH_LIMIT}", a.max_depth);
@@ -176,22 +175,29 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
     let (w, h) = a.size;
     let view = View::new(&cam, w, h)?;
     let lighting = a.emission.lighting(&op)?;
-    let radiosity = emission::radiosity(&op, &lighting, emission::Device::Cpu)?;
     let groups = match &lighting {
         Lighting::Groups(g) => g.clone(),
         _ => vec![1.0; op.light_groups().len()],
     };
-    let frame = TraceLighting {
-        radiosity: &radiosity,
-        group_intensities: &groups,
+    let (image, decision, rays, seconds) = match a.device {
+        TraceDevice::Cpu => {
+            let radiosity = emission::radiosity(&op, &lighting, emission::Device::Cpu)?;
+            let frame = TraceLighting {
+                radiosity: &radiosity,
+                group_intensities: &groups,
+            };
+            let start = Instant::now();
+            let (image, report) = tracer.render(&view, &frame, w, h, a.threads.unwrap_or(0))?;
+            let seconds = start.elapsed().as_secs_f64();
+            (image, report.decision, report.rays, seconds)
+        }
+        TraceDevice::Gpu => render_gpu(&op, &tracer, &view, &lighting, &groups, (w, h))
+            .map_err(|e| anyhow::anyhow!("--device gpu: {}", emission::one_line(&e)))?,
     };
-    let start = Instant::now();
-    let (image, report) = tracer.render(&view, &frame, w, h, a.threads.unwrap_or(0))?;
-    let seconds = start.elapsed().as_secs_f64();
     if a.explain {
-        write!(out, "{}", report.decision.text())?;
+        write!(out, "{}", decision.text())?;
     }
-    let r = report.rays;
+    let r = rays;
     writeln!(
         out,
         "rendered {w}x{h} in {seconds:.3} s: {} primary, {} shadow, {} secondary rays",
@@ -227,6 +233,32 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
     }
     writeln!(out, "wrote {}", a.output.display())?;
     Ok(())
+}
+
+/// A frame relit by the wgpu evaluator and traced by the WGSL tracer, the radiosity left on
+/// the GPU between the two; the seconds cover both, the image's readback included.
+fn render_gpu(
+    op: &Operator,
+    tracer: &Tracer,
+    view: &View,
+    lighting: &Lighting,
+    groups: &[f32],
+    (w, h): (u32, u32),
+) -> std::result::Result<(Image, Decision, RayCounts, f64), GpuError> {
+    let gpu = Gpu::new(&GpuOptions::default())?;
+    eprintln!("lrr: note: relighting and tracing on {}", gpu.describe());
+    let mut eval = GpuEvaluator::new(&gpu, op)?;
+    let mut gpu_tracer = GpuTracer::new(&gpu, tracer)?;
+    let start = Instant::now();
+    match lighting {
+        Lighting::Baked => eval.submit(Rgb::triples(&op.baked_emission()))?,
+        Lighting::Groups(g) => eval.submit_groups(g)?,
+        Lighting::Emission(e) => eval.submit(Rgb::triples(e))?,
+    }
+    let (image, report) = gpu_tracer.render(view, eval.radiosity_buffer(), groups, w, h)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let rays = report.rays.unwrap_or_default();
+    Ok((image, report.decision, rays, seconds))
 }
 
 /// The scale applied before the sRGB curve: `2^ev`, or the one mapping the 99th percentile of

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 
-use lrr_precompute::scene::procedural;
+use lrr_precompute::scene::{procedural, showcase};
 
 #[derive(Debug, Args)]
 pub struct SceneArgs {
@@ -63,6 +63,22 @@ pub enum SceneKind {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+    /// The Cornell box with its short block made of glass, a mirror on the green wall, the
+    /// classic camera and a point light at the lamp (ray tracer showcase).
+    CornellGlass,
+    /// A block and a geodesic sphere of about N triangles in a lit room, with a camera: the
+    /// series of growing triangle counts (`--triangles 1000`, `10000`, `100000`, …).
+    BoxSphere {
+        /// Sphere triangles (rounded to the nearest geodesic sphere, 20·m² for frequency m).
+        #[arg(long, default_value_t = 1000)]
+        triangles: usize,
+    },
+    /// Objects spread very unevenly (a uniform grid's weak case): a 100 × 20 × 100 hall, three
+    /// large blocks far apart and 256 small boxes in one square metre, camera on the cluster.
+    Uneven,
+    /// A dense mesh of 100 820 sphere triangles (box-sphere) whose [bake] table asks for 2
+    /// samples and patches of 0.35, so that it bakes in minutes (README, Scenes).
+    Dense,
     /// Messy real-world geometry: needle strips, fans, T-junctions, interpenetrating boxes, a
     /// non-planar quad with a far vertex, a zero-area and a duplicated face (meshing tests).
     Messy,
@@ -106,6 +122,10 @@ pub fn run(a: &SceneArgs, out: &mut dyn Write) -> Result<()> {
             procedural::cluttered(*grid, *seed)
         }
         SceneKind::Messy => procedural::messy(),
+        SceneKind::CornellGlass => showcase::cornell_glass(),
+        SceneKind::BoxSphere { triangles } => showcase::box_sphere(*triangles)?,
+        SceneKind::Uneven => showcase::uneven(),
+        SceneKind::Dense => showcase::dense(),
         SceneKind::Triangulate { input, fans } => {
             let origin = input.display().to_string();
             let text = std::fs::read_to_string(input)

@@ -18,6 +18,10 @@
 //! | [`Pass::CoreProduct`] | `core_product.wgsl` | `Z_c = M_c X_c` | O(k²) |
 //! | [`Pass::Gather`] | `gather.wgsl` + a loader `fk_*.wgsl` + a reduction `reduce_*.wgsl` | `W = F_k Z`, `B = E + ρ ⊙ W` (plain: `B = E - Y X`) | O(nk) |
 //!
+//! The ray tracer's pass (`trace.wgsl`, [`TRACE`], [`TraceParams`], [`TraceConstants`]) shades
+//! with the radiosity `B` these passes leave on the GPU; it is self-contained (no `common.wgsl`)
+//! and its CPU mirror is the runtime's CPU tracer (`lrr_runtime::trace`).
+//!
 //! [`Pass::Read`] (`read.wgsl`) is not a step of a frame: it reads the gather's bytes and
 //! nothing else, the roofline the benchmark compares the gather with.
 //!
@@ -92,11 +96,16 @@
 
 pub mod cpu;
 mod params;
+mod trace;
 
 #[cfg(test)]
 mod naga_tests;
 
 pub use params::{GatherConstants, Params};
+pub use trace::{
+    LIGHT_BYTES, NODE_BYTES, OPTICS_BYTES, TRACE, TRACE_BINDINGS, TRACE_ENTRY, TRACE_LANES,
+    TraceConstants, TraceParams,
+};
 
 /// Invocations per workgroup in segment_sums, core_product and the light-group passes.
 /// Mirrored by `LANES` in `wgsl/common.wgsl` (a test checks they agree).
@@ -197,7 +206,7 @@ pub struct Binding {
     pub access: Access,
 }
 
-const fn bind(binding: u32, name: &'static str, access: Access) -> Binding {
+pub(crate) const fn bind(binding: u32, name: &'static str, access: Access) -> Binding {
     Binding {
         binding,
         name,

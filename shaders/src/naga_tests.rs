@@ -255,3 +255,145 @@ fn params_struct_matches_its_rust_twin() {
         assert_eq!(layouter[handle].size as usize, Params::SIZE, "{pass:?}");
     }
 }
+
+// The ray tracer's pass (`trace.wgsl`): self-contained, no optional capability.
+
+fn parse_trace() -> Module {
+    naga::front::wgsl::parse_str(crate::TRACE).unwrap_or_else(|e| {
+        panic!(
+            "trace.wgsl does not parse:\n{}",
+            e.emit_to_string(crate::TRACE)
+        )
+    })
+}
+
+fn validate_trace(module: &Module) -> ModuleInfo {
+    validator(Capabilities::empty())
+        .validate(module)
+        .unwrap_or_else(|e| {
+            panic!(
+                "trace.wgsl does not validate:\n{}",
+                e.emit_to_string(crate::TRACE)
+            )
+        })
+}
+
+/// Every combination of effects specialised and compiled to SPIR-V, as the runtime builds them.
+#[test]
+fn trace_compiles_to_spirv_for_every_combination_of_effects() {
+    let module = parse_trace();
+    let info = validate_trace(&module);
+    for bits in 0..16u32 {
+        let c = crate::TraceConstants {
+            highlights: bits & 1 != 0,
+            secondary: bits & 2 != 0,
+            smooth: bits & 4 != 0,
+            count_rays: bits & 8 != 0,
+        };
+        let mut constants = PipelineConstants::default();
+        for (name, value) in c.constants() {
+            constants.insert(name.to_owned(), value);
+        }
+        let entry = Some((ShaderStage::Compute, crate::TRACE_ENTRY));
+        let (module, info) =
+            naga::back::pipeline_constants::process_overrides(&module, &info, entry, &constants)
+                .unwrap_or_else(|e| panic!("{c:?}: {e:?}"));
+        let options = naga::back::spv::Options {
+            capabilities: None,
+            ..Default::default()
+        };
+        let pipeline = naga::back::spv::PipelineOptions {
+            shader_stage: ShaderStage::Compute,
+            entry_point: crate::TRACE_ENTRY.to_owned(),
+        };
+        naga::back::spv::write_vec(&module, &info, &options, Some(&pipeline))
+            .unwrap_or_else(|e| panic!("{c:?}: {e:?}"));
+    }
+}
+
+#[test]
+fn trace_overrides_entry_point_and_bindings_are_the_hosts() {
+    let module = parse_trace();
+    let info = validate_trace(&module);
+    let mut declared: Vec<String> = module
+        .overrides
+        .iter()
+        .filter_map(|(_, o)| o.name.clone())
+        .collect();
+    declared.sort();
+    let mut set: Vec<String> = crate::TraceConstants::default()
+        .constants()
+        .iter()
+        .map(|(n, _)| (*n).to_owned())
+        .collect();
+    set.sort();
+    assert_eq!(declared, set);
+    assert_eq!(constant(&module, "TRACE_LANES"), crate::TRACE_LANES);
+    let index = module
+        .entry_points
+        .iter()
+        .position(|e| e.name == crate::TRACE_ENTRY)
+        .expect("trace.wgsl has its entry point");
+    let entry = &module.entry_points[index];
+    assert_eq!(entry.stage, ShaderStage::Compute);
+    assert_eq!(entry.workgroup_size, [crate::TRACE_LANES, 1, 1]);
+    let used = info.get_entry_point(index);
+    let mut found: Vec<(u32, String, Access)> = module
+        .global_variables
+        .iter()
+        .filter(|(handle, _)| !used[*handle].is_empty())
+        .filter_map(|(_, var)| {
+            let binding = var.binding.as_ref()?;
+            assert_eq!(binding.group, 0);
+            let access = match var.space {
+                AddressSpace::Uniform => Access::Uniform,
+                AddressSpace::Storage { access } if access == StorageAccess::LOAD => Access::Read,
+                AddressSpace::Storage { access } if access.contains(StorageAccess::STORE) => {
+                    Access::ReadWrite
+                }
+                space => panic!("{space:?}"),
+            };
+            Some((binding.binding, var.name.clone()?, access))
+        })
+        .collect();
+    found.sort_by_key(|b| b.0);
+    let expected: Vec<(u32, String, Access)> = crate::TRACE_BINDINGS
+        .iter()
+        .map(|b| (b.binding, b.name.to_owned(), b.access))
+        .collect();
+    assert_eq!(found, expected);
+}
+
+/// `struct TraceParams` against [`crate::TraceParams::FIELDS`], and the sizes of the array
+/// elements the host packs.
+#[test]
+fn trace_structs_match_the_host_layout() {
+    let module = parse_trace();
+    let mut layouter = Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let find = |name: &str| {
+        module
+            .types
+            .iter()
+            .find(|(_, ty)| ty.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("trace.wgsl declares {name}"))
+    };
+    let (handle, ty) = find("TraceParams");
+    let TypeInner::Struct { members, .. } = &ty.inner else {
+        panic!("TraceParams is {:?}", ty.inner);
+    };
+    let wgsl: Vec<(&str, usize)> = members
+        .iter()
+        .map(|m| (m.name.as_deref().unwrap_or("?"), m.offset as usize))
+        .collect();
+    assert_eq!(wgsl, crate::TraceParams::FIELDS);
+    assert_eq!(layouter[handle].size as usize, crate::TraceParams::SIZE);
+    for (name, bytes) in [
+        ("Node", crate::NODE_BYTES),
+        ("Optics", crate::OPTICS_BYTES),
+        ("Light", crate::LIGHT_BYTES),
+    ] {
+        let (handle, _) = find(name);
+        assert_eq!(layouter[handle].size as usize, bytes, "{name}");
+    }
+}

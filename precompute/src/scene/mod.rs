@@ -13,6 +13,7 @@ mod model;
 pub mod obj;
 mod polygon;
 pub mod procedural;
+pub mod showcase;
 
 pub use model::{
     BakeDefaults, Camera, Face, Material, Optics, PointLight, Repairs, Scene, SizeHints,

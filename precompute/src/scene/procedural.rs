@@ -165,7 +165,7 @@ pub fn dense_sphere(subdivisions: u32) -> SceneDescription {
 
 /// Triangles of an icosahedron subdivided `levels` times (edges halved, vertices pushed onto
 /// the sphere), counter-clockwise seen from outside.
-fn icosphere(levels: u32, centre: [f64; 3], radius: f64) -> Vec<Vec<[f64; 3]>> {
+pub(super) fn icosphere(levels: u32, centre: [f64; 3], radius: f64) -> Vec<Vec<[f64; 3]>> {
     use glam::DVec3;
     let t = (1.0 + 5f64.sqrt()) / 2.0;
     let v = [

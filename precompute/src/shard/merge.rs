@@ -12,8 +12,8 @@
 //!    operator file (`OperatorFile::write_streamed`, atomic: a damaged record or any error
 //!    leaves no output).
 //!
-//! Memory: the process itself (8 MiB reserved), the skeleton (about 250 bytes per element, and
-//! three copies of the smooth weights: decoded, in the file, encoded),
+//! Memory: the process itself (8 MiB reserved), the skeleton (about 250 bytes per element,
+//! plus three copies of the display sections: about 400 bytes per element more with a BVH),
 //! the systems and cores
 //! (about `(2c + 3)·k²·8` bytes) and a buffer of rows sized to what `--max-memory` leaves;
 //! never `F_k` itself. The plain layout (`Y_k`) is assembled in memory and refused when it
@@ -21,7 +21,7 @@
 
 use std::path::{Path, PathBuf};
 
-use lrr_formats::{Layout, StoredMatrix};
+use lrr_formats::{Display, Layout, StoredMatrix};
 
 use super::part::{PartHeader, PartReader};
 use crate::cores::Systems;
@@ -308,6 +308,24 @@ fn difference(a: &PartHeader, b: &PartHeader) -> Option<String> {
 /// `lrr merge` of an 8-element bake peaks at 5.9 MiB resident (Linux x86-64, release build).
 const PROCESS: u128 = 8 << 20;
 
+/// Bytes the display sections of a file hold (as data or encoded: the same sizes).
+fn display_bytes(d: &Display) -> u128 {
+    let smooth = d.smooth.as_ref().map_or(0, |s| {
+        4 * (s.corners.len() + s.offsets.len() + s.positions.len() + s.weights.len())
+    });
+    let materials = d.materials.as_ref().map_or(0, |m| {
+        4 * m.element_material.len() + m.materials.iter().map(|m| 64 + m.name.len()).sum::<usize>()
+    });
+    let named = |name: &String| 64 + name.len();
+    let lights: usize = d.point_lights.iter().map(|l| named(&l.name)).sum();
+    let cameras: usize = d.cameras.iter().map(|c| named(&c.name)).sum();
+    let bvh = d
+        .bvh
+        .as_ref()
+        .map_or(0, |b| 32 * b.nodes.len() + 4 * b.triangles.len());
+    (smooth + materials + lights + cameras + bvh) as u128
+}
+
 /// Rows per streaming buffer and the bytes planned, refused when even one row does not fit.
 fn plan_memory(
     header: &PartHeader,
@@ -321,12 +339,14 @@ fn plan_memory(
     );
     // Skeleton and its bytes, the file's copies (order, index, f32 arrays, geometry), lights.
     let per_element = 130 + 100 + 16;
-    // The smooth weights: the skeleton's, the file's copy and the encoded section.
-    let smooth = skeleton.display.smooth.as_ref().map_or(0, |sm| {
-        3 * (4 * (sm.corners.len() + sm.offsets.len()) + 8 * sm.positions.len()) as u128
-    });
+    // The display sections: the skeleton's, the file's and their encoded payloads while the
+    // file is written, and the BVH check's scratch (13 bytes per triangle, 4 per node).
+    let display = 3 * display_bytes(&skeleton.display)
+        + skeleton.display.bvh.as_ref().map_or(0, |b| {
+            13 * b.triangles.len() as u128 + 4 * b.nodes.len() as u128
+        });
     let fixed =
-        PROCESS + n * per_element + smooth + (2 * c + 3) * k * k * 8 + header.skeleton_len as u128;
+        PROCESS + n * per_element + display + (2 * c + 3) * k * k * 8 + header.skeleton_len as u128;
     // Per buffered row: the bytes read, f64 values, f32 values, the encoded payload.
     let per_row = k * (8 + 8 + 4 + 4);
     let limit = settings

@@ -667,7 +667,7 @@ fn mapping(e: wgpu::MapRangeError) -> GpuError {
 }
 
 /// Maps `buffer` for reading and waits for the mapping (and so for the work before it).
-fn map(gpu: &Gpu, buffer: &wgpu::Buffer) -> Result<(), GpuError> {
+pub(super) fn map(gpu: &Gpu, buffer: &wgpu::Buffer) -> Result<(), GpuError> {
     let (tx, rx) = std::sync::mpsc::channel();
     buffer.map_async(wgpu::MapMode::Read, .., move |r| {
         let _ = tx.send(r);

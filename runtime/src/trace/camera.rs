@@ -81,3 +81,12 @@ impl View {
         normalize(mad(mad(self.forward, self.right, u), self.up, v))
     }
 }
+
+// For the GPU twin (runtime/src/gpu/trace.rs): the frame its shader builds rays from.
+#[cfg(feature = "gpu")]
+impl View {
+    /// `[eye, forward, right, up]` (right and up scaled by the image plane's half extents).
+    pub(crate) fn frame(&self) -> [V3; 4] {
+        [self.eye, self.forward, self.right, self.up]
+    }
+}

@@ -60,3 +60,7 @@ pub use camera::View;
 pub use effects::{DEFAULT_MAX_DEPTH, Decision, Effects, MAX_DEPTH_LIMIT};
 pub use shade::RayCounts;
 pub use tracer::{Image, Lighting, RenderReport, TILE_ROWS, Tracer};
+
+// For the GPU twin (runtime/src/gpu/trace.rs).
+#[cfg(feature = "gpu")]
+pub(crate) use math::V3;

@@ -209,23 +209,6 @@ impl Tracer {
                 lighting.radiosity.len()
             )));
         }
-        if lighting.group_intensities.len() != self.scene.groups {
-            return Err(input(format!(
-                "light group intensities: {} values for the file's {} groups",
-                lighting.group_intensities.len(),
-                self.scene.groups
-            )));
-        }
-        if let Some(g) = lighting
-            .group_intensities
-            .iter()
-            .position(|a| !(a.is_finite() && *a >= 0.0))
-        {
-            return Err(input(format!(
-                "light group intensity {g} is {}; intensities must be finite and >= 0",
-                lighting.group_intensities[g]
-            )));
-        }
         if let Some(i) = lighting
             .radiosity
             .iter()
@@ -233,13 +216,31 @@ impl Tracer {
         {
             return Err(input(format!("radiosity of element {i} is not finite")));
         }
+        self.group_light_intensities(lighting.group_intensities)
+    }
+
+    /// Per point light: intensity times its group's intensity; checks the group intensities.
+    fn group_light_intensities(&self, groups: &[f32]) -> Result<Vec<V3>, RuntimeError> {
+        if groups.len() != self.scene.groups {
+            return Err(input(format!(
+                "light group intensities: {} values for the file's {} groups",
+                groups.len(),
+                self.scene.groups
+            )));
+        }
+        if let Some(g) = groups.iter().position(|a| !(a.is_finite() && *a >= 0.0)) {
+            return Err(input(format!(
+                "light group intensity {g} is {}; intensities must be finite and >= 0",
+                groups[g]
+            )));
+        }
         Ok(self
             .scene
             .lights
             .iter()
             .map(|l| match l.group {
                 PointLight::FIXED => l.intensity,
-                g => scale(l.intensity, lighting.group_intensities[g as usize]),
+                g => scale(l.intensity, groups[g as usize]),
             })
             .collect())
     }
@@ -362,5 +363,24 @@ impl Job<'_> {
                 counts,
             );
         }
+    }
+}
+
+// What the GPU twin (runtime/src/gpu/trace.rs) reads of a checked tracer: its scene, and a frame's light intensities and decision when the radiosity stays on the GPU.
+#[cfg(feature = "gpu")]
+impl Tracer {
+    pub(crate) fn scene(&self) -> &TraceScene {
+        &self.scene
+    }
+
+    /// The point lights' intensities this frame and the effects it needs, from the group
+    /// intensities alone.
+    pub(crate) fn frame_lights(
+        &self,
+        group_intensities: &[f32],
+    ) -> Result<(Vec<V3>, Decision), RuntimeError> {
+        let intensities = self.group_light_intensities(group_intensities)?;
+        let decision = self.decision(&intensities);
+        Ok((intensities, decision))
     }
 }

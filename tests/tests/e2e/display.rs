@@ -131,7 +131,8 @@ fn a_material_name_picks_its_only_emitting_surface() {
 
 #[test]
 fn bad_point_lights_and_cameras_are_refused_before_the_form_factors() {
-    let cases: [(fn(&mut Scene), &str); 5] = [
+    type Edit = fn(&mut Scene);
+    let cases: [(Edit, &str); 5] = [
         (
             |s| s.point_lights[0].group = Some("sun".into()),
             "point light 'lamp glow': its group 'sun' is no surface or material of the scene; \

@@ -1,0 +1,619 @@
+//! [`GpuTracer`]: the CPU ray tracer's twin on the GPU (`trace.wgsl` of `lrr-shaders`), shading
+//! with the radiosity the relighting left in [`GpuEvaluator::radiosity_buffer`] (no readback
+//! between the two).
+//!
+//! [`GpuTracer::new`] takes a checked CPU [`Tracer`] (so both read the same display data, and
+//! every index the shader follows was checked there) and uploads its scene once: BVH nodes,
+//! leaf-order triangles, per-element ids, normals and materials, optics. A frame writes the
+//! point lights' intensities (their group's factor applied), decides the effects exactly as
+//! the CPU twin does and builds (once per combination) the pipeline specialised by them, then
+//! renders the image in tiles of at most [`GpuTracer::tile_pixels`] pixels, one dispatch and one
+//! submission each, so that no dispatch runs long enough for a driver's watchdog, and reads the
+//! image back as RGBA f32.
+//!
+//! ```no_run
+//! use lrr_runtime::gpu::{Gpu, GpuEvaluator, GpuOptions, GpuTracer};
+//! use lrr_runtime::trace::{Tracer, View};
+//! use lrr_runtime::{Operator, Rgb};
+//!
+//! let op = Operator::load("cornell.lrr".as_ref())?;
+//! let gpu = Gpu::new(&GpuOptions::default())?;
+//! let mut eval = GpuEvaluator::new(&gpu, &op)?;
+//! let mut tracer = GpuTracer::new(&gpu, &Tracer::new(op.file())?)?;
+//! let view = View::new(&op.file().display.cameras[0], 640, 480)?;
+//! eval.submit(Rgb::triples(&op.baked_emission()))?; // B stays on the GPU
+//! let groups = vec![1.0; op.light_groups().len()];
+//! let (image, report) = tracer.render(&view, eval.radiosity_buffer(), &groups, 640, 480)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+use lrr_shaders::{
+    LIGHT_BYTES, NODE_BYTES, OPTICS_BYTES, TRACE, TRACE_ENTRY, TRACE_LANES, TraceConstants,
+    TraceParams,
+};
+
+use super::buffers::storage;
+use super::common::{GpuError, bytes_of};
+use super::device::Gpu;
+use crate::error::input;
+use crate::trace::{Decision, Effects, Image, Lighting, RayCounts, Tracer, V3, View};
+
+/// Default pixels per dispatch: 2¹⁸ (a 1920 × 1080 frame in 8 tiles). A diffuse tile is
+/// 2¹⁸ closest hits, well under a millisecond on a datacenter GPU; a deep ray tree on a
+/// CPU adapter stays far below any watchdog too.
+pub const DEFAULT_TILE_PIXELS: u32 = 1 << 18;
+
+/// What a GPU frame produced besides the image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GpuRenderReport {
+    /// The effects simulated and why (the CPU twin's decision).
+    pub decision: Decision,
+    /// Rays cast, by kind (`None` when not counted: timed frames).
+    pub rays: Option<RayCounts>,
+    /// Tiles (dispatches) of the frame.
+    pub tiles: u32,
+    /// Wall time from the first upload to the image read back.
+    pub wall: Duration,
+}
+
+/// The ray tracer on the GPU. See the [module docs](self).
+pub struct GpuTracer {
+    gpu: Gpu,
+    tracer: Tracer,
+    n: u32,
+    layout: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+    module: wgpu::ShaderModule,
+    pipelines: HashMap<TraceConstants, wgpu::ComputePipeline>,
+    params: wgpu::Buffer,
+    nodes: wgpu::Buffer,
+    tris: wgpu::Buffer,
+    tri_element: wgpu::Buffer,
+    element_id: wgpu::Buffer,
+    normals: wgpu::Buffer,
+    element_material: wgpu::Buffer,
+    optics: wgpu::Buffer,
+    lights: wgpu::Buffer,
+    /// Radiosity uploaded from the host ([`render_lighting`](Self::render_lighting)).
+    host_radiosity: Option<wgpu::Buffer>,
+    tile_pixels: u32,
+}
+
+impl std::fmt::Debug for GpuTracer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "GpuTracer({} triangles, {} elements, tiles of {} pixels, {})",
+            self.tracer.triangle_count(),
+            self.n,
+            self.tile_pixels,
+            self.gpu.adapter_name()
+        )
+    }
+}
+
+impl GpuTracer {
+    /// Uploads the display data of `tracer` (a checked CPU tracer of the file; its depth limit
+    /// is this tracer's) to `gpu`. Errors when a buffer exceeds the adapter's binding limit.
+    pub fn new(gpu: &Gpu, tracer: &Tracer) -> Result<Self, GpuError> {
+        let scene = tracer.scene();
+        let n = scene.n();
+        let none = wgpu::BufferUsages::empty();
+        let nodes: Vec<u32> = scene
+            .nodes
+            .iter()
+            .flat_map(|node| {
+                let [a, b, c] = node.min.map(f32::to_bits);
+                let [d, e, f] = node.max.map(f32::to_bits);
+                [a, b, c, node.count, d, e, f, node.first]
+            })
+            .collect();
+        let tris: Vec<f32> = scene.tris.iter().flatten().copied().collect();
+        let normals: Vec<f32> = scene.normals.iter().flatten().copied().collect();
+        let optics: Vec<f32> = scene
+            .optics
+            .iter()
+            .flat_map(|o| {
+                let [s0, s1, s2] = o.specular;
+                let [m0, m1, m2] = o.mirror;
+                let [t0, t1, t2] = o.transmission;
+                [s0, s1, s2, o.shininess, m0, m1, m2, o.ior, t0, t1, t2, 0.0]
+            })
+            .collect();
+        debug_assert_eq!(nodes.len() * 4, scene.nodes.len() * NODE_BYTES);
+        debug_assert_eq!(optics.len() * 4, scene.optics.len() * OPTICS_BYTES);
+        let lights = scene.lights.len();
+        check_fits(
+            gpu,
+            &[
+                ("BVH nodes", 4 * nodes.len() as u64),
+                ("triangles", 4 * tris.len() as u64),
+                ("radiosity", 12 * n as u64),
+                ("point lights", (lights * LIGHT_BYTES) as u64),
+                ("tile image", 16 * u64::from(DEFAULT_TILE_PIXELS)),
+            ],
+        )?;
+        let layout = bind_group_layout(gpu);
+        let pipeline_layout = gpu
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("trace"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+        Ok(GpuTracer {
+            module: shader_module(gpu),
+            pipelines: HashMap::new(),
+            params: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("trace params"),
+                size: TraceParams::SIZE as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            nodes: storage(gpu, "bvh nodes", &nodes, none),
+            tris: storage(gpu, "triangles", &tris, none),
+            tri_element: storage(gpu, "triangle elements", &scene.tri_element, none),
+            element_id: storage(gpu, "element ids", &scene.element_id, none),
+            normals: storage(gpu, "normals", &normals, none),
+            element_material: storage(gpu, "element materials", &scene.element_material, none),
+            optics: storage(gpu, "optics", &optics, none),
+            lights: storage(
+                gpu,
+                "point lights",
+                // At least one (zero) light: a binding holds at least one element.
+                &vec![0.0f32; lights.max(1) * LIGHT_BYTES / 4],
+                wgpu::BufferUsages::COPY_DST,
+            ),
+            host_radiosity: None,
+            tile_pixels: DEFAULT_TILE_PIXELS,
+            n: n as u32,
+            layout,
+            pipeline_layout,
+            gpu: gpu.clone(),
+            tracer: tracer.clone(),
+        })
+    }
+
+    /// Pixels per dispatch.
+    pub fn tile_pixels(&self) -> u32 {
+        self.tile_pixels
+    }
+
+    /// Sets the pixels per dispatch: from [`TRACE_LANES`] to [`DEFAULT_TILE_PIXELS`] (a smaller
+    /// tile for a slow adapter or a deep ray tree under a short watchdog; tests use small tiles
+    /// to cross tile boundaries).
+    pub fn set_tile_pixels(&mut self, pixels: u32) -> Result<(), GpuError> {
+        if !(TRACE_LANES..=DEFAULT_TILE_PIXELS).contains(&pixels) {
+            return Err(input(format!(
+                "tile of {pixels} pixels: give {TRACE_LANES} to {DEFAULT_TILE_PIXELS}"
+            ))
+            .into());
+        }
+        self.tile_pixels = pixels;
+        Ok(())
+    }
+
+    /// Sets the depth limit of the ray tree (as [`Tracer::set_max_depth`]).
+    pub fn set_max_depth(&mut self, depth: u32) -> Result<(), GpuError> {
+        Ok(self.tracer.set_max_depth(depth)?)
+    }
+
+    /// Renders `view` at `width × height`, shading with `radiosity` (3 f32 per element, original
+    /// ids, a storage buffer of this tracer's device: [`GpuEvaluator::radiosity_buffer`]) and
+    /// the light groups' intensities, simulating what the scene needs (the CPU twin's
+    /// decision). Rays are counted (atomics); [`render_with`](Self::render_with) can skip that.
+    ///
+    /// [`GpuEvaluator::radiosity_buffer`]: super::GpuEvaluator::radiosity_buffer
+    pub fn render(
+        &mut self,
+        view: &View,
+        radiosity: &wgpu::Buffer,
+        group_intensities: &[f32],
+        width: u32,
+        height: u32,
+    ) -> Result<(Image, GpuRenderReport), GpuError> {
+        let (intensities, decision) = self.tracer.frame_lights(group_intensities)?;
+        let effects = decision.effects;
+        self.frame(
+            view,
+            radiosity,
+            &intensities,
+            decision,
+            effects,
+            true,
+            (width, height),
+        )
+    }
+
+    /// [`render`](Self::render) with the radiosity on the host (uploaded first; the CPU twin's
+    /// [`Lighting`]).
+    pub fn render_lighting(
+        &mut self,
+        view: &View,
+        lighting: &Lighting,
+        width: u32,
+        height: u32,
+    ) -> Result<(Image, GpuRenderReport), GpuError> {
+        let buffer = self.upload_radiosity(lighting.radiosity)?;
+        self.render(view, &buffer, lighting.group_intensities, width, height)
+    }
+
+    /// [`render`](Self::render) with the effects forced (as [`Tracer::render_with`]) and ray
+    /// counting on or off (off: the frame a benchmark times).
+    #[allow(clippy::too_many_arguments)]
+    pub fn render_with(
+        &mut self,
+        view: &View,
+        radiosity: &wgpu::Buffer,
+        group_intensities: &[f32],
+        effects: Effects,
+        count_rays: bool,
+        width: u32,
+        height: u32,
+    ) -> Result<(Image, GpuRenderReport), GpuError> {
+        let (intensities, decision) = self.tracer.frame_lights(group_intensities)?;
+        if effects.max_depth > crate::trace::MAX_DEPTH_LIMIT {
+            return Err(input(format!(
+                "the ray depth limit is at most {}, got {}",
+                crate::trace::MAX_DEPTH_LIMIT,
+                effects.max_depth
+            ))
+            .into());
+        }
+        self.frame(
+            view,
+            radiosity,
+            &intensities,
+            decision,
+            effects,
+            count_rays,
+            (width, height),
+        )
+    }
+
+    /// A buffer holding `radiosity` (checked as the CPU twin checks it), reused across frames.
+    pub fn upload_radiosity(&mut self, radiosity: &[[f32; 3]]) -> Result<wgpu::Buffer, GpuError> {
+        let n = self.n as usize;
+        if radiosity.len() != n {
+            return Err(input(format!(
+                "radiosity: {} values for {n} elements",
+                radiosity.len()
+            ))
+            .into());
+        }
+        if let Some(i) = radiosity
+            .iter()
+            .position(|b| b.iter().any(|c| !c.is_finite()))
+        {
+            return Err(input(format!("radiosity of element {i} is not finite")).into());
+        }
+        let flat: Vec<f32> = radiosity.iter().flatten().copied().collect();
+        let buffer = match &self.host_radiosity {
+            Some(b) => b.clone(),
+            None => {
+                let b = storage(
+                    &self.gpu,
+                    "host radiosity",
+                    &flat,
+                    wgpu::BufferUsages::COPY_DST,
+                );
+                self.host_radiosity = Some(b.clone());
+                return Ok(b);
+            }
+        };
+        if !flat.is_empty() {
+            self.gpu.queue.write_buffer(&buffer, 0, bytes_of(&flat));
+        }
+        Ok(buffer)
+    }
+
+    fn pipeline(&mut self, constants: TraceConstants) -> wgpu::ComputePipeline {
+        let (gpu, module, layout) = (&self.gpu, &self.module, &self.pipeline_layout);
+        self.pipelines
+            .entry(constants)
+            .or_insert_with(|| {
+                let values = constants.constants();
+                gpu.device
+                    .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(TRACE_ENTRY),
+                        layout: Some(layout),
+                        module,
+                        entry_point: Some(TRACE_ENTRY),
+                        compilation_options: wgpu::PipelineCompilationOptions {
+                            constants: &values,
+                            zero_initialize_workgroup_memory: false,
+                        },
+                        cache: None,
+                    })
+            })
+            .clone()
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn frame(
+        &mut self,
+        view: &View,
+        radiosity: &wgpu::Buffer,
+        intensities: &[V3],
+        decision: Decision,
+        effects: Effects,
+        count_rays: bool,
+        (width, height): (u32, u32),
+    ) -> Result<(Image, GpuRenderReport), GpuError> {
+        let start = Instant::now();
+        let pixels = u64::from(width) * u64::from(height);
+        if pixels == 0 || pixels > 1 << 28 {
+            return Err(input(format!(
+                "image size {width}x{height}: need at least 1 and at most 2^28 pixels"
+            ))
+            .into());
+        }
+        let image_bytes = 16 * pixels;
+        if image_bytes > self.gpu.limits.max_buffer_size {
+            return Err(GpuError::Device(format!(
+                "GPU: a {width}x{height} RGBA f32 image needs {image_bytes} bytes, over the \
+                 {}-byte buffer limit of {}; render fewer pixels",
+                self.gpu.limits.max_buffer_size,
+                self.gpu.adapter_name()
+            )));
+        }
+        if self.tracer.scene().nodes.is_empty() {
+            // No triangles: every ray misses (a binding cannot be empty; nothing to trace).
+            let image = Image {
+                width,
+                height,
+                pixels: vec![[0.0; 3]; pixels as usize],
+            };
+            let rays = count_rays.then(|| RayCounts {
+                primary: pixels,
+                ..RayCounts::default()
+            });
+            let report = GpuRenderReport {
+                decision,
+                rays,
+                tiles: 0,
+                wall: start.elapsed(),
+            };
+            return Ok((image, report));
+        }
+        let need = 12 * u64::from(self.n);
+        if radiosity.size() < need || !radiosity.usage().contains(wgpu::BufferUsages::STORAGE) {
+            return Err(input(format!(
+                "the radiosity buffer holds {} bytes (usage {:?}); the tracer reads {need} \
+                 bytes of storage (3 f32 per element), e.g. GpuEvaluator::radiosity_buffer",
+                radiosity.size(),
+                radiosity.usage()
+            ))
+            .into());
+        }
+        let light_words: Vec<f32> = self
+            .tracer
+            .scene()
+            .lights
+            .iter()
+            .zip(intensities)
+            .flat_map(|(l, i)| {
+                let [p0, p1, p2] = l.position;
+                [p0, p1, p2, 0.0, i[0], i[1], i[2], 0.0]
+            })
+            .collect();
+        if !light_words.is_empty() {
+            self.gpu
+                .queue
+                .write_buffer(&self.lights, 0, bytes_of(&light_words));
+        }
+        let pipeline = self.pipeline(TraceConstants {
+            highlights: effects.highlights,
+            secondary: effects.secondary,
+            smooth: effects.smooth,
+            count_rays,
+        });
+        let tile = u64::from(self.tile_pixels);
+        let tiles = pixels.div_ceil(tile) as u32;
+        let device = &self.gpu.device;
+        let tile_image = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("trace tile"),
+            size: 16 * tile,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let counts_bytes = (12 * u64::from(tiles)).max(16);
+        let counts = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("ray counts"),
+            size: counts_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("trace readback"),
+            size: image_bytes + counts_bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind_group = self.bind_group(radiosity, &tile_image, &counts);
+        let [eye, forward, right, up] = view.frame();
+        let scene = self.tracer.scene();
+        let mut params = TraceParams {
+            eye,
+            epsilon: scene.epsilon,
+            forward,
+            max_depth: effects.max_depth,
+            right,
+            light_count: scene.lights.len() as u32,
+            up,
+            width,
+            height,
+            ..TraceParams::default()
+        };
+        for t in 0..tiles {
+            let first = u64::from(t) * tile;
+            let count = tile.min(pixels - first);
+            params.first_pixel = first as u32;
+            params.pixel_count = count as u32;
+            params.tile = t;
+            self.gpu
+                .queue
+                .write_buffer(&self.params, 0, &params.to_bytes());
+            let mut encoder =
+                device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("trace"),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(&pipeline);
+                pass.set_bind_group(0, &bind_group, &[]);
+                pass.dispatch_workgroups((count as u32).div_ceil(TRACE_LANES), 1, 1);
+            }
+            encoder.copy_buffer_to_buffer(&tile_image, 0, &readback, 16 * first, 16 * count);
+            if t + 1 == tiles {
+                encoder.copy_buffer_to_buffer(&counts, 0, &readback, image_bytes, counts_bytes);
+            }
+            self.gpu.queue.submit([encoder.finish()]);
+        }
+        let words = read(&self.gpu, &readback)?;
+        let (rgba, counted) = words.split_at(4 * pixels as usize);
+        let image = Image {
+            width,
+            height,
+            pixels: rgba.chunks_exact(4).map(|p| [p[0], p[1], p[2]]).collect(),
+        };
+        let rays = count_rays.then(|| {
+            let mut sum = RayCounts::default();
+            for c in counted.chunks_exact(3).take(tiles as usize) {
+                sum.primary += u64::from(c[0].to_bits());
+                sum.shadow += u64::from(c[1].to_bits());
+                sum.secondary += u64::from(c[2].to_bits());
+            }
+            sum
+        });
+        Ok((
+            image,
+            GpuRenderReport {
+                decision,
+                rays,
+                tiles,
+                wall: start.elapsed(),
+            },
+        ))
+    }
+
+    fn bind_group(
+        &self,
+        radiosity: &wgpu::Buffer,
+        image: &wgpu::Buffer,
+        counts: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        let buffers: [&wgpu::Buffer; 12] = [
+            &self.params,
+            &self.nodes,
+            &self.tris,
+            &self.tri_element,
+            &self.element_id,
+            &self.normals,
+            &self.element_material,
+            &self.optics,
+            &self.lights,
+            radiosity,
+            image,
+            counts,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        self.gpu
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("trace"),
+                layout: &self.layout,
+                entries: &entries,
+            })
+    }
+}
+
+/// The twelve bindings of `trace.wgsl` (`lrr_shaders::TRACE_BINDINGS`), explicit so that every
+/// specialisation (whatever its overrides leave unused) shares one layout.
+fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = lrr_shaders::TRACE_BINDINGS
+        .iter()
+        .map(|b| wgpu::BindGroupLayoutEntry {
+            binding: b.binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: match b.access {
+                    lrr_shaders::Access::Uniform => wgpu::BufferBindingType::Uniform,
+                    lrr_shaders::Access::Read => {
+                        wgpu::BufferBindingType::Storage { read_only: true }
+                    }
+                    lrr_shaders::Access::ReadWrite => {
+                        wgpu::BufferBindingType::Storage { read_only: false }
+                    }
+                },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        })
+        .collect();
+    gpu.device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("trace"),
+            entries: &entries,
+        })
+}
+
+fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
+    let descriptor = wgpu::ShaderModuleDescriptor {
+        label: Some("trace"),
+        source: wgpu::ShaderSource::Wgsl(TRACE.into()),
+    };
+    if gpu.options.bounds_checks {
+        return gpu.device.create_shader_module(descriptor);
+    }
+    #[allow(unsafe_code)]
+    // SAFETY: every index trace.wgsl follows was checked by `TraceScene::new` (the BVH's
+    // children and leaf ranges, its depth against the fixed stacks, element ids, materials,
+    // light groups) and by `GpuTracer::frame` (the radiosity buffer's size, the tile against
+    // the tile buffer, the counters per tile); the argument is in the header of trace.wgsl.
+    // Its loops end: the traversal visits each node at most once (children after parents) and
+    // the ray tree's depth grows by one per push up to a limit of at most 16.
+    unsafe {
+        gpu.device
+            .create_shader_module_trusted(descriptor, wgpu::ShaderRuntimeChecks::unchecked())
+    }
+}
+
+/// Refuses a scene whose buffers do not fit one storage binding (wgpu would abort).
+fn check_fits(gpu: &Gpu, buffers: &[(&str, u64)]) -> Result<(), GpuError> {
+    let limit = gpu.max_binding_bytes();
+    match buffers.iter().find(|(_, bytes)| *bytes > limit) {
+        None => Ok(()),
+        Some((name, bytes)) => Err(GpuError::Device(format!(
+            "GPU: the tracer's {name} buffer needs {bytes} bytes, over the {limit}-byte limit \
+             of one storage binding on {}; render this scene on the CPU (--device cpu)",
+            gpu.adapter_name()
+        ))),
+    }
+}
+
+/// Waits for the submitted work and copies `buffer` out as f32 words.
+fn read(gpu: &Gpu, buffer: &wgpu::Buffer) -> Result<Vec<f32>, GpuError> {
+    super::evaluator::map(gpu, buffer)?;
+    let mut out = vec![0.0f32; (buffer.size() / 4) as usize];
+    {
+        let view = buffer
+            .get_mapped_range(..)
+            .map_err(|e| GpuError::Device(format!("GPU: reading the image back: {e}")))?;
+        super::common::bytes_of_mut(&mut out).copy_from_slice(&view);
+    }
+    buffer.unmap();
+    Ok(out)
+}

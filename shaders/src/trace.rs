@@ -1,0 +1,198 @@
+//! The ray tracer's pass (`wgsl/trace.wgsl`): the GPU twin of the CPU tracer
+//! (`lrr_runtime::trace`), its per-tile uniform [`TraceParams`], its bindings and its pipeline
+//! constants [`TraceConstants`]. Its CPU mirror is the CPU tracer itself (the runtime's
+//! `tests/gpu_trace.rs` compares the images); this crate's naga tests parse, validate, specialise
+//! and compile it for every combination of effects.
+
+use crate::{Access, Binding, bind};
+
+/// The source (self-contained: no `common.wgsl`).
+pub const TRACE: &str = include_str!("../wgsl/trace.wgsl");
+
+/// The entry point.
+pub const TRACE_ENTRY: &str = "trace";
+
+/// Invocations per workgroup (one per pixel). Mirrored by `TRACE_LANES` in `wgsl/trace.wgsl`.
+pub const TRACE_LANES: u32 = 64;
+
+/// Size of the element of `nodes`, `optics` and `lights` in bytes (`struct Node`, `Optics`,
+/// `Light` of `trace.wgsl`; a naga test checks).
+pub const NODE_BYTES: usize = 32;
+/// See [`NODE_BYTES`].
+pub const OPTICS_BYTES: usize = 48;
+/// See [`NODE_BYTES`].
+pub const LIGHT_BYTES: usize = 32;
+
+use Access::{Read, ReadWrite, Uniform};
+
+/// The bindings of `trace`, all in group 0.
+pub const TRACE_BINDINGS: &[Binding] = &[
+    bind(0, "params", Uniform),
+    bind(1, "nodes", Read),
+    bind(2, "tris", Read),
+    bind(3, "tri_element", Read),
+    bind(4, "element_id", Read),
+    bind(5, "normals", Read),
+    bind(6, "element_material", Read),
+    bind(7, "optics", Read),
+    bind(8, "lights", Read),
+    bind(9, "radiosity", Read),
+    bind(10, "image", ReadWrite),
+    bind(11, "counts", ReadWrite),
+];
+
+/// The effects a frame simulates, as the `override` constants of `trace.wgsl` (the CPU's
+/// `lrr_runtime::trace::Effects` without the depth limit, which is a uniform), plus ray counting.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct TraceConstants {
+    /// `HIGHLIGHTS`: Phong highlights behind shadow rays.
+    pub highlights: bool,
+    /// `SECONDARY`: mirror reflection and refraction.
+    pub secondary: bool,
+    /// `SMOOTH`: smooth reconstruction (declared; shading stays flat, as on the CPU).
+    pub smooth: bool,
+    /// `COUNT_RAYS`: count rays by kind (atomics; off for timed frames).
+    pub count_rays: bool,
+}
+
+impl TraceConstants {
+    /// The pipeline constants by name.
+    pub fn constants(&self) -> [(&'static str, f64); 4] {
+        let b = |v: bool| if v { 1.0 } else { 0.0 };
+        [
+            ("HIGHLIGHTS", b(self.highlights)),
+            ("SECONDARY", b(self.secondary)),
+            ("SMOOTH", b(self.smooth)),
+            ("COUNT_RAYS", b(self.count_rays)),
+        ]
+    }
+}
+
+/// The per-tile uniform at binding 0 of `trace` (`struct TraceParams` of `trace.wgsl`, its
+/// twin: 80 bytes, each `vec3<f32>` followed by a 4-byte field in its padding). Upload
+/// [`TraceParams::to_bytes`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TraceParams {
+    /// The camera's eye.
+    pub eye: [f32; 3],
+    /// Offset of secondary and shadow ray origins off their surface.
+    pub epsilon: f32,
+    /// Unit view direction.
+    pub forward: [f32; 3],
+    /// Bounces below a camera ray.
+    pub max_depth: u32,
+    /// Right, scaled by the half width of the image plane at distance 1.
+    pub right: [f32; 3],
+    /// Point lights.
+    pub light_count: u32,
+    /// Up, scaled by the half height of the image plane at distance 1.
+    pub up: [f32; 3],
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// First pixel of this dispatch (row-major from the top left).
+    pub first_pixel: u32,
+    /// Pixels of this dispatch.
+    pub pixel_count: u32,
+    /// Index of this tile's ray counters.
+    pub tile: u32,
+}
+
+impl TraceParams {
+    /// Size in bytes, on the host and in WGSL.
+    pub const SIZE: usize = 80;
+
+    /// Every field's name and byte offset in WGSL, in declaration order (a naga test compares).
+    pub const FIELDS: &'static [(&'static str, usize)] = &[
+        ("eye", 0),
+        ("epsilon", 12),
+        ("forward", 16),
+        ("max_depth", 28),
+        ("right", 32),
+        ("light_count", 44),
+        ("up", 48),
+        ("width", 60),
+        ("height", 64),
+        ("first_pixel", 68),
+        ("pixel_count", 72),
+        ("tile", 76),
+    ];
+
+    /// The bytes to upload, little-endian, at the [`FIELDS`](Self::FIELDS) offsets.
+    pub fn to_bytes(&self) -> [u8; Self::SIZE] {
+        let f = |v: [f32; 3]| v.map(f32::to_bits);
+        let [e0, e1, e2] = f(self.eye);
+        let [f0, f1, f2] = f(self.forward);
+        let [r0, r1, r2] = f(self.right);
+        let [u0, u1, u2] = f(self.up);
+        let words = [
+            e0,
+            e1,
+            e2,
+            self.epsilon.to_bits(),
+            f0,
+            f1,
+            f2,
+            self.max_depth,
+            r0,
+            r1,
+            r2,
+            self.light_count,
+            u0,
+            u1,
+            u2,
+            self.width,
+            self.height,
+            self.first_pixel,
+            self.pixel_count,
+            self.tile,
+        ];
+        let mut bytes = [0; Self::SIZE];
+        for (chunk, w) in bytes.chunks_exact_mut(4).zip(words) {
+            chunk.copy_from_slice(&w.to_le_bytes());
+        }
+        bytes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn params_bytes_sit_at_their_offsets() {
+        let p = TraceParams {
+            epsilon: 0.5,
+            max_depth: 7,
+            up: [0.0, 0.0, 2.0],
+            width: 640,
+            tile: 9,
+            ..TraceParams::default()
+        };
+        let b = p.to_bytes();
+        let word = |at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
+        assert_eq!(word(12), 0.5f32.to_bits());
+        assert_eq!(word(28), 7);
+        assert_eq!(word(56), 2.0f32.to_bits());
+        assert_eq!(word(60), 640);
+        assert_eq!(word(76), 9);
+    }
+
+    #[test]
+    fn constants_name_every_override() {
+        let c = TraceConstants {
+            secondary: true,
+            ..TraceConstants::default()
+        };
+        assert_eq!(
+            c.constants(),
+            [
+                ("HIGHLIGHTS", 0.0),
+                ("SECONDARY", 1.0),
+                ("SMOOTH", 0.0),
+                ("COUNT_RAYS", 0.0)
+            ]
+        );
+    }
+}
