@@ -13,7 +13,8 @@ OPERATOR with the binary LRR into WORKDIR and checks:
     the group layers sum to the all-groups image;
   - every glTF (.glb, .gltf, with and without --lightmap) passes the Khronos validator with no
     errors, and its vertex colours equal min(1, exposure * B/pi) of `lrr probe` at the vertices
-    (probed a hair inside a triangle that uses the vertex, so the probe finds that element).
+    (probed 1e-4 of the way inside a triangle that uses the vertex, so the probe finds that
+    element; within 1e-4, the smooth field's change over that step).
 Prints one line per check and `N passed, 0 failed`; exits 1 at the first failure.
 """
 
@@ -138,14 +139,16 @@ def check_gltf(binary, operator, workdir, nodedir):
     verts = np.array(sorted(first))
     tris = np.array([first[v] for v in verts])
     centroids = positions[indices[tris]].astype(np.float64).mean(axis=1)
-    points = positions[verts] + 1e-3 * (centroids - positions[verts])
+    points = positions[verts] + 1e-4 * (centroids - positions[verts])
     b = probe(binary, operator, workdir, points, triangle_normals(positions, indices[tris]))
     expected = np.clip(exposure * b / math.pi, 0.0, 1.0)
     error = np.abs(colours[verts] - expected).max()
+    # The probe point lies 1e-4 of the way to a triangle's centroid (so the probe finds that
+    # triangle's element): the values may differ by the smooth field's change over that step.
     check(
-        error <= 1e-5,
+        error <= 1e-4,
         f"scene.glb: {len(verts)} vertex colours equal min(1, {exposure:.4g} B/pi) of lrr probe "
-        f"(largest difference {error:.2e})",
+        f"1e-4 of the way inside a triangle (largest difference {error:.2e})",
     )
     clamped = (expected >= 1.0).any(axis=1).sum()
     check(clamped < len(verts) // 2, f"scene.glb: {clamped} of {len(verts)} vertices clamped")

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lrr_runtime::gpu::{Gpu, GpuError, GpuEvaluator, GpuOptions};
-use lrr_runtime::{Operator, Rgb, RgbMut};
+use lrr_runtime::{Operator, Reconstruction, Rgb, RgbMut};
 
 /// The emission flags.
 #[derive(Debug, Clone, Default, Args)]
@@ -31,6 +31,42 @@ pub enum Device {
     Gpu,
     /// The GPU when one is usable, else the CPU (with a note on stderr).
     Auto,
+}
+
+/// `--reconstruct`: the value at a point from the element values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Reconstruct {
+    /// The constant value of the element the point falls in.
+    Flat,
+    /// Smooth-vertex values interpolated by mean value coordinates (section SMOOTH).
+    Smooth,
+}
+
+/// The smooth reconstruction `choice` asks for (`None`: flat): by default smooth when the file
+/// (`path`) has the weights, else flat with a note on stderr.
+pub fn reconstruction<'f>(
+    op: &'f Operator,
+    choice: Option<Reconstruct>,
+    path: &std::path::Path,
+) -> Result<Option<Reconstruction<'f>>> {
+    let has_smooth = op.file().display.smooth.is_some();
+    match choice {
+        Some(Reconstruct::Flat) => Ok(None),
+        Some(Reconstruct::Smooth) if !has_smooth => bail!(
+            "{}: --reconstruct smooth needs the smooth weights (section SMOOTH) that bakes of \
+             format 1.2 carry; re-bake the file with this lrr, or use --reconstruct flat",
+            path.display()
+        ),
+        None if !has_smooth => {
+            eprintln!(
+                "lrr: note: {} has no smooth weights (section SMOOTH; re-bake to get them): \
+                 using the flat reconstruction",
+                path.display()
+            );
+            Ok(None)
+        }
+        _ => Ok(Some(Reconstruction::new(op.file())?)),
+    }
 }
 
 /// What a frame is lit by.

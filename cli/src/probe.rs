@@ -1,4 +1,5 @@
-//! `lrr probe`: radiosity at surface points.
+//! `lrr probe`: radiosity at surface points, smooth (interpolated from the file's per-vertex
+//! weights, `lrr_runtime::Reconstruction`) or flat (the value of the element the point falls in).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -8,7 +9,7 @@ use clap::Args;
 use lrr_runtime::Operator;
 use serde::{Deserialize, Serialize};
 
-use crate::emission::{Device, EmissionArgs, radiosity};
+use crate::emission::{Device, EmissionArgs, Reconstruct, radiosity, reconstruction};
 
 #[derive(Debug, Args)]
 pub struct ProbeArgs {
@@ -24,6 +25,11 @@ pub struct ProbeArgs {
     /// none is usable) or `auto` (the GPU when there is one, else the CPU, saying so).
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     pub device: Device,
+    /// How a point's value comes from the element values: `smooth` (per-vertex values
+    /// interpolated inside the element; the default when the file has smooth weights) or
+    /// `flat` (the value of the element the point falls in; the default otherwise, saying so).
+    #[arg(long, value_enum)]
+    pub reconstruct: Option<Reconstruct>,
     #[command(flatten)]
     pub emission: EmissionArgs,
 }
@@ -62,15 +68,25 @@ pub fn run(a: &ProbeArgs, out: &mut dyn Write) -> Result<()> {
     }
     let lighting = a.emission.lighting(&op)?;
     let radiosity = radiosity(&op, &lighting, a.device)?;
+    let smooth = reconstruction(&op, a.reconstruct, &a.file)?;
+    let mut vertices = Vec::new();
+    if let Some(r) = &smooth {
+        vertices = vec![[0.0f32; 3]; r.vertex_count()];
+        r.vertex_values(&radiosity, &mut vertices)?;
+    }
     let probes: Vec<Probe> = points
         .iter()
         .map(|p| {
-            let element = op
-                .locate(p.position, p.normal)
+            let position = op
+                .locate_position(p.position, p.normal)
                 .expect("an operator has at least one element");
+            let element = op.file().order[position];
             Probe {
                 position: p.position,
-                radiosity: radiosity[element as usize],
+                radiosity: match &smooth {
+                    Some(r) => r.at(&vertices, position, p.position),
+                    None => radiosity[element as usize],
+                },
                 element,
             }
         })

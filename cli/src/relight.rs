@@ -24,7 +24,9 @@ use clap::Args;
 use lrr_runtime::{Operator, Rgb, RgbMut};
 use serde::Deserialize;
 
+use crate::emission::{Reconstruct, reconstruction};
 use crate::export::atlas::{self, Sizing};
+use crate::export::field::Field;
 use crate::export::{charts, radiance_atlas};
 use crate::exr_image::{self, ExrSamples, RgbLayer};
 
@@ -53,6 +55,10 @@ pub struct RelightArgs {
     /// Evaluator threads [default: all cores].
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
+    /// How values inside elements come from the element values: `smooth` (the default when
+    /// the file has smooth weights) or `flat`.
+    #[arg(long, value_enum)]
+    pub reconstruct: Option<Reconstruct>,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -182,6 +188,7 @@ pub fn run(a: &RelightArgs, out: &mut dyn Write) -> Result<()> {
     };
     let layout = atlas::pack(&charts, sizing, a.padding)?;
     let groups = group_emission(&op);
+    let smooth = reconstruction(&op, a.reconstruct, &a.file)?;
     let mut eval = op.evaluator(a.threads.unwrap_or(0))?;
     let (n, frames) = (op.n(), anim.frames());
     let (mut emission, mut b) = (vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n]);
@@ -208,7 +215,8 @@ pub fn run(a: &RelightArgs, out: &mut dyn Write) -> Result<()> {
         }
         eval.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut b))?;
         evaluating += timer.elapsed().as_secs_f64();
-        let atlas = radiance_atlas(&op, &charts, &layout, &b);
+        let field = Field::new(op.file(), &b, smooth)?;
+        let atlas = radiance_atlas(&op, &field, &charts, &layout);
         let path = a.output.join(format!("frame-{f:05}.exr"));
         let note = format!(
             "frame {f} at t = {t:.6} s of {}: exitant radiance B/pi",

@@ -104,6 +104,36 @@ fn probe_without_an_adapter_fails_for_gpu_and_falls_back_for_auto() {
     assert_eq!(auto, cpu);
 }
 
+/// A bake carries smooth weights, so `lrr probe` reconstructs smooth by default; in the furnace
+/// the radiosity is the same everywhere, so smooth and flat agree within f32 rounding.
+#[test]
+fn probe_reconstructs_smooth_by_default_and_flat_when_asked() {
+    let (file, points) = furnace_and_points("reconstruct");
+    let (f, p) = (file.to_str().unwrap(), points.to_str().unwrap());
+    let probe = |extra: &[&str]| {
+        let mut args = vec!["probe", f, "--points", p, "--json"];
+        args.extend_from_slice(extra);
+        let (code, out, err) = lrr(&args, &[]);
+        assert_eq!(code, Some(0), "{err}");
+        assert!(!err.contains("no smooth weights"), "{err}");
+        out
+    };
+    let (default, smooth, flat) = (
+        probe(&[]),
+        probe(&["--reconstruct", "smooth"]),
+        probe(&["--reconstruct", "flat"]),
+    );
+    assert_eq!(default, smooth);
+    let (rs, rf) = (radiosity(&smooth), radiosity(&flat));
+    assert_eq!(rs.len(), 6);
+    for (a, b) in rs.iter().zip(&rf) {
+        assert!((a - b).abs() <= 1e-5 * b, "smooth {rs:?}, flat {rf:?}");
+    }
+    let (code, _, err) = lrr(&["probe", f, "--points", p, "--reconstruct", "cubic"], &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("possible values: flat, smooth"), "{err}");
+}
+
 #[test]
 #[ignore = "needs a Vulkan adapter: scripts/test runs it with --ignored where lavapipe is installed"]
 fn probe_on_the_gpu_matches_the_cpu() {

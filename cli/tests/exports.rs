@@ -11,8 +11,9 @@ use std::path::{Path, PathBuf};
 use exr::prelude::*;
 use glam::{DVec2, DVec3};
 use lrr_cli::export::atlas::{self, Sizing};
+use lrr_cli::export::field::Field;
 use lrr_cli::export::{charts, radiance_atlas, raster::Texel};
-use lrr_runtime::Operator;
+use lrr_runtime::{Operator, Reconstruction};
 
 fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("lrr-exports-{}-{name}", std::process::id()));
@@ -106,12 +107,40 @@ fn read_exr(path: &Path) -> Vec<(String, usize, usize, Vec<[f32; 3]>)> {
         .collect()
 }
 
-/// B/π of the runtime at `point` (the element `locate` finds), per channel.
-fn runtime_radiance(op: &Operator, b: &[[f32; 3]], point: DVec3, normal: DVec3) -> [f32; 3] {
-    let p = [point.x as f32, point.y as f32, point.z as f32];
-    let n = [normal.x as f32, normal.y as f32, normal.z as f32];
-    let e = op.locate(p, n).unwrap() as usize;
-    b[e].map(|v| v / std::f32::consts::PI)
+/// The runtime's smooth reconstruction of one frame (the files baked here carry SMOOTH): B/π
+/// at a point of the element `locate_position` finds, or of a given element.
+struct Runtime<'f> {
+    op: &'f Operator,
+    smooth: Reconstruction<'f>,
+    vertices: Vec<[f32; 3]>,
+}
+
+impl<'f> Runtime<'f> {
+    fn new(op: &'f Operator, b: &[[f32; 3]]) -> Self {
+        let smooth = Reconstruction::new(op.file()).unwrap();
+        let mut vertices = vec![[0.0f32; 3]; smooth.vertex_count()];
+        smooth.vertex_values(b, &mut vertices).unwrap();
+        Self {
+            op,
+            smooth,
+            vertices,
+        }
+    }
+
+    /// B/π at `point` of the element at file position `s`.
+    fn at(&self, s: usize, point: DVec3) -> [f32; 3] {
+        let p = [point.x as f32, point.y as f32, point.z as f32];
+        self.smooth
+            .at(&self.vertices, s, p)
+            .map(|v| v / std::f32::consts::PI)
+    }
+
+    /// B/π at `point`, on the element the runtime locates there.
+    fn locate(&self, point: DVec3, normal: DVec3) -> [f32; 3] {
+        let p = [point.x as f32, point.y as f32, point.z as f32];
+        let n = [normal.x as f32, normal.y as f32, normal.z as f32];
+        self.at(self.op.locate_position(p, n).unwrap(), point)
+    }
 }
 
 #[test]
@@ -136,6 +165,7 @@ fn the_lightmap_of_a_lit_quad_matches_the_runtime_texel_by_texel() {
 
     let op = Operator::load(&file).unwrap();
     let b = op.evaluate_baked();
+    let runtime = Runtime::new(&op, &b);
     let charts = charts::charts(&op.file().geometry);
     assert_eq!(charts.len(), 2, "the floor and the lamp");
     let layout = atlas::pack(&charts, Sizing::Density(40.0), 2).unwrap();
@@ -150,7 +180,7 @@ fn the_lightmap_of_a_lit_quad_matches_the_runtime_texel_by_texel() {
             let got = pixels[y * w + x];
             let size = charts[floor].size;
             if q.x > 0.0 && q.y > 0.0 && q.x < size.x && q.y < size.y {
-                let want = runtime_radiance(&op, &b, charts[floor].lift(q), DVec3::Y);
+                let want = runtime.locate(charts[floor].lift(q), DVec3::Y);
                 for c in 0..3 {
                     assert!(
                         (got[c] - want[c]).abs() <= 1e-6 * want[c],
@@ -182,6 +212,37 @@ fn the_lightmap_of_a_lit_quad_matches_the_runtime_texel_by_texel() {
         .iter()
         .fold((f32::MAX, 0.0f32), |(a, b), &v| (a.min(v), b.max(v)));
     assert!(hi > 1.5 * lo, "{lo} .. {hi}");
+    // --reconstruct flat: each inside texel is its element's value.
+    let flat_path = d.join("flat.exr");
+    lrr(&[
+        "export",
+        s(&file),
+        "-o",
+        s(&flat_path),
+        "--texel-density",
+        "40",
+        "--samples",
+        "float",
+        "--reconstruct",
+        "flat",
+    ]);
+    let flat = &read_exr(&flat_path)[0].3;
+    let mut flat_differs = 0;
+    for y in r[1] + 2..r[3] - 2 {
+        for x in r[0] + 2..r[2] - 2 {
+            let q = layout.chart_point(floor, DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
+            let p = charts[floor].lift(q);
+            let p32 = [p.x as f32, p.y as f32, p.z as f32];
+            let e = op.locate(p32, [0.0, 1.0, 0.0]).unwrap() as usize;
+            let want = b[e].map(|v| v / std::f32::consts::PI);
+            assert_eq!(flat[y * w + x], want, "flat texel ({x}, {y})");
+            flat_differs += usize::from(flat[y * w + x] != pixels[y * w + x]);
+        }
+    }
+    assert!(
+        flat_differs > 1000,
+        "smooth and flat differ: {flat_differs}"
+    );
     // Outside every chart's rectangle the atlas is black.
     let in_rect = |x: usize, y: usize| {
         layout
@@ -206,7 +267,9 @@ fn no_texel_of_any_chart_of_the_cornell_box_is_black_and_inside_texels_match_the
     let b = op.evaluate_baked();
     let charts = charts::charts(&op.file().geometry);
     let layout = atlas::pack(&charts, Sizing::Size(256), 2).unwrap();
-    let atlas = radiance_atlas(&op, &charts, &layout, &b);
+    let field = Field::new(op.file(), &b, Some(Reconstruction::new(op.file()).unwrap())).unwrap();
+    let atlas = radiance_atlas(&op, &field, &charts, &layout);
+    let runtime = Runtime::new(&op, &b);
     let mut checked = 0;
     for (c, r) in layout.rects.iter().enumerate() {
         let normal = charts[c].u.cross(charts[c].v);
@@ -222,7 +285,7 @@ fn no_texel_of_any_chart_of_the_cornell_box_is_black_and_inside_texels_match_the
                 if atlas.state[i] == Texel::Inside && (x + y) % 3 == 0 {
                     let t = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
                     let p = charts[c].lift(layout.chart_point(c, t));
-                    let want = runtime_radiance(&op, &b, p, normal);
+                    let want = runtime.locate(p, normal);
                     for k in 0..3 {
                         assert!(
                             (v[k] - want[k]).abs() <= 1e-6 * want[k].max(1e-6),
@@ -277,33 +340,36 @@ fn glb_vertex_colours_equal_the_runtimes_values() {
     let colours: Vec<[f32; 3]> = reader.read_colors(0).unwrap().into_rgb_f32().collect();
     let indices: Vec<u32> = reader.read_indices().unwrap().into_u32().collect();
     assert_eq!(indices.len() / 3, op.file().geometry.triangle_count());
+    // Triangles come in the order of the display triangles: each names its element, and the
+    // runtime's value on that element at the vertex is the vertex's (every use of a shared
+    // vertex is checked, so sharing across elements with other values would fail).
+    let runtime = Runtime::new(&op, &b);
     let mut seen = vec![false; positions.len()];
     let mut clamped = 0;
-    for tri in indices.chunks(3) {
-        let p: Vec<DVec3> = tri
-            .iter()
-            .map(|&i| DVec3::from_array(positions[i as usize].map(f64::from)))
-            .collect();
-        let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
-        let centroid = (p[0] + p[1] + p[2]) / 3.0;
-        for (k, &v) in tri.iter().enumerate() {
-            if std::mem::replace(&mut seen[v as usize], true) {
-                continue;
-            }
-            // A hair inside the triangle, so `locate` finds the element the vertex belongs to.
-            let at = p[k] + 1e-3 * (centroid - p[k]);
-            let want =
-                runtime_radiance(&op, &b, at, normal).map(|x| (x * exposure).clamp(0.0, 1.0));
+    for (tri, (s, _)) in indices.chunks(3).zip(op.file().geometry.triangles()) {
+        for &v in tri {
+            let at = DVec3::from_array(positions[v as usize].map(f64::from));
+            let want = runtime
+                .at(s as usize, at)
+                .map(|x| (x * exposure).clamp(0.0, 1.0));
             let got = colours[v as usize];
-            clamped += usize::from(want.contains(&1.0));
+            if !std::mem::replace(&mut seen[v as usize], true) {
+                clamped += usize::from(want.contains(&1.0));
+            }
             for c in 0..3 {
                 assert!(
                     (got[c] - want[c]).abs() <= 1e-6,
-                    "vertex {v}: {got:?} against {want:?}"
+                    "vertex {v} on element {s}: {got:?} against {want:?}"
                 );
             }
         }
     }
+    // Shared vertices: far fewer than the elements' corners.
+    assert!(
+        positions.len() < indices.len() / 3,
+        "{} vertices",
+        positions.len()
+    );
     assert!(seen.iter().all(|&s| s));
     assert!(
         clamped < positions.len() / 10,

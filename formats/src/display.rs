@@ -16,9 +16,11 @@
 //! A *smooth vertex* is a corner shared by elements of one smooth surface (same surface, same
 //! material, no crease and no contact line between them). Its value is the weighted sum of the
 //! radiosity of the elements that share it ([`Smooth::offsets`], [`Smooth::positions`],
-//! [`Smooth::weights`]); inside an element the value is interpolated from its corners' values by
-//! mean value coordinates (for a triangle: barycentric coordinates; for a parallelogram: bilinear
-//! interpolation). Corners are those of [`Geometry`](crate::Geometry), in the same order.
+//! [`Smooth::weights`]; on a surface's boundary, a linear extrapolation from the elements around
+//! it, clamped at zero); inside an element the value is interpolated from its corners' values by
+//! mean value coordinates (for a triangle: barycentric coordinates; exact for linear fields,
+//! linear along each edge). Corners are those of [`Geometry`](crate::Geometry), in the same
+//! order.
 
 /// Reconstruction weights: radiosity at any surface point from the element values.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -31,7 +33,10 @@ pub struct Smooth {
     pub offsets: Vec<u32>,
     /// File positions (`< n`) contributing to each smooth vertex.
     pub positions: Vec<u32>,
-    /// Their weights: finite, in (0, 1], summing to 1 (within 1e-5) per smooth vertex.
+    /// Their weights: finite, non-zero, within ±8, summing to 1 (within 1e-5) per smooth
+    /// vertex. Inside a surface they are positive (a weighted mean); a vertex on a surface's
+    /// boundary extrapolates the values around it linearly, with some weights negative, and its
+    /// value is clamped at zero per channel (radiosity is never negative).
     pub weights: Vec<f32>,
 }
 

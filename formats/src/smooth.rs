@@ -9,6 +9,8 @@ use crate::display::Smooth;
 use crate::error::FormatError;
 use crate::file::OperatorFile;
 
+/// Largest weight magnitude (extrapolating boundary vertices have negative weights).
+pub(crate) const MAX_WEIGHT: f32 = 8.0;
 /// How far the weights of one smooth vertex may sum from 1.
 pub(crate) const WEIGHT_SUM_TOLERANCE: f64 = 1e-5;
 
@@ -139,10 +141,10 @@ pub(crate) fn check(f: &OperatorFile, s: &Smooth) -> Result<(), FormatError> {
                     "smooth vertex {v}: position {p} is not below n = {n}"
                 ));
             }
-            if !(w > 0.0 && w <= 1.0) {
+            if !(w != 0.0 && w.abs() <= MAX_WEIGHT) {
                 return fail(format!(
-                    "smooth vertex {v}: the weight of position {p} is {w}, must be finite and \
-                     in (0, 1]"
+                    "smooth vertex {v}: the weight of position {p} is {w}, must be finite, \
+                     non-zero and within ±{MAX_WEIGHT}"
                 ));
             }
             sum += f64::from(w);

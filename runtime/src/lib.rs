@@ -70,6 +70,8 @@
 //! - `runs.rs` (the permutation as runs of ids), `pass.rs` (step 3 of a frame per block of
 //!   rows), `pool.rs` (persistent threads taking chunks of rows from a queue), `frame.rs` (the
 //!   other steps of a frame).
+//! - [`Reconstruction`] (`smooth.rs`): smooth radiosity at any surface point from a frame's
+//!   element values and the file's SMOOTH weights.
 //! - [`Evaluator`] (`evaluator.rs`): frames over the pool; the one-call evaluations of
 //!   [`Operator`] stand there too.
 //! - `testkit` (cargo feature `testkit`): synthetic operators, the f64 reference evaluation and
@@ -97,6 +99,7 @@ mod pass;
 mod pool;
 mod rgb;
 mod runs;
+mod smooth;
 #[cfg(feature = "testkit")]
 pub mod testkit;
 pub mod trace;
@@ -107,3 +110,4 @@ pub use kernel::SimdLevel;
 pub use lrr_formats::{FormatError, Layout, MAX_CONDITION, OperatorFile, Precision};
 pub use operator::Operator;
 pub use rgb::{Rgb, RgbMut};
+pub use smooth::Reconstruction;

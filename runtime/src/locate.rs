@@ -7,6 +7,13 @@ impl Operator {
     /// those whose normal agrees with `normal` (dot > 0), or among all when none agrees.
     /// Linear in n (a probe is not a per-frame operation).
     pub fn locate(&self, point: [f32; 3], normal: [f32; 3]) -> Option<u32> {
+        self.locate_position(point, normal)
+            .map(|s| self.file().order[s])
+    }
+
+    /// The file position of the element [`locate`](Self::locate) finds (what
+    /// [`Reconstruction::at`](crate::Reconstruction::at) takes).
+    pub fn locate_position(&self, point: [f32; 3], normal: [f32; 3]) -> Option<usize> {
         let g = &self.file().geometry;
         let mut best: Option<(bool, f64, usize)> = None;
         for s in 0..self.n() {
@@ -36,7 +43,7 @@ impl Operator {
                 best = Some((agrees, d, s));
             }
         }
-        best.map(|(_, _, s)| self.file().order[s])
+        best.map(|(_, _, s)| s)
     }
 }
 

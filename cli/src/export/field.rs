@@ -1,35 +1,55 @@
 //! The radiosity of one frame as a field over the surface, what every export samples: the
 //! value at a point of an element and at an element's corners, and which corners share one
-//! exported vertex.
-//!
-//! The reconstruction is flat (the element's value everywhere on it) until the runtime's
-//! smooth reconstruction lands; this file is the one place that switches.
+//! exported vertex. This file is the one place the reconstruction is chosen:
+//! - smooth (the default when the file has SMOOTH weights): the runtime's
+//!   [`Reconstruction`], smooth-vertex values interpolated by mean value coordinates; corners
+//!   of one smooth vertex are one exported vertex;
+//! - flat: the element's value over the whole element; no corners are shared.
 
+use anyhow::Result;
 use glam::DVec3;
 use lrr_formats::{OperatorData, OperatorFile};
+use lrr_runtime::Reconstruction;
 
-/// A frame's radiosity `B` (W/m² of exitance per channel, like the operator's), by file
-/// position.
-pub struct Field {
+/// A frame's radiosity `B` (W/m² of exitance per channel, like the operator's) over the surface.
+pub struct Field<'f> {
     /// `B` per file position.
     values: Vec<[f32; 3]>,
     /// Per file position: the element sees no patch and emits nothing, so it is black in every
     /// frame (the floor under a block): hidden from view, left out of lightmaps.
     hidden: Vec<bool>,
+    /// The smooth reconstruction, this frame's smooth-vertex values and SMOOTH's corners.
+    smooth: Option<SmoothFrame<'f>>,
 }
 
-impl Field {
-    /// The field of `radiosity` (per element, original ids) on `file`'s elements.
-    pub fn new(file: &OperatorFile, radiosity: &[[f32; 3]]) -> Self {
+type SmoothFrame<'f> = (Reconstruction<'f>, Vec<[f32; 3]>, &'f [u32]);
+
+impl<'f> Field<'f> {
+    /// The field of `radiosity` (per element, original ids) on `file`'s elements, smooth
+    /// through `smooth` (made from `file`) or flat.
+    pub fn new(
+        file: &'f OperatorFile,
+        radiosity: &[[f32; 3]],
+        smooth: Option<Reconstruction<'f>>,
+    ) -> Result<Self> {
         let values = file
             .order
             .iter()
             .map(|&id| radiosity[id as usize])
             .collect();
-        Self {
+        let smooth = match (smooth, &file.display.smooth) {
+            (Some(r), Some(weights)) => {
+                let mut vertices = vec![[0.0f32; 3]; r.vertex_count()];
+                r.vertex_values(radiosity, &mut vertices)?;
+                Some((r, vertices, weights.corners.as_slice()))
+            }
+            _ => None,
+        };
+        Ok(Self {
             values,
             hidden: hidden(file),
-        }
+            smooth,
+        })
     }
 
     /// Whether the element at file position `s` is black in every frame because it sees
@@ -38,25 +58,41 @@ impl Field {
         self.hidden[s]
     }
 
-    /// `B` at `point` of the element at file position `s` (flat: the element's value).
-    pub fn at(&self, s: usize, _point: DVec3) -> [f32; 3] {
-        self.values[s]
+    /// `B` at `point` of the element at file position `s`.
+    pub fn at(&self, s: usize, point: DVec3) -> [f32; 3] {
+        match &self.smooth {
+            Some((r, vertices, _)) => r.at(
+                vertices,
+                s,
+                [point.x as f32, point.y as f32, point.z as f32],
+            ),
+            None => self.values[s],
+        }
     }
 
     /// `B` at corner `c` of the element at file position `s`.
-    pub fn corner(&self, s: usize, _c: usize) -> [f32; 3] {
-        self.values[s]
+    pub fn corner(&self, s: usize, c: usize) -> [f32; 3] {
+        match &self.smooth {
+            Some((r, vertices, _)) => r.corner_value(vertices, s, c),
+            None => self.values[s],
+        }
     }
 
-    /// A key equal for corners that are one vertex of the exported mesh (same position and
-    /// value): flat values share no corners.
+    /// A key equal for corners that are one vertex of the exported mesh: the smooth vertex, or
+    /// (flat) the corner itself.
     pub fn vertex_key(&self, s: usize, c: usize) -> u64 {
-        (s as u64) << 2 | c as u64
+        match &self.smooth {
+            Some((_, _, corners)) => u64::from(corners[4 * s + c]),
+            None => 1 << 63 | (s as u64) << 2 | c as u64,
+        }
     }
 
     /// How the values were reconstructed, for notes in the exported files.
     pub fn method(&self) -> &'static str {
-        "flat (element values)"
+        match self.smooth {
+            Some(_) => "smooth (SMOOTH weights, mean value coordinates)",
+            None => "flat (element values)",
+        }
     }
 }
 

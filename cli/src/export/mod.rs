@@ -22,7 +22,7 @@ use anyhow::{Result, bail};
 use clap::Args;
 use lrr_runtime::{Operator, RgbMut};
 
-use crate::emission::{EmissionArgs, Lighting, radiosity_cpu};
+use crate::emission::{EmissionArgs, Lighting, Reconstruct, radiosity_cpu, reconstruction};
 use crate::exr_image::{self, ExrSamples, RgbLayer};
 use atlas::{Layout, Sizing};
 use charts::Chart;
@@ -38,6 +38,10 @@ pub struct ExportArgs {
     pub output: PathBuf,
     #[command(flatten)]
     pub emission: EmissionArgs,
+    /// How values inside elements come from the element values: `smooth` (the default when
+    /// the file has smooth weights) or `flat` (the default otherwise, saying so).
+    #[arg(long, value_enum)]
+    pub reconstruct: Option<Reconstruct>,
     /// glTF: add the lightmap atlas as the base colour texture (PNG) with its UVs as
     /// TEXCOORD_0; the vertex values then move to the attribute `_RADIOSITY`.
     #[arg(long)]
@@ -150,14 +154,8 @@ fn lay_out(a: &ExportArgs, op: &Operator) -> Result<(Vec<Chart>, Layout)> {
     Ok((charts, layout))
 }
 
-/// The atlas of the exitant radiance `B/π` of `radiosity` (per element, original ids).
-pub fn radiance_atlas(
-    op: &Operator,
-    charts: &[Chart],
-    layout: &Layout,
-    radiosity: &[[f32; 3]],
-) -> Atlas {
-    let field = Field::new(op.file(), radiosity);
+/// The atlas of the exitant radiance `B/π` of `field` over the charts of `op`'s geometry.
+pub fn radiance_atlas(op: &Operator, field: &Field, charts: &[Chart], layout: &Layout) -> Atlas {
     let value = |s: usize, p: glam::DVec3| {
         (!field.hidden(s)).then(|| field.at(s, p).map(|v| v / std::f32::consts::PI))
     };
@@ -171,14 +169,16 @@ fn export_exr(
     out: &mut dyn Write,
 ) -> Result<()> {
     let (charts, layout) = lay_out(a, op)?;
+    let smooth = reconstruction(op, a.reconstruct, &a.file)?;
     let frames = match a.layers {
         Layers::All => vec![(None, radiosity_cpu(op, lighting)?)],
         Layers::Groups => group_frames(op, lighting)?,
     };
-    let atlases: Vec<(Option<String>, Atlas)> = frames
-        .iter()
-        .map(|(name, b)| (name.clone(), radiance_atlas(op, &charts, &layout, b)))
-        .collect();
+    let mut atlases: Vec<(Option<String>, Atlas)> = Vec::new();
+    for (name, b) in &frames {
+        let field = Field::new(op.file(), b, smooth)?;
+        atlases.push((name.clone(), radiance_atlas(op, &field, &charts, &layout)));
+    }
     let layers: Vec<RgbLayer> = atlases
         .iter()
         .map(|(name, atlas)| RgbLayer {
@@ -189,7 +189,7 @@ fn export_exr(
     let note = format!(
         "exitant radiance B/pi (linear RGB, emission units per sr), reconstruction {}, \
          {} charts, {:.6} texels per scene unit, padding {}",
-        Field::new(op.file(), &frames[0].1).method(),
+        Field::new(op.file(), &frames[0].1, smooth)?.method(),
         charts.len(),
         layout.density,
         layout.padding
@@ -280,7 +280,8 @@ fn export_gltf(
 ) -> Result<()> {
     let radiosity = radiosity_cpu(op, lighting)?;
     let g = &op.file().geometry;
-    let field = Field::new(op.file(), &radiosity);
+    let smooth = reconstruction(op, a.reconstruct, &a.file)?;
+    let field = Field::new(op.file(), &radiosity, smooth)?;
     let exposure = a
         .exposure
         .unwrap_or_else(|| gltf::auto_exposure(op.file(), &field));
@@ -291,7 +292,7 @@ fn export_gltf(
     };
     let lightmap = match &laid_out {
         Some((charts, layout)) => {
-            let atlas = radiance_atlas(op, charts, layout, &radiosity);
+            let atlas = radiance_atlas(op, &field, charts, layout);
             // The atlas holds B/π; the PNG is exposure × that.
             let png = gltf::png(
                 atlas.width,

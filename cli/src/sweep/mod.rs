@@ -120,9 +120,14 @@ pub fn run(
                 r.precision,
                 r.rel_error,
                 r.truth.map_or(String::new(), |t| format!(
-                    " (path tracer: median {:.2}%, p90 {:.2}%)",
+                    " (path tracer: median {:.2}%, p90 {:.2}%{})",
                     100.0 * t.median,
-                    100.0 * t.p90
+                    100.0 * t.p90,
+                    r.truth_smooth.map_or(String::new(), |s| format!(
+                        "; smooth {:.2}%, {:.2}%",
+                        100.0 * s.median,
+                        100.0 * s.p90
+                    ))
                 )),
                 r.bake_s,
                 r.frame_s * 1e6
@@ -260,6 +265,7 @@ fn measure(
             rel_error_ref: reference.map(|r| relative_l2(&b, &cache[r].radiosity)),
             ref_samples: reference.map(|r| cache[r].samples),
             truth: truth.map(|t| t.error(op, &b)),
+            truth_smooth: truth.and_then(|t| t.smooth_error(op, &b)),
             truth_noise: truth.map(|t| t.noise.median),
             bake_s,
             mesh_s: stage("mesh"),

@@ -20,6 +20,8 @@ pub struct Row {
     /// Against the path-traced reference points (`--reference`): total error, discretisation
     /// included; and the reference's own noise (median relative standard error).
     pub truth: Option<Spread>,
+    /// The same through the smooth reconstruction.
+    pub truth_smooth: Option<Spread>,
     pub truth_noise: Option<f64>,
     /// Wall time of the whole bake (meshing to cores), and per stage.
     pub bake_s: f64,

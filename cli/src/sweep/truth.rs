@@ -2,8 +2,9 @@
 //!
 //! `FILE` holds points on every surface of the scene with the radiosity an unbiased path
 //! tracer measured there and its standard error (`tests/data/reference/*.json`, made by
-//! `scripts/reference/run.py`). A bake is evaluated at each point as `lrr probe` does: the value
-//! of the element the point falls in ([`Operator::locate`], the flat reconstruction). Error of
+//! `scripts/reference/run.py`). A bake is evaluated at each point twice: flat, the value of the
+//! element the point falls in ([`Operator::locate`]), and smooth, through the file's smooth
+//! reconstruction ([`Reconstruction`], `lrr probe`'s default). Error of
 //! a point: `‖B − B_ref‖₁ / ‖B_ref‖₁` over the channels; a row gets the median, 90th percentile
 //! and max over the points. Unlike the errors against the exact solve, this one includes the
 //! fine mesh's discretisation error, so rows of different `n` compare. The reference's own
@@ -13,7 +14,7 @@ use std::path::Path;
 
 use lrr_precompute::error::{Error, Result};
 use lrr_precompute::scene::Scene;
-use lrr_runtime::Operator;
+use lrr_runtime::{Operator, Reconstruction};
 use serde::Deserialize;
 
 /// The part of a reference file the sweep reads (other fields are ignored).
@@ -108,17 +109,36 @@ impl Truth {
         })
     }
 
-    /// The error of `b` (radiosity per element, original ids, of `op`) at the points.
+    /// The error of `b` (radiosity per element, original ids, of `op`) at the points, flat:
+    /// the value of the element each point falls in.
     pub fn error(&self, op: &Operator, b: &[[f64; 3]]) -> Spread {
+        self.spread(op, |s, _| b[op.file().order[s] as usize])
+    }
+
+    /// The error of `b` at the points through the smooth reconstruction (`lrr probe`'s
+    /// default); `None` when the file has no smooth weights.
+    pub fn smooth_error(&self, op: &Operator, b: &[[f64; 3]]) -> Option<Spread> {
+        let r = Reconstruction::new(op.file()).ok()?;
+        let b32: Vec<[f32; 3]> = b.iter().map(|v| v.map(|x| x as f32)).collect();
+        let mut vertices = vec![[0.0f32; 3]; r.vertex_count()];
+        r.vertex_values(&b32, &mut vertices).ok()?;
+        Some(self.spread(op, |s, p| {
+            r.at(&vertices, s, p.position.map(|x| x as f32))
+                .map(f64::from)
+        }))
+    }
+
+    /// The spread of the relative error of `value(file position, point)` over the points.
+    fn spread(&self, op: &Operator, value: impl Fn(usize, &Point) -> [f64; 3]) -> Spread {
         let rel: Vec<f64> = self
             .points
             .iter()
             .map(|p| {
-                let id = op
-                    .locate(p.position.map(|x| x as f32), p.normal.map(|x| x as f32))
-                    .expect("an operator has at least one element")
-                    as usize;
-                let d = [0, 1, 2].map(|c| b[id][c] - p.radiosity[c]);
+                let s = op
+                    .locate_position(p.position.map(|x| x as f32), p.normal.map(|x| x as f32))
+                    .expect("an operator has at least one element");
+                let v = value(s, p);
+                let d = [0, 1, 2].map(|c| v[c] - p.radiosity[c]);
                 l1(d) / l1(p.radiosity)
             })
             .collect();

@@ -15,7 +15,8 @@ use crate::patches::Mesh;
 use crate::progress::Progress;
 use crate::scene::{Optics, Scene};
 
-/// The display sections of a bake of `scene` meshed as `mesh` (smooth weights aside). Errors
+/// The display sections of a bake of `scene` meshed as `mesh` (the smooth weights from
+/// `mesh::smooth`). Errors
 /// name the scene and the light, camera or material at fault.
 pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display> {
     let materials = materials(scene, mesh)?;
@@ -24,8 +25,12 @@ pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display>
     let stage = progress.stage("bvh", 0);
     let bvh = bvh::build(&geometry(mesh));
     stage.finish();
+    let stage = progress.stage("smooth", 0);
+    let elements: Vec<_> = (0..mesh.n()).map(|s| mesh.element_at(s)).collect();
+    let smooth = crate::mesh::smooth::weights(scene, &elements);
+    stage.finish();
     Ok(Display {
-        smooth: None,
+        smooth: Some(smooth),
         materials: Some(materials),
         point_lights,
         cameras,

@@ -34,6 +34,8 @@ pub(super) struct Contact {
     segment: (DVec3, DVec3),
     /// True when the other face passes through the plane (an interpenetration), not along it.
     pub through: bool,
+    /// Index of the other face.
+    pub face: usize,
 }
 
 impl<'f> Imprinter<'f> {
@@ -69,6 +71,7 @@ impl<'f> Imprinter<'f> {
                     plane: *other,
                     segment,
                     through,
+                    face: g,
                 });
             }
         }
@@ -114,6 +117,20 @@ pub(super) fn cut_all(
 }
 
 impl Contact {
+    /// True when a segment along the unit direction `dir` with midpoint `mid` lies on this
+    /// contact line (parallel to it, `mid` within `tol` of the contact segment): an edge the
+    /// light may differ across (`smooth`).
+    pub(super) fn holds(&self, mid: DVec3, dir: DVec3, tol: f64) -> bool {
+        let (a, b) = self.segment;
+        let ab = b - a;
+        let len = ab.length();
+        if len <= tol || dir.dot(ab).abs() < (1.0 - 1e-6) * len {
+            return false;
+        }
+        let t = ((mid - a).dot(ab) / (len * len)).clamp(0.0, 1.0);
+        (a + ab * t).distance(mid) <= tol
+    }
+
     /// Bounding box of the contact segment.
     pub(super) fn bounds(&self) -> (DVec3, DVec3) {
         let (a, b) = self.segment;

@@ -17,6 +17,7 @@
 mod element;
 mod imprint;
 mod region;
+pub mod smooth;
 pub(crate) mod subdivide;
 
 use std::time::Instant;

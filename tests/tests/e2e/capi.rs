@@ -141,6 +141,9 @@ fn c_program_prints_what_lrr_probe_prints() {
         "--points",
         points_json.to_str().unwrap(),
         "--json",
+        // the element's value, what the C interface's locate + evaluate gives
+        "--reconstruct",
+        "flat",
     ]);
     let expected: Vec<(u32, [f32; 3])> = probe
         .as_array()

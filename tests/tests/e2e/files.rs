@@ -82,6 +82,9 @@ fn report_info_and_probe_agree() {
         "--points",
         points.to_str().unwrap(),
         "--json",
+        // the element's value, compared with the evaluation per element below
+        "--reconstruct",
+        "flat",
     ]);
     let op = Operator::load(&out).unwrap();
     let b = op.evaluate_baked();
