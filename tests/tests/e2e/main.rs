@@ -13,6 +13,7 @@ mod gltf;
 mod import;
 mod meshing;
 mod reference;
+mod render_reference;
 mod resilience;
 mod scene_description;
 mod shards;

@@ -1,0 +1,147 @@
+//! `lrr render` of the Cornell box against the path-traced image of the same camera
+//! (`tests/data/reference/cornell-box.exr`: Mitsuba 3, 1024 paths per pixel, box filter, 256²,
+//! linear radiance; `cornell-box-image.json` names the camera and how it was made).
+//!
+//! lrr renders at 1024² (one ray through each pixel centre) and averages 4 × 4 blocks, the box
+//! filter of the reference. Two figures: the image's relative L1 error `Σ|ΔL| / Σ L_ref` over all
+//! pixels and channels, and the per-pixel relative error of the luminance (mean of R, G, B) over
+//! pixels brighter than 1e-3 of the median (the box's black surround is left out). The second
+//! includes the reference's own per-pixel noise (1024 paths), which this test cannot separate.
+
+use std::path::Path;
+
+use crate::util::{bake, cornell, lrr, root, temp_dir};
+
+/// Rows of RGB pixels of the first RGB(A) layer of an EXR file.
+fn read_rgb(path: &Path) -> (usize, usize, Vec<[f64; 3]>) {
+    use exr::prelude::{ReadChannels, ReadLayers, read};
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |resolution, _| {
+                (
+                    resolution.width(),
+                    resolution.height(),
+                    vec![[0.0f64; 3]; resolution.width() * resolution.height()],
+                )
+            },
+            |(w, _, px): &mut (usize, usize, Vec<[f64; 3]>),
+             pos,
+             (r, g, b, _a): (f32, f32, f32, f32)| {
+                px[pos.y() * *w + pos.x()] = [r as f64, g as f64, b as f64];
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    image.layer_data.channel_data.pixels
+}
+
+/// `(relative L1 error, median and mean per-pixel relative luminance error)`.
+fn image_errors(ours: &[[f64; 3]], reference: &[[f64; 3]]) -> (f64, f64, f64) {
+    let l1: f64 = ours
+        .iter()
+        .zip(reference)
+        .map(|(a, r)| (0..3).map(|c| (a[c] - r[c]).abs()).sum::<f64>())
+        .sum::<f64>()
+        / reference.iter().map(|r| r.iter().sum::<f64>()).sum::<f64>();
+    let lum = |p: &[f64; 3]| (p[0] + p[1] + p[2]) / 3.0;
+    let mut sorted: Vec<f64> = reference.iter().map(lum).collect();
+    sorted.sort_by(f64::total_cmp);
+    let floor = 1e-3 * sorted[sorted.len() / 2];
+    let mut rel: Vec<f64> = ours
+        .iter()
+        .zip(reference)
+        .filter(|(_, r)| lum(r) > floor)
+        .map(|(a, r)| (lum(a) - lum(r)).abs() / lum(r))
+        .collect();
+    rel.sort_by(f64::total_cmp);
+    let mean = rel.iter().sum::<f64>() / rel.len() as f64;
+    (l1, rel[rel.len() / 2], mean)
+}
+
+#[test]
+fn cornell_render_against_the_path_traced_image() {
+    let meta: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(root().join("tests/data/reference/cornell-box-image.json"))
+            .unwrap(),
+    )
+    .unwrap();
+    let camera = &meta["camera"];
+    let csv = |v: &serde_json::Value| {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap().to_string())
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let size = meta["size"].as_u64().unwrap() as usize;
+    assert_eq!(meta["filter"], "box", "the reference's pixel filter");
+    // Square image: the reference's horizontal field of view is also the vertical one.
+    let fov = camera["fov"].as_f64().unwrap().to_string();
+
+    let dir = temp_dir("render-reference");
+    let file = dir.join("cornell.lrr");
+    bake(&cornell(), &file, &[]).unwrap();
+    let image = dir.join("cornell.exr");
+    let (eye, target, up) = (
+        csv(&camera["origin"]),
+        csv(&camera["target"]),
+        csv(&camera["up"]),
+    );
+    let big = format!("{0}x{0}", 4 * size);
+    let out = lrr(&[
+        "render",
+        file.to_str().unwrap(),
+        "--eye",
+        &eye,
+        "--target",
+        &target,
+        "--up",
+        &up,
+        "--fov-y",
+        &fov,
+        "--size",
+        &big,
+        "-o",
+        image.to_str().unwrap(),
+    ])
+    .unwrap();
+    let (w, h, fine) = read_rgb(&image);
+    assert_eq!((w, h), (4 * size, 4 * size), "{out}");
+    // 4 x 4 box average: the reference's pixel filter.
+    let mut ours = vec![[0.0f64; 3]; size * size];
+    for y in 0..4 * size {
+        for x in 0..4 * size {
+            let p = &mut ours[(y / 4) * size + x / 4];
+            for c in 0..3 {
+                p[c] += fine[y * w + x][c] / 16.0;
+            }
+        }
+    }
+    let (rw, rh, reference) = read_rgb(&root().join("tests/data/reference/cornell-box.exr"));
+    assert_eq!((rw, rh), (size, size));
+    let (l1, median, mean) = image_errors(&ours, &reference);
+    eprintln!(
+        "Cornell render against the path-traced image: relative L1 {:.2}%, per-pixel median \
+         {:.2}%, mean {:.2}%",
+        100.0 * l1,
+        100.0 * median,
+        100.0 * mean
+    );
+    // Measured (smooth shading, default bake): see README "Against the real light"; asserted
+    // within 1.25x.
+    assert!(l1 <= 1.25 * L1_MEASURED, "relative L1 error {l1}");
+    assert!(
+        median <= 1.25 * MEDIAN_MEASURED,
+        "per-pixel median error {median}"
+    );
+    assert!(mean <= 1.25 * MEAN_MEASURED, "per-pixel mean error {mean}");
+}
+
+const L1_MEASURED: f64 = 0.0273;
+const MEDIAN_MEASURED: f64 = 0.0355;
+const MEAN_MEASURED: f64 = 0.0688;
