@@ -307,6 +307,11 @@ fn gpu_frames(
         )?;
     }
     let mut gt = GpuTracer::new(&gpu, tracer)?;
+    // The WGSL tracer shades flat for now (its decision says so): compare with the CPU's flat
+    // frame.
+    let mut flat = tracer.clone();
+    flat.set_smooth(false)?;
+    let tracer = &flat;
     let radiosity: Vec<[f32; 3]> = (0..bench.file.n as usize)
         .map(|i| [(i % 7) as f32, 1.0, 0.5])
         .collect();

@@ -15,7 +15,7 @@ use lrr_runtime::trace::{
 };
 use lrr_runtime::{Operator, Rgb};
 
-use crate::emission::{self, EmissionArgs, Lighting};
+use crate::emission::{self, EmissionArgs, Lighting, Reconstruct};
 use crate::exr_image::{ExrSamples, RgbLayer, write_rgb};
 
 #[derive(Debug, Args)]
@@ -50,6 +50,11 @@ pub struct RenderArgs {
     /// Print which effects the frame simulates, and why.
     #[arg(long)]
     pub explain: bool,
+    /// The radiosity at a hit point: `smooth` (the default when the file has smooth weights:
+    /// smooth-vertex values interpolated by mean value coordinates) or `flat` (the element's
+    /// value; the default otherwise, saying so). The GPU tracer shades flat for now.
+    #[arg(long, value_enum, value_name = "HOW")]
+    pub reconstruct: Option<Reconstruct>,
     /// Bounces of reflection and refraction below a camera ray.
     #[arg(long, value_name = "N", default_value_t = lrr_runtime::trace::DEFAULT_MAX_DEPTH)]
     pub max_depth: u32,
@@ -171,6 +176,14 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
     let mut tracer =
         Tracer::new(op.file()).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     tracer.set_max_depth(a.max_depth)?;
+    if a.device == TraceDevice::Gpu && a.reconstruct == Some(Reconstruct::Smooth) {
+        bail!(
+            "--device gpu --reconstruct smooth: the GPU tracer shades flat element values for \
+             now; use --device cpu for smooth shading, or --reconstruct flat"
+        );
+    }
+    let smooth = emission::reconstruction(&op, a.reconstruct, &a.file)?.is_some();
+    tracer.set_smooth(smooth)?;
     let cam = camera(a, &tracer)?;
     let (w, h) = a.size;
     let view = View::new(&cam, w, h)?;

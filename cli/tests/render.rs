@@ -1,11 +1,12 @@
 //! `lrr render` end to end on a file made in memory (a grid of unit squares with the testkit's
 //! BVH and a camera): the EXR holds `B/π` of the element under each pixel, the PNG is the
-//! image's size, `--explain` says why, and the refusals are clear.
+//! image's size, `--explain` says why, `--reconstruct` picks smooth or flat shading, and the
+//! refusals are clear.
 
 use std::f32::consts::PI;
 use std::path::Path;
 
-use lrr_formats::{Camera, OperatorFile};
+use lrr_formats::{Camera, OperatorFile, Smooth};
 use lrr_runtime::{Layout, Operator, Precision, testkit};
 
 /// A 64-element grid (8 × 8 unit squares at z = 0) with a BVH and a camera looking down at it.
@@ -135,6 +136,109 @@ fn refusals_are_clear() {
     assert!(e.contains("no light group 'nope'"), "{e}");
     let e = err(&[with, "--up", "0,0,1", "-o", out]);
     assert!(e.contains("parallel"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Smooth weights joining every corner at one position, weights equal.
+fn smooth_by_position(g: &lrr_formats::Geometry) -> Smooth {
+    let n = g.vertex_count.len();
+    let mut keys: Vec<[i64; 3]> = Vec::new();
+    let mut members: Vec<Vec<u32>> = Vec::new();
+    let mut corners = vec![Smooth::NONE; 4 * n];
+    for e in 0..n {
+        for i in 0..usize::from(g.vertex_count[e]) {
+            let at = 12 * e + 3 * i;
+            let key = [0, 1, 2].map(|c| (g.vertices[at + c] * 1024.0).round() as i64);
+            let v = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
+                keys.push(key);
+                members.push(Vec::new());
+                keys.len() - 1
+            });
+            members[v].push(e as u32);
+            corners[4 * e + i] = v as u32;
+        }
+    }
+    let mut s = Smooth {
+        corners,
+        offsets: vec![0],
+        ..Smooth::default()
+    };
+    for m in members {
+        s.weights.extend(m.iter().map(|_| 1.0 / m.len() as f32));
+        s.positions.extend(m);
+        s.offsets.push(s.positions.len() as u32);
+    }
+    s
+}
+
+/// `--reconstruct`: smooth by default when the file has SMOOTH weights (`--explain` says so,
+/// and the image is not the flat one), flat when asked; smooth on a file without the weights,
+/// or on the GPU tracer (flat for now), is a clear error.
+#[test]
+fn reconstruct_chooses_smooth_or_flat_shading() {
+    let dir = std::env::temp_dir().join(format!("lrr-render-smooth-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let plain = dir.join("plain.lrr");
+    let mut file = write_file(&plain, true);
+    file.display.smooth = Some(smooth_by_position(&file.geometry));
+    let smooth = dir.join("smooth.lrr");
+    file.write(&smooth).unwrap();
+    let (plain, smooth) = (plain.to_str().unwrap(), smooth.to_str().unwrap());
+    let mut images = Vec::new();
+    for how in [None, Some("flat")] {
+        let exr = dir.join("out.exr");
+        let mut args = vec![
+            smooth,
+            "--size",
+            "40x30",
+            "--exr-samples",
+            "float",
+            "--explain",
+        ];
+        if let Some(how) = how {
+            args.extend(["--reconstruct", how]);
+        }
+        args.extend(["-o", exr.to_str().unwrap()]);
+        let text = run(&args).unwrap();
+        let want = match how {
+            None => "smooth radiosity: on",
+            _ => "smooth radiosity: off (flat asked for",
+        };
+        assert!(text.contains(want), "{text}");
+        images.push(read_exr(&exr, 40, 30));
+    }
+    let differ = images[0]
+        .iter()
+        .zip(&images[1])
+        .filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 1e-4 * b[c].abs()))
+        .count();
+    assert!(differ > 40 * 30 / 2, "{differ} pixels differ from flat");
+    let out = dir.join("x.png");
+    let out = out.to_str().unwrap();
+    let text = run(&[plain, "--size", "8x6", "--explain", "-o", out]).unwrap();
+    assert!(text.contains("no SMOOTH section; flat"), "{text}");
+    let e = run(&[plain, "--reconstruct", "smooth", "-o", out])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("SMOOTH") && e.contains("--reconstruct flat"),
+        "{e}"
+    );
+    let e = run(&[
+        smooth,
+        "--device",
+        "gpu",
+        "--reconstruct",
+        "smooth",
+        "-o",
+        out,
+    ])
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("GPU tracer shades flat") && e.contains("--device cpu"),
+        "{e}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -48,11 +48,21 @@ impl<'f> Reconstruction<'f> {
                  format 1.2): re-bake it with this lrr, or use the flat reconstruction",
             )
         })?;
-        check(smooth, file.n as usize, &file.geometry.vertex_count)?;
+        Self::from_parts(&file.geometry, smooth, &file.order)
+    }
+
+    /// The reconstruction over a file's parts (a copy of them, e.g. the ray tracer's), checked
+    /// as [`new`](Self::new) checks them.
+    pub(crate) fn from_parts(
+        geometry: &'f Geometry,
+        smooth: &'f Smooth,
+        order: &'f [u32],
+    ) -> Result<Self, RuntimeError> {
+        check(smooth, order.len(), &geometry.vertex_count)?;
         Ok(Self {
-            geometry: &file.geometry,
+            geometry,
             smooth,
-            order: &file.order,
+            order,
         })
     }
 

@@ -321,6 +321,55 @@ fn a_diffuse_room_matches_the_cpu_twin_per_pixel() {
     assert_eq!(report.tiles, (97 * 61u32).div_ceil(64 * 7));
 }
 
+/// The WGSL tracer does not reconstruct smooth values yet: on a file with SMOOTH weights the
+/// GPU's decision says it shades flat, and its image is the CPU twin's flat one (which the CPU
+/// shades smooth by default).
+#[test]
+fn a_smooth_file_shades_flat_on_the_gpu_and_says_so() {
+    let mut faces = Vec::new();
+    room(&mut faces, 4, 0);
+    let mut file = file_of(
+        &faces,
+        vec![Material::diffuse("white", [0.7; 3])],
+        vec![],
+        0,
+    );
+    // Every element alone at its corners: a valid SMOOTH section (weights 1).
+    let n = faces.len();
+    file.display.smooth = Some(lrr_formats::Smooth {
+        corners: (0..4 * n as u32).collect(),
+        offsets: (0..=4 * n as u32).collect(),
+        positions: (0..4 * n as u32).map(|c| c / 4).collect(),
+        weights: vec![1.0; 4 * n],
+    });
+    let cam = camera([2.0, 2.0, 3.9], [2.0, 1.5, 0.0]);
+    let (w, h) = (64, 48);
+    let b = radiosity(n);
+    let lighting = Lighting {
+        radiosity: &b,
+        group_intensities: &[],
+    };
+    let view = View::new(&cam, w, h).unwrap();
+    let mut tracer = Tracer::new(&file).unwrap();
+    let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
+    let (image, report) = gt.render_lighting(&view, &lighting, w, h).unwrap();
+    assert!(!report.decision.effects.smooth);
+    let text = report.decision.text();
+    assert!(text.contains("smooth radiosity: off on the GPU"), "{text}");
+    let (_, smooth_report) = tracer.render(&view, &lighting, w, h, 2).unwrap();
+    assert!(smooth_report.decision.effects.smooth);
+    tracer.set_smooth(false).unwrap();
+    let (flat, _) = tracer.render(&view, &lighting, w, h, 2).unwrap();
+    let a = agreement(&image, &flat);
+    assert!(
+        !gpu().is_cpu() || (a.off == 0 && a.worst_within <= 1e-6),
+        "{} pixels off, worst within {:.2e}",
+        a.off,
+        a.worst_within
+    );
+    assert!((a.off as f64) <= MAX_OFF_FRACTION * (w * h) as f64);
+}
+
 #[test]
 fn mirror_and_glass_match_the_cpu_twin_per_pixel() {
     let mut faces = Vec::new();

@@ -1,5 +1,5 @@
 //! The CPU ray tracer against closed forms: a diffuse scene renders exactly `B/π` of the hit
-//! element; a mirror shows the reflected radiance times its reflectance; a glass slab offsets a
+//! element, and a smooth one the reconstruction at the hit point; a mirror shows the reflected radiance times its reflectance; a glass slab offsets a
 //! ray as Snell's law predicts and transmits the Fresnel fraction; total internal reflection
 //! past the critical angle; Fresnel at normal incidence; shadow rays block highlights; the
 //! BVH traversal finds what a brute-force test finds; the image does not depend on threads.
@@ -8,9 +8,10 @@ use std::f64::consts::PI;
 
 use lrr_formats::{
     Camera, Display, Geometry, Layout, Material, Materials, OperatorFile, PointLight, Precision,
+    Smooth,
 };
-use lrr_runtime::testkit;
 use lrr_runtime::trace::{Effects, Lighting, RayBatch, Tracer, View};
+use lrr_runtime::{Reconstruction, testkit};
 
 /// A polygon (3 or 4 corners, counter-clockwise seen from its normal) and its material.
 struct Face {
@@ -184,6 +185,126 @@ fn a_diffuse_scene_renders_exactly_b_over_pi_of_the_hit_element() {
         }
     }
     assert!(checked > 3000 && background > 500, "{checked} {background}");
+}
+
+/// Smooth weights for `file` joining every corner at one position, weights equal (a mean of
+/// the elements around each vertex).
+fn smooth_by_position(g: &Geometry) -> Smooth {
+    let n = g.vertex_count.len();
+    let mut keys: Vec<[i64; 3]> = Vec::new();
+    let mut members: Vec<Vec<u32>> = Vec::new();
+    let mut corners = vec![Smooth::NONE; 4 * n];
+    for e in 0..n {
+        for i in 0..usize::from(g.vertex_count[e]) {
+            let at = 12 * e + 3 * i;
+            let key = [0, 1, 2].map(|c| (g.vertices[at + c] * 1024.0).round() as i64);
+            let v = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
+                keys.push(key);
+                members.push(Vec::new());
+                keys.len() - 1
+            });
+            members[v].push(e as u32);
+            corners[4 * e + i] = v as u32;
+        }
+    }
+    let mut s = Smooth {
+        corners,
+        offsets: vec![0],
+        ..Smooth::default()
+    };
+    for m in members {
+        s.weights.extend(m.iter().map(|_| 1.0 / m.len() as f32));
+        s.positions.extend(m);
+        s.offsets.push(s.positions.len() as u32);
+    }
+    s
+}
+
+#[test]
+fn a_smooth_scene_renders_the_reconstruction_at_the_hit_point_over_pi() {
+    // The diffuse grid above, with smooth weights and a permuted element order: each pixel is
+    // `Reconstruction::at(vertex values, hit element, hit point) / π`.
+    let (gw, gh) = (6usize, 4usize);
+    let faces: Vec<Face> = (0..gw * gh)
+        .map(|e| {
+            let (x, y) = ((e % gw) as f32, (e / gw) as f32);
+            rect_z(0.0, x, y, x + 1.0, y + 1.0, true, 0)
+        })
+        .collect();
+    let n = faces.len();
+    let b: Vec<[f32; 3]> = (0..n)
+        .map(|e| {
+            [
+                (e * 37 % 11) as f32 + 0.5,
+                1.0 + e as f32,
+                100.0 / (e as f32 + 1.0),
+            ]
+        })
+        .collect();
+    let mut file = file_of(&faces, vec![diffuse()], Vec::new(), 0);
+    file.order = (0..n as u32).map(|p| (p * 7 + 3) % n as u32).collect();
+    file.display.smooth = Some(smooth_by_position(&file.geometry));
+    let cam = camera([3.0, 2.0, 5.0], [3.0, 2.0, 0.0], [0.0, 1.0, 0.0], 60.0);
+    let (w, h) = (97u32, 71u32);
+    let (image, report) = render(&file, &cam, w, h, &b, &[]);
+    let e = report.decision.effects;
+    assert!(e.smooth && !e.highlights && !e.secondary, "{e:?}");
+    let text = report.decision.text();
+    assert!(text.contains("smooth radiosity: on"), "{text}");
+    let reconstruction = Reconstruction::new(&file).unwrap();
+    let mut vertices = vec![[0.0f32; 3]; reconstruction.vertex_count()];
+    reconstruction.vertex_values(&b, &mut vertices).unwrap();
+    let mut tracer = Tracer::new(&file).unwrap();
+    tracer.set_smooth(false).unwrap();
+    let view = View::new(&cam, w, h).unwrap();
+    let lighting = Lighting {
+        radiosity: &b,
+        group_intensities: &[],
+    };
+    let (flat, flat_report) = tracer.render(&view, &lighting, w, h, 2).unwrap();
+    assert!(!flat_report.decision.effects.smooth);
+    assert!(flat_report.decision.text().contains("flat asked for"));
+    let half_h = (30.0f64).to_radians().tan();
+    let half_w = half_h * w as f64 / h as f64;
+    let (mut checked, mut differ) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let u = (2.0 * (x as f64 + 0.5) / w as f64 - 1.0) * half_w;
+            let v = (1.0 - 2.0 * (y as f64 + 0.5) / h as f64) * half_h;
+            let (px, py) = (3.0 + 5.0 * u, 2.0 + 5.0 * v);
+            let frac = |c: f64| (c - c.round()).abs();
+            if frac(px) < 1e-3 || frac(py) < 1e-3 {
+                continue;
+            }
+            if px < 0.0 || py < 0.0 || px >= gw as f64 || py >= gh as f64 {
+                assert_eq!(image.at(x, y), [0.0; 3], "pixel ({x}, {y}) sees nothing");
+                continue;
+            }
+            let position = py.floor() as usize * gw + px.floor() as usize;
+            let at = reconstruction.at(&vertices, position, [px as f32, py as f32, 0.0]);
+            let expected = at.map(|c| c as f64 / PI);
+            // The tracer's hit point is eye + t d in f32, ours the exact one rounded: a few
+            // 1e-7 of the unit squares apart; the values change by at most ~100 per unit.
+            let got = image.at(x, y);
+            assert!(
+                (0..3).all(|c| (got[c] as f64 - expected[c]).abs()
+                    <= 2e-6 * expected[c].abs() + 1e-5),
+                "pixel ({x}, {y}): {got:?} vs {expected:?}"
+            );
+            let flat_expected = b[file.order[position] as usize].map(|c| c as f64 / PI);
+            assert!(close(flat.at(x, y), flat_expected, 2e-7));
+            if (0..3).any(|c| (got[c] as f64 - flat_expected[c]).abs() > 1e-3) {
+                differ += 1;
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 3000 && differ > checked / 2, "{checked} {differ}");
+    // Without SMOOTH: smooth shading is a clear error, the decision says flat.
+    file.display.smooth = None;
+    let mut tracer = Tracer::new(&file).unwrap();
+    let err = tracer.set_smooth(true).unwrap_err().to_string();
+    assert!(err.contains("SMOOTH") && err.contains("re-bake"), "{err}");
 }
 
 #[test]

@@ -28,8 +28,9 @@
 override HIGHLIGHTS: bool = false;
 // Mirror reflection and refraction rays (the ray tree up to max_depth).
 override SECONDARY: bool = false;
-// Smooth reconstruction of the radiosity at hit points. Like the CPU twin today: declared and
-// set, not wired in (the CPU decides it off and shades flat element values).
+// Smooth reconstruction of the radiosity at hit points. Declared, not wired in here yet: the
+// host (Tracer::frame_lights) turns it off for the GPU, which shades flat element values, and
+// says so in the decision; the CPU twin shades smooth (Reconstruction::at).
 override SMOOTH: bool = false;
 // Count rays by kind into `counts` (benchmarks and reports; atomics, off for timed frames).
 override COUNT_RAYS: bool = false;
@@ -381,7 +382,7 @@ fn occluded(ray: Ray, t_min: f32, t_max: f32) -> bool {
 }
 
 // shade.rs `diffuse`: the radiosity of the hit point as a radiance, B / pi (flat: the element's
-// value, as the CPU twin shades today; SMOOTH plugs in here when it does).
+// value, the CPU twin's flat branch; its smooth branch plugs in here when the GPU gets one).
 fn diffuse(e: u32, p: vec3<f32>) -> vec3<f32> {
     let at = 3u * element_id[e];
     let b = vec3<f32>(radiosity[at], radiosity[at + 1u], radiosity[at + 2u]);

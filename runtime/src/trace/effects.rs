@@ -8,9 +8,10 @@
 //!   shadow ray is cast.
 //! - *secondary rays* (mirror reflection, refraction with Fresnel weights): only when some
 //!   material has a mirror reflectance or a transmission filter.
-//! - *smooth*: the radiosity interpolated over smooth vertices, only when the file holds the
-//!   weights (section SMOOTH); otherwise the element's flat value. (The switch exists and the
-//!   loop is specialised on it; the reconstruction itself is not wired in yet, so it stays off.)
+//! - *smooth*: the radiosity at the hit point by the smooth reconstruction
+//!   ([`Reconstruction::at`](crate::Reconstruction::at): smooth-vertex values once per frame,
+//!   mean value coordinates per hit), when the file holds the weights (section SMOOTH) and the
+//!   caller did not ask for flat shading; otherwise the element's flat value.
 //!
 //! The render loop is monomorphised over these three switches (const generics), so a scene
 //! without them runs a loop with no light loop, no ray stack and no reconstruction in it: a
@@ -91,8 +92,14 @@ fn named(scene: &TraceScene, pick: impl Fn(usize) -> bool) -> (usize, String) {
 }
 
 /// The effects of a frame of `scene` whose point lights shine at `light_scale` times their
-/// intensity (one factor per light).
-pub(crate) fn decide(scene: &TraceScene, light_scale: &[f32], max_depth: u32) -> Decision {
+/// intensity (one factor per light); `smooth`: the caller's choice of the smooth
+/// reconstruction (kept only when the file has SMOOTH weights).
+pub(crate) fn decide(
+    scene: &TraceScene,
+    light_scale: &[f32],
+    max_depth: u32,
+    smooth: bool,
+) -> Decision {
     let mut reasons = Vec::new();
     let (specular, specular_names) = named(scene, |i| scene.optics[i].has_highlight());
     let lit = scene
@@ -136,15 +143,16 @@ pub(crate) fn decide(scene: &TraceScene, light_scale: &[f32], max_depth: u32) ->
     } else {
         "secondary rays: off (no material has a mirror reflectance or a transmission filter)".into()
     });
-    // The smooth reconstruction is not wired into the tracer yet: flat values, said so.
-    let smooth = false;
-    reasons.push(if scene.has_smooth {
-        "smooth radiosity: off (the file holds SMOOTH weights, but the tracer shades with flat \
-         element values for now)"
-            .into()
-    } else {
-        "smooth radiosity: off (the file has no SMOOTH section; flat element values)".into()
+    reasons.push(match (scene.has_smooth, smooth) {
+        (true, true) => "smooth radiosity: on (the file's SMOOTH weights: smooth-vertex values \
+                         once per frame, mean value coordinates at each hit)"
+            .into(),
+        (true, false) => "smooth radiosity: off (flat asked for; flat element values)".into(),
+        (false, _) => {
+            "smooth radiosity: off (the file has no SMOOTH section; flat element values)".into()
+        }
     });
+    let smooth = smooth && scene.has_smooth;
     Decision {
         effects: Effects {
             highlights,

@@ -6,7 +6,7 @@
 //! Everything a traversal indexes is checked here, so that no file (the file's own validation
 //! included or not) can make the tracer read out of bounds or overflow its traversal stack.
 
-use lrr_formats::{BvhNode, OperatorFile, PointLight};
+use lrr_formats::{BvhNode, Geometry, OperatorFile, PointLight, Smooth};
 
 use super::math::{V3, length, sub};
 use crate::error::{RuntimeError, input};
@@ -76,6 +76,11 @@ pub(crate) struct TraceScene {
     pub epsilon: f32,
     /// The file has smooth reconstruction weights (section SMOOTH).
     pub has_smooth: bool,
+    /// The file's geometry and SMOOTH weights (checked), what [`Reconstruction`] reads; `None`
+    /// when the file has no SMOOTH section.
+    ///
+    /// [`Reconstruction`]: crate::Reconstruction
+    pub smooth: Option<(Geometry, Smooth)>,
 }
 
 impl TraceScene {
@@ -110,6 +115,13 @@ impl TraceScene {
         let (optics, material_names, element_material) = materials(file)?;
         let lights = file.display.point_lights.clone();
         check_lights(&lights, file.lights.len())?;
+        let smooth = match &file.display.smooth {
+            Some(weights) => {
+                crate::smooth::Reconstruction::new(file)?;
+                Some((g.clone(), weights.clone()))
+            }
+            None => None,
+        };
         let extent = bvh
             .nodes
             .first()
@@ -131,7 +143,8 @@ impl TraceScene {
             lights,
             groups: file.lights.len(),
             epsilon: 1e-5 * extent.max(f32::MIN_POSITIVE),
-            has_smooth: file.display.smooth.is_some(),
+            has_smooth: smooth.is_some(),
+            smooth,
         })
     }
 

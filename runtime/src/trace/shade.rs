@@ -30,6 +30,7 @@ use super::bvh::{Ray, closest_hit, occluded};
 use super::effects::MAX_DEPTH_LIMIT;
 use super::math::{V3, add, dot, length, mad, max_component, mul, normalize, scale, sub};
 use super::scene::{Optics, TraceScene};
+use crate::smooth::Reconstruction;
 
 /// A frame's lighting as the tracer reads it.
 #[derive(Debug, Clone, Copy)]
@@ -38,6 +39,9 @@ pub(crate) struct FrameInput<'a> {
     pub radiosity: &'a [[f32; 3]],
     /// Per point light: its intensity times its group's frame intensity.
     pub light_intensity: &'a [V3],
+    /// When the frame shades smooth: the reconstruction and this frame's smooth-vertex values
+    /// ([`Reconstruction::vertex_values`] of `radiosity`).
+    pub smooth: Option<(Reconstruction<'a>, &'a [[f32; 3]])>,
 }
 
 /// Rays cast, by kind.
@@ -72,10 +76,14 @@ struct Pending {
 /// being pushed.
 const STACK: usize = MAX_DEPTH_LIMIT as usize + 2;
 
-/// The radiosity of the hit point as a radiance, `B / π`. (Flat: the element's value; the
-/// smooth reconstruction plugs in here.)
+/// The radiosity of the hit point `p` on the element at file position `e` as a radiance,
+/// `B / π`: smooth, [`Reconstruction::at`] from the frame's smooth-vertex values; flat (or
+/// when the frame has no smooth values), the element's value.
 #[inline(always)]
-fn diffuse<const SMOOTH: bool>(scene: &TraceScene, frame: &FrameInput, e: u32, _p: V3) -> V3 {
+fn diffuse<const SMOOTH: bool>(scene: &TraceScene, frame: &FrameInput, e: u32, p: V3) -> V3 {
+    if SMOOTH && let Some((reconstruction, vertices)) = &frame.smooth {
+        return scale(reconstruction.at(vertices, e as usize, p), FRAC_1_PI);
+    }
     let b = frame.radiosity[scene.element_id[e as usize] as usize];
     scale(b, FRAC_1_PI)
 }

@@ -16,6 +16,7 @@ use super::math::{V3, scale};
 use super::scene::TraceScene;
 use super::shade::{FrameInput, RayCounts, radiance};
 use crate::error::{RuntimeError, input};
+use crate::smooth::Reconstruction;
 
 /// Rows of pixels per work item.
 pub const TILE_ROWS: usize = 8;
@@ -66,6 +67,8 @@ pub struct Tracer {
     scene: TraceScene,
     cameras: Vec<Camera>,
     max_depth: u32,
+    /// Shade with the smooth reconstruction when the file has SMOOTH weights.
+    smooth: bool,
 }
 
 impl Tracer {
@@ -76,7 +79,20 @@ impl Tracer {
             scene: TraceScene::new(file)?,
             cameras: file.display.cameras.clone(),
             max_depth: effects::DEFAULT_MAX_DEPTH,
+            smooth: true,
         })
+    }
+
+    /// Chooses the reconstruction of the radiosity at hit points: smooth (the default when the
+    /// file has SMOOTH weights; an error when it has none) or flat (each element's value).
+    pub fn set_smooth(&mut self, smooth: bool) -> Result<(), RuntimeError> {
+        if smooth && !self.scene.has_smooth {
+            return Err(input(
+                "smooth shading needs the smooth weights (section SMOOTH, format 1.2) that                  this file lacks; re-bake it with this lrr, or shade flat",
+            ));
+        }
+        self.smooth = smooth;
+        Ok(())
     }
 
     /// Sets the depth limit of the ray tree (bounces below a primary ray), at most
@@ -143,7 +159,7 @@ impl Tracer {
             .iter()
             .map(|i| i[0].max(i[1]).max(i[2]))
             .collect();
-        effects::decide(&self.scene, &scales, self.max_depth)
+        effects::decide(&self.scene, &scales, self.max_depth, self.smooth)
     }
 
     /// Renders `view` at `width × height` with `threads` threads (0: one per available core),
@@ -264,9 +280,24 @@ impl Tracer {
                     "image size {width}x{height}: need at least 1 and at most 2^28 pixels"
                 ))
             })?;
+        // Smooth: the smooth-vertex values once per frame, then per hit `Reconstruction::at`.
+        let reconstruction = match (&self.scene.smooth, effects.smooth) {
+            (Some((geometry, weights)), true) => Some(Reconstruction::from_parts(
+                geometry,
+                weights,
+                &self.scene.element_id,
+            )?),
+            _ => None,
+        };
+        let mut vertices = Vec::new();
+        if let Some(r) = &reconstruction {
+            vertices = vec![[0.0f32; 3]; r.vertex_count()];
+            r.vertex_values(lighting.radiosity, &mut vertices)?;
+        }
         let frame = FrameInput {
             radiosity: lighting.radiosity,
             light_intensity: intensities,
+            smooth: reconstruction.map(|r| (r, vertices.as_slice())),
         };
         let mut image = Image {
             width,
@@ -380,7 +411,16 @@ impl Tracer {
         group_intensities: &[f32],
     ) -> Result<(Vec<V3>, Decision), RuntimeError> {
         let intensities = self.group_light_intensities(group_intensities)?;
-        let decision = self.decision(&intensities);
+        let mut decision = self.decision(&intensities);
+        // trace.wgsl does not reconstruct smooth values yet: the GPU shades flat, and says so.
+        if decision.effects.smooth {
+            decision.effects.smooth = false;
+            if let Some(reason) = decision.reasons.last_mut() {
+                *reason = "smooth radiosity: off on the GPU (the WGSL tracer shades flat element \
+                           values for now; the CPU tracer shades smooth)"
+                    .into();
+            }
+        }
         Ok((intensities, decision))
     }
 }
