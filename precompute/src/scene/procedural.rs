@@ -109,20 +109,10 @@ pub fn perpendicular(length: f64, width: f64, height: f64) -> SceneDescription {
 /// Largest icosphere subdivision level of [`dense_sphere`] (20·4⁶ = 81 920 triangles).
 pub const MAX_SPHERE_SUBDIVISIONS: u32 = 6;
 
-/// A dense mesh for the clustering path: an icosphere of `20·4^subdivisions` small triangles
-/// (radius 0.25, floating at the centre of a closed unit room, y up) lit by a square light in
-/// the ceiling. Its triangles are smaller than the elements and patches, so 2MF and 2MSC build
-/// its patches by clustering (`patches::cluster`).
-pub fn dense_sphere(subdivisions: u32) -> SceneDescription {
-    let mut d = empty(format!("dense sphere subdivisions={subdivisions}"));
-    d.materials.push(grey("wall", 0.7, 0.0));
-    d.materials.push(MaterialDesc {
-        name: "clay".into(),
-        reflectance: [0.75, 0.45, 0.3],
-        radiance: [0.0; 3],
-        ..Default::default()
-    });
-    d.materials.push(grey("light", 0.0, 10.0));
+/// The closed unit room (y up) of the dense sphere and the showcase scenes: box `room` of
+/// material `wall` without its top, the ceiling `ceiling` (`wall`) around a 0.2 × 0.2 square
+/// `light` of material `light`. The caller adds the two materials (in its own order).
+pub(crate) fn lit_room_surfaces(d: &mut SceneDescription) {
     d.boxes.push(BoxDesc {
         name: "room".into(),
         material: "wall".into(),
@@ -150,6 +140,23 @@ pub fn dense_sphere(subdivisions: u32) -> SceneDescription {
         material: "light".into(),
         polygons: vec![quad(0.4, 0.6, 0.4, 0.6)],
     });
+}
+
+/// A dense mesh for the clustering path: an icosphere of `20·4^subdivisions` small triangles
+/// (radius 0.25, floating at the centre of a closed unit room, y up) lit by a square light in
+/// the ceiling. Its triangles are smaller than the elements and patches, so 2MF and 2MSC build
+/// its patches by clustering (`patches::cluster`).
+pub fn dense_sphere(subdivisions: u32) -> SceneDescription {
+    let mut d = empty(format!("dense sphere subdivisions={subdivisions}"));
+    d.materials.push(grey("wall", 0.7, 0.0));
+    d.materials.push(MaterialDesc {
+        name: "clay".into(),
+        reflectance: [0.75, 0.45, 0.3],
+        radiance: [0.0; 3],
+        ..Default::default()
+    });
+    d.materials.push(grey("light", 0.0, 10.0));
+    lit_room_surfaces(&mut d);
     let centre = [0.5, 0.4, 0.5];
     d.surfaces.push(SurfaceDesc {
         name: "sphere".into(),

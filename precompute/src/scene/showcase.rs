@@ -7,6 +7,7 @@ use super::description::{
     BakeDesc, BoxDesc, CameraDesc, MaterialDesc, MeshHints, PointLightDesc, SceneDescription,
     SurfaceDesc,
 };
+use super::procedural;
 use crate::error::{Error, Result};
 
 /// The shipped Cornell box description (scenes/cornell-box/cornell-box.toml).
@@ -91,32 +92,7 @@ fn lit_room(d: &mut SceneDescription) {
         radiance: [10.0; 3],
         ..material("light", 0.0)
     });
-    d.boxes.push(BoxDesc {
-        name: "room".into(),
-        material: "wall".into(),
-        min: [0.0; 3],
-        max: [1.0; 3],
-        inward: true,
-        omit: vec!["+y".into()],
-    });
-    let quad = |x0: f64, x1: f64, z0: f64, z1: f64| {
-        vec![[x0, 1.0, z0], [x1, 1.0, z0], [x1, 1.0, z1], [x0, 1.0, z1]]
-    };
-    d.surfaces.push(SurfaceDesc {
-        name: "ceiling".into(),
-        material: "wall".into(),
-        polygons: vec![
-            quad(0.0, 1.0, 0.0, 0.4),
-            quad(0.0, 1.0, 0.6, 1.0),
-            quad(0.0, 0.4, 0.4, 0.6),
-            quad(0.6, 1.0, 0.4, 0.6),
-        ],
-    });
-    d.surfaces.push(SurfaceDesc {
-        name: "light".into(),
-        material: "light".into(),
-        polygons: vec![quad(0.4, 0.6, 0.4, 0.6)],
-    });
+    procedural::lit_room_surfaces(d);
 }
 
 /// Frequency `m` of the geodesic sphere with about `triangles` triangles: `20 m²` of them.
