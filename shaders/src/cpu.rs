@@ -1,4 +1,6 @@
-//! CPU mirrors of the passes, one function per WGSL entry point, with the same name.
+//! CPU mirrors of the passes, one function per WGSL entry point, with the same name; and
+//! [`mean_value_weights`], the piece of `trace.wgsl` (whose mirror is the runtime's CPU tracer)
+//! that computes in f32 what the CPU tracer computes in f64, so its error is measured here.
 //!
 //! Plain f32 arithmetic in the shaders' order: every sum is split over the same lanes (lane `l`
 //! adds terms `l, l + lanes, …` in turn), then the lanes are added by the same binary tree as
@@ -13,7 +15,7 @@
 
 use lrr_formats::f16_to_f32;
 
-use crate::{GatherConstants, LANES, Params};
+use crate::{GatherConstants, LANES, Params, SmoothParams};
 
 /// Mirror of `segment_sums` (`wgsl/segment_sums.wgsl`): `x[c·kp + p] = Σ_{s=I[p]}^{I[p+1]-1}
 /// w[s] e[order[s]][c]` for the `params.k` patches.
@@ -167,6 +169,122 @@ pub fn gather(
 /// pass compares before its one store. Lanes and order do not matter to XOR.
 pub fn read_matrix(words: &[u32]) -> u32 {
     words.iter().fold(0, |acc, w| acc ^ w)
+}
+
+/// Mirror of `smooth_vertices` (`wgsl/smooth.wgsl`): for each smooth vertex `v <
+/// params.vertex_count`, `out[v] = max(0, Σ_{j ∈ offsets[v]..offsets[v+1]} weights[j]
+/// radiosity[element_id[positions[j]]])`, one running f32 sum per channel in stored order
+/// (`radiosity` by original id, `element_id` the file's order).
+pub fn smooth_vertices(
+    params: &SmoothParams,
+    offsets: &[u32],
+    positions: &[u32],
+    weights: &[f32],
+    element_id: &[u32],
+    radiosity: &[[f32; 3]],
+    out: &mut [[f32; 3]],
+) {
+    for v in 0..params.vertex_count as usize {
+        let mut sum = [0.0f32; 3];
+        for j in offsets[v] as usize..offsets[v + 1] as usize {
+            let b = radiosity[element_id[positions[j] as usize] as usize];
+            for c in 0..3 {
+                sum[c] += weights[j] * b[c];
+            }
+        }
+        out[v] = sum.map(|x| x.max(0.0));
+    }
+}
+
+/// Mirror of `mean_value_weights` (`wgsl/trace.wgsl`; not an entry point: what its `SMOOTH`
+/// variant weights an element's corners with at a hit): the mean value coordinates of `x`
+/// projected onto the plane of the convex polygon `v` (3 or 4 corners, unit normal `n`), in f32
+/// with the f64 original's cases and thresholds (`lrr_runtime`'s `smooth.rs`): on a vertex (`r_i
+/// <= 1e-12` of the longest edge) that vertex; on or beyond an edge's line linear interpolation
+/// at the nearest boundary point; else `w_i ∝ (t_{i-1} + t_i) / r_i`, `t_i = (r_i r_{i+1} −
+/// d_i·d_{i+1}) / ((d_i × d_{i+1})·n)`.
+pub fn mean_value_weights(v: &[[f32; 3]], n: [f32; 3], x: [f32; 3]) -> [f32; 4] {
+    let m = v.len();
+    let mut d = [[0.0f32; 3]; 4];
+    let mut r = [0.0f32; 4];
+    let mut scale = 0.0f32;
+    for i in 0..m {
+        let e = sub3(v[i], x);
+        let h = dot3(e, n);
+        d[i] = [e[0] - h * n[0], e[1] - h * n[1], e[2] - h * n[2]];
+        r[i] = dot3(d[i], d[i]).sqrt();
+        let edge = sub3(v[(i + 1) % m], v[i]);
+        scale = scale.max(dot3(edge, edge).sqrt());
+    }
+    let mut w = [0.0f32; 4];
+    let eps = 1e-12 * scale;
+    if let Some(i) = (0..m).find(|&i| r[i] <= eps) {
+        w[i] = 1.0;
+        return w;
+    }
+    let mut t = [0.0f32; 4];
+    for i in 0..m {
+        let j = (i + 1) % m;
+        let area = dot3(cross3(d[i], d[j]), n);
+        if area <= 1e-12 * r[i] * r[j] {
+            return nearest_edge_weights(&d, m);
+        }
+        t[i] = (r[i] * r[j] - dot3(d[i], d[j])) / area;
+    }
+    let mut total = 0.0f32;
+    for i in 0..m {
+        w[i] = (t[(i + m - 1) % m] + t[i]) / r[i];
+        total += w[i];
+    }
+    for wi in w.iter_mut().take(m) {
+        *wi /= total;
+    }
+    w
+}
+
+/// Mirror of `nearest_edge_weights` (`wgsl/trace.wgsl`): linear interpolation along the edge
+/// nearest the point, at its nearest point on it, from `d`, the `m` corners relative to the
+/// point and projected onto the polygon's plane (as the f64 original's, which measures in 3D:
+/// the same edge and parameter for a planar polygon, and in f32 exact to a few ulp of the small
+/// relative vectors where the original's `x − v_i` would round at the coordinates' magnitude).
+fn nearest_edge_weights(d: &[[f32; 3]], m: usize) -> [f32; 4] {
+    let (mut best, mut best_s, mut best_dist) = (0, 0.0f32, 0.0f32);
+    for i in 0..m {
+        let ab = sub3(d[(i + 1) % m], d[i]);
+        let len2 = dot3(ab, ab);
+        let s = if len2 > 0.0 {
+            (-dot3(d[i], ab) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        // The nearest point of edge i, relative to the point.
+        let q = [0, 1, 2].map(|c| d[i][c] + s * ab[c]);
+        let dist = dot3(q, q);
+        if i == 0 || dist < best_dist {
+            (best, best_s, best_dist) = (i, s, dist);
+        }
+    }
+    let mut w = [0.0f32; 4];
+    w[best] = 1.0 - best_s;
+    w[(best + 1) % m] += best_s;
+    w
+}
+
+/// `a.x b.x + a.y b.y + a.z b.z` in that order (`dot3` of `trace.wgsl`).
+fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn sub3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn cross3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 /// `((a0 b0 + a1 b1) + a2 b2) + a3 b3`: one order a GPU's `dot` may use.

@@ -20,7 +20,10 @@
 //!
 //! The ray tracer's pass (`trace.wgsl`, [`TRACE`], [`TraceParams`], [`TraceConstants`]) shades
 //! with the radiosity `B` these passes leave on the GPU; it is self-contained (no `common.wgsl`)
-//! and its CPU mirror is the runtime's CPU tracer (`lrr_runtime::trace`).
+//! and its CPU mirror is the runtime's CPU tracer (`lrr_runtime::trace`). Smooth shading adds
+//! one pass before it, `smooth.wgsl` ([`SMOOTH_VERTICES`], mirror [`cpu::smooth_vertices`]):
+//! the smooth-vertex values from `B`, which `trace.wgsl` interpolates by mean value coordinates
+//! at each hit (mirror [`cpu::mean_value_weights`]).
 //!
 //! [`Pass::Read`] (`read.wgsl`) is not a step of a frame: it reads the gather's bytes and
 //! nothing else, the roofline the benchmark compares the gather with.
@@ -96,15 +99,17 @@
 
 pub mod cpu;
 mod params;
+mod smooth;
 mod trace;
 
 #[cfg(test)]
 mod naga_tests;
 
 pub use params::{GatherConstants, Params};
+pub use smooth::{SMOOTH_BINDINGS, SMOOTH_ENTRY, SMOOTH_LANES, SMOOTH_VERTICES, SmoothParams};
 pub use trace::{
-    LIGHT_BYTES, NODE_BYTES, OPTICS_BYTES, TRACE, TRACE_BINDINGS, TRACE_ENTRY, TRACE_LANES,
-    TraceConstants, TraceParams,
+    LIGHT_BYTES, NO_CORNER, NODE_BYTES, OPTICS_BYTES, SMOOTH_ELEMENT_BYTES, SMOOTH_ELEMENT_FIELDS,
+    TRACE, TRACE_BINDINGS, TRACE_ENTRY, TRACE_LANES, TraceConstants, TraceParams, smooth_element,
 };
 
 /// Invocations per workgroup in segment_sums, core_product and the light-group passes.

@@ -392,8 +392,110 @@ fn trace_structs_match_the_host_layout() {
         ("Node", crate::NODE_BYTES),
         ("Optics", crate::OPTICS_BYTES),
         ("Light", crate::LIGHT_BYTES),
+        ("SmoothElement", crate::SMOOTH_ELEMENT_BYTES),
     ] {
         let (handle, _) = find(name);
         assert_eq!(layouter[handle].size as usize, bytes, "{name}");
     }
+    let (_, ty) = find("SmoothElement");
+    let TypeInner::Struct { members, .. } = &ty.inner else {
+        panic!("SmoothElement is {:?}", ty.inner);
+    };
+    let wgsl: Vec<(&str, usize)> = members
+        .iter()
+        .map(|m| (m.name.as_deref().unwrap_or("?"), m.offset as usize))
+        .collect();
+    assert_eq!(wgsl, crate::SMOOTH_ELEMENT_FIELDS);
+}
+
+// The smooth-vertex pass (`smooth.wgsl`): self-contained, no optional capability.
+
+fn parse_smooth() -> Module {
+    naga::front::wgsl::parse_str(crate::SMOOTH_VERTICES).unwrap_or_else(|e| {
+        panic!(
+            "smooth.wgsl does not parse:\n{}",
+            e.emit_to_string(crate::SMOOTH_VERTICES)
+        )
+    })
+}
+
+/// Parsed, validated with no capability, compiled to SPIR-V; its entry point, workgroup size,
+/// bindings (against [`crate::SMOOTH_BINDINGS`]) and uniform (against
+/// [`crate::SmoothParams::FIELDS`], all `u32`) are the host's.
+#[test]
+fn smooth_pass_compiles_and_matches_the_host() {
+    let module = parse_smooth();
+    let info = validator(Capabilities::empty())
+        .validate(&module)
+        .unwrap_or_else(|e| {
+            panic!(
+                "smooth.wgsl does not validate:\n{}",
+                e.emit_to_string(crate::SMOOTH_VERTICES)
+            )
+        });
+    assert!(module.overrides.is_empty());
+    let options = naga::back::spv::Options {
+        capabilities: None,
+        ..Default::default()
+    };
+    let pipeline = naga::back::spv::PipelineOptions {
+        shader_stage: ShaderStage::Compute,
+        entry_point: crate::SMOOTH_ENTRY.to_owned(),
+    };
+    naga::back::spv::write_vec(&module, &info, &options, Some(&pipeline))
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    assert_eq!(constant(&module, "SMOOTH_LANES"), crate::SMOOTH_LANES);
+    let index = module
+        .entry_points
+        .iter()
+        .position(|e| e.name == crate::SMOOTH_ENTRY)
+        .expect("smooth.wgsl has its entry point");
+    let entry = &module.entry_points[index];
+    assert_eq!(entry.stage, ShaderStage::Compute);
+    assert_eq!(entry.workgroup_size, [crate::SMOOTH_LANES, 1, 1]);
+    let used = info.get_entry_point(index);
+    let mut found: Vec<(u32, String, Access)> = module
+        .global_variables
+        .iter()
+        .filter(|(handle, _)| !used[*handle].is_empty())
+        .filter_map(|(_, var)| {
+            let binding = var.binding.as_ref()?;
+            assert_eq!(binding.group, 0);
+            let access = match var.space {
+                AddressSpace::Uniform => Access::Uniform,
+                AddressSpace::Storage { access } if access == StorageAccess::LOAD => Access::Read,
+                AddressSpace::Storage { access } if access.contains(StorageAccess::STORE) => {
+                    Access::ReadWrite
+                }
+                space => panic!("{space:?}"),
+            };
+            Some((binding.binding, var.name.clone()?, access))
+        })
+        .collect();
+    found.sort_by_key(|b| b.0);
+    let expected: Vec<(u32, String, Access)> = crate::SMOOTH_BINDINGS
+        .iter()
+        .map(|b| (b.binding, b.name.to_owned(), b.access))
+        .collect();
+    assert_eq!(found, expected);
+    let mut layouter = Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let (handle, ty) = module
+        .types
+        .iter()
+        .find(|(_, ty)| ty.name.as_deref() == Some("SmoothParams"))
+        .expect("smooth.wgsl declares SmoothParams");
+    let TypeInner::Struct { members, .. } = &ty.inner else {
+        panic!("SmoothParams is {:?}", ty.inner);
+    };
+    let wgsl: Vec<(&str, usize)> = members
+        .iter()
+        .map(|m| {
+            let inner = &module.types[m.ty].inner;
+            assert_eq!(*inner, TypeInner::Scalar(naga::Scalar::U32), "{:?}", m.name);
+            (m.name.as_deref().unwrap_or("?"), m.offset as usize)
+        })
+        .collect();
+    assert_eq!(wgsl, crate::SmoothParams::FIELDS);
+    assert_eq!(layouter[handle].size as usize, crate::SmoothParams::SIZE);
 }

@@ -23,6 +23,7 @@ macro_rules! gpu_struct {
         }
     };
 }
+pub(crate) use gpu_struct;
 
 gpu_struct! {
     /// The uniform at binding 0 of every pass (`var<uniform> params: Params` in

@@ -22,6 +22,39 @@ pub const NODE_BYTES: usize = 32;
 pub const OPTICS_BYTES: usize = 48;
 /// See [`NODE_BYTES`].
 pub const LIGHT_BYTES: usize = 32;
+/// See [`NODE_BYTES`] (`struct SmoothElement`: [`smooth_element`]'s 16 words).
+pub const SMOOTH_ELEMENT_BYTES: usize = 64;
+
+/// A triangle's unused fourth corner in [`smooth_element`] (`NO_CORNER` in `trace.wgsl`).
+pub const NO_CORNER: u32 = u32::MAX;
+
+/// Names and byte offsets of `struct SmoothElement` in `trace.wgsl` (a naga test compares).
+pub const SMOOTH_ELEMENT_FIELDS: &[(&str, usize)] = &[
+    ("v0", 0),
+    ("c0", 12),
+    ("v1", 16),
+    ("c1", 28),
+    ("v2", 32),
+    ("c2", 44),
+    ("v3", 48),
+    ("c3", 60),
+];
+
+/// One element as the tracer's smooth shading reads it (`struct SmoothElement`, binding
+/// `smooth_elements`, one per file position): its `count` (3 or 4) corners, each followed by
+/// its smooth vertex (the index into `vertex_values`); a triangle's fourth corner is zero with
+/// vertex [`NO_CORNER`]. The 16 words to upload, at the offsets of [`SMOOTH_ELEMENT_FIELDS`].
+pub fn smooth_element(corners: [[f32; 3]; 4], vertices: [u32; 4], count: u8) -> [u32; 16] {
+    let mut words = [0u32; 16];
+    for i in 0..usize::from(count.min(4)) {
+        let [x, y, z] = corners[i].map(f32::to_bits);
+        words[4 * i..4 * i + 4].copy_from_slice(&[x, y, z, vertices[i]]);
+    }
+    if count < 4 {
+        words[15] = NO_CORNER;
+    }
+    words
+}
 
 use Access::{Read, ReadWrite, Uniform};
 
@@ -39,6 +72,8 @@ pub const TRACE_BINDINGS: &[Binding] = &[
     bind(9, "radiosity", Read),
     bind(10, "image", ReadWrite),
     bind(11, "counts", ReadWrite),
+    bind(12, "smooth_elements", Read),
+    bind(13, "vertex_values", Read),
 ];
 
 /// The effects a frame simulates, as the `override` constants of `trace.wgsl` (the CPU's
@@ -49,7 +84,8 @@ pub struct TraceConstants {
     pub highlights: bool,
     /// `SECONDARY`: mirror reflection and refraction.
     pub secondary: bool,
-    /// `SMOOTH`: smooth reconstruction (declared; shading stays flat, as on the CPU).
+    /// `SMOOTH`: the smooth reconstruction at hit points (mean value coordinates over the
+    /// element's corners, from the values [`SMOOTH_ENTRY`](crate::SMOOTH_ENTRY) computed).
     pub smooth: bool,
     /// `COUNT_RAYS`: count rays by kind (atomics; off for timed frames).
     pub count_rays: bool,
@@ -177,6 +213,24 @@ mod tests {
         assert_eq!(word(56), 2.0f32.to_bits());
         assert_eq!(word(60), 640);
         assert_eq!(word(76), 9);
+    }
+
+    #[test]
+    fn smooth_elements_put_each_corner_before_its_vertex() {
+        let c = [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0], [9.0; 3]];
+        let quad = smooth_element(c, [10, 11, 12, 13], 4);
+        assert_eq!(4 * quad.len(), SMOOTH_ELEMENT_BYTES);
+        let bits = |x: f32| x.to_bits();
+        assert_eq!(quad[..4], [bits(1.0), bits(2.0), bits(3.0), 10]);
+        assert_eq!((quad[7], quad[11], quad[15]), (11, 12, 13));
+        assert_eq!(quad[12], 9.0f32.to_bits());
+        let tri = smooth_element(c, [10, 11, 12, 13], 3);
+        assert_eq!(tri[12..], [0, 0, 0, NO_CORNER]);
+        for (name, at) in SMOOTH_ELEMENT_FIELDS {
+            let corner = at / 16;
+            assert_eq!(name[1..].parse::<usize>().unwrap(), corner);
+            assert_eq!(at % 16, if name.starts_with('v') { 0 } else { 12 });
+        }
     }
 
     #[test]

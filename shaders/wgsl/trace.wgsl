@@ -20,7 +20,11 @@
 // - radiosity: at least 3 n f32; lights: light_count entries (at least one bound);
 // - image: pixel_count <= its length; counts: 3 per tile, tile < their count / 3;
 // - the ray stack: a popped ray pushes at most two, with depth + 1 <= max_depth <= 16, so at
-//   most max_depth + 2 <= RAY_STACK entries are live.
+//   most max_depth + 2 <= RAY_STACK entries are live;
+// - smooth_elements: n entries; an element's used corners (3, or 4 when c3 != NO_CORNER) name
+//   smooth vertices < the vertex count (Reconstruction::from_parts), and vertex_values holds 3
+//   f32 per smooth vertex (written by smooth.wgsl before the tiles). Without SMOOTH both are
+//   bound but unread.
 
 // Effects, set per frame by the host exactly as the CPU's `Effects` decide
 // (runtime/src/trace/effects.rs): a switched-off effect's code is removed at pipeline creation.
@@ -28,9 +32,8 @@
 override HIGHLIGHTS: bool = false;
 // Mirror reflection and refraction rays (the ray tree up to max_depth).
 override SECONDARY: bool = false;
-// Smooth reconstruction of the radiosity at hit points. Declared, not wired in here yet: the
-// host (Tracer::frame_lights) turns it off for the GPU, which shades flat element values, and
-// says so in the decision; the CPU twin shades smooth (Reconstruction::at).
+// Smooth reconstruction of the radiosity at hit points (the CPU twin's Reconstruction::at): the
+// element's smooth-vertex values (smooth.wgsl, once per frame) by mean value coordinates.
 override SMOOTH: bool = false;
 // Count rays by kind into `counts` (benchmarks and reports; atomics, off for timed frames).
 override COUNT_RAYS: bool = false;
@@ -49,6 +52,8 @@ const FAR_SCALE_BITS: u32 = 0x3F800003u;
 // f32 FRAC_1_PI.
 const FRAC_1_PI: f32 = 0.318309886183790671537767526745028724;
 const NO_HIT: u32 = 0xFFFFFFFFu;
+// A triangle's unused fourth corner in SmoothElement (lrr_shaders::NO_CORNER).
+const NO_CORNER: u32 = 0xFFFFFFFFu;
 
 // The per-tile uniform. Mirrored by lrr_shaders::TraceParams (shaders/src/trace.rs), 80 bytes;
 // a naga test compares names and offsets.
@@ -101,6 +106,19 @@ struct Light {
     reserved1: f32,
 }
 
+// One element's polygon for smooth shading (lrr_shaders::smooth_element, 64 bytes; a naga test
+// compares offsets): corner i and its smooth vertex ci; a triangle's c3 is NO_CORNER.
+struct SmoothElement {
+    v0: vec3<f32>,
+    c0: u32,
+    v1: vec3<f32>,
+    c1: u32,
+    v2: vec3<f32>,
+    c2: u32,
+    v3: vec3<f32>,
+    c3: u32,
+}
+
 @group(0) @binding(0) var<uniform> params: TraceParams;
 @group(0) @binding(1) var<storage, read> nodes: array<Node>;
 // Leaf-order triangles, 9 f32 each: v0, v1, v2.
@@ -120,6 +138,10 @@ struct Light {
 @group(0) @binding(10) var<storage, read_write> image: array<vec4<f32>>;
 // Rays by kind (primary, shadow, secondary), 3 per tile.
 @group(0) @binding(11) var<storage, read_write> counts: array<atomic<u32>>;
+// Per file position: the element's corners and smooth vertices (read with SMOOTH only).
+@group(0) @binding(12) var<storage, read> smooth_elements: array<SmoothElement>;
+// This frame's smooth-vertex values, 3 f32 each (smooth.wgsl's output; SMOOTH only).
+@group(0) @binding(13) var<storage, read> vertex_values: array<f32>;
 
 // This invocation's ray counts: primary, shadow, secondary.
 var<private> counted: vec3<u32>;
@@ -143,6 +165,10 @@ fn normalize3(a: vec3<f32>) -> vec3<f32> {
         return a * (1.0 / l);
     }
     return a;
+}
+
+fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
 
 fn max_component(a: vec3<f32>) -> f32 {
@@ -381,9 +407,110 @@ fn occluded(ray: Ray, t_min: f32, t_max: f32) -> bool {
     return false;
 }
 
-// shade.rs `diffuse`: the radiosity of the hit point as a radiance, B / pi (flat: the element's
-// value, the CPU twin's flat branch; its smooth branch plugs in here when the GPU gets one).
+// smooth.rs `nearest_edge_weights` (mirror: lrr_shaders::cpu, same name): linear interpolation
+// along the edge nearest the point, at its nearest point on it, from d, the m corners relative
+// to the point and projected onto the polygon's plane (the CPU measures x - v_i in 3D: for a
+// planar polygon the same edge and parameter, and in f32 the small relative vectors keep a few
+// ulp where x - v_i would round at the coordinates' magnitude).
+fn nearest_edge_weights(d: array<vec3<f32>, 4>, m: u32) -> array<f32, 4> {
+    var rel = d;
+    var best = 0u;
+    var best_s = 0.0;
+    var best_dist = 0.0;
+    for (var i = 0u; i < m; i++) {
+        let ab = rel[(i + 1u) % m] - rel[i];
+        let len2 = dot3(ab, ab);
+        var s = 0.0;
+        if len2 > 0.0 {
+            s = clamp(-dot3(rel[i], ab) / len2, 0.0, 1.0);
+        }
+        // The nearest point of edge i, relative to the point.
+        let q = rel[i] + s * ab;
+        let dist = dot3(q, q);
+        if i == 0u || dist < best_dist {
+            best = i;
+            best_s = s;
+            best_dist = dist;
+        }
+    }
+    var w = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
+    w[best] = 1.0 - best_s;
+    w[(best + 1u) % m] += best_s;
+    return w;
+}
+
+// smooth.rs `mean_value_weights` in f32 (mirror: lrr_shaders::cpu::mean_value_weights): the
+// mean value coordinates of x, projected onto the plane of the convex polygon v (m corners, unit
+// normal n), in Hormann and Floater's stable form w_i ~ (t_{i-1} + t_i) / r_i with
+// t_i = tan(alpha_i / 2) = (r_i r_{i+1} - d_i.d_{i+1}) / ((d_i x d_{i+1}).n). The CPU's cases and
+// thresholds: on a vertex (r_i <= 1e-12 of the longest edge) that vertex; on or beyond an
+// edge's line (a half-angle's sine <= 1e-12) linear interpolation at the nearest boundary
+// point. In f32 near an edge, t_i's relative error grows like 1 / sin(alpha_i), but t_i then
+// dominates the two weights of its edge and cancels in their ratio, so the weights keep a few
+// ulp; t_i <= 2e12 and r_i > 1e-12 of the edge keep every sum finite.
+fn mean_value_weights(v: array<vec3<f32>, 4>, m: u32, n: vec3<f32>, x: vec3<f32>) -> array<f32, 4> {
+    var corners = v;
+    var d: array<vec3<f32>, 4>;
+    var r = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
+    var scale = 0.0;
+    for (var i = 0u; i < m; i++) {
+        let e = corners[i] - x;
+        let h = dot3(e, n);
+        d[i] = e - h * n;
+        r[i] = sqrt(dot3(d[i], d[i]));
+        let edge = corners[(i + 1u) % m] - corners[i];
+        scale = max(scale, sqrt(dot3(edge, edge)));
+    }
+    var w = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
+    let eps = 1e-12 * scale;
+    for (var i = 0u; i < m; i++) {
+        if r[i] <= eps {
+            w[i] = 1.0;
+            return w;
+        }
+    }
+    var t = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
+    for (var i = 0u; i < m; i++) {
+        let j = (i + 1u) % m;
+        let area = dot3(cross3(d[i], d[j]), n);
+        if area <= 1e-12 * r[i] * r[j] {
+            return nearest_edge_weights(d, m);
+        }
+        t[i] = (r[i] * r[j] - dot3(d[i], d[j])) / area;
+    }
+    var total = 0.0;
+    for (var i = 0u; i < m; i++) {
+        w[i] = (t[(i + m - 1u) % m] + t[i]) / r[i];
+        total += w[i];
+    }
+    for (var i = 0u; i < m; i++) {
+        w[i] = w[i] / total;
+    }
+    return w;
+}
+
+// smooth.rs Reconstruction::at: the smooth radiosity at p on the element at file position e,
+// its corners' smooth-vertex values weighted by p's mean value coordinates.
+fn smooth_radiosity(e: u32, p: vec3<f32>) -> vec3<f32> {
+    let s = smooth_elements[e];
+    let m = select(4u, 3u, s.c3 == NO_CORNER);
+    let n = vec3<f32>(normals[3u * e], normals[3u * e + 1u], normals[3u * e + 2u]);
+    var w = mean_value_weights(array<vec3<f32>, 4>(s.v0, s.v1, s.v2, s.v3), m, n, p);
+    var c = array<u32, 4>(s.c0, s.c1, s.c2, s.c3);
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < m; i++) {
+        let at = 3u * c[i];
+        sum = sum + w[i] * vec3<f32>(vertex_values[at], vertex_values[at + 1u], vertex_values[at + 2u]);
+    }
+    return sum;
+}
+
+// shade.rs `diffuse`: the radiosity of the hit point as a radiance, B / pi: smooth (SMOOTH) or
+// the element's flat value.
 fn diffuse(e: u32, p: vec3<f32>) -> vec3<f32> {
+    if SMOOTH {
+        return smooth_radiosity(e, p) * FRAC_1_PI;
+    }
     let at = 3u * element_id[e];
     let b = vec3<f32>(radiosity[at], radiosity[at + 1u], radiosity[at + 2u]);
     return b * FRAC_1_PI;

@@ -427,3 +427,180 @@ fn light_groups_sum_intensities() {
     assert_eq!(e[0], [0.0, 0.0, 4.0]);
     assert_eq!(e.iter().filter(|v| **v != [0.0; 3]).count(), 3);
 }
+
+/// Random smooth weights over `n` elements (1 to 12 per vertex, some negative as on a surface's
+/// boundary) and radiosity: the mirror within the rounding bound of a running f32 sum, `γ_m
+/// Σ|w||B|` for `m` weights (one multiply and `m − 1` adds per term), against f64; clamped at
+/// zero like the f64 reconstruction (clamping does not grow the error).
+#[test]
+fn smooth_vertices_match_f64_within_the_rounding_bound() {
+    let mut rng = Rng(0xB0B);
+    let (n, vertices) = (500usize, 2000usize);
+    let radiosity: Vec<[f32; 3]> = (0..n)
+        .map(|_| [rng.unit() * 4.0, rng.unit(), rng.unit() * 1e-3])
+        .collect();
+    let element_id: Vec<u32> = (0..n as u32).rev().collect();
+    let (mut offsets, mut positions, mut weights) = (vec![0u32], Vec::new(), Vec::new());
+    for _ in 0..vertices {
+        let m = 1 + rng.below(12);
+        for _ in 0..m {
+            positions.push(rng.below(n) as u32);
+            // Within the format's ±8; a third negative.
+            let w = 8.0 * rng.unit();
+            weights.push(if rng.below(3) == 0 { -w } else { w });
+        }
+        offsets.push(positions.len() as u32);
+    }
+    let params = SmoothParams {
+        vertex_count: vertices as u32,
+        ..SmoothParams::default()
+    };
+    let mut out = vec![[f32::NAN; 3]; vertices];
+    smooth_vertices(
+        &params,
+        &offsets,
+        &positions,
+        &weights,
+        &element_id,
+        &radiosity,
+        &mut out,
+    );
+    let (mut clamped, mut worst) = (0, 0.0f64);
+    for v in 0..vertices {
+        let range = offsets[v] as usize..offsets[v + 1] as usize;
+        let m = range.len() as f64;
+        let gamma = |u: f64| m * u / (1.0 - m * u);
+        for c in 0..3 {
+            let (mut exact, mut abs) = (0.0f64, 0.0f64);
+            for j in range.clone() {
+                let b = f64::from(radiosity[element_id[positions[j] as usize] as usize][c]);
+                exact += f64::from(weights[j]) * b;
+                abs += (f64::from(weights[j]) * b).abs();
+            }
+            let bound = (gamma(2f64.powi(-24)) + gamma(2f64.powi(-53))) * abs;
+            let got = f64::from(out[v][c]);
+            assert!(got >= 0.0, "vertex {v}: {got}");
+            let error = (got - exact.max(0.0)).abs();
+            assert!(error <= bound, "vertex {v} channel {c}: {got} vs {exact}, bound {bound:e}");
+            clamped += usize::from(exact < 0.0);
+            if abs > 0.0 {
+                worst = worst.max(error / abs);
+            }
+        }
+    }
+    assert!(clamped > 100, "negative sums are exercised: {clamped}");
+    eprintln!("smooth vertices: worst error {worst:.1e} of sum |w B|, {clamped} clamped");
+}
+
+/// Mean value coordinates by their definition in f64, independently of the mirror's formula:
+/// `t_i = tan(α_i / 2)` from the angle `α_i` at `x` between corners `i` and `i + 1`
+/// (`atan2`); `None` on or outside the boundary.
+fn mean_value_reference(v: &[[f32; 3]], n: [f32; 3], x: [f32; 3]) -> Option<[f64; 4]> {
+    let m = v.len();
+    let n = n.map(f64::from);
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let d: Vec<[f64; 3]> = v
+        .iter()
+        .map(|p| {
+            let e: [f64; 3] = std::array::from_fn(|c| f64::from(p[c]) - f64::from(x[c]));
+            let h = dot(e, n);
+            std::array::from_fn(|c| e[c] - h * n[c])
+        })
+        .collect();
+    let mut t = [0.0f64; 4];
+    for i in 0..m {
+        let (a, b) = (d[i], d[(i + 1) % m]);
+        let cross = [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ];
+        let sin = dot(cross, n);
+        if sin <= 0.0 {
+            return None;
+        }
+        t[i] = (0.5 * sin.atan2(dot(a, b))).tan();
+    }
+    let mut w = [0.0f64; 4];
+    for i in 0..m {
+        w[i] = (t[(i + m - 1) % m] + t[i]) / dot(d[i], d[i]).sqrt();
+    }
+    let total: f64 = w.iter().sum();
+    Some(w.map(|x| x / total))
+}
+
+/// The f32 mean value coordinates against the f64 definition on a quad and a triangle (not at
+/// the origin, off their plane by rounding): inside, near a corner, near an edge (down to 1e-6
+/// of the edge length, where t_i grows to 1e6), and on or just outside an edge (the nearest
+/// boundary point's linear interpolation). Bound: 8 ε = 9.5e-7 per weight (f32's ε = 2⁻²³;
+/// measured worst: printed), what `trace.wgsl`'s smooth shading adds to the CPU tracer's f64
+/// per unit of the corner values.
+#[test]
+fn mean_value_weights_in_f32_match_the_f64_definition() {
+    let n = [0.0, 0.6, 0.8];
+    // Corners in the plane 0.6 y + 0.8 z = 0.6 · 7 (within f32 rounding), away from the origin.
+    let plane = |u: f32, v: f32| [10.0 + u, 7.0 - 0.8 * v, 0.6 * v];
+    let quad = [plane(0.0, 0.0), plane(2.0, 0.0), plane(2.5, 1.0), plane(-0.5, 1.5)];
+    let tri = [plane(0.0, 0.0), plane(1.0, 0.0), plane(0.2, 1.2)];
+    let mut rng = Rng(77);
+    let mut worst = [0.0f64; 4]; // inside, near a corner, near an edge, on / outside
+    for poly in [&quad[..], &tri[..]] {
+        let m = poly.len();
+        let lerp = |a: [f32; 3], b: [f32; 3], s: f32| -> [f32; 3] {
+            std::array::from_fn(|c| a[c] + s * (b[c] - a[c]))
+        };
+        let centre: [f32; 3] =
+            std::array::from_fn(|c| poly.iter().map(|p| p[c]).sum::<f32>() / m as f32);
+        let unit = f64::from(f32::EPSILON);
+        for _ in 0..4000 {
+            let i = rng.below(m);
+            let (a, b) = (poly[i], poly[(i + 1) % m]);
+            let kind = rng.below(4);
+            let x = match kind {
+                // inside: towards the centre from a random boundary point
+                0 => lerp(lerp(a, b, rng.unit()), centre, 0.05 + 0.9 * rng.unit()),
+                // near corner i: 1e-6 .. 1e-2 of the way to the centre
+                1 => lerp(a, centre, 10f32.powf(-6.0 + 4.0 * rng.unit())),
+                // near edge i: 1e-6 .. 1e-2 of the way from a point on it to the centre
+                2 => lerp(lerp(a, b, 0.05 + 0.9 * rng.unit()), centre, 10f32.powf(-6.0 + 4.0 * rng.unit())),
+                // on edge i, or just outside it
+                _ => lerp(lerp(a, b, rng.unit()), centre, -1e-4 * rng.unit() * f32::from(rng.below(2) as u8)),
+            };
+            let got = mean_value_weights(poly, n, x);
+            let want = match mean_value_reference(poly, n, x) {
+                Some(w) if kind < 3 => w,
+                _ => {
+                    // Linear interpolation at the nearest point of the boundary, in f64.
+                    let mut best = (f64::INFINITY, [0.0f64; 4]);
+                    for e in 0..m {
+                        let (p, q) = (poly[e].map(f64::from), poly[(e + 1) % m].map(f64::from));
+                        let ab: [f64; 3] = std::array::from_fn(|c| q[c] - p[c]);
+                        let ax: [f64; 3] = std::array::from_fn(|c| f64::from(x[c]) - p[c]);
+                        let len2: f64 = ab.iter().map(|c| c * c).sum();
+                        let s = ((0..3).map(|c| ax[c] * ab[c]).sum::<f64>() / len2).clamp(0.0, 1.0);
+                        let dist: f64 = (0..3).map(|c| (ax[c] - s * ab[c]).powi(2)).sum();
+                        if dist < best.0 {
+                            let mut w = [0.0; 4];
+                            w[e] = 1.0 - s;
+                            w[(e + 1) % m] += s;
+                            best = (dist, w);
+                        }
+                    }
+                    best.1
+                }
+            };
+            let error = (0..4)
+                .map(|k| (f64::from(got[k]) - want[k]).abs())
+                .fold(0.0, f64::max);
+            assert!(got[m..].iter().all(|&w| w == 0.0));
+            let units = error / unit;
+            worst[kind] = worst[kind].max(units);
+            assert!(units <= 8.0, "kind {kind}, x {x:?}: {got:?} vs {want:?}, {units:.1} units");
+        }
+    }
+    eprintln!(
+        "mean value weights, worst error in units of f32 eps: inside {:.2}, near a corner {:.2}, \
+         near an edge {:.2}, on or outside an edge {:.2}",
+        worst[0], worst[1], worst[2], worst[3]
+    );
+}

@@ -1,0 +1,66 @@
+// smooth.wgsl (entry point smooth_vertices): the smooth reconstruction's per-frame step on the
+// GPU, the twin of lrr_runtime::Reconstruction::vertex_values (runtime/src/smooth.rs) and
+// mirrored in f32 by lrr_shaders::cpu::smooth_vertices: each smooth vertex's value, the
+// weighted sum of its elements' radiosity (section SMOOTH's weights; negative on a surface's
+// boundary, where a vertex extrapolates), clamped at zero. It reads the radiosity the
+// relighting passes left in their storage buffer and writes the values trace.wgsl interpolates
+// (no readback between the passes).
+//
+// Self-contained (no common.wgsl). One invocation per smooth vertex; the host dispatches
+// lrr_shaders::workgroups(ceil(vertex_count / SMOOTH_LANES)) groups, a 2D grid past 65535
+// groups, whose surplus invocations return at once.
+//
+// Indices (the argument for building this pass without bounds checks; the host checks all of
+// it once, in Reconstruction::from_parts through TraceScene::new, and in
+// runtime/src/gpu/trace.rs):
+// - offsets: vertex_count + 1 entries, non-decreasing, the last = the length of positions and
+//   weights, so offsets[v] .. offsets[v + 1] stays inside both for v < vertex_count;
+// - positions: file positions < n; element_id: n entries, each < n (the file's order);
+// - radiosity: at least 3 n f32 (checked per frame); vertex_values: 3 vertex_count f32.
+
+const SMOOTH_LANES: u32 = 64u;
+
+// The uniform. Mirrored by lrr_shaders::SmoothParams (shaders/src/smooth.rs), 16 bytes; a naga
+// test compares names and offsets.
+struct SmoothParams {
+    vertex_count: u32,
+    reserved0: u32,
+    reserved1: u32,
+    reserved2: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: SmoothParams;
+// Per smooth vertex v: its weights are offsets[v] .. offsets[v + 1].
+@group(0) @binding(1) var<storage, read> offsets: array<u32>;
+// Per weight: the file position of its element.
+@group(0) @binding(2) var<storage, read> positions: array<u32>;
+@group(0) @binding(3) var<storage, read> weights: array<f32>;
+// Per file position: the original id (the index into the radiosity).
+@group(0) @binding(4) var<storage, read> element_id: array<u32>;
+// The relighting's B: 3 f32 per element, original ids (GpuEvaluator::radiosity_buffer).
+@group(0) @binding(5) var<storage, read> radiosity: array<f32>;
+// Out: 3 f32 per smooth vertex.
+@group(0) @binding(6) var<storage, read_write> vertex_values: array<f32>;
+
+@compute @workgroup_size(SMOOTH_LANES)
+fn smooth_vertices(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let v = id.x + id.y * (groups.x * SMOOTH_LANES);
+    if v >= params.vertex_count {
+        return;
+    }
+    // Weights in their stored order, each channel a running f32 sum (the CPU mirror's order).
+    var sum = vec3<f32>(0.0);
+    for (var j = offsets[v]; j < offsets[v + 1u]; j++) {
+        let at = 3u * element_id[positions[j]];
+        let b = vec3<f32>(radiosity[at], radiosity[at + 1u], radiosity[at + 2u]);
+        sum = sum + weights[j] * b;
+    }
+    // Boundary vertices extrapolate (negative weights): never below zero.
+    sum = max(sum, vec3<f32>(0.0));
+    vertex_values[3u * v] = sum.x;
+    vertex_values[3u * v + 1u] = sum.y;
+    vertex_values[3u * v + 2u] = sum.z;
+}
