@@ -11,6 +11,12 @@
 //! and bounded by [`MAX_OFF_FRACTION`] of the image. On a CPU adapter (lavapipe) the images
 //! agree much more closely, and the tests hold it to that: no pixel off, 1e-6 relative (measured:
 //! bit-identical without highlights, 2.2e-7 with them, from `pow`).
+//!
+//! Smooth shading: the CPU twin reconstructs in f64 (`Reconstruction`: vertex sums, mean value
+//! coordinates), the GPU in f32 (`smooth.wgsl`, `trace.wgsl`; the mirrors' tests in
+//! `lrr-shaders` bound each step: the vertex sums by their rounding-error bound, the weights
+//! within 8 ε). The same [`REL`] and [`MAX_OFF_FRACTION`] hold on any adapter; on a CPU adapter
+//! no pixel is off and every pixel is within [`SMOOTH_CPU_ADAPTER_REL`].
 
 #![cfg(feature = "gpu")]
 
@@ -28,6 +34,11 @@ use lrr_runtime::{Operator, Rgb};
 const REL: f64 = 1e-4;
 /// Pixels allowed beyond [`REL`] (a different hit near an edge): 0.5% of the image.
 const MAX_OFF_FRACTION: f64 = 0.005;
+/// Flat shading on a CPU adapter: every pixel within this.
+const FLAT_CPU_ADAPTER_REL: f64 = 1e-6;
+/// Smooth shading on a CPU adapter (f32 against the CPU twin's f64): every pixel within this
+/// (measured on lavapipe: 2.9e-7 diffuse, 3.0e-6 in a ray tree with clamped vertices).
+const SMOOTH_CPU_ADAPTER_REL: f64 = 1e-5;
 
 fn open(options: &GpuOptions) -> Gpu {
     let gpu = Gpu::new(options).unwrap_or_else(|e| panic!("{e}"));
@@ -53,9 +64,11 @@ fn gpu() -> &'static Gpu {
     })
 }
 
-/// A quad (counter-clockwise seen from its normal) and its material.
+/// A quad or a triangle (counter-clockwise seen from its normal; `count` corners) and its
+/// material.
 struct Face {
     corners: [[f32; 3]; 4],
+    count: u8,
     material: u32,
 }
 
@@ -68,6 +81,7 @@ fn grid(faces: &mut Vec<Face>, o: [f32; 3], u: [f32; 3], v: [f32; 3], nu: u32, n
             let (t0, t1) = (j as f32 / nv as f32, (j + 1) as f32 / nv as f32);
             faces.push(Face {
                 corners: [at(s0, t0), at(s1, t0), at(s1, t1), at(s0, t1)],
+                count: 4,
                 material: m,
             });
         }
@@ -140,7 +154,9 @@ fn file_of(
     let mut vertices = Vec::with_capacity(12 * n);
     let mut normals = Vec::with_capacity(3 * n);
     for f in faces {
-        vertices.extend(f.corners.iter().flatten());
+        let unused = (f.count == 3).then_some([0.0f32; 3]);
+        vertices.extend(f.corners.iter().take(3).flatten());
+        vertices.extend(unused.unwrap_or(f.corners[3]));
         let [a, b, c, _] = f.corners;
         let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
         let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
@@ -153,7 +169,7 @@ fn file_of(
         normals.extend(nrm.map(|c| c / l));
     }
     file.geometry = Geometry {
-        vertex_count: vec![4; n],
+        vertex_count: faces.iter().map(|f| f.count).collect(),
         vertices,
         normals,
     };
@@ -246,6 +262,18 @@ fn compare(
     groups: &[f32],
     tile: Option<u32>,
 ) -> lrr_runtime::gpu::GpuRenderReport {
+    compare_images(name, file, cam, (w, h), groups, tile).0
+}
+
+/// [`compare`], also returning both images (GPU, CPU).
+fn compare_images(
+    name: &str,
+    file: &OperatorFile,
+    cam: &Camera,
+    (w, h): (u32, u32),
+    groups: &[f32],
+    tile: Option<u32>,
+) -> (lrr_runtime::gpu::GpuRenderReport, Image, Image) {
     let b = radiosity(file.n as usize);
     let tracer = Tracer::new(file).unwrap();
     let view = View::new(cam, w, h).unwrap();
@@ -276,10 +304,16 @@ fn compare(
     );
     if gpu().is_cpu() {
         // lavapipe compiles through LLVM without fusing or approximating: the same hits
-        // everywhere, and only pow differs in the last bits (measured: 0 and 2.2e-7).
+        // everywhere; flat, only pow differs in the last bits (measured: 0 and 2.2e-7).
+        let rel = if report.decision.effects.smooth {
+            SMOOTH_CPU_ADAPTER_REL
+        } else {
+            FLAT_CPU_ADAPTER_REL
+        };
         assert!(
-            a.off == 0 && a.worst_within <= 1e-6,
-            "{name}: on a CPU adapter {} pixels differ beyond {REL:e}, worst within {:.2e}",
+            a.off == 0 && a.worst_within <= rel,
+            "{name}: on a CPU adapter {} pixels differ beyond {REL:e}, worst within {:.2e} \
+             (bound {rel:e})",
             a.off,
             a.worst_within
         );
@@ -299,7 +333,7 @@ fn compare(
         "{name}: {g:?} vs {c:?}"
     );
     assert!(close(g.secondary, c.secondary), "{name}: {g:?} vs {c:?}");
-    report
+    (report, image, cpu)
 }
 
 #[test]
@@ -321,53 +355,174 @@ fn a_diffuse_room_matches_the_cpu_twin_per_pixel() {
     assert_eq!(report.tiles, (97 * 61u32).div_ceil(64 * 7));
 }
 
-/// The WGSL tracer does not reconstruct smooth values yet: on a file with SMOOTH weights the
-/// GPU's decision says it shades flat, and its image is the CPU twin's flat one (which the CPU
-/// shades smooth by default).
+/// Every `every`-th quad of `faces` (from `first`) split into two triangles along a diagonal.
+fn split_quads(faces: &mut Vec<Face>, first: usize, every: usize) {
+    let mut out = Vec::with_capacity(faces.len() * 2);
+    for (i, f) in faces.drain(..).enumerate() {
+        if f.count == 4 && i >= first && (i - first) % every == 0 {
+            let [a, b, c, d] = f.corners;
+            out.push(Face {
+                corners: [a, b, c, [0.0; 3]],
+                count: 3,
+                material: f.material,
+            });
+            out.push(Face {
+                corners: [a, c, d, [0.0; 3]],
+                count: 3,
+                material: f.material,
+            });
+        } else {
+            out.push(f);
+        }
+    }
+    *faces = out;
+}
+
+/// SMOOTH weights joining the corners at one position (equal weights), and at every third
+/// shared vertex weights that extrapolate as a surface's boundary does (1.6 and a negative one,
+/// 0.1 on the rest): negative weights, and values the sum takes below zero that the
+/// reconstruction clamps.
+fn smooth_weights(g: &Geometry) -> lrr_formats::Smooth {
+    let n = g.vertex_count.len();
+    let mut keys: Vec<[i64; 3]> = Vec::new();
+    let mut members: Vec<Vec<u32>> = Vec::new();
+    let mut corners = vec![lrr_formats::Smooth::NONE; 4 * n];
+    for e in 0..n {
+        for i in 0..usize::from(g.vertex_count[e]) {
+            let at = 12 * e + 3 * i;
+            let key = [0, 1, 2].map(|c| (g.vertices[at + c] * 1024.0).round() as i64);
+            let v = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
+                keys.push(key);
+                members.push(Vec::new());
+                keys.len() - 1
+            });
+            members[v].push(e as u32);
+            corners[4 * e + i] = v as u32;
+        }
+    }
+    let mut s = lrr_formats::Smooth {
+        corners,
+        offsets: vec![0],
+        ..lrr_formats::Smooth::default()
+    };
+    for (v, m) in members.into_iter().enumerate() {
+        let k = m.len();
+        // Extrapolating: 1.6, -0.6 - 0.1 (k - 2), then 0.1 each (the format wants non-zero
+        // weights summing to one).
+        s.weights
+            .extend((0..k).map(|i| match (k >= 2 && v % 3 == 0, i) {
+                (true, 0) => 1.6,
+                (true, 1) => -0.6 - 0.1 * (k - 2) as f32,
+                (true, _) => 0.1,
+                _ => 1.0 / k as f32,
+            }));
+        s.positions.extend(m);
+        s.offsets.push(s.positions.len() as u32);
+    }
+    s
+}
+
+/// Pixels of `a` and `b` differing by more than 1e-3 relative.
+fn differing(a: &Image, b: &Image) -> usize {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .filter(|(p, q)| (0..3).any(|c| (p[c] - q[c]).abs() > 1e-3 * q[c].abs().max(1e-6)))
+        .count()
+}
+
+/// Smooth shading (the default on a file with SMOOTH weights): `smooth.wgsl` computes the
+/// smooth-vertex values from the radiosity buffer, `trace.wgsl` interpolates them at every hit;
+/// the image equals the CPU twin's f64 reconstruction per pixel, on quads and triangles, with
+/// negative weights and clamped vertices, across tiles, and is not the flat image.
 #[test]
-fn a_smooth_file_shades_flat_on_the_gpu_and_says_so() {
+fn smooth_shading_matches_the_cpu_twin_per_pixel() {
     let mut faces = Vec::new();
-    room(&mut faces, 4, 0);
+    room(&mut faces, 6, 0);
+    block(&mut faces, [1.0, 0.0, 1.0], [2.2, 1.5, 2.0], 3, 0);
+    block(&mut faces, [2.6, 0.0, 2.2], [3.4, 2.5, 3.0], 2, 0);
+    split_quads(&mut faces, 1, 3);
     let mut file = file_of(
         &faces,
         vec![Material::diffuse("white", [0.7; 3])],
         vec![],
         0,
     );
-    // Every element alone at its corners: a valid SMOOTH section (weights 1).
-    let n = faces.len();
-    file.display.smooth = Some(lrr_formats::Smooth {
-        corners: (0..4 * n as u32).collect(),
-        offsets: (0..=4 * n as u32).collect(),
-        positions: (0..4 * n as u32).map(|c| c / 4).collect(),
-        weights: vec![1.0; 4 * n],
-    });
+    file.display.smooth = Some(smooth_weights(&file.geometry));
     let cam = camera([2.0, 2.0, 3.9], [2.0, 1.5, 0.0]);
-    let (w, h) = (64, 48);
-    let b = radiosity(n);
+    let (report, image, cpu) =
+        compare_images("smooth room", &file, &cam, (97, 61), &[], Some(64 * 7));
+    let e = report.decision.effects;
+    assert!(e.smooth && !e.secondary && !e.highlights, "{e:?}");
+    let text = report.decision.text();
+    assert!(text.contains("smooth radiosity: on"), "{text}");
+    // Smooth is not flat: most pixels change.
+    let mut tracer = Tracer::new(&file).unwrap();
+    tracer.set_smooth(false).unwrap();
+    let b = radiosity(file.n as usize);
     let lighting = Lighting {
         radiosity: &b,
         group_intensities: &[],
     };
-    let view = View::new(&cam, w, h).unwrap();
-    let mut tracer = Tracer::new(&file).unwrap();
+    let view = View::new(&cam, 97, 61).unwrap();
     let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
-    let (image, report) = gt.render_lighting(&view, &lighting, w, h).unwrap();
-    assert!(!report.decision.effects.smooth);
-    let text = report.decision.text();
-    assert!(text.contains("smooth radiosity: off on the GPU"), "{text}");
-    let (_, smooth_report) = tracer.render(&view, &lighting, w, h, 2).unwrap();
-    assert!(smooth_report.decision.effects.smooth);
-    tracer.set_smooth(false).unwrap();
-    let (flat, _) = tracer.render(&view, &lighting, w, h, 2).unwrap();
-    let a = agreement(&image, &flat);
-    assert!(
-        !gpu().is_cpu() || (a.off == 0 && a.worst_within <= 1e-6),
-        "{} pixels off, worst within {:.2e}",
-        a.off,
-        a.worst_within
+    let (flat_gpu, flat_report) = gt.render_lighting(&view, &lighting, 97, 61).unwrap();
+    assert!(!flat_report.decision.effects.smooth);
+    let (flat_cpu, _) = tracer.render(&view, &lighting, 97, 61, 2).unwrap();
+    let a = agreement(&flat_gpu, &flat_cpu);
+    assert!(a.off as f64 <= MAX_OFF_FRACTION * (97 * 61) as f64);
+    let changed = differing(&image, &flat_gpu);
+    eprintln!(
+        "smooth room: {changed} of {} pixels differ from flat by > 1e-3",
+        97 * 61
     );
-    assert!((a.off as f64) <= MAX_OFF_FRACTION * (w * h) as f64);
+    assert!(changed > 97 * 61 / 2, "{changed}");
+    assert!(differing(&cpu, &flat_cpu) > 97 * 61 / 2);
+}
+
+/// Smooth shading inside the ray tree (mirror, glass, highlights behind shadow rays): every
+/// diffuse term of every ray, reconstructed, equals the CPU twin's.
+#[test]
+fn smooth_shading_in_the_ray_tree_matches_the_cpu_twin_per_pixel() {
+    let mut faces = Vec::new();
+    room(&mut faces, 5, 1);
+    block(&mut faces, [1.2, 0.5, 1.0], [2.4, 1.8, 2.2], 2, 2);
+    block(&mut faces, [2.6, 0.0, 2.4], [3.4, 1.6, 3.2], 2, 3);
+    split_quads(&mut faces, 0, 4);
+    let materials = vec![
+        Material {
+            specular: [0.2; 3],
+            shininess: 8.0,
+            ..Material::diffuse("plaster", [0.6; 3])
+        },
+        Material {
+            mirror: [0.9, 0.85, 0.8],
+            ..Material::diffuse("mirror", [0.1; 3])
+        },
+        Material {
+            mirror: [1.0; 3],
+            transmission: [0.95, 0.97, 1.0],
+            ior: 1.5,
+            ..Material::diffuse("glass", [0.0; 3])
+        },
+        Material {
+            specular: [0.6, 0.5, 0.4],
+            shininess: 40.0,
+            ..Material::diffuse("metal", [0.3; 3])
+        },
+    ];
+    let lights = vec![PointLight {
+        name: "lamp".into(),
+        position: [2.0, 3.6, 2.0],
+        intensity: [4.0, 3.5, 3.0],
+        group: PointLight::FIXED,
+    }];
+    let mut file = file_of(&faces, materials, lights, 0);
+    file.display.smooth = Some(smooth_weights(&file.geometry));
+    let cam = camera([3.5, 2.5, 3.9], [1.5, 1.0, 1.0]);
+    let report = compare("smooth ray tree", &file, &cam, (120, 90), &[], None);
+    let e = report.decision.effects;
+    assert!(e.smooth && e.secondary && e.highlights, "{e:?}");
 }
 
 #[test]
@@ -445,14 +600,15 @@ fn point_lights_highlights_and_shadows_match_the_cpu_twin_per_pixel() {
     assert!(report.rays.unwrap().shadow > 0);
 }
 
-/// The frame's radiosity never leaves the GPU: the evaluator's buffer is bound as it is, and the
-/// image equals the CPU twin's shading of the CPU evaluator's radiosity (within the evaluators'
-/// own 1e-5 agreement plus [`REL`]).
+/// The frame's radiosity never leaves the GPU: the evaluator's buffer is bound as it is (read by
+/// the smooth-vertex pass and the tracer), and the image equals the CPU twin's shading of the
+/// CPU evaluator's radiosity (within the evaluators' own 1e-5 agreement plus [`REL`]).
 #[test]
 fn the_tracer_reads_the_relighting_buffer_without_readback() {
     let mut file =
         testkit::synthetic::file(256, 8, 3, Precision::F32, Layout::Factored, 7).unwrap();
     file.display.bvh = Some(testkit::bvh::build(&file.geometry));
+    file.display.smooth = Some(smooth_weights(&file.geometry));
     let op = Operator::from_file(file).unwrap();
     let tracer = Tracer::new(op.file()).unwrap();
     let (lo, hi) = bounds(&op.file().geometry.vertices);
@@ -475,9 +631,10 @@ fn the_tracer_reads_the_relighting_buffer_without_readback() {
     let mut eval = GpuEvaluator::new(gpu(), &op).unwrap();
     eval.submit(Rgb::triples(&op.baked_emission())).unwrap();
     let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
-    let (image, _) = gt
+    let (image, report) = gt
         .render(&view, eval.radiosity_buffer(), &groups, w, h)
         .unwrap();
+    assert!(report.decision.effects.smooth);
     let a = agreement(&image, &cpu);
     eprintln!(
         "evaluator buffer: worst {:.2e}, {} pixels off (worst {:.2e})",
@@ -499,7 +656,8 @@ fn bounds(v: &[f32]) -> ([f32; 3], [f32; 3]) {
     (lo, hi)
 }
 
-/// The bounds-check-free build (the default) computes the same image as the checked one.
+/// The bounds-check-free build (the default) computes the same image as the checked one, flat
+/// and smooth.
 #[test]
 fn the_unchecked_pipeline_equals_the_checked_one() {
     let mut faces = Vec::new();
@@ -513,8 +671,16 @@ fn the_unchecked_pipeline_equals_the_checked_one() {
             ..Material::diffuse("water", [0.0; 3])
         },
     ];
-    let file = file_of(&faces, materials, vec![], 0);
-    let tracer = Tracer::new(&file).unwrap();
+    let mut file = file_of(&faces, materials, vec![], 0);
+    file.display.smooth = Some(smooth_weights(&file.geometry));
+    for smooth in [true, false] {
+        unchecked_equals_checked(&file, smooth);
+    }
+}
+
+fn unchecked_equals_checked(file: &OperatorFile, smooth: bool) {
+    let mut tracer = Tracer::new(file).unwrap();
+    tracer.set_smooth(smooth).unwrap();
     let view = View::new(&camera([3.0, 2.0, 3.9], [1.8, 1.1, 1.6]), 48, 32).unwrap();
     let b = radiosity(file.n as usize);
     let lighting = Lighting {

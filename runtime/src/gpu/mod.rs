@@ -57,6 +57,7 @@ mod common;
 mod device;
 mod evaluator;
 mod pipelines;
+mod smooth;
 mod trace;
 
 pub use bench::{GpuBench, bench_operator, bounds_check_cost};

@@ -4,12 +4,14 @@
 //!
 //! [`GpuTracer::new`] takes a checked CPU [`Tracer`] (so both read the same display data, and
 //! every index the shader follows was checked there) and uploads its scene once: BVH nodes,
-//! leaf-order triangles, per-element ids, normals and materials, optics. A frame writes the
-//! point lights' intensities (their group's factor applied), decides the effects exactly as
-//! the CPU twin does and builds (once per combination) the pipeline specialised by them, then
-//! renders the image in tiles of at most [`GpuTracer::tile_pixels`] pixels, one dispatch and one
-//! submission each, so that no dispatch runs long enough for a driver's watchdog, and reads the
-//! image back as RGBA f32.
+//! leaf-order triangles, per-element ids, normals and materials, optics, and with SMOOTH
+//! weights the smooth reconstruction (`super::smooth`). A frame writes the point lights'
+//! intensities (their group's factor applied), decides the effects exactly as the CPU twin does
+//! and builds (once per combination) the pipeline specialised by them; shading smooth, it first
+//! runs `smooth.wgsl` over the radiosity buffer (the smooth-vertex values, once per frame, left
+//! on the GPU), then renders the image in tiles of at most [`GpuTracer::tile_pixels`] pixels,
+//! one dispatch and one submission each, so that no dispatch runs long enough for a driver's
+//! watchdog, and reads the image back as RGBA f32.
 //!
 //! ```no_run
 //! use lrr_runtime::gpu::{Gpu, GpuEvaluator, GpuOptions, GpuTracer};
@@ -38,6 +40,7 @@ use lrr_shaders::{
 use super::buffers::storage;
 use super::common::{GpuError, bytes_of};
 use super::device::Gpu;
+use super::smooth::SmoothPass;
 use crate::error::input;
 use crate::trace::{Decision, Effects, Image, Lighting, RayCounts, Tracer, V3, View};
 
@@ -79,6 +82,10 @@ pub struct GpuTracer {
     lights: wgpu::Buffer,
     /// Radiosity uploaded from the host ([`render_lighting`](Self::render_lighting)).
     host_radiosity: Option<wgpu::Buffer>,
+    /// The smooth reconstruction (files with SMOOTH weights).
+    smooth: Option<SmoothPass>,
+    /// Bound as `smooth_elements` and `vertex_values` when the file has no SMOOTH (unread).
+    no_smooth: wgpu::Buffer,
     tile_pixels: u32,
 }
 
@@ -126,16 +133,30 @@ impl GpuTracer {
         debug_assert_eq!(nodes.len() * 4, scene.nodes.len() * NODE_BYTES);
         debug_assert_eq!(optics.len() * 4, scene.optics.len() * OPTICS_BYTES);
         let lights = scene.lights.len();
-        check_fits(
-            gpu,
-            &[
-                ("BVH nodes", 4 * nodes.len() as u64),
-                ("triangles", 4 * tris.len() as u64),
-                ("radiosity", 12 * n as u64),
-                ("point lights", (lights * LIGHT_BYTES) as u64),
-                ("tile image", 16 * u64::from(DEFAULT_TILE_PIXELS)),
-            ],
-        )?;
+        let bindings = lrr_shaders::TRACE_BINDINGS.len() - 1;
+        let limit = gpu.limits.max_storage_buffers_per_shader_stage;
+        if (limit as usize) < bindings {
+            return Err(GpuError::Device(format!(
+                "GPU: the tracer binds {bindings} storage buffers, {} allows {limit} per shader \
+                 stage; render on the CPU (--device cpu)",
+                gpu.adapter_name()
+            )));
+        }
+        let mut sizes = vec![
+            ("BVH nodes", 4 * nodes.len() as u64),
+            ("triangles", 4 * tris.len() as u64),
+            ("radiosity", 12 * n as u64),
+            ("point lights", (lights * LIGHT_BYTES) as u64),
+            ("tile image", 16 * u64::from(DEFAULT_TILE_PIXELS)),
+        ];
+        if let Some((geometry, weights)) = &scene.smooth {
+            sizes.extend(SmoothPass::sizes(geometry, weights));
+        }
+        check_fits(gpu, &sizes)?;
+        let smooth = scene
+            .smooth
+            .as_ref()
+            .map(|(geometry, weights)| SmoothPass::new(gpu, geometry, weights, &scene.element_id));
         let layout = bind_group_layout(gpu);
         let pipeline_layout = gpu
             .device
@@ -168,6 +189,8 @@ impl GpuTracer {
                 wgpu::BufferUsages::COPY_DST,
             ),
             host_radiosity: None,
+            smooth,
+            no_smooth: storage(gpu, "no smooth", &[0u32; 16], none),
             tile_pixels: DEFAULT_TILE_PIXELS,
             n: n as u32,
             layout,
@@ -405,10 +428,12 @@ impl GpuTracer {
                 .queue
                 .write_buffer(&self.lights, 0, bytes_of(&light_words));
         }
+        // Smooth forced on a file without SMOOTH shades flat, as the CPU twin does.
+        let smooth = effects.smooth && self.smooth.is_some();
         let pipeline = self.pipeline(TraceConstants {
             highlights: effects.highlights,
             secondary: effects.secondary,
-            smooth: effects.smooth,
+            smooth,
             count_rays,
         });
         let tile = u64::from(self.tile_pixels);
@@ -448,6 +473,13 @@ impl GpuTracer {
             height,
             ..TraceParams::default()
         };
+        if smooth && let Some(pass) = &self.smooth {
+            // The smooth-vertex values from this frame's radiosity, before every tile.
+            let mut encoder =
+                device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+            pass.encode(&self.gpu, radiosity, &mut encoder);
+            self.gpu.queue.submit([encoder.finish()]);
+        }
         for t in 0..tiles {
             let first = u64::from(t) * tile;
             let count = tile.min(pixels - first);
@@ -507,7 +539,11 @@ impl GpuTracer {
         image: &wgpu::Buffer,
         counts: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
-        let buffers: [&wgpu::Buffer; 12] = [
+        let (elements, values) = match &self.smooth {
+            Some(pass) => (&pass.elements, &pass.values),
+            None => (&self.no_smooth, &self.no_smooth),
+        };
+        let buffers: [&wgpu::Buffer; 14] = [
             &self.params,
             &self.nodes,
             &self.tris,
@@ -520,6 +556,8 @@ impl GpuTracer {
             radiosity,
             image,
             counts,
+            elements,
+            values,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -539,35 +577,38 @@ impl GpuTracer {
     }
 }
 
-/// The twelve bindings of `trace.wgsl` (`lrr_shaders::TRACE_BINDINGS`), explicit so that every
-/// specialisation (whatever its overrides leave unused) shares one layout.
+/// The fourteen bindings of `trace.wgsl` (`lrr_shaders::TRACE_BINDINGS`), explicit so that
+/// every specialisation (whatever its overrides leave unused) shares one layout.
 fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     let entries: Vec<wgpu::BindGroupLayoutEntry> = lrr_shaders::TRACE_BINDINGS
         .iter()
-        .map(|b| wgpu::BindGroupLayoutEntry {
-            binding: b.binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: match b.access {
-                    lrr_shaders::Access::Uniform => wgpu::BufferBindingType::Uniform,
-                    lrr_shaders::Access::Read => {
-                        wgpu::BufferBindingType::Storage { read_only: true }
-                    }
-                    lrr_shaders::Access::ReadWrite => {
-                        wgpu::BufferBindingType::Storage { read_only: false }
-                    }
-                },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        })
+        .map(layout_entry)
         .collect();
     gpu.device
         .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("trace"),
             entries: &entries,
         })
+}
+
+/// A compute binding of a buffer, as `b` declares it.
+pub(super) fn layout_entry(b: &lrr_shaders::Binding) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding: b.binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: match b.access {
+                lrr_shaders::Access::Uniform => wgpu::BufferBindingType::Uniform,
+                lrr_shaders::Access::Read => wgpu::BufferBindingType::Storage { read_only: true },
+                lrr_shaders::Access::ReadWrite => {
+                    wgpu::BufferBindingType::Storage { read_only: false }
+                }
+            },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
 }
 
 fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
@@ -581,8 +622,10 @@ fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
     #[allow(unsafe_code)]
     // SAFETY: every index trace.wgsl follows was checked by `TraceScene::new` (the BVH's
     // children and leaf ranges, its depth against the fixed stacks, element ids, materials,
-    // light groups) and by `GpuTracer::frame` (the radiosity buffer's size, the tile against
-    // the tile buffer, the counters per tile); the argument is in the header of trace.wgsl.
+    // light groups, the SMOOTH corners through `Reconstruction::from_parts`) and by
+    // `GpuTracer::frame` (the radiosity buffer's size, the tile against the tile buffer, the
+    // counters per tile) and `SmoothPass::new` (3 f32 per smooth vertex, one element record per
+    // file position); the argument is in the header of trace.wgsl.
     // Its loops end: the traversal visits each node at most once (children after parents) and
     // the ray tree's depth grows by one per push up to a limit of at most 16.
     unsafe {

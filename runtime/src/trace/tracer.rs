@@ -411,16 +411,7 @@ impl Tracer {
         group_intensities: &[f32],
     ) -> Result<(Vec<V3>, Decision), RuntimeError> {
         let intensities = self.group_light_intensities(group_intensities)?;
-        let mut decision = self.decision(&intensities);
-        // trace.wgsl does not reconstruct smooth values yet: the GPU shades flat, and says so.
-        if decision.effects.smooth {
-            decision.effects.smooth = false;
-            if let Some(reason) = decision.reasons.last_mut() {
-                *reason = "smooth radiosity: off on the GPU (the WGSL tracer shades flat element \
-                           values for now; the CPU tracer shades smooth)"
-                    .into();
-            }
-        }
+        let decision = self.decision(&intensities);
         Ok((intensities, decision))
     }
 }

@@ -481,7 +481,10 @@ fn smooth_vertices_match_f64_within_the_rounding_bound() {
             let got = f64::from(out[v][c]);
             assert!(got >= 0.0, "vertex {v}: {got}");
             let error = (got - exact.max(0.0)).abs();
-            assert!(error <= bound, "vertex {v} channel {c}: {got} vs {exact}, bound {bound:e}");
+            assert!(
+                error <= bound,
+                "vertex {v} channel {c}: {got} vs {exact}, bound {bound:e}"
+            );
             clamped += usize::from(exact < 0.0);
             if abs > 0.0 {
                 worst = worst.max(error / abs);
@@ -540,7 +543,12 @@ fn mean_value_weights_in_f32_match_the_f64_definition() {
     let n = [0.0, 0.6, 0.8];
     // Corners in the plane 0.6 y + 0.8 z = 0.6 · 7 (within f32 rounding), away from the origin.
     let plane = |u: f32, v: f32| [10.0 + u, 7.0 - 0.8 * v, 0.6 * v];
-    let quad = [plane(0.0, 0.0), plane(2.0, 0.0), plane(2.5, 1.0), plane(-0.5, 1.5)];
+    let quad = [
+        plane(0.0, 0.0),
+        plane(2.0, 0.0),
+        plane(2.5, 1.0),
+        plane(-0.5, 1.5),
+    ];
     let tri = [plane(0.0, 0.0), plane(1.0, 0.0), plane(0.2, 1.2)];
     let mut rng = Rng(77);
     let mut worst = [0.0f64; 4]; // inside, near a corner, near an edge, on / outside
@@ -562,9 +570,17 @@ fn mean_value_weights_in_f32_match_the_f64_definition() {
                 // near corner i: 1e-6 .. 1e-2 of the way to the centre
                 1 => lerp(a, centre, 10f32.powf(-6.0 + 4.0 * rng.unit())),
                 // near edge i: 1e-6 .. 1e-2 of the way from a point on it to the centre
-                2 => lerp(lerp(a, b, 0.05 + 0.9 * rng.unit()), centre, 10f32.powf(-6.0 + 4.0 * rng.unit())),
+                2 => lerp(
+                    lerp(a, b, 0.05 + 0.9 * rng.unit()),
+                    centre,
+                    10f32.powf(-6.0 + 4.0 * rng.unit()),
+                ),
                 // on edge i, or just outside it
-                _ => lerp(lerp(a, b, rng.unit()), centre, -1e-4 * rng.unit() * f32::from(rng.below(2) as u8)),
+                _ => lerp(
+                    lerp(a, b, rng.unit()),
+                    centre,
+                    -1e-4 * rng.unit() * f32::from(rng.below(2) as u8),
+                ),
             };
             let got = mean_value_weights(poly, n, x);
             let want = match mean_value_reference(poly, n, x) {
@@ -595,7 +611,10 @@ fn mean_value_weights_in_f32_match_the_f64_definition() {
             assert!(got[m..].iter().all(|&w| w == 0.0));
             let units = error / unit;
             worst[kind] = worst[kind].max(units);
-            assert!(units <= 8.0, "kind {kind}, x {x:?}: {got:?} vs {want:?}, {units:.1} units");
+            assert!(
+                units <= 8.0,
+                "kind {kind}, x {x:?}: {got:?} vs {want:?}, {units:.1} units"
+            );
         }
     }
     eprintln!(

@@ -1,0 +1,190 @@
+//! The smooth reconstruction's per-frame step on the GPU (`smooth.wgsl` of `lrr-shaders`): each
+//! smooth vertex's value from a radiosity storage buffer, left in [`SmoothPass::values`] for the
+//! tracer's `SMOOTH` variant, with no readback. The twin of
+//! [`Reconstruction::vertex_values`](crate::Reconstruction::vertex_values) (f64 sums; this pass
+//! and its mirror `lrr_shaders::cpu::smooth_vertices` sum in f32).
+//!
+//! Built by [`GpuTracer`](super::GpuTracer) from its checked scene: SMOOTH's offsets, positions
+//! and weights, the file's order, and per element its corners with their smooth vertices (what
+//! `trace.wgsl` reads at a hit). Every index the pass follows was checked by
+//! `Reconstruction::from_parts` when the tracer's scene was made.
+
+use lrr_formats::{Geometry, Smooth};
+use lrr_shaders::{
+    SMOOTH_ENTRY, SMOOTH_LANES, SMOOTH_VERTICES, SmoothParams, smooth_element, workgroups,
+};
+
+use super::buffers::storage;
+use super::device::Gpu;
+
+/// The pass, its buffers and the per-element data the tracer binds.
+pub(super) struct SmoothPass {
+    vertex_count: u32,
+    layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::ComputePipeline,
+    params: wgpu::Buffer,
+    offsets: wgpu::Buffer,
+    positions: wgpu::Buffer,
+    weights: wgpu::Buffer,
+    element_id: wgpu::Buffer,
+    /// Per file position: `lrr_shaders::smooth_element` (binding `smooth_elements` of the tracer).
+    pub elements: wgpu::Buffer,
+    /// This frame's smooth-vertex values, 3 f32 each (binding `vertex_values` of the tracer).
+    pub values: wgpu::Buffer,
+}
+
+impl SmoothPass {
+    /// The bytes of each buffer the pass and the tracer bind, by name (checked against one
+    /// binding's limit before anything is made).
+    pub(super) fn sizes(geometry: &Geometry, smooth: &Smooth) -> [(&'static str, u64); 4] {
+        let n = geometry.vertex_count.len() as u64;
+        let p = smooth.positions.len() as u64;
+        [
+            ("smooth vertex values", 12 * smooth.vertex_count() as u64),
+            (
+                "smooth elements",
+                lrr_shaders::SMOOTH_ELEMENT_BYTES as u64 * n,
+            ),
+            ("smooth offsets", 4 * smooth.offsets.len() as u64),
+            ("smooth weights", 4 * p),
+        ]
+    }
+
+    /// Uploads the reconstruction of a checked scene: `geometry` and `smooth` as
+    /// `Reconstruction::from_parts` accepted them, `element_id` the file's order.
+    pub(super) fn new(gpu: &Gpu, geometry: &Geometry, smooth: &Smooth, element_id: &[u32]) -> Self {
+        let none = wgpu::BufferUsages::empty();
+        let elements: Vec<u32> = (0..geometry.vertex_count.len())
+            .flat_map(|e| {
+                let corners = std::array::from_fn(|i| {
+                    let at = 12 * e + 3 * i;
+                    [0, 1, 2].map(|c| geometry.vertices[at + c])
+                });
+                let vertices = std::array::from_fn(|i| smooth.corners[4 * e + i]);
+                smooth_element(corners, vertices, geometry.vertex_count[e])
+            })
+            .collect();
+        let vertex_count = smooth.vertex_count() as u32;
+        let device = &gpu.device;
+        let module = shader_module(gpu);
+        let layout = bind_group_layout(gpu);
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(SMOOTH_ENTRY),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(SMOOTH_ENTRY),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some(SMOOTH_ENTRY),
+            compilation_options: wgpu::PipelineCompilationOptions::default(),
+            cache: None,
+        });
+        let params = SmoothParams {
+            vertex_count,
+            ..SmoothParams::default()
+        };
+        let params = {
+            use wgpu::util::DeviceExt;
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("smooth params"),
+                contents: &params.to_bytes(),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+        };
+        SmoothPass {
+            vertex_count,
+            pipeline,
+            params,
+            offsets: storage(gpu, "smooth offsets", &smooth.offsets, none),
+            positions: storage(gpu, "smooth positions", &smooth.positions, none),
+            weights: storage(gpu, "smooth weights", &smooth.weights, none),
+            element_id: storage(gpu, "smooth element ids", element_id, none),
+            elements: storage(gpu, "smooth elements", &elements, none),
+            values: storage(
+                gpu,
+                "smooth vertex values",
+                &vec![0.0f32; 3 * vertex_count as usize],
+                none,
+            ),
+            layout,
+        }
+    }
+
+    /// Records the pass that fills [`values`](Self::values) from `radiosity` (3 f32 per element,
+    /// original ids; its size checked by the caller) into `encoder`.
+    pub(super) fn encode(
+        &self,
+        gpu: &Gpu,
+        radiosity: &wgpu::Buffer,
+        encoder: &mut wgpu::CommandEncoder,
+    ) {
+        if self.vertex_count == 0 {
+            return;
+        }
+        let buffers = [
+            &self.params,
+            &self.offsets,
+            &self.positions,
+            &self.weights,
+            &self.element_id,
+            radiosity,
+            &self.values,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(SMOOTH_ENTRY),
+            layout: &self.layout,
+            entries: &entries,
+        });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(SMOOTH_ENTRY),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        let [x, y, z] = workgroups(self.vertex_count.div_ceil(SMOOTH_LANES));
+        pass.dispatch_workgroups(x, y, z);
+    }
+}
+
+/// The bindings of `smooth.wgsl` (`lrr_shaders::SMOOTH_BINDINGS`), explicit.
+fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = lrr_shaders::SMOOTH_BINDINGS
+        .iter()
+        .map(|b| super::trace::layout_entry(b))
+        .collect();
+    gpu.device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(SMOOTH_ENTRY),
+            entries: &entries,
+        })
+}
+
+fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
+    let descriptor = wgpu::ShaderModuleDescriptor {
+        label: Some(SMOOTH_ENTRY),
+        source: wgpu::ShaderSource::Wgsl(SMOOTH_VERTICES.into()),
+    };
+    if gpu.options.bounds_checks {
+        return gpu.device.create_shader_module(descriptor);
+    }
+    #[allow(unsafe_code)]
+    // SAFETY: every index smooth.wgsl follows was checked by `Reconstruction::from_parts` when
+    // the tracer's scene was made (offsets non-decreasing from 0 to the number of positions and
+    // weights, positions below n, the order's ids below n) and by the buffers made here (3 f32
+    // per smooth vertex) and in `GpuTracer::frame` (the radiosity buffer's size); the argument
+    // is in the header of smooth.wgsl. Its loop ends: j runs up to offsets[v + 1].
+    unsafe {
+        gpu.device
+            .create_shader_module_trusted(descriptor, wgpu::ShaderRuntimeChecks::unchecked())
+    }
+}
