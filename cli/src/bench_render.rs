@@ -32,8 +32,9 @@ pub struct RenderBench {
     #[arg(long)]
     pub threads: Option<usize>,
     /// `cpu`: the CPU twin by ray kind against Embree, and whole frames. `gpu`: whole frames of
-    /// the WGSL tracer (primary rays only, the decided effects, all effects forced on),
-    /// alternated, after one counted frame checked against the CPU twin per pixel.
+    /// the WGSL tracer (primary rays only, the decided effects, on a file with SMOOTH weights
+    /// the decided effects shaded flat, all effects forced on), alternated, after one counted
+    /// frame checked against the CPU twin per pixel.
     #[arg(long, value_enum, default_value_t = crate::render::TraceDevice::Cpu)]
     pub device: crate::render::TraceDevice,
 }
@@ -307,11 +308,6 @@ fn gpu_frames(
         )?;
     }
     let mut gt = GpuTracer::new(&gpu, tracer)?;
-    // The WGSL tracer shades flat for now (its decision says so): compare with the CPU's flat
-    // frame.
-    let mut flat = tracer.clone();
-    flat.set_smooth(false)?;
-    let tracer = &flat;
     let radiosity: Vec<[f32; 3]> = (0..bench.file.n as usize)
         .map(|i| [(i % 7) as f32, 1.0, 0.5])
         .collect();
@@ -328,14 +324,22 @@ fn gpu_frames(
         secondary: false,
         ..decided
     };
-    let kinds = [
+    let mut kinds = vec![
         ("primary only", primary),
         ("decided", decided),
         ("all forced on", Effects::all()),
     ];
+    if decided.smooth {
+        // What smooth shading costs: the decided frame shading flat element values.
+        let flat = Effects {
+            smooth: false,
+            ..decided
+        };
+        kinds.insert(2, ("decided, flat", flat));
+    }
     // One counted frame of each, and the decided one against the CPU twin.
     let mut counts = Vec::new();
-    for (i, (_, effects)) in kinds.into_iter().enumerate() {
+    for (i, &(_, effects)) in kinds.iter().enumerate() {
         let (image, report) = gt.render_with(view, &buffer, &groups, effects, true, w, h)?;
         counts.push(report.rays.unwrap_or_default());
         if i == 1 {
@@ -371,6 +375,16 @@ fn gpu_frames(
         }
     }
     write!(out, "GPU frames, effects decided:\n{}", decision.text())?;
+    if decided.smooth {
+        // Per round, the smooth frame over the flat one (alternated in the same round).
+        let ratios = times[1].iter().zip(&times[2]).map(|(s, f)| s / f).collect();
+        let (lo, mid, hi) = spread(ratios);
+        writeln!(
+            out,
+            "smooth shading (the smooth-vertex pass and mean value coordinates at every hit): \
+             x{mid:.2} ({lo:.2}-{hi:.2}) the flat frame's time, per round"
+        )?;
+    }
     writeln!(
         out,
         "{:<14} {:>11} {:>11} {:>11} {:>11} {:>10} {:>8}",

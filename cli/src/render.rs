@@ -52,7 +52,7 @@ pub struct RenderArgs {
     pub explain: bool,
     /// The radiosity at a hit point: `smooth` (the default when the file has smooth weights:
     /// smooth-vertex values interpolated by mean value coordinates) or `flat` (the element's
-    /// value; the default otherwise, saying so). The GPU tracer shades flat for now.
+    /// value; the default otherwise, saying so). On either device.
     #[arg(long, value_enum, value_name = "HOW")]
     pub reconstruct: Option<Reconstruct>,
     /// Bounces of reflection and refraction below a camera ray.
@@ -176,12 +176,6 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
     let mut tracer =
         Tracer::new(op.file()).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     tracer.set_max_depth(a.max_depth)?;
-    if a.device == TraceDevice::Gpu && a.reconstruct == Some(Reconstruct::Smooth) {
-        bail!(
-            "--device gpu --reconstruct smooth: the GPU tracer shades flat element values for \
-             now; use --device cpu for smooth shading, or --reconstruct flat"
-        );
-    }
     let smooth = emission::reconstruction(&op, a.reconstruct, &a.file)?.is_some();
     tracer.set_smooth(smooth)?;
     let cam = camera(a, &tracer)?;
