@@ -359,7 +359,7 @@ fn a_diffuse_room_matches_the_cpu_twin_per_pixel() {
 fn split_quads(faces: &mut Vec<Face>, first: usize, every: usize) {
     let mut out = Vec::with_capacity(faces.len() * 2);
     for (i, f) in faces.drain(..).enumerate() {
-        if f.count == 4 && i >= first && (i - first) % every == 0 {
+        if f.count == 4 && i >= first && (i - first).is_multiple_of(every) {
             let [a, b, c, d] = f.corners;
             out.push(Face {
                 corners: [a, b, c, [0.0; 3]],

@@ -77,3 +77,23 @@ pub(super) fn bytes_of_mut(v: &mut [f32]) -> &mut [u8] {
     // SAFETY: as in `bytes_of`; every bit pattern is a valid f32, so any write is sound.
     unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<u8>(), size_of_val(v)) }
 }
+
+/// A compute binding of a buffer, as `b` declares it.
+pub(super) fn layout_entry(b: &lrr_shaders::Binding) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding: b.binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: match b.access {
+                lrr_shaders::Access::Uniform => wgpu::BufferBindingType::Uniform,
+                lrr_shaders::Access::Read => wgpu::BufferBindingType::Storage { read_only: true },
+                lrr_shaders::Access::ReadWrite => {
+                    wgpu::BufferBindingType::Storage { read_only: false }
+                }
+            },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}

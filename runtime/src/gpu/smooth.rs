@@ -160,7 +160,7 @@ impl SmoothPass {
 fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     let entries: Vec<wgpu::BindGroupLayoutEntry> = lrr_shaders::SMOOTH_BINDINGS
         .iter()
-        .map(|b| super::trace::layout_entry(b))
+        .map(super::common::layout_entry)
         .collect();
     gpu.device
         .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

@@ -582,33 +582,13 @@ impl GpuTracer {
 fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     let entries: Vec<wgpu::BindGroupLayoutEntry> = lrr_shaders::TRACE_BINDINGS
         .iter()
-        .map(layout_entry)
+        .map(super::common::layout_entry)
         .collect();
     gpu.device
         .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("trace"),
             entries: &entries,
         })
-}
-
-/// A compute binding of a buffer, as `b` declares it.
-pub(super) fn layout_entry(b: &lrr_shaders::Binding) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding: b.binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: match b.access {
-                lrr_shaders::Access::Uniform => wgpu::BufferBindingType::Uniform,
-                lrr_shaders::Access::Read => wgpu::BufferBindingType::Storage { read_only: true },
-                lrr_shaders::Access::ReadWrite => {
-                    wgpu::BufferBindingType::Storage { read_only: false }
-                }
-            },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
 }
 
 fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
