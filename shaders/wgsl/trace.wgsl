@@ -412,7 +412,7 @@ fn occluded(ray: Ray, t_min: f32, t_max: f32) -> bool {
 // to the point and projected onto the polygon's plane (the CPU measures x - v_i in 3D: for a
 // planar polygon the same edge and parameter, and in f32 the small relative vectors keep a few
 // ulp where x - v_i would round at the coordinates' magnitude).
-fn nearest_edge_weights(d: array<vec3<f32>, 4>, m: u32) -> array<f32, 4> {
+fn nearest_edge_weights(d: array<vec3<f32>, 4>, m: u32) -> vec4<f32> {
     var rel = d;
     var best = 0u;
     var best_s = 0.0;
@@ -436,71 +436,102 @@ fn nearest_edge_weights(d: array<vec3<f32>, 4>, m: u32) -> array<f32, 4> {
     var w = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
     w[best] = 1.0 - best_s;
     w[(best + 1u) % m] += best_s;
-    return w;
+    return vec4<f32>(w[0], w[1], w[2], w[3]);
 }
 
-// smooth.rs `mean_value_weights` in f32 (mirror: lrr_shaders::cpu::mean_value_weights): the
-// mean value coordinates of x, projected onto the plane of the convex polygon v (m corners, unit
-// normal n), in Hormann and Floater's stable form w_i ~ (t_{i-1} + t_i) / r_i with
+// smooth.rs `mean_value_weights`, step 1: corner v relative to x, projected onto the plane of
+// unit normal n (d_i).
+fn relative(v: vec3<f32>, n: vec3<f32>, x: vec3<f32>) -> vec3<f32> {
+    let e = v - x;
+    let h = dot3(e, n);
+    return e - h * n;
+}
+
+fn distance3(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    let e = b - a;
+    return sqrt(dot3(e, e));
+}
+
+// smooth.rs `mean_value_weights` in f32 (mirror: lrr_shaders::cpu::mean_value_weights, the same
+// operations in the same order): the mean value coordinates of x, projected onto the plane of
+// the element's convex polygon (corners s.v0..s.v2, and s.v3 when quad; unit normal n), in
+// Hormann and Floater's stable form w_i ~ (t_{i-1} + t_i) / r_i with
 // t_i = tan(alpha_i / 2) = (r_i r_{i+1} - d_i.d_{i+1}) / ((d_i x d_{i+1}).n). The CPU's cases and
 // thresholds: on a vertex (r_i <= 1e-12 of the longest edge) that vertex; on or beyond an
 // edge's line (a half-angle's sine <= 1e-12) linear interpolation at the nearest boundary
 // point. In f32 near an edge, t_i's relative error grows like 1 / sin(alpha_i), but t_i then
 // dominates the two weights of its edge and cancels in their ratio, so the weights keep a few
-// ulp; t_i <= 2e12 and r_i > 1e-12 of the edge keep every sum finite.
-fn mean_value_weights(v: array<vec3<f32>, 4>, m: u32, n: vec3<f32>, x: vec3<f32>) -> array<f32, 4> {
-    var corners = v;
-    var d: array<vec3<f32>, 4>;
-    var r = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
-    var scale = 0.0;
-    for (var i = 0u; i < m; i++) {
-        let e = corners[i] - x;
-        let h = dot3(e, n);
-        d[i] = e - h * n;
-        r[i] = sqrt(dot3(d[i], d[i]));
-        let edge = corners[(i + 1u) % m] - corners[i];
-        scale = max(scale, sqrt(dot3(edge, edge)));
+// ulp; t_i <= 2e12 and r_i > 1e-12 of the edge keep every sum finite. Written out corner by
+// corner (no array indexed at run time, which a compiler may keep in memory); a triangle's
+// weight w is 0.
+fn mean_value_weights(s: SmoothElement, quad: bool, n: vec3<f32>, x: vec3<f32>) -> vec4<f32> {
+    let d0 = relative(s.v0, n, x);
+    let d1 = relative(s.v1, n, x);
+    let d2 = relative(s.v2, n, x);
+    // A triangle's fourth corner is its first again (read only through `quad` below).
+    let v3 = select(s.v0, s.v3, quad);
+    let d3 = select(d0, relative(s.v3, n, x), quad);
+    let r = vec4<f32>(sqrt(dot3(d0, d0)), sqrt(dot3(d1, d1)), sqrt(dot3(d2, d2)), sqrt(dot3(d3, d3)));
+    var scale = max(max(max(0.0, distance3(s.v0, s.v1)), distance3(s.v1, s.v2)), distance3(s.v2, v3));
+    if quad {
+        scale = max(scale, distance3(v3, s.v0));
     }
-    var w = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
     let eps = 1e-12 * scale;
-    for (var i = 0u; i < m; i++) {
-        if r[i] <= eps {
-            w[i] = 1.0;
-            return w;
-        }
+    if r.x <= eps {
+        return vec4<f32>(1.0, 0.0, 0.0, 0.0);
     }
-    var t = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
-    for (var i = 0u; i < m; i++) {
-        let j = (i + 1u) % m;
-        let area = dot3(cross3(d[i], d[j]), n);
-        if area <= 1e-12 * r[i] * r[j] {
-            return nearest_edge_weights(d, m);
-        }
-        t[i] = (r[i] * r[j] - dot3(d[i], d[j])) / area;
+    if r.y <= eps {
+        return vec4<f32>(0.0, 1.0, 0.0, 0.0);
     }
-    var total = 0.0;
-    for (var i = 0u; i < m; i++) {
-        w[i] = (t[(i + m - 1u) % m] + t[i]) / r[i];
-        total += w[i];
+    if r.z <= eps {
+        return vec4<f32>(0.0, 0.0, 1.0, 0.0);
     }
-    for (var i = 0u; i < m; i++) {
-        w[i] = w[i] / total;
+    if quad && r.w <= eps {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
-    return w;
+    // The corner after corner 2: 3 on a quad, 0 on a triangle.
+    let r_next = select(r.x, r.w, quad);
+    let a0 = dot3(cross3(d0, d1), n);
+    let a1 = dot3(cross3(d1, d2), n);
+    let a2 = dot3(cross3(d2, d3), n);
+    let a3 = dot3(cross3(d3, d0), n);
+    if a0 <= 1e-12 * r.x * r.y || a1 <= 1e-12 * r.y * r.z || a2 <= 1e-12 * r.z * r_next
+        || (quad && a3 <= 1e-12 * r.w * r.x) {
+        return nearest_edge_weights(array<vec3<f32>, 4>(d0, d1, d2, d3), select(3u, 4u, quad));
+    }
+    let t0 = (r.x * r.y - dot3(d0, d1)) / a0;
+    let t1 = (r.y * r.z - dot3(d1, d2)) / a1;
+    let t2 = (r.z * r_next - dot3(d2, d3)) / a2;
+    var t3 = 0.0;
+    var w3 = 0.0;
+    if quad {
+        t3 = (r.w * r.x - dot3(d3, d0)) / a3;
+        w3 = (t2 + t3) / r.w;
+    }
+    let w = vec4<f32>((select(t2, t3, quad) + t0) / r.x, (t0 + t1) / r.y, (t1 + t2) / r.z, w3);
+    var total = w.x + w.y + w.z;
+    if quad {
+        total += w.w;
+    }
+    return w / total;
+}
+
+// The smooth-vertex value of vertex c (3 f32 each in vertex_values).
+fn vertex_value(c: u32) -> vec3<f32> {
+    let at = 3u * c;
+    return vec3<f32>(vertex_values[at], vertex_values[at + 1u], vertex_values[at + 2u]);
 }
 
 // smooth.rs Reconstruction::at: the smooth radiosity at p on the element at file position e,
 // its corners' smooth-vertex values weighted by p's mean value coordinates.
 fn smooth_radiosity(e: u32, p: vec3<f32>) -> vec3<f32> {
     let s = smooth_elements[e];
-    let m = select(4u, 3u, s.c3 == NO_CORNER);
+    let quad = s.c3 != NO_CORNER;
     let n = vec3<f32>(normals[3u * e], normals[3u * e + 1u], normals[3u * e + 2u]);
-    var w = mean_value_weights(array<vec3<f32>, 4>(s.v0, s.v1, s.v2, s.v3), m, n, p);
-    var c = array<u32, 4>(s.c0, s.c1, s.c2, s.c3);
-    var sum = vec3<f32>(0.0);
-    for (var i = 0u; i < m; i++) {
-        let at = 3u * c[i];
-        sum = sum + w[i] * vec3<f32>(vertex_values[at], vertex_values[at + 1u], vertex_values[at + 2u]);
+    let w = mean_value_weights(s, quad, n, p);
+    var sum = w.x * vertex_value(s.c0) + w.y * vertex_value(s.c1) + w.z * vertex_value(s.c2);
+    if quad {
+        sum += w.w * vertex_value(s.c3);
     }
     return sum;
 }
