@@ -290,7 +290,8 @@ fn decision_lines(text: &str) -> Vec<String> {
 /// are the CPU's, and every pixel agrees with the CPU's within 2e-5 of its value (floor: 1e-3
 /// of the image's mean), as flat images do (the GPU evaluator's B agrees with the CPU's to 1e-5;
 /// the f32 reconstruction adds a few 1e-6, runtime/tests/gpu_trace.rs; measured on lavapipe:
-/// 1.1e-6 smooth, 5.2e-7 flat); `--reconstruct flat` on the GPU is the CPU's flat image.
+/// 1.1e-6 smooth, 5.2e-7 flat); `--reconstruct flat` on the GPU is the CPU's flat image;
+/// `lrr bench render --device gpu` checks its smooth frame and times it against flat.
 #[test]
 #[ignore = "needs a Vulkan adapter: scripts/test runs it with --ignored where lavapipe is installed"]
 fn a_baked_file_renders_smooth_on_the_gpu_as_on_the_cpu() {
@@ -376,5 +377,23 @@ fn a_baked_file_renders_smooth_on_the_gpu_as_on_the_cpu() {
     );
     assert!(smooth_worst <= 2e-5 && flat_worst <= 2e-5);
     assert!(changed > w * h / 4, "{changed}");
+    // `lrr bench render --device gpu` on it: the smooth frame against the CPU twin's, and
+    // against its flat twin's time.
+    let mut out = Vec::new();
+    let bench = ["lrr", "bench", "render", "--device", "gpu", "--file", lrr];
+    let args = bench.into_iter().chain(["--size", "64x48", "--runs", "1"]);
+    lrr_cli::run(args, &mut out).unwrap();
+    let text = String::from_utf8(out).unwrap();
+    assert!(
+        text.contains("against the CPU twin: 0 of 3072 pixels differ"),
+        "{text}"
+    );
+    for frame in ["primary only", "decided"] {
+        assert!(
+            text.contains(&format!("smooth shading ({frame}:")),
+            "{text}"
+        );
+    }
+    assert!(text.contains("decided, flat"), "{text}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
