@@ -258,6 +258,38 @@ fn params_struct_matches_its_rust_twin() {
 
 // The ray tracer's pass (`trace.wgsl`): self-contained, no optional capability.
 
+/// The group-0 bindings entry point `index` uses, by number, with their access.
+fn used_bindings(module: &Module, info: &ModuleInfo, index: usize) -> Vec<(u32, String, Access)> {
+    let used = info.get_entry_point(index);
+    let mut found: Vec<(u32, String, Access)> = module
+        .global_variables
+        .iter()
+        .filter(|(handle, _)| !used[*handle].is_empty())
+        .filter_map(|(_, var)| {
+            let binding = var.binding.as_ref()?;
+            assert_eq!(binding.group, 0);
+            let access = match var.space {
+                AddressSpace::Uniform => Access::Uniform,
+                AddressSpace::Storage { access } if access == StorageAccess::LOAD => Access::Read,
+                AddressSpace::Storage { access } if access.contains(StorageAccess::STORE) => {
+                    Access::ReadWrite
+                }
+                space => panic!("{space:?}"),
+            };
+            Some((binding.binding, var.name.clone()?, access))
+        })
+        .collect();
+    found.sort_by_key(|b| b.0);
+    found
+}
+
+fn expected_bindings(bindings: &[crate::Binding]) -> Vec<(u32, String, Access)> {
+    bindings
+        .iter()
+        .map(|b| (b.binding, b.name.to_owned(), b.access))
+        .collect()
+}
+
 fn parse_trace() -> Module {
     naga::front::wgsl::parse_str(crate::TRACE).unwrap_or_else(|e| {
         panic!(
@@ -337,31 +369,10 @@ fn trace_overrides_entry_point_and_bindings_are_the_hosts() {
     let entry = &module.entry_points[index];
     assert_eq!(entry.stage, ShaderStage::Compute);
     assert_eq!(entry.workgroup_size, [crate::TRACE_LANES, 1, 1]);
-    let used = info.get_entry_point(index);
-    let mut found: Vec<(u32, String, Access)> = module
-        .global_variables
-        .iter()
-        .filter(|(handle, _)| !used[*handle].is_empty())
-        .filter_map(|(_, var)| {
-            let binding = var.binding.as_ref()?;
-            assert_eq!(binding.group, 0);
-            let access = match var.space {
-                AddressSpace::Uniform => Access::Uniform,
-                AddressSpace::Storage { access } if access == StorageAccess::LOAD => Access::Read,
-                AddressSpace::Storage { access } if access.contains(StorageAccess::STORE) => {
-                    Access::ReadWrite
-                }
-                space => panic!("{space:?}"),
-            };
-            Some((binding.binding, var.name.clone()?, access))
-        })
-        .collect();
-    found.sort_by_key(|b| b.0);
-    let expected: Vec<(u32, String, Access)> = crate::TRACE_BINDINGS
-        .iter()
-        .map(|b| (b.binding, b.name.to_owned(), b.access))
-        .collect();
-    assert_eq!(found, expected);
+    assert_eq!(
+        used_bindings(&module, &info, index),
+        expected_bindings(crate::TRACE_BINDINGS)
+    );
 }
 
 /// `struct TraceParams` against [`crate::TraceParams::FIELDS`], and the sizes of the array
@@ -453,31 +464,10 @@ fn smooth_pass_compiles_and_matches_the_host() {
     let entry = &module.entry_points[index];
     assert_eq!(entry.stage, ShaderStage::Compute);
     assert_eq!(entry.workgroup_size, [crate::SMOOTH_LANES, 1, 1]);
-    let used = info.get_entry_point(index);
-    let mut found: Vec<(u32, String, Access)> = module
-        .global_variables
-        .iter()
-        .filter(|(handle, _)| !used[*handle].is_empty())
-        .filter_map(|(_, var)| {
-            let binding = var.binding.as_ref()?;
-            assert_eq!(binding.group, 0);
-            let access = match var.space {
-                AddressSpace::Uniform => Access::Uniform,
-                AddressSpace::Storage { access } if access == StorageAccess::LOAD => Access::Read,
-                AddressSpace::Storage { access } if access.contains(StorageAccess::STORE) => {
-                    Access::ReadWrite
-                }
-                space => panic!("{space:?}"),
-            };
-            Some((binding.binding, var.name.clone()?, access))
-        })
-        .collect();
-    found.sort_by_key(|b| b.0);
-    let expected: Vec<(u32, String, Access)> = crate::SMOOTH_BINDINGS
-        .iter()
-        .map(|b| (b.binding, b.name.to_owned(), b.access))
-        .collect();
-    assert_eq!(found, expected);
+    assert_eq!(
+        used_bindings(&module, &info, index),
+        expected_bindings(crate::SMOOTH_BINDINGS)
+    );
     let mut layouter = Layouter::default();
     layouter.update(module.to_ctx()).unwrap();
     let (handle, ty) = module
