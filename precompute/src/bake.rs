@@ -192,14 +192,19 @@ impl<'s> Prepared<'s> {
         if self.scene.is_grey() { 1 } else { 3 }
     }
 
-    /// Reflectance and emission of each element, in original id order.
+    /// Reflectance and emission of each element, in original id order (a textured
+    /// material's reflectance averaged over each element: `Scene::reflectance_over`).
     pub fn element_materials(&self) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let lut = crate::scene::texture::linear_lut();
         self.mesh
             .elements
             .iter()
             .map(|e| {
                 let m = &self.scene.materials[self.scene.faces[e.face as usize].material];
-                (m.reflectance, m.emission)
+                let rho = self
+                    .scene
+                    .reflectance_over(e.face as usize, &e.polygon, &lut);
+                (rho, m.emission)
             })
             .unzip()
     }

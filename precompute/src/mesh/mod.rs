@@ -111,6 +111,7 @@ mod tests {
             reflectance: [0.5; 3],
             emission: [0.0; 3],
             optics: Default::default(),
+            texture: None,
         });
         s.surfaces.push("needle".into());
         let v = [
@@ -122,6 +123,7 @@ mod tests {
             polygon: Polygon::new(&v).unwrap(),
             material: 0,
             surface: 0,
+            uv: [None, None],
         });
         s
     }

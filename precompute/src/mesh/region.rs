@@ -730,6 +730,7 @@ mod tests {
             polygon: Polygon::new(&v).unwrap(),
             material: 0,
             surface: 0,
+            uv: [None, None],
         }
     }
 

@@ -447,6 +447,7 @@ impl SceneDescription {
                 reflectance: m.reflectance,
                 emission: m.radiance.map(|k| k * std::f64::consts::PI),
                 optics: m.optics(Optics::default(), origin, &what)?,
+                texture: None,
             };
             scene.add_material(material, &format!("{origin}: material '{}'", m.name))?;
         }
@@ -518,7 +519,9 @@ impl SceneDescription {
             for m in scene.materials.iter_mut().filter(|m| m.name == o.name) {
                 found = true;
                 if let Some(r) = o.reflectance {
+                    // An explicit reflectance replaces a base colour texture too.
                     m.reflectance = r;
+                    m.texture = None;
                 }
                 if let Some(l) = o.radiance {
                     m.emission = l.map(|k| k * std::f64::consts::PI);
@@ -892,7 +895,16 @@ pub(super) fn box_polygons(b: &BoxDesc, lo: DVec3, hi: DVec3) -> Vec<(&'static s
 
 fn merge(scene: &mut Scene, sub: Scene, s: f64) {
     let mat_offset = scene.materials.len();
-    scene.materials.extend(sub.materials);
+    let tex_offset = scene.textures.len();
+    scene.textures.extend(sub.textures);
+    scene
+        .materials
+        .extend(sub.materials.into_iter().map(|mut m| {
+            if let Some(t) = &mut m.texture {
+                t.texture += tex_offset;
+            }
+            m
+        }));
     scene.warnings.extend(sub.warnings);
     scene.repairs.add(&sub.repairs);
     let scaled = |p: [f64; 3]| p.map(|x| x * s);
@@ -914,10 +926,11 @@ fn merge(scene: &mut Scene, sub: Scene, s: f64) {
         let surface = scene.surface(name);
         let v: Vec<DVec3> = f.polygon.vertices().iter().map(|v| *v * s).collect();
         // A face valid before scaling stays valid after it; duplicates are re-checked.
-        let _ = scene.add_polygon(
+        let _ = scene.add_polygon_uv(
             &v,
             f.material + mat_offset,
             surface,
+            f.uv.map(|m| m.map(|m| m.scaled(s))),
             &format!("include '{name}'"),
         );
     }

@@ -11,13 +11,18 @@
 //!   node (its name, else its mesh's, else `node N`), `surface/material` when its mesh uses
 //!   several materials.
 //! - Materials: `c` = baseColorFactor × the linear average of the baseColor texture over its
-//!   texels (per material, not per element), `m` = metallic, `r` = roughness,
+//!   texels (the material's mean), `m` = metallic, `r` = roughness,
 //!   `t` = KHR_materials_transmission. Diffuse reflectance `ρ = c·(1−m)·(1−t) + c·m·r` (a
 //!   rough metal scatters almost diffusely), mirror `c·m·(1−r)` (a smooth metal is a mirror),
 //!   transmission filter `c·(1−m)·t`, ior from KHR_materials_ior (glTF's default 1.5 for
 //!   transmissive materials). ρ at or above [`MAX_REFLECTANCE`] is clamped with a warning.
 //!   Emission: emissiveFactor × KHR_materials_emissive_strength × the emissive texture's average
 //!   is the radiance `L`; the exitance is `π·L` (as OBJ's `Ke`).
+//! - Textures: a baseColor texture varies ρ over the surface: each face keeps its triangle's
+//!   `TEXCOORD_0`/`TEXCOORD_1` as an affine map of its plane (`texture::UvMap`), and each
+//!   element's ρ is the texture's mean over its area times the same factors
+//!   (`Scene::reflectance_over`); primitives without the coordinate set take the material's
+//!   mean, with a warning. `TEXCOORD_1` is kept for lightmaps whatever the material.
 //! - Cameras (perspective) and KHR_lights_punctual point lights, placed by their nodes.
 //! - Extensions: required ones other than [`UNDERSTOOD`] are refused by name; used ones not
 //!   understood are warned about by name.
@@ -30,6 +35,7 @@ use glam::{DMat4, DQuat, DVec3};
 use gltf::json;
 
 use super::model::{Camera, Material, Optics, PointLight, Scene};
+use super::texture::{Texture, TextureBinding, UvMap, Wrap};
 use crate::error::{Error, Result};
 
 /// The extensions this importer reads (everything else is refused when required, warned about
@@ -43,7 +49,7 @@ pub const UNDERSTOOD: [&str; 4] = [
 
 /// Largest diffuse reflectance kept as is; above it a material is clamped (with a warning),
 /// since a reflectance of 1 makes a closed scene's radiosity system singular.
-pub const MAX_REFLECTANCE: f64 = 0.99;
+pub const MAX_REFLECTANCE: f64 = super::model::MAX_TEXTURED_REFLECTANCE;
 
 /// Reflectance of primitives without a material (with a warning; OBJ uses the same).
 const DEFAULT_REFLECTANCE: f64 = 0.5;
@@ -83,6 +89,7 @@ pub fn import(bytes: &[u8], base: &Path, name: &str, origin: &str) -> Result<Sce
         blob,
         buffers: HashMap::new(),
         materials: HashMap::new(),
+        textures: HashMap::new(),
         scene,
     };
     importer.buffers_checked()?;
@@ -242,6 +249,8 @@ struct Importer<'a> {
     buffers: HashMap<usize, Vec<u8>>,
     /// glTF material index (None: the default material) → scene material.
     materials: HashMap<Option<usize>, usize>,
+    /// glTF texture index → `Scene::textures`.
+    textures: HashMap<usize, usize>,
     scene: Scene,
 }
 
@@ -472,17 +481,50 @@ impl<'a> Importer<'a> {
                 .iter()
                 .map(|p| world.transform_point3(*p))
                 .collect();
+            let sets = self.texcoord_sets(&primitive, &what, positions.len(), material)?;
             let triangles = triangles(mode, &indices);
             for (t, tri) in triangles.into_iter().enumerate() {
                 let mut v = tri.map(|i| world_positions[i as usize]);
+                let uv = sets.each_ref().map(|set| {
+                    let set = set.as_ref()?;
+                    UvMap::from_triangle(v, tri.map(|i| set[i as usize]))
+                });
                 if mirrored {
                     v.swap(1, 2);
                 }
                 let location = format!("{}: {what} triangle {t}", self.origin);
-                self.scene.add_polygon(&v, material, surface, &location)?;
+                self.scene
+                    .add_polygon_uv(&v, material, surface, uv, &location)?;
             }
         }
         Ok(())
+    }
+
+    /// A primitive's `TEXCOORD_0` and `TEXCOORD_1`, where present; a material whose base
+    /// colour texture names a set the primitive lacks gets a warning (its mean is used).
+    fn texcoord_sets(
+        &mut self,
+        primitive: &gltf::Primitive,
+        what: &str,
+        vertices: usize,
+        material: usize,
+    ) -> Result<[Option<Vec<[f64; 2]>>; 2]> {
+        let mut sets = [None, None];
+        for (set, slot) in sets.iter_mut().enumerate() {
+            if let Some(a) = primitive.get(&gltf::Semantic::TexCoords(set as u32)) {
+                *slot = Some(self.read_texcoords(&a, what, set, vertices)?);
+            }
+        }
+        if let Some(t) = &self.scene.materials[material].texture
+            && sets[t.set].is_none()
+        {
+            self.scene.warnings.push(format!(
+                "{}: {what} has no TEXCOORD_{} for its material's baseColor texture; the \
+                 texture's mean over the image is used",
+                self.origin, t.set
+            ));
+        }
+        Ok(sets)
     }
 
     fn camera(&mut self, node: &gltf::Node, camera: &gltf::Camera, world: &DMat4) {
@@ -586,6 +628,7 @@ impl<'a> Importer<'a> {
                     reflectance: [DEFAULT_REFLECTANCE; 3],
                     emission: [0.0; 3],
                     optics: Optics::default(),
+                    texture: None,
                 },
                 self.origin,
             )?;
@@ -599,10 +642,14 @@ impl<'a> Importer<'a> {
             .unwrap_or_else(|| format!("material {index}"));
         let pbr = m.pbr_metallic_roughness();
         let factor = pbr.base_color_factor();
-        let mut c: [f64; 3] = [0, 1, 2].map(|i| f64::from(factor[i]));
+        let factor: [f64; 3] = [0, 1, 2].map(|i| f64::from(factor[i]));
+        let mut c = factor;
+        let mut base_texture = None;
         if let Some(info) = pbr.base_color_texture() {
-            let avg = self.texture_average(&info.texture(), &what)?;
+            let texture = self.texture(&info.texture(), &what)?;
+            let avg = self.scene.textures[texture].average();
             c = [0, 1, 2].map(|i| c[i] * avg[i]);
+            base_texture = Some((texture, info.tex_coord() as usize));
         }
         let clamp01 = |x: f32| f64::from(x).clamp(0.0, 1.0);
         let metal = clamp01(pbr.metallic_factor());
@@ -630,7 +677,24 @@ impl<'a> Importer<'a> {
                 ));
             }
         }
-        let mut reflectance = c.map(|c| c * (1.0 - metal) * (1.0 - trans) + c * metal * rough);
+        let diffuse_share = (1.0 - metal) * (1.0 - trans) + metal * rough;
+        let mut reflectance = c.map(|c| c * diffuse_share);
+        let texture = match base_texture {
+            Some((texture, set)) if set < 2 => Some(TextureBinding {
+                texture,
+                set,
+                scale: factor.map(|f| f * diffuse_share),
+            }),
+            Some((_, set)) => {
+                self.scene.warnings.push(format!(
+                    "{}: {what}: its baseColor texture uses TEXCOORD_{set}; lrr reads sets 0 and \
+                     1, so the texture's mean over the image is used",
+                    self.origin
+                ));
+                None
+            }
+            None => None,
+        };
         if reflectance.iter().any(|r| *r > MAX_REFLECTANCE) {
             self.scene.warnings.push(format!(
                 "{}: {what}: diffuse reflectance {reflectance:.3?} clamped to {MAX_REFLECTANCE} \
@@ -644,7 +708,8 @@ impl<'a> Importer<'a> {
         if let Some(info) = m.emissive_texture()
             && radiance.iter().any(|r| *r != 0.0)
         {
-            let avg = self.texture_average(&info.texture(), &what)?;
+            let texture = self.texture(&info.texture(), &what)?;
+            let avg = self.scene.textures[texture].average();
             radiance = [0, 1, 2].map(|i| radiance[i] * avg[i]);
         }
         let transmission = c.map(|c| c * (1.0 - metal) * trans);
@@ -674,6 +739,7 @@ impl<'a> Importer<'a> {
             reflectance,
             emission: radiance.map(|l| l * std::f64::consts::PI),
             optics,
+            texture,
         };
         let id = self
             .scene
@@ -682,8 +748,12 @@ impl<'a> Importer<'a> {
         Ok(id)
     }
 
-    /// The average linear RGB of a texture's image (sRGB decoded), each in [0, 1].
-    fn texture_average(&self, texture: &gltf::Texture, user: &str) -> Result<[f64; 3]> {
+    /// A texture's image decoded into `Scene::textures` (once per glTF texture), with its
+    /// sampler's wrap modes.
+    fn texture(&mut self, texture: &gltf::Texture, user: &str) -> Result<usize> {
+        if let Some(&id) = self.textures.get(&texture.index()) {
+            return Ok(id);
+        }
         let index = texture.source().index();
         let image = &self.doc.as_json().images[index];
         let what = format!("{user}: image {index}");
@@ -719,14 +789,27 @@ impl<'a> Importer<'a> {
         if texels == 0 {
             return Err(self.err(format!("{what} has no texels")));
         }
-        let lut: Vec<f64> = (0..256).map(|v| srgb_to_linear(v as f64 / 255.0)).collect();
-        let mut sum = [0.0f64; 3];
-        for p in rgb.pixels() {
-            for c in 0..3 {
-                sum[c] += lut[p.0[c] as usize];
-            }
-        }
-        Ok(sum.map(|s| s / texels as f64))
+        let wrap = |mode: gltf::texture::WrappingMode| match mode {
+            gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
+            gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
+            gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+        };
+        let sampler = texture.sampler();
+        let name = image
+            .name
+            .clone()
+            .unwrap_or_else(|| format!("image {index}"));
+        self.scene.textures.push(Texture {
+            name,
+            width: rgb.width() as usize,
+            height: rgb.height() as usize,
+            texels: rgb.pixels().map(|p| p.0).collect(),
+            wrap_u: wrap(sampler.wrap_s()),
+            wrap_v: wrap(sampler.wrap_t()),
+        });
+        let id = self.scene.textures.len() - 1;
+        self.textures.insert(texture.index(), id);
+        Ok(id)
     }
 
     /// The bytes of a buffer view, checked against its buffer.
@@ -858,6 +941,58 @@ impl<'a> Importer<'a> {
             .collect()
     }
 
+    /// A `TEXCOORD_n` accessor: VEC2 of FLOAT, or normalised UNSIGNED_BYTE / UNSIGNED_SHORT,
+    /// one per vertex, finite.
+    fn read_texcoords(
+        &self,
+        a: &gltf::Accessor,
+        primitive: &str,
+        set: usize,
+        vertices: usize,
+    ) -> Result<Vec<[f64; 2]>> {
+        use gltf::accessor::DataType;
+        let what = format!(
+            "{primitive}: TEXCOORD_{set} {}",
+            named("accessor", a.index(), a.name())
+        );
+        let size = match (a.dimensions(), a.data_type(), a.normalized()) {
+            (gltf::accessor::Dimensions::Vec2, DataType::F32, _) => 4,
+            (gltf::accessor::Dimensions::Vec2, DataType::U16, true) => 2,
+            (gltf::accessor::Dimensions::Vec2, DataType::U8, true) => 1,
+            (d, t, n) => {
+                return Err(self.err(format!(
+                    "{what} is {d:?} of {t:?}{}; texture coordinates must be VEC2 of FLOAT or of \
+                     normalized UNSIGNED_BYTE or UNSIGNED_SHORT",
+                    if n { " (normalized)" } else { "" }
+                )));
+            }
+        };
+        if a.count() != vertices {
+            return Err(self.err(format!(
+                "{what} has {} elements for {vertices} positions; every attribute needs one per \
+                 vertex",
+                a.count()
+            )));
+        }
+        let raw = self.elements(a, &what, 2 * size)?;
+        raw.chunks_exact(2 * size)
+            .enumerate()
+            .map(|(i, e)| {
+                let f = |k: usize| match size {
+                    4 => f64::from(f32::from_le_bytes(e[4 * k..4 * k + 4].try_into().unwrap())),
+                    2 => f64::from(u16::from_le_bytes([e[2 * k], e[2 * k + 1]])) / 65535.0,
+                    _ => f64::from(e[k]) / 255.0,
+                };
+                let uv = [f(0), f(1)];
+                if uv.iter().all(|x| x.is_finite()) {
+                    Ok(uv)
+                } else {
+                    Err(self.err(format!("{what}: coordinate {i} is {uv:?}, not finite")))
+                }
+            })
+            .collect()
+    }
+
     fn read_indices(
         &self,
         a: &gltf::Accessor,
@@ -917,15 +1052,6 @@ fn triangles(mode: gltf::mesh::Mode, idx: &[u32]) -> Vec<[u32; 3]> {
             .map(|i| [idx[i], idx[i + 1], idx[0]])
             .collect(),
         _ => Vec::new(),
-    }
-}
-
-/// The sRGB transfer function, inverted.
-fn srgb_to_linear(v: f64) -> f64 {
-    if v <= 0.04045 {
-        v / 12.92
-    } else {
-        ((v + 0.055) / 1.055).powf(2.4)
     }
 }
 

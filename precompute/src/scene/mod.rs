@@ -14,9 +14,11 @@ pub mod obj;
 mod polygon;
 pub mod procedural;
 pub mod showcase;
+pub mod texture;
 
 pub use model::{
-    BakeDefaults, Camera, Face, Material, Optics, PointLight, Repairs, Scene, SizeHints,
+    BakeDefaults, Camera, Face, MAX_TEXTURED_REFLECTANCE, Material, Optics, PointLight, Repairs,
+    Scene, SizeHints,
 };
 
 use crate::error::{Error, Result};

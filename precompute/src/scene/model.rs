@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use super::polygon;
+use super::texture::{self, Texture, TextureBinding, UvMap};
 use crate::error::{Error, Result};
 use crate::geometry::Polygon;
 
@@ -20,6 +21,9 @@ pub struct Material {
     pub emission: [f64; 3],
     /// What a ray tracer adds beyond the diffuse term (none for the radiosity itself).
     pub optics: Optics,
+    /// A base colour texture: the reflectance then varies over the surface (each element
+    /// takes the texture's mean over its area); `reflectance` is the mean over the image.
+    pub texture: Option<TextureBinding>,
 }
 
 /// The non-diffuse part of a material, for the ray tracer (MTL `Ks`/`Ns`/`illum`/`Ni`/`Tf`/`d`,
@@ -119,6 +123,10 @@ impl Material {
     }
 }
 
+/// Largest reflectance an element takes from a texture (a reflectance of 1 makes a closed
+/// scene's radiosity system singular); the glTF importer clamps whole materials likewise.
+pub const MAX_TEXTURED_REFLECTANCE: f64 = 0.99;
+
 /// One planar convex face of the scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Face {
@@ -128,6 +136,9 @@ pub struct Face {
     pub material: usize,
     /// Index into `Scene::surfaces`.
     pub surface: usize,
+    /// Texture coordinates of the face's plane, per set (`TEXCOORD_0`, `TEXCOORD_1`), where
+    /// the import had them.
+    pub uv: [Option<UvMap>; 2],
 }
 
 /// Mesh sizes a scene description may suggest (absolute lengths in scene units).
@@ -206,6 +217,8 @@ pub struct Scene {
     pub cameras: Vec<Camera>,
     /// Bake settings of the scene description (`[bake]`).
     pub bake: BakeDefaults,
+    /// Base colour textures, indexed by `TextureBinding::texture`.
+    pub textures: Vec<Texture>,
     /// Exact-duplicate detection: sorted quantised vertices → face index.
     seen: HashMap<Vec<[i64; 3]>, usize>,
 }
@@ -244,6 +257,19 @@ impl Scene {
         vertices: &[DVec3],
         material: usize,
         surface: usize,
+        location: &str,
+    ) -> Result<()> {
+        self.add_polygon_uv(vertices, material, surface, [None, None], location)
+    }
+
+    /// [`Scene::add_polygon`] with texture coordinates (an affine map per set, shared by the
+    /// pieces a polygon is split into).
+    pub(crate) fn add_polygon_uv(
+        &mut self,
+        vertices: &[DVec3],
+        material: usize,
+        surface: usize,
+        uv: [Option<UvMap>; 2],
         location: &str,
     ) -> Result<()> {
         if let Some(bad) = vertices.iter().find(|v| !v.is_finite()) {
@@ -294,6 +320,7 @@ impl Scene {
                 polygon,
                 material,
                 surface,
+                uv,
             });
         }
         Ok(())
@@ -334,6 +361,7 @@ impl Scene {
         for f in &mut self.faces {
             let v: Vec<DVec3> = f.polygon.vertices().iter().map(|v| *v * s).collect();
             f.polygon = Polygon::new(&v).expect("scaling keeps a valid polygon valid");
+            f.uv = f.uv.map(|m| m.map(|m| m.scaled(s)));
         }
         if let Some(e) = &mut self.hints.element_size {
             *e *= s;
@@ -343,11 +371,38 @@ impl Scene {
         }
     }
 
-    /// True when every reflectance is grey (r = g = b): the bake then needs one channel.
+    /// True when every reflectance is grey (r = g = b), textures included: the bake then
+    /// needs one channel.
     pub(crate) fn is_grey(&self) -> bool {
+        let grey = |r: [f64; 3]| r[0] == r[1] && r[1] == r[2];
         self.faces.iter().all(|f| {
-            let r = self.materials[f.material].reflectance;
-            r[0] == r[1] && r[1] == r[2]
+            let m = &self.materials[f.material];
+            grey(m.reflectance)
+                && match self.texture_of(f) {
+                    Some(t) => grey(t.scale) && self.textures[t.texture].is_grey(),
+                    None => true,
+                }
         })
+    }
+
+    /// The texture binding that applies to a face: its material's, when the face has the
+    /// coordinate set it names.
+    fn texture_of(&self, face: &Face) -> Option<&TextureBinding> {
+        let t = self.materials[face.material].texture.as_ref()?;
+        face.uv.get(t.set)?.as_ref().map(|_| t)
+    }
+
+    /// The diffuse reflectance of `polygon`, a piece of face `face` (an element): the
+    /// material's, or with a base colour texture the texture's mean over the piece times the
+    /// binding's scale, each channel at most [`MAX_TEXTURED_REFLECTANCE`].
+    pub fn reflectance_over(&self, face: usize, polygon: &Polygon, lut: &[f64; 256]) -> [f64; 3] {
+        let f = &self.faces[face];
+        let m = &self.materials[f.material];
+        let Some(t) = self.texture_of(f) else {
+            return m.reflectance;
+        };
+        let map = f.uv[t.set].as_ref().expect("texture_of checked the set");
+        let mean = texture::element_average(&self.textures[t.texture], lut, map, polygon);
+        [0, 1, 2].map(|c| (t.scale[c] * mean[c]).min(MAX_TEXTURED_REFLECTANCE))
     }
 }

@@ -76,6 +76,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             reflectance: kd,
             emission: ke.map(|k| k * std::f64::consts::PI),
             optics: optics(m, &mtl_location, &mut scene.warnings)?,
+            texture: None,
         };
         material_ids.push(scene.add_material(material, &location)?);
     }
@@ -96,6 +97,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                     reflectance: [DEFAULT_REFLECTANCE; 3],
                     emission: [0.0; 3],
                     optics: Default::default(),
+                    texture: None,
                 });
                 scene.materials.len() - 1
             }),

@@ -10,6 +10,7 @@ mod files;
 mod furnace;
 mod fuzz_replay;
 mod gltf;
+mod gltf_textures;
 mod import;
 mod meshing;
 mod reference;

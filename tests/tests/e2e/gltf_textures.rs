@@ -1,0 +1,305 @@
+//! glTF base colour textures varying the reflectance over a surface: each element takes the
+//! texture's mean over its area (`Scene::reflectance_over`), checked after a bake against the
+//! texels the element covers; texture coordinates in every accepted encoding; bad ones refused
+//! with the accessor named.
+
+use serde_json::{Value, json};
+
+use super::gltf::Builder;
+use crate::util::{bake, temp_dir};
+
+/// An 8×8 texture of four 4×4 blocks: red, green (top row of blocks), blue, white (bottom).
+const BLOCKS: [[u8; 3]; 4] = [[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255]];
+
+fn png_blocks() -> Vec<u8> {
+    let mut texels = Vec::with_capacity(8 * 8 * 3);
+    for y in 0..8 {
+        for x in 0..8 {
+            texels.extend_from_slice(&BLOCKS[2 * (y / 4) + x / 4]);
+        }
+    }
+    let mut out = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut out),
+        &texels,
+        8,
+        8,
+        image::ColorType::Rgb8,
+    )
+    .unwrap();
+    out
+}
+
+/// Texture coordinates in one of the encodings glTF allows: FLOAT, or normalised
+/// UNSIGNED_SHORT / UNSIGNED_BYTE (component types 5126, 5123, 5121).
+fn texcoords(b: &mut Builder, uv: &[[f64; 2]], component: u32) -> usize {
+    let bytes: Vec<u8> = match component {
+        5126 => uv
+            .iter()
+            .flatten()
+            .flat_map(|x| (*x as f32).to_le_bytes())
+            .collect(),
+        5123 => uv
+            .iter()
+            .flatten()
+            .flat_map(|x| ((x * 65535.0).round() as u16).to_le_bytes())
+            .collect(),
+        _ => uv
+            .iter()
+            .flatten()
+            .map(|x| (x * 255.0).round() as u8)
+            .collect(),
+    };
+    let view = b.view(&bytes, None);
+    b.accessor(
+        json!({"bufferView": view, "componentType": component, "normalized": component != 5126,
+        "count": uv.len(), "type": "VEC2"}),
+    )
+}
+
+/// A 2 × 2 floor at z = 0 (two triangles, TEXCOORD_0 = (x/2, 1 − y/2): the image upright,
+/// seen from above) under the textured material, and a lamp above it; `component` encodes the
+/// texture coordinates.
+fn textured_floor(component: u32) -> Builder {
+    let mut b = Builder::default();
+    let floor = b.positions(&[
+        [0.0, 0.0, 0.0],
+        [2.0, 0.0, 0.0],
+        [2.0, 2.0, 0.0],
+        [0.0, 2.0, 0.0],
+    ]);
+    let uv = texcoords(
+        &mut b,
+        &[[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]],
+        component,
+    );
+    let idx = b.indices(&[0, 1, 2, 0, 2, 3]);
+    let lamp = b.positions(&[
+        [0.5, 0.5, 1.0],
+        [0.5, 1.5, 1.0],
+        [1.5, 1.5, 1.0],
+        [1.5, 0.5, 1.0],
+    ]);
+    let lamp_idx = b.indices(&[0, 1, 2, 0, 2, 3]);
+    let png = png_blocks();
+    let img = b.view(&png, None);
+    b.push(
+        "images",
+        json!({"bufferView": img, "mimeType": "image/png"}),
+    );
+    // Clamp to edge: the outer rows of elements see their own block only.
+    b.push("samplers", json!({"wrapS": 33071, "wrapT": 33071}));
+    b.push("textures", json!({"source": 0, "sampler": 0}));
+    b.push(
+        "materials",
+        json!({"name": "tiles", "pbrMetallicRoughness": {
+        "baseColorFactor": [0.8, 0.8, 0.8, 1.0], "baseColorTexture": {"index": 0},
+        "metallicFactor": 0.0}}),
+    );
+    b.push(
+        "materials",
+        json!({"name": "lamp", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0],
+        "metallicFactor": 0.0}, "emissiveFactor": [1.0, 1.0, 1.0]}),
+    );
+    b.push(
+        "meshes",
+        json!({"name": "floor", "primitives": [{"attributes": {"POSITION": floor,
+        "TEXCOORD_0": uv}, "indices": idx, "material": 0}]}),
+    );
+    b.push(
+        "meshes",
+        json!({"name": "lamp", "primitives": [{"attributes": {"POSITION": lamp},
+        "indices": lamp_idx, "material": 1}]}),
+    );
+    b.push("nodes", json!({"name": "floor", "mesh": 0}));
+    b.push("nodes", json!({"name": "lamp", "mesh": 1}));
+    b.push("scenes", json!({"nodes": [0, 1]}));
+    b
+}
+
+fn srgb_to_linear(v: f64) -> f64 {
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Element centres and reflectances of a baked file (file order).
+fn baked_floor(file: &lrr_formats::OperatorFile) -> Vec<([f64; 3], [f64; 3])> {
+    let g = &file.geometry;
+    (0..file.n as usize)
+        .map(|e| {
+            let c = usize::from(g.vertex_count[e]);
+            let mut centre = [0.0; 3];
+            for i in 0..c {
+                for (k, x) in centre.iter_mut().enumerate() {
+                    *x += f64::from(g.vertices[12 * e + 3 * i + k]) / c as f64;
+                }
+            }
+            let rho = [0, 1, 2].map(|k| f64::from(file.reflectance[3 * e + k]));
+            (centre, rho)
+        })
+        .filter(|(c, _)| c[2] < 0.5)
+        .collect()
+}
+
+#[test]
+fn each_element_takes_the_mean_of_the_texels_it_covers() {
+    let dir = temp_dir("gltf-texture");
+    for component in [5126, 5123, 5121] {
+        let path = dir.join(format!("floor-{component}.glb"));
+        std::fs::write(&path, textured_floor(component).glb()).unwrap();
+        let scene = lrr_precompute::scene::load(&path).unwrap();
+        assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+        assert_eq!(scene.textures.len(), 1);
+        let out = dir.join(format!("floor-{component}.lrr"));
+        // Elements of 0.25 on the 2 × 2 floor: one texel each (8 × 8), one block per 4 × 4.
+        bake(
+            &path,
+            &out,
+            &["--element-size", "0.25", "--patch-size", "1"],
+        )
+        .unwrap();
+        let file = lrr_formats::OperatorFile::read(&out).unwrap();
+        assert_eq!(file.channels, 3, "a coloured texture needs three channels");
+        let floor = baked_floor(&file);
+        assert_eq!(floor.len(), 64);
+        let factor = f64::from(0.8f32);
+        let mut mean = [0.0; 3];
+        for (centre, rho) in &floor {
+            // Texel column and row of the element (v = 1 − y/2 puts y = 2 at the top row).
+            let (tx, ty) = (
+                (centre[0] * 4.0) as usize,
+                ((2.0 - centre[1]) * 4.0) as usize,
+            );
+            let block = BLOCKS[2 * (ty / 4) + tx / 4];
+            // An element one texel or more from a block edge sees its block's colour only
+            // (bilinear filtering reaches half a texel).
+            let inner = |t: usize| t % 4 != 3 && t % 4 != 0 || t == 0 || t == 7;
+            if inner(tx) && inner(ty) {
+                let want = block.map(|c| factor * srgb_to_linear(f64::from(c) / 255.0));
+                for k in 0..3 {
+                    // The file stores f32.
+                    assert!(
+                        (rho[k] - want[k]).abs() < 1e-6,
+                        "element at {centre:?} (texel {tx}, {ty}): {rho:?}, want {want:?}"
+                    );
+                }
+            }
+            for k in 0..3 {
+                mean[k] += rho[k] / 64.0;
+            }
+        }
+        // Over the floor the elements average to the material's mean (the image's mean times
+        // the factor): bilinear blending at block edges only moves colour across them.
+        let material = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
+        for k in 0..3 {
+            let err = (mean[k] - material.reflectance[k]).abs() / material.reflectance[k];
+            assert!(
+                err < 2e-3,
+                "mean {mean:?} vs material {:?}",
+                material.reflectance
+            );
+        }
+    }
+}
+
+#[test]
+fn an_override_replaces_the_texture_and_a_missing_texcoord_falls_back_to_the_mean() {
+    let dir = temp_dir("gltf-texture-override");
+    std::fs::write(dir.join("floor.glb"), textured_floor(5126).glb()).unwrap();
+    let toml = "name = \"tiles\"\n[[include]]\ngltf = \"floor.glb\"\n\
+                [[material_override]]\nname = \"tiles\"\nreflectance = [0.3, 0.3, 0.3]\n";
+    std::fs::write(dir.join("scene.toml"), toml).unwrap();
+    let out = dir.join("scene.lrr");
+    bake(
+        &dir.join("scene.toml"),
+        &out,
+        &["--element-size", "0.25", "--patch-size", "1"],
+    )
+    .unwrap();
+    let file = lrr_formats::OperatorFile::read(&out).unwrap();
+    assert_eq!(file.channels, 1, "a grey override leaves a grey scene");
+    for (_, rho) in baked_floor(&file) {
+        assert!((rho[0] - 0.3).abs() < 1e-7, "{rho:?}");
+    }
+    // Without TEXCOORD_0 the material's mean applies, and a warning says so.
+    let mut root: Value = serde_json::from_str(&textured_floor(5126).gltf()).unwrap();
+    root["meshes"][0]["primitives"][0]["attributes"]
+        .as_object_mut()
+        .unwrap()
+        .remove("TEXCOORD_0");
+    let path = dir.join("no-uv.gltf");
+    std::fs::write(&path, root.to_string()).unwrap();
+    let scene = lrr_precompute::scene::load(&path).unwrap();
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("no TEXCOORD_0") && w.contains("mean")),
+        "{:?}",
+        scene.warnings
+    );
+    let out = dir.join("no-uv.lrr");
+    bake(
+        &path,
+        &out,
+        &["--element-size", "0.25", "--patch-size", "1"],
+    )
+    .unwrap();
+    let file = lrr_formats::OperatorFile::read(&out).unwrap();
+    let material = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
+    for (_, rho) in baked_floor(&file) {
+        for k in 0..3 {
+            assert!((rho[k] - material.reflectance[k]).abs() < 1e-7, "{rho:?}");
+        }
+    }
+}
+
+#[test]
+fn bad_texture_coordinates_are_refused_with_the_accessor_named() {
+    let import = |root: Value| {
+        lrr_precompute::scene::gltf::import(
+            root.to_string().as_bytes(),
+            std::path::Path::new("."),
+            "floor",
+            "floor.gltf",
+        )
+        .map(|_| ())
+        .expect_err("accepted bad texture coordinates")
+        .to_string()
+    };
+    let root = || -> Value { serde_json::from_str(&textured_floor(5126).gltf()).unwrap() };
+    let uv = 1; // the TEXCOORD_0 accessor (after the floor's positions)
+    let mut wrong_type = root();
+    wrong_type["accessors"][uv]["type"] = json!("VEC3");
+    let mut short = root();
+    short["accessors"][uv]["count"] = json!(3);
+    // A NaN coordinate, written as the float it is.
+    let mut b = textured_floor(5126);
+    let nan = texcoords(
+        &mut b,
+        &[[0.0, 1.0], [f64::NAN, 1.0], [1.0, 0.0], [0.0, 0.0]],
+        5126,
+    );
+    let mut not_finite: Value = serde_json::from_str(&b.gltf()).unwrap();
+    not_finite["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(nan);
+    for (root, parts) in [
+        (
+            wrong_type,
+            &["TEXCOORD_0", "accessor 1", "VEC2 of FLOAT"][..],
+        ),
+        (short, &["TEXCOORD_0", "3 elements for 4 positions"][..]),
+        (
+            not_finite,
+            &["TEXCOORD_0", "coordinate 1", "not finite"][..],
+        ),
+    ] {
+        let e = import(root);
+        for p in parts {
+            assert!(e.contains(p), "error lacks '{p}': {e}");
+        }
+        assert!(e.starts_with("floor.gltf"), "{e}");
+    }
+}
