@@ -19,7 +19,7 @@ use crate::file::{Geometry, Layout, OperatorData, OperatorFile, Precision, Store
 use crate::kind;
 use crate::validate::{Sizes, check_dims, check_fk};
 use crate::writer::{ContainerWriter, Streamed};
-use crate::{bvh, cameras, lights, materials, point_lights, smooth};
+use crate::{bvh, cameras, lightmap, lights, materials, point_lights, smooth};
 
 /// Bytes in the DIMS payload: n, k, channels, precision, layout, 3 reserved, all u32.
 pub(crate) const DIMS_LEN: usize = 32;
@@ -63,6 +63,8 @@ impl OperatorFile {
 /// The minor version stamped on files without display sections: the version that describes
 /// them completely, so that they keep the bytes a 1.1 writer gave them.
 pub(crate) const MINOR_WITHOUT_DISPLAY: u16 = 1;
+/// The minor version of files with display sections but no LIGHTMAP (what a 1.2 writer gave).
+pub(crate) const MINOR_WITHOUT_LIGHTMAP: u16 = 2;
 
 /// Sections before FK in a factored file: METADATA, DIMS, ORDER, INDEX, WEIGHTS.
 const SECTIONS_BEFORE_FK: usize = 5;
@@ -168,6 +170,8 @@ fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter {
     add_display(&mut w, &file.display);
     if file.display == Display::default() {
         w.set_version(VERSION_MAJOR, MINOR_WITHOUT_DISPLAY);
+    } else if file.display.lightmap.is_none() {
+        w.set_version(VERSION_MAJOR, MINOR_WITHOUT_LIGHTMAP);
     }
     w
 }
@@ -194,6 +198,9 @@ fn add_display(w: &mut ContainerWriter, d: &Display) {
     if let Some(b) = &d.bvh {
         w.add(kind::BVH, false, bvh::encode(b));
     }
+    if let Some(l) = &d.lightmap {
+        w.add(kind::LIGHTMAP, false, lightmap::encode(l));
+    }
 }
 
 /// The display sections of `c` for `n` elements; lengths are checked, values are not.
@@ -216,6 +223,10 @@ fn decode_display(c: &Container<'_>, n: usize) -> Result<Display, FormatError> {
             None => Vec::new(),
         },
         bvh: c.section(kind::BVH).map(bvh::decode).transpose()?,
+        lightmap: c
+            .section(kind::LIGHTMAP)
+            .map(|p| lightmap::decode(p, n))
+            .transpose()?,
     })
 }
 
@@ -462,7 +473,7 @@ mod tests {
         assert_eq!(Container::parse(&plain).unwrap().version(), (1, 1));
         let full = encode(&display_sample());
         let c = Container::parse(&full).unwrap();
-        assert_eq!(c.version(), (1, crate::VERSION_MINOR));
+        assert_eq!(c.version(), (1, 2));
         let display = [
             kind::SMOOTH,
             kind::MATERIALS,
@@ -477,6 +488,57 @@ mod tests {
         one.display.cameras = display_sample().display.cameras;
         let c_bytes = encode(&one);
         assert_eq!(Container::parse(&c_bytes).unwrap().version(), (1, 2));
+        // LIGHTMAP makes a 1.3 file (the newest), written last.
+        let mut lit = display_sample();
+        lit.display.lightmap = Some(crate::LightmapUv { uv: lit_uv(&lit) });
+        let bytes = encode(&lit);
+        let c = Container::parse(&bytes).unwrap();
+        assert_eq!(c.version(), (1, crate::VERSION_MINOR));
+        assert_eq!(c.kinds().last(), Some(kind::LIGHTMAP));
+        assert_eq!(OperatorFile::from_bytes(&bytes).unwrap(), lit);
+    }
+
+    /// Lightmap coordinates for every used corner of `f` (a triangle's fourth left zero).
+    fn lit_uv(f: &OperatorFile) -> Vec<f32> {
+        let mut uv = vec![0.0; 8 * f.n as usize];
+        for e in 0..f.n as usize {
+            for c in 0..usize::from(f.geometry.vertex_count[e]) {
+                uv[8 * e + 2 * c] = e as f32 / 8.0;
+                uv[8 * e + 2 * c + 1] = c as f32 / 4.0;
+            }
+        }
+        uv
+    }
+
+    #[test]
+    fn lightmap_coordinates_are_checked() {
+        let mut lit = display_sample();
+        let good = lit_uv(&lit);
+        let triangle = (0..lit.n as usize)
+            .find(|&e| lit.geometry.vertex_count[e] == 3)
+            .expect("the sample has a triangle");
+        let nan = |uv: &mut Vec<f32>| uv[1] = f32::NAN;
+        let fourth = |uv: &mut Vec<f32>| uv[8 * triangle + 6] = 0.5;
+        let short = |uv: &mut Vec<f32>| {
+            uv.pop();
+        };
+        let edits: [(&dyn Fn(&mut Vec<f32>), &str); 3] = [
+            (&nan, "not finite"),
+            (&fourth, "unused fourth corner"),
+            (&short, "expected n * 8"),
+        ];
+        for (edit, want) in edits {
+            let mut uv = good.clone();
+            edit(&mut uv);
+            lit.display.lightmap = Some(crate::LightmapUv { uv });
+            let e = lit
+                .validate()
+                .expect_err("bad lightmap coordinates accepted");
+            assert!(e.to_string().contains(want), "{e}");
+        }
+        // A payload of the wrong length is corrupt, not a panic.
+        assert!(crate::lightmap::decode(&[0u8; 31], 1).is_err());
+        assert!(crate::lightmap::decode(&[0u8; 32], 1).is_ok());
     }
 
     #[test]

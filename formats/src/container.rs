@@ -18,7 +18,7 @@ pub const MAGIC: [u8; 8] = *b"\x89LRR\r\n\x1a\n";
 pub const VERSION_MAJOR: u16 = 1;
 /// The newest minor format version this crate writes (files without the display sections of
 /// 1.2 are stamped 1.1); files of any minor version are read.
-pub const VERSION_MINOR: u16 = 2;
+pub const VERSION_MINOR: u16 = 3;
 /// Bytes in the header.
 pub const HEADER_LEN: usize = 64;
 /// Bytes per section table entry.

@@ -167,4 +167,16 @@ pub struct Display {
     pub cameras: Vec<Camera>,
     /// The BVH over the display triangles (section BVH).
     pub bvh: Option<Bvh>,
+    /// The scene's own lightmap coordinates (section LIGHTMAP, format 1.3).
+    pub lightmap: Option<LightmapUv>,
+}
+
+/// Lightmap texture coordinates from the scene (glTF `TEXCOORD_1`): where each element corner
+/// lies in the user's lightmap atlas, `[0, 1]²` the atlas (values outside wrap or clamp as the
+/// user's sampler does; exports keep what falls inside).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LightmapUv {
+    /// `n * 4 * 2`: `u, v` of each element corner in file order, corners as GEOMETRY stores
+    /// them; finite; a triangle's unused fourth corner is zeros.
+    pub uv: Vec<f32>,
 }

@@ -2,7 +2,7 @@
 //!
 //! Every kind listed here is known to this reader. The writer marks all of them *required* except
 //! [`LIGHTS`] (optional, so that readers of format 1.0 skip it) and the display sections of format
-//! 1.2, [`SMOOTH`] to [`BVH`] (optional: a reader that only evaluates skips them); a reader that meets a required
+//! 1.2 and 1.3, [`SMOOTH`] to [`LIGHTMAP`] (optional: a reader that only evaluates skips them); a reader that meets a required
 //! kind it does not know refuses the file, and skips unknown optional ones. New kinds take new
 //! codes; a code is never reused for another meaning.
 
@@ -42,11 +42,13 @@ pub const POINT_LIGHTS: u32 = 15;
 pub const CAMERAS: u32 = 16;
 /// The flattened binary BVH over the display triangles (format 1.2, optional).
 pub const BVH: u32 = 17;
+/// Lightmap texture coordinates of every element corner (format 1.3, optional).
+pub const LIGHTMAP: u32 = 18;
 
 /// Every kind this reader knows, by code. The writer stores them in this order, leaving out the
 /// operator sections of the other layout (FK and CORES, or YK), an empty LIGHTS and the display
 /// sections the file lacks.
-pub const KNOWN: [u32; 17] = [
+pub const KNOWN: [u32; 18] = [
     METADATA,
     DIMS,
     ORDER,
@@ -64,6 +66,7 @@ pub const KNOWN: [u32; 17] = [
     POINT_LIGHTS,
     CAMERAS,
     BVH,
+    LIGHTMAP,
 ];
 
 /// The name of a known kind (`"FK"`), `None` for unknown codes.
@@ -86,6 +89,7 @@ pub fn name(kind: u32) -> Option<&'static str> {
         POINT_LIGHTS => "POINT_LIGHTS",
         CAMERAS => "CAMERAS",
         BVH => "BVH",
+        LIGHTMAP => "LIGHTMAP",
         _ => return None,
     })
 }
@@ -118,6 +122,7 @@ mod tests {
         assert_eq!(describe(99), "kind 99");
         assert_eq!(describe(CORES), "CORES (kind 7)");
         assert_eq!(describe(BVH), "BVH (kind 17)");
-        assert_eq!(KNOWN.last(), Some(&BVH));
+        assert_eq!(describe(LIGHTMAP), "LIGHTMAP (kind 18)");
+        assert_eq!(KNOWN.last(), Some(&LIGHTMAP));
     }
 }

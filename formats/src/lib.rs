@@ -44,7 +44,7 @@
 //! certain), not tampering: anyone can recompute them.
 //!
 //! The sections of an operator file, all written as required except LIGHTS and the display
-//! sections (13 to 17), which are optional:
+//! sections (13 to 18), which are optional:
 //!
 //! | kind | name | payload |
 //! |-----:|------|---------|
@@ -65,6 +65,7 @@
 //! | 15 | [`POINT_LIGHTS`](kind::POINT_LIGHTS) | optional (1.2), absent when there are none: [`PointLight`]s |
 //! | 16 | [`CAMERAS`](kind::CAMERAS) | optional (1.2), absent when there are none: [`Camera`]s |
 //! | 17 | [`BVH`](kind::BVH) | optional (1.2): the flattened BVH over the display triangles ([`Bvh`]) |
+//! | 18 | [`LIGHTMAP`](kind::LIGHTMAP) | optional (1.3): `n * 4 * 2` × f32, lightmap `u, v` of each element corner as GEOMETRY stores them, a triangle's 4th zero ([`LightmapUv`]) |
 //!
 //! The factored layout stores FK and CORES and no YK; the plain layout stores YK and neither FK
 //! nor CORES. A file holding a section of the other layout is refused.
@@ -140,8 +141,9 @@
 //! refuses plain files and reads factored files with light groups as if they had none; this
 //! reader reads 1.0 files unchanged. Version 1.2 added the display sections SMOOTH, MATERIALS,
 //! POINT_LIGHTS, CAMERAS and BVH, all optional: a 1.1 reader evaluates a 1.2 file as if they
-//! were not there. A file is stamped with the lowest minor version that describes it: 1.1
-//! without display sections (the bytes a 1.1 writer gave), 1.2 with any.
+//! were not there. Version 1.3 added LIGHTMAP (optional), the scene's own lightmap coordinates.
+//! A file is stamped with the lowest minor version that describes it: 1.1 without display
+//! sections (the bytes a 1.1 writer gave), 1.2 with any but LIGHTMAP, 1.3 with LIGHTMAP.
 //!
 //! A reader also refuses ([`ErrorKind`] says which kind of fault): a wrong magic; a table or
 //! payload past the end of the file; a payload offset that is misaligned or inside the table;
@@ -223,6 +225,7 @@ mod error;
 mod file;
 mod half;
 pub mod kind;
+mod lightmap;
 mod lights;
 mod materials;
 mod point_lights;
@@ -239,7 +242,9 @@ pub use container::{
     ALIGN, Container, FLAG_REQUIRED, HEADER_CHECKSUM_OFFSET, HEADER_LEN, MAGIC, SECTION_ENTRY_LEN,
     Section, VERSION_MAJOR, VERSION_MINOR,
 };
-pub use display::{Bvh, BvhNode, Camera, Display, Material, Materials, PointLight, Smooth};
+pub use display::{
+    Bvh, BvhNode, Camera, Display, LightmapUv, Material, Materials, PointLight, Smooth,
+};
 pub use error::{ErrorKind, FormatError};
 pub use file::{
     Geometry, Layout, LightGroup, MAX_CONDITION, OperatorData, OperatorFile, Precision,

@@ -157,6 +157,7 @@ pub(crate) fn display_sample() -> OperatorFile {
             ],
             triangles: vec![4, 3, 2, 1, 0, 5, 6, 7, 8],
         }),
+        lightmap: None,
     };
     f
 }

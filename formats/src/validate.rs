@@ -8,7 +8,7 @@ use crate::bytes::checked_product;
 use crate::error::FormatError;
 use crate::file::{OperatorData, OperatorFile, StoredMatrix};
 use crate::half::f16_to_f32;
-use crate::{bvh, cameras, lights, materials, point_lights, smooth};
+use crate::{bvh, cameras, lightmap, lights, materials, point_lights, smooth};
 
 /// How far a stored normal's length may be from 1.
 const NORMAL_TOLERANCE: f64 = 1e-3;
@@ -121,6 +121,9 @@ fn check_display(f: &OperatorFile) -> Result<(), FormatError> {
     }
     point_lights::check(f, &d.point_lights)?;
     cameras::check(&d.cameras)?;
+    if let Some(l) = &d.lightmap {
+        lightmap::check(f, l)?;
+    }
     match &d.bvh {
         Some(b) => bvh::check(f, b),
         None => Ok(()),

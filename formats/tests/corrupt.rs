@@ -26,7 +26,7 @@ fn round_trip_is_byte_exact() {
         // are optional.
         let c = Container::parse(&bytes).unwrap();
         assert!(c.sections().iter().all(|s| s.offset % 64 == 0));
-        let optional = |k| k == kind::LIGHTS || DISPLAY_KINDS.contains(&k);
+        let optional = |k| k == kind::LIGHTS || k == kind::LIGHTMAP || DISPLAY_KINDS.contains(&k);
         assert!(
             c.sections()
                 .iter()
@@ -41,6 +41,7 @@ fn round_trip_is_byte_exact() {
             })
             .filter(|&k| k != kind::LIGHTS || !file.lights.is_empty())
             .filter(|&k| !DISPLAY_KINDS.contains(&k) || display)
+            .filter(|&k| k != kind::LIGHTMAP || file.display.lightmap.is_some())
             .collect();
         assert_eq!(c.kinds().collect::<Vec<_>>(), expected);
         // A file is stamped with the lowest minor version that describes it.
@@ -155,12 +156,12 @@ fn newer_minor_version_is_read() {
     }
 }
 
-/// The sample's sections plus one of `extra_kind`, written by a writer of version 1.3.
+/// The sample's sections plus one of `extra_kind`, written by a writer of version 1.4.
 fn with_extra_section(file: &OperatorFile, extra_kind: u32, required: bool) -> Vec<u8> {
     let bytes = file.to_bytes().unwrap();
     let c = Container::parse(&bytes).unwrap();
     let mut w = ContainerWriter::new();
-    w.set_version(1, 3);
+    w.set_version(1, 4);
     w.add(
         extra_kind,
         required,

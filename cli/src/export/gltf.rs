@@ -23,8 +23,7 @@ use json::validation::Checked::Valid;
 use json::validation::USize64;
 use lrr_formats::{Geometry, OperatorFile};
 
-use super::atlas::Layout;
-use super::charts::{Chart, corners, normal};
+use super::charts::{corners, normal};
 use super::field::Field;
 
 /// The exported triangles with their vertex attributes.
@@ -39,42 +38,41 @@ pub struct MeshData {
     pub indices: Vec<u32>,
 }
 
-/// The lightmap a mesh refers to: its charts, their layout and the chart of each file position.
-pub struct Lightmap<'a> {
-    pub charts: &'a [Chart],
-    pub layout: &'a Layout,
+/// The lightmap a mesh refers to: the lightmap UV of every element corner and the seam it
+/// lies on (corners share a vertex only on the same seam), and the image.
+pub struct Lightmap {
+    /// `n * 4`: UV of corner `c` of file position `s` at `4 s + c`.
+    pub uvs: Vec<[f32; 2]>,
+    /// `n * 4`: the seam key of each corner (generated: the chart; the scene's: the UV bits).
+    pub seams: Vec<u64>,
     pub png: Vec<u8>,
 }
 
 /// The mesh of `g` with the field's values (`exposure × B/π`) and, with `lightmap`, its UVs.
 pub fn mesh(g: &Geometry, field: &Field, exposure: f32, lightmap: Option<&Lightmap>) -> MeshData {
     let n = g.vertex_count.len();
-    let mut chart_of = vec![0usize; if lightmap.is_some() { n } else { 0 }];
-    for (c, chart) in lightmap.iter().flat_map(|l| l.charts.iter().enumerate()) {
-        for &s in &chart.elements {
-            chart_of[s as usize] = c;
-        }
-    }
     let scale = exposure / std::f32::consts::PI;
     let mut out = MeshData {
         uvs: lightmap.map(|_| Vec::new()),
         ..MeshData::default()
     };
-    let mut ids: HashMap<(u64, usize), u32> = HashMap::new();
+    let mut ids: HashMap<(u64, u64), u32> = HashMap::new();
     for s in 0..n {
         let pts = corners(g, s);
         let nrm = normal(g, s);
-        let chart = lightmap.map(|_| chart_of[s]);
         let mut vertex = |c: usize| -> u32 {
-            let key = (field.vertex_key(s, c), chart.unwrap_or(0));
+            let key = (
+                field.vertex_key(s, c),
+                lightmap.map_or(0, |l| l.seams[4 * s + c]),
+            );
             *ids.entry(key).or_insert_with(|| {
                 let p = pts[c];
                 out.positions.push([p.x as f32, p.y as f32, p.z as f32]);
                 out.normals.push([nrm.x as f32, nrm.y as f32, nrm.z as f32]);
                 out.colours
                     .push(field.corner(s, c).map(|v| (v * scale).clamp(0.0, 1.0)));
-                if let (Some(uvs), Some(l), Some(c)) = (out.uvs.as_mut(), lightmap, chart) {
-                    uvs.push(l.layout.uv(c, l.charts[c].flatten(p)));
+                if let (Some(uvs), Some(l)) = (out.uvs.as_mut(), lightmap) {
+                    uvs.push(l.uvs[4 * s + c]);
                 }
                 (out.positions.len() - 1) as u32
             })

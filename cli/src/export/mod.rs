@@ -7,13 +7,15 @@
 //!
 //! The pieces, bottom first: [`charts`] (coplanar connected elements, flattened),
 //! [`atlas`] (packing with etagere), [`field`] (the frame's radiosity over the surface),
-//! [`raster`] (texels from the field, dilated), [`gltf`] (the glTF document).
+//! [`raster`] (texels from the field, dilated), [`scene_uv`] (the same over the scene's own
+//! lightmap coordinates, section LIGHTMAP), [`gltf`] (the glTF document).
 
 pub mod atlas;
 pub mod charts;
 pub mod field;
 pub mod gltf;
 pub mod raster;
+pub mod scene_uv;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -46,6 +48,10 @@ pub struct ExportArgs {
     /// TEXCOORD_0; the vertex values then move to the attribute `_RADIOSITY`.
     #[arg(long)]
     pub lightmap: bool,
+    /// Lightmap coordinates: `scene` (the scene's own TEXCOORD_1, kept by the bake; the
+    /// default when the file has them) or `generated` (charts packed here).
+    #[arg(long, value_enum)]
+    pub uv: Option<UvSource>,
     /// Lightmap: a square atlas of N×N texels, the texel density the largest that packs
     /// [default: 1024 unless --texel-density is given].
     #[arg(long, value_name = "N", conflicts_with = "texel_density")]
@@ -70,6 +76,153 @@ pub struct ExportArgs {
     /// [default: 1 over the brightest value on a surface that does not emit].
     #[arg(long, value_name = "E")]
     pub exposure: Option<f32>,
+}
+
+/// `--uv`: where lightmap texels go.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum UvSource {
+    /// The scene's own lightmap coordinates (glTF TEXCOORD_1; section LIGHTMAP of the file).
+    Scene,
+    /// Charts of coplanar elements packed into an atlas here.
+    Generated,
+}
+
+/// Where the texels of a lightmap go.
+pub enum LightmapLayout {
+    /// Charts packed by [`atlas::pack`].
+    Generated { charts: Vec<Chart>, layout: Layout },
+    /// The scene's coordinates over a `size × size` atlas, dilated `padding` rings.
+    Scene { size: usize, padding: usize },
+}
+
+impl LightmapLayout {
+    /// Chooses and lays out the lightmap as the flags ask: the scene's coordinates by default
+    /// when the file has them. `--texel-density` needs generated charts.
+    pub fn new(
+        op: &Operator,
+        uv: Option<UvSource>,
+        size: Option<usize>,
+        density: Option<f64>,
+        padding: usize,
+    ) -> Result<Self> {
+        let has_scene_uv = op.file().display.lightmap.is_some();
+        let source = uv.unwrap_or(if has_scene_uv && density.is_none() {
+            UvSource::Scene
+        } else {
+            UvSource::Generated
+        });
+        match source {
+            UvSource::Scene => {
+                if !has_scene_uv {
+                    bail!(
+                        "--uv scene: the file has no lightmap coordinates of the scene (section \
+                         LIGHTMAP: bake a scene whose every mesh has TEXCOORD_1 with this lrr), \
+                         or use --uv generated"
+                    );
+                }
+                if density.is_some() {
+                    bail!(
+                        "--texel-density sizes generated charts; the scene's lightmap \
+                         coordinates fill the whole atlas: give --size N, or --uv generated"
+                    );
+                }
+                let size = size.unwrap_or(1024);
+                if !(1..=16384).contains(&size) {
+                    bail!("--size {size}: the atlas must be 1 to 16384 texels a side");
+                }
+                Ok(Self::Scene { size, padding })
+            }
+            UvSource::Generated => {
+                let charts = charts::charts(&op.file().geometry);
+                let sizing = match (size, density) {
+                    (_, Some(t)) => Sizing::Density(t),
+                    (Some(n), None) => Sizing::Size(n),
+                    (None, None) => Sizing::Size(1024),
+                };
+                let layout = atlas::pack(&charts, sizing, padding)?;
+                Ok(Self::Generated { charts, layout })
+            }
+        }
+    }
+
+    /// Width and height in texels.
+    pub fn size(&self) -> (usize, usize) {
+        match self {
+            Self::Generated { layout, .. } => (layout.width, layout.height),
+            Self::Scene { size, .. } => (*size, *size),
+        }
+    }
+
+    /// What the layout is, for messages and the files' notes.
+    pub fn describe(&self) -> String {
+        match self {
+            Self::Generated { charts, layout } => format!(
+                "{} generated charts at {:.6} texels per scene unit, padding {}",
+                charts.len(),
+                layout.density,
+                layout.padding
+            ),
+            Self::Scene { padding, .. } => {
+                format!("the scene's lightmap coordinates (TEXCOORD_1), dilated {padding} texels")
+            }
+        }
+    }
+
+    /// The lightmap UV of every element corner (`4 s + c`) and its seam key.
+    pub fn corner_uvs(&self, op: &Operator) -> (Vec<[f32; 2]>, Vec<u64>) {
+        let g = &op.file().geometry;
+        let n = g.vertex_count.len();
+        let mut uvs = vec![[0.0; 2]; 4 * n];
+        let mut seams = vec![0; 4 * n];
+        match self {
+            Self::Generated { charts, layout } => {
+                for (c, chart) in charts.iter().enumerate() {
+                    for &s in &chart.elements {
+                        let s = s as usize;
+                        for (k, p) in charts::corners(g, s).iter().enumerate() {
+                            uvs[4 * s + k] = layout.uv(c, chart.flatten(*p));
+                            seams[4 * s + k] = c as u64;
+                        }
+                    }
+                }
+            }
+            Self::Scene { .. } => {
+                let uv = &op
+                    .file()
+                    .display
+                    .lightmap
+                    .as_ref()
+                    .expect("Scene needs LIGHTMAP")
+                    .uv;
+                for (i, (out, seam)) in uvs.iter_mut().zip(&mut seams).enumerate() {
+                    *out = [uv[2 * i], uv[2 * i + 1]];
+                    *seam =
+                        u64::from(uv[2 * i].to_bits()) << 32 | u64::from(uv[2 * i + 1].to_bits());
+                }
+            }
+        }
+        (uvs, seams)
+    }
+}
+
+/// The atlas of the exitant radiance `B/π` of `field` over `op`'s surfaces, laid out by `lay`.
+pub fn lightmap_atlas(op: &Operator, field: &Field, lay: &LightmapLayout) -> Atlas {
+    match lay {
+        LightmapLayout::Generated { charts, layout } => radiance_atlas(op, field, charts, layout),
+        LightmapLayout::Scene { size, padding } => {
+            let file = op.file();
+            let uv = &file
+                .display
+                .lightmap
+                .as_ref()
+                .expect("Scene needs LIGHTMAP")
+                .uv;
+            let value = |s: usize, p: glam::DVec3| {
+                (!field.hidden(s)).then(|| field.at(s, p).map(|v| v / std::f32::consts::PI))
+            };
+            scene_uv::rasterise(&file.geometry, uv, *size, *size, *padding, &value)
+        }
+    }
 }
 
 /// `--layers`: what the EXR holds.
@@ -130,8 +283,8 @@ fn check_flags(a: &ExportArgs, format: Format) -> Result<()> {
         if a.layers != Layers::All {
             bail!("--layers groups is for EXR outputs, not {name}");
         }
-        if !a.lightmap && (a.size.is_some() || a.texel_density.is_some()) {
-            bail!("--size and --texel-density size a lightmap: add --lightmap for {name}");
+        if !a.lightmap && (a.size.is_some() || a.texel_density.is_some() || a.uv.is_some()) {
+            bail!("--size, --texel-density and --uv shape a lightmap: add --lightmap for {name}");
         }
         if let Some(e) = a.exposure
             && !(e.is_finite() && e > 0.0)
@@ -142,16 +295,9 @@ fn check_flags(a: &ExportArgs, format: Format) -> Result<()> {
     Ok(())
 }
 
-/// The charts of the file and their layout as the flags ask.
-fn lay_out(a: &ExportArgs, op: &Operator) -> Result<(Vec<Chart>, Layout)> {
-    let charts = charts::charts(&op.file().geometry);
-    let sizing = match (a.size, a.texel_density) {
-        (_, Some(t)) => Sizing::Density(t),
-        (Some(n), None) => Sizing::Size(n),
-        (None, None) => Sizing::Size(1024),
-    };
-    let layout = atlas::pack(&charts, sizing, a.padding)?;
-    Ok((charts, layout))
+/// The lightmap's layout as the flags ask.
+fn lay_out(a: &ExportArgs, op: &Operator) -> Result<LightmapLayout> {
+    LightmapLayout::new(op, a.uv, a.size, a.texel_density, a.padding)
 }
 
 /// The atlas of the exitant radiance `B/π` of `field` over the charts of `op`'s geometry.
@@ -168,7 +314,8 @@ fn export_exr(
     lighting: &Lighting,
     out: &mut dyn Write,
 ) -> Result<()> {
-    let (charts, layout) = lay_out(a, op)?;
+    let lay = lay_out(a, op)?;
+    let (width, height) = lay.size();
     let smooth = reconstruction(op, a.reconstruct, &a.file)?;
     let frames = match a.layers {
         Layers::All => vec![(None, radiosity_cpu(op, lighting)?)],
@@ -177,7 +324,7 @@ fn export_exr(
     let mut atlases: Vec<(Option<String>, Atlas)> = Vec::new();
     for (name, b) in &frames {
         let field = Field::new(op.file(), b, smooth)?;
-        atlases.push((name.clone(), radiance_atlas(op, &field, &charts, &layout)));
+        atlases.push((name.clone(), lightmap_atlas(op, &field, &lay)));
     }
     let layers: Vec<RgbLayer> = atlases
         .iter()
@@ -187,30 +334,17 @@ fn export_exr(
         })
         .collect();
     let note = format!(
-        "exitant radiance B/pi (linear RGB, emission units per sr), reconstruction {}, \
-         {} charts, {:.6} texels per scene unit, padding {}",
+        "exitant radiance B/pi (linear RGB, emission units per sr), reconstruction {}, {}",
         Field::new(op.file(), &frames[0].1, smooth)?.method(),
-        charts.len(),
-        layout.density,
-        layout.padding
+        lay.describe()
     );
-    exr_image::write_rgb(
-        &a.output,
-        layout.width,
-        layout.height,
-        &layers,
-        a.samples,
-        &note,
-    )?;
+    exr_image::write_rgb(&a.output, width, height, &layers, a.samples, &note)?;
     writeln!(
         out,
-        "wrote {}: {}×{} texels, {} layer(s), {} charts at {:.4} texels per scene unit",
+        "wrote {}: {width}×{height} texels, {} layer(s), {}",
         a.output.display(),
-        layout.width,
-        layout.height,
         layers.len(),
-        charts.len(),
-        layout.density
+        lay.describe()
     )?;
     Ok(())
 }
@@ -291,8 +425,8 @@ fn export_gltf(
         None
     };
     let lightmap = match &laid_out {
-        Some((charts, layout)) => {
-            let atlas = radiance_atlas(op, &field, charts, layout);
+        Some(lay) => {
+            let atlas = lightmap_atlas(op, &field, lay);
             // The atlas holds B/π; the PNG is exposure × that.
             let png = gltf::png(
                 atlas.width,
@@ -300,11 +434,8 @@ fn export_gltf(
                 &atlas.pixels,
                 exposure * std::f32::consts::PI,
             )?;
-            Some(gltf::Lightmap {
-                charts,
-                layout,
-                png,
-            })
+            let (uvs, seams) = lay.corner_uvs(op);
+            Some(gltf::Lightmap { uvs, seams, png })
         }
         None => None,
     };
@@ -329,11 +460,11 @@ fn export_gltf(
         mesh.positions.len(),
         mesh.indices.len() / 3,
         match &laid_out {
-            Some((charts, layout)) => format!(
-                ", lightmap {}×{} texels ({} charts)",
-                layout.width,
-                layout.height,
-                charts.len()
+            Some(lay) => format!(
+                ", lightmap {}×{} texels ({})",
+                lay.size().0,
+                lay.size().1,
+                lay.describe()
             ),
             None => String::new(),
         }

@@ -132,8 +132,13 @@ fn seed_centroid(
 
 /// Fills the empty texels of rectangle `r` ring by ring from their filled 8-neighbours.
 fn dilate(atlas: &mut Atlas, r: [usize; 4]) {
+    dilate_rings(atlas, r, usize::MAX);
+}
+
+/// [`dilate`], at most `rings` rings deep.
+pub fn dilate_rings(atlas: &mut Atlas, r: [usize; 4], rings: usize) {
     let w = atlas.width;
-    loop {
+    for _ in 0..rings {
         let mut next = Vec::new();
         for y in r[1]..r[3] {
             for x in r[0]..r[2] {

@@ -149,6 +149,7 @@ pub fn with_display(mut file: OperatorFile) -> OperatorFile {
             ],
             triangles: vec![0, 1, 2, 3, 4, 8, 7, 6, 5],
         }),
+        lightmap: None,
     };
     file
 }

@@ -1,6 +1,7 @@
 //! What the bake stores for display (format 1.2, [`lrr_formats::Display`]): the display
 //! geometry, the material of every element, the scene's point lights (each following the
-//! light group of its emitter) and cameras, and the BVH over the display triangles (`bvh`).
+//! light group of its emitter) and cameras, the BVH over the display triangles (`bvh`), and
+//! (format 1.3) the scene's own lightmap coordinates at every element corner.
 //!
 //! Built once the fine mesh exists, before the form factors, so that a bad point light or
 //! camera is refused before hours of work; `write::Skeleton` carries the result into the file
@@ -8,7 +9,7 @@
 
 mod bvh;
 
-use lrr_formats::{Camera, Display, Geometry, Material, Materials, PointLight};
+use lrr_formats::{Camera, Display, Geometry, LightmapUv, Material, Materials, PointLight};
 
 use crate::error::{Error, Result};
 use crate::patches::Mesh;
@@ -35,7 +36,28 @@ pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display>
         point_lights,
         cameras,
         bvh: Some(bvh),
+        lightmap: lightmap(scene, mesh),
     })
+}
+
+/// The scene's lightmap coordinates (`TEXCOORD_1`) at every element corner, in file order
+/// (section LIGHTMAP); None unless every element's face has them (`scene::load` warns when
+/// only some do).
+fn lightmap(scene: &Scene, mesh: &Mesh) -> Option<LightmapUv> {
+    let mut uv = Vec::with_capacity(8 * mesh.n());
+    for s in 0..mesh.n() {
+        let e = mesh.element_at(s);
+        let map = scene.faces[e.face as usize].uv[1].as_ref()?;
+        for (i, v) in e.polygon.vertices.iter().enumerate() {
+            let [a, b] = if i < e.polygon.count {
+                map.at(*v)
+            } else {
+                [0.0; 2]
+            };
+            uv.extend([a as f32, b as f32]);
+        }
+    }
+    Some(LightmapUv { uv })
 }
 
 /// The fine mesh for display, in file order and f32 (section GEOMETRY).

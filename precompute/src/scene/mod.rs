@@ -43,5 +43,9 @@ pub fn load(path: &std::path::Path) -> Result<Scene> {
         }
     };
     scene.validate(&path.display().to_string())?;
+    let mut scene = scene;
+    if let Some(w) = scene.partial_lightmap_warning() {
+        scene.warnings.push(format!("{}: {w}", path.display()));
+    }
     Ok(scene)
 }

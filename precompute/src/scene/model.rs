@@ -385,6 +385,28 @@ impl Scene {
         })
     }
 
+    /// A warning when some faces but not all have lightmap coordinates (`TEXCOORD_1`): the
+    /// file then stores none and exports generate their own.
+    pub(crate) fn partial_lightmap_warning(&self) -> Option<String> {
+        let with = self.faces.iter().filter(|f| f.uv[1].is_some()).count();
+        if with == 0 || with == self.faces.len() {
+            return None;
+        }
+        let mut missing: Vec<&str> = self
+            .faces
+            .iter()
+            .filter(|f| f.uv[1].is_none())
+            .map(|f| self.surfaces[f.surface].as_str())
+            .collect();
+        missing.dedup();
+        missing.truncate(5);
+        Some(format!(
+            "{with} of {} faces have lightmap coordinates (TEXCOORD_1), so the bake stores none \
+             and lightmap exports generate their own; surfaces without them include {missing:?}",
+            self.faces.len()
+        ))
+    }
+
     /// The texture binding that applies to a face: its material's, when the face has the
     /// coordinate set it names.
     fn texture_of(&self, face: &Face) -> Option<&TextureBinding> {

@@ -17,6 +17,7 @@ mod reference;
 mod render_reference;
 mod resilience;
 mod scene_description;
+mod scene_lightmap;
 mod shards;
 mod storage;
 mod util;
