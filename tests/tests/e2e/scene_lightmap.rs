@@ -413,3 +413,36 @@ fn scene_coordinates_survive_an_include_with_a_scale() {
         }
     }
 }
+
+/// OpenEXR (PyPI) and the Khronos glTF validator (npm) on the exports of a file with the
+/// scene's lightmap coordinates: scripts/check-exports.py maps texel centres back to 3D through
+/// the exported glTF's UVs (here the scene's) and compares with `lrr probe`. Ignored by
+/// default (it needs scripts/setup-exports.sh); scripts/test runs it with `--ignored`.
+#[test]
+#[ignore]
+fn readers_we_did_not_write_accept_scene_uv_lightmaps() {
+    let root = crate::util::root();
+    let python = root.join(".exports/venv/bin/python");
+    assert!(
+        python.exists(),
+        "{} is missing: run scripts/setup-exports.sh",
+        python.display()
+    );
+    let dir = temp_dir("scene-lightmap-readers");
+    let file = baked(&dir);
+    let out = std::process::Command::new(python)
+        .arg(root.join("scripts/check-exports.py"))
+        .arg(crate::util::lrr_binary())
+        .arg(&file)
+        .arg(dir.join("check"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    println!("{text}");
+    assert!(
+        out.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains(" passed, 0 failed"), "{text}");
+}
