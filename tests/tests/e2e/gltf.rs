@@ -847,7 +847,8 @@ fn malformed_and_truncated_glb_is_refused() {
     }
 }
 
-/// Writes the `gltf_import` fuzz seeds (the room as GLB and as .gltf, the Khronos box). Run by
+/// Writes the `gltf_import` fuzz seeds (the room as GLB and as .gltf, the Khronos box, a floor
+/// with a base colour texture on TEXCOORD_0 and one with lightmap coordinates). Run by
 /// hand after changing the builders: `cargo test --release -p lrr-tests -- --ignored write_gltf_seeds`.
 #[test]
 #[ignore = "writes fuzz/seeds/gltf_import/"]
@@ -857,6 +858,16 @@ fn write_gltf_seeds() {
     std::fs::write(dir.join("room.glb"), room().glb()).unwrap();
     std::fs::write(dir.join("room.gltf"), room().gltf()).unwrap();
     std::fs::write(dir.join("box.gltf"), khronos_box().gltf()).unwrap();
+    std::fs::write(
+        dir.join("textured.glb"),
+        super::gltf_textures::textured_floor(5123).glb(),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("lightmap.glb"),
+        super::scene_lightmap::lit_floor().glb(),
+    )
+    .unwrap();
 }
 
 /// SplitMix64: the mutation smoke test's deterministic random numbers.

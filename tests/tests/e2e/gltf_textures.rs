@@ -60,7 +60,7 @@ fn texcoords(b: &mut Builder, uv: &[[f64; 2]], component: u32) -> usize {
 /// A 2 × 2 floor at z = 0 (two triangles, TEXCOORD_0 = (x/2, 1 − y/2): the image upright,
 /// seen from above) under the textured material, and a lamp above it; `component` encodes the
 /// texture coordinates.
-fn textured_floor(component: u32) -> Builder {
+pub fn textured_floor(component: u32) -> Builder {
     let mut b = Builder::default();
     let floor = b.positions(&[
         [0.0, 0.0, 0.0],

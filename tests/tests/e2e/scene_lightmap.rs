@@ -41,7 +41,7 @@ fn uv_accessor(b: &mut Builder, uv: &[[f64; 2]]) -> usize {
 }
 
 /// A 2 × 2 floor at z = 0 and a lamp above it, both with TEXCOORD_1.
-fn lit_floor() -> Builder {
+pub fn lit_floor() -> Builder {
     let mut b = Builder::default();
     let corners = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
     let floor = b.positions(&corners.map(|[x, y]| [x as f32, y as f32, 0.0]));
