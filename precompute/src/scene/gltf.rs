@@ -500,8 +500,10 @@ impl<'a> Importer<'a> {
         Ok(())
     }
 
-    /// A primitive's `TEXCOORD_0` and `TEXCOORD_1`, where present; a material whose base
-    /// colour texture names a set the primitive lacks gets a warning (its mean is used).
+    /// The texture coordinates a primitive needs, where present: `TEXCOORD_1` (lightmaps) and
+    /// the set its material's base colour texture names (other sets are not read, so a
+    /// malformed set nothing uses cannot refuse the file); a material whose texture names a
+    /// set the primitive lacks gets a warning (its mean is used).
     fn texcoord_sets(
         &mut self,
         primitive: &gltf::Primitive,
@@ -509,8 +511,12 @@ impl<'a> Importer<'a> {
         vertices: usize,
         material: usize,
     ) -> Result<[Option<Vec<[f64; 2]>>; 2]> {
+        let texture_set = self.scene.materials[material].texture.map(|t| t.set);
         let mut sets = [None, None];
         for (set, slot) in sets.iter_mut().enumerate() {
+            if set != 1 && texture_set != Some(set) {
+                continue;
+            }
             if let Some(a) = primitive.get(&gltf::Semantic::TexCoords(set as u32)) {
                 *slot = Some(self.read_texcoords(&a, what, set, vertices)?);
             }
