@@ -46,6 +46,7 @@ pub fn run(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
             "precision": precision,
             "layout": layout,
             "light_groups": op.light_groups().collect::<Vec<_>>(),
+            "display": display_json(f),
             "metadata": metadata,
             "surfaces": surfaces,
         });
@@ -60,6 +61,7 @@ pub fn run(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
         op.k(),
         op.channels()
     )?;
+    writeln!(out, "display: {}", display_line(f))?;
     if let serde_json::Value::Object(m) = &metadata {
         for key in [
             "generator",
@@ -79,4 +81,47 @@ pub fn run(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
         }
     }
     summary::print_surfaces(&op, out)
+}
+
+/// What the file holds for display (format 1.2 and 1.3 sections), as JSON.
+fn display_json(f: &lrr_formats::OperatorFile) -> serde_json::Value {
+    let d = &f.display;
+    serde_json::json!({
+        "smooth_vertices": d.smooth.as_ref().map(|s| s.vertex_count()),
+        "materials": d.materials.as_ref().map(|m| m.materials.len()),
+        "point_lights": d.point_lights.iter().map(|l| l.name.as_str()).collect::<Vec<_>>(),
+        "cameras": d.cameras.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(),
+        "bvh_nodes": d.bvh.as_ref().map(|b| b.nodes.len()),
+        "lightmap_uv": d.lightmap.is_some(),
+    })
+}
+
+/// The same in one line: which sections are there and what a command needs them for.
+fn display_line(f: &lrr_formats::OperatorFile) -> String {
+    let d = &f.display;
+    let mut parts = Vec::new();
+    if let Some(s) = &d.smooth {
+        parts.push(format!("smooth weights ({} vertices)", s.vertex_count()));
+    }
+    if let Some(m) = &d.materials {
+        parts.push(format!("{} materials", m.materials.len()));
+    }
+    if !d.point_lights.is_empty() {
+        parts.push(format!("{} point light(s)", d.point_lights.len()));
+    }
+    if !d.cameras.is_empty() {
+        let names: Vec<&str> = d.cameras.iter().map(|c| c.name.as_str()).collect();
+        parts.push(format!("cameras {}", names.join(", ")));
+    }
+    if let Some(b) = &d.bvh {
+        parts.push(format!("BVH ({} nodes; lrr render)", b.nodes.len()));
+    }
+    if d.lightmap.is_some() {
+        parts.push("the scene's lightmap coordinates (lrr export --uv scene)".into());
+    }
+    if parts.is_empty() {
+        "none (a file of format 1.1: lrr render and smooth exports need a re-bake)".into()
+    } else {
+        parts.join(", ")
+    }
 }

@@ -124,7 +124,12 @@ fn read_rgb(path: &Path) -> (usize, usize, Vec<[f32; 3]>) {
 #[test]
 fn the_bake_keeps_the_scenes_lightmap_coordinates_at_every_corner() {
     let dir = temp_dir("scene-lightmap-file");
-    let file = lrr_formats::OperatorFile::read(&baked(&dir)).unwrap();
+    let path = baked(&dir);
+    let info = crate::util::lrr_json(&["info", path.to_str().unwrap(), "--json"]);
+    assert_eq!(info["display"]["lightmap_uv"], true, "{}", info["display"]);
+    let text = lrr(&["info", path.to_str().unwrap()]).unwrap();
+    assert!(text.contains("the scene's lightmap coordinates"), "{text}");
+    let file = lrr_formats::OperatorFile::read(&path).unwrap();
     let uv = &file.display.lightmap.as_ref().expect("section LIGHTMAP").uv;
     let g = &file.geometry;
     let mut floor_corners = 0;
