@@ -24,6 +24,7 @@ pub mod export;
 mod exr_image;
 mod info;
 mod merge;
+mod picture;
 mod plan;
 mod probe;
 pub mod record;
