@@ -78,21 +78,21 @@ fn label(
     );
     let material = match face.kind {
         Kind::Structure if down => {
-            let mut lamp = rooms[..face.room]
+            let first = rooms[..face.room]
                 .iter()
                 .map(|r| r.lamps.len())
                 .sum::<usize>();
-            for l in &room.lamps {
-                let inside = 2 * i64::from(l[0]) < centre[0]
+            let on_ceiling = centre[1] == 2 * i64::from(room.air.max[1]);
+            let lamp = room.lamps.iter().position(|l| {
+                2 * i64::from(l[0]) < centre[0]
                     && centre[0] < 2 * i64::from(l[2])
                     && 2 * i64::from(l[1]) < centre[2]
-                    && centre[2] < 2 * i64::from(l[3]);
-                if inside && centre[1] == 2 * i64::from(room.air.max[1]) {
-                    return (rooms.len() + lamp, index("lamp"));
-                }
-                lamp += 1;
+                    && centre[2] < 2 * i64::from(l[3])
+            });
+            match lamp {
+                Some(i) if on_ceiling => return (rooms.len() + first + i, index("lamp")),
+                _ => index("ceiling"),
             }
-            index("ceiling")
         }
         Kind::Structure | Kind::Stairs if up => index("floor"),
         Kind::Structure | Kind::Stairs => 2 + face.room,
