@@ -36,9 +36,9 @@ pub struct RelightArgs {
     /// Output folder (created): `lightmap-00000.exr`, … and/or `frame-00000.png|exr`, ….
     #[arg(long, short, value_name = "DIR")]
     pub output: PathBuf,
-    /// Also ray trace every frame from a camera into `frame-NNNNN.png` (8-bit sRGB, one
-    /// exposure for the whole sequence) or `.exr` (linear RGB radiance); lightmaps are then
-    /// written only with --lightmaps.
+    /// Ray trace every frame from a camera into `frame-NNNNN.png` (8-bit sRGB, one exposure
+    /// for the whole sequence) or `.exr` (linear RGB radiance); lightmaps are then written
+    /// only with --lightmaps.
     #[arg(long, value_enum, value_name = "FORMAT")]
     pub images: Option<ImageFormat>,
     /// Write the EXR lightmaps (the default without --images).
