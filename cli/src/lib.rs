@@ -24,6 +24,7 @@ pub mod export;
 mod exr_image;
 mod info;
 mod merge;
+mod picture;
 mod plan;
 mod probe;
 pub mod record;
@@ -76,8 +77,8 @@ pub enum Command {
     /// A frame as files other tools read: an EXR lightmap atlas, or the scene as glTF with the
     /// radiosity per vertex (the format from the extension of -o).
     Export(export::ExportArgs),
-    /// Light groups animated by keyframes (intensity, colour), a lightmap EXR per frame, with
-    /// the achieved frame rate.
+    /// Light groups animated by keyframes (intensity, colour): an EXR lightmap and/or a ray
+    /// traced image (PNG or EXR) per frame, with the achieved frame rates.
     Relight(relight::RelightArgs),
     /// Ray trace a frame of an operator file (B/π, highlights, mirrors, glass) into a PNG or EXR.
     Render(render::RenderArgs),

@@ -3,12 +3,11 @@
 //! written as PNG (tone-mapped, exposure printed) or EXR (linear RGB) by the extension of `-o`.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lrr_formats::Camera;
 use lrr_runtime::gpu::{Gpu, GpuError, GpuEvaluator, GpuOptions, GpuTracer};
 use lrr_runtime::trace::{
     Decision, Image, Lighting as TraceLighting, MAX_DEPTH_LIMIT, RayCounts, Tracer, View,
@@ -16,28 +15,15 @@ use lrr_runtime::trace::{
 use lrr_runtime::{Operator, Rgb};
 
 use crate::emission::{self, EmissionArgs, Lighting, Reconstruct};
-use crate::exr_image::{ExrSamples, RgbLayer, write_rgb};
+use crate::exr_image::ExrSamples;
+use crate::picture::{self, CameraArgs, ImageFormat, parse_size};
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
     /// Operator file (with a BVH: baked by this version of lrr).
     pub file: PathBuf,
-    /// Eye position X,Y,Z [default: the file's camera].
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub eye: Option<[f32; 3]>,
-    /// Point looked at X,Y,Z [default: the file's camera].
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub target: Option<[f32; 3]>,
-    /// Up direction X,Y,Z [default: the file's camera, else 0,1,0].
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub up: Option<[f32; 3]>,
-    /// Vertical field of view in degrees [default: the file's camera, else 60].
-    #[arg(long, value_name = "DEG")]
-    pub fov_y: Option<f32>,
-    /// The file's camera of this name [default: its first camera]; the flags above override
-    /// its fields.
-    #[arg(long, value_name = "NAME")]
-    pub camera: Option<String>,
+    #[command(flatten)]
+    pub view: CameraArgs,
     /// Image size in pixels.
     #[arg(long, value_name = "WxH", default_value = "800x600", value_parser = parse_size)]
     pub size: (u32, u32),
@@ -82,93 +68,8 @@ pub enum TraceDevice {
     Gpu,
 }
 
-/// Parses `X,Y,Z`.
-pub(crate) fn parse_vec3(text: &str) -> std::result::Result<[f32; 3], String> {
-    let parts: Vec<f32> = text
-        .split(',')
-        .map(|p| p.trim().parse::<f32>())
-        .collect::<std::result::Result<_, _>>()
-        .map_err(|_| format!("'{text}' is not three numbers X,Y,Z"))?;
-    match parts[..] {
-        [x, y, z] if parts.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
-        _ => Err(format!("'{text}' is not three finite numbers X,Y,Z")),
-    }
-}
-
-/// Parses `WxH`.
-fn parse_size(text: &str) -> std::result::Result<(u32, u32), String> {
-    let err = || format!("'{text}' is not a size WxH like 1920x1080");
-    let (w, h) = text.split_once(['x', 'X']).ok_or_else(err)?;
-    let (w, h): (u32, u32) = (
-        w.trim().parse().map_err(|_| err())?,
-        h.trim().parse().map_err(|_| err())?,
-    );
-    if w == 0 || h == 0 || w as u64 * h as u64 > 1 << 28 {
-        return Err(format!("'{text}': need 1 to 2^28 pixels"));
-    }
-    Ok((w, h))
-}
-
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Format {
-    Png,
-    Exr,
-}
-
-fn format_of(path: &Path) -> Result<Format> {
-    match path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .as_deref()
-    {
-        Some("png") => Ok(Format::Png),
-        Some("exr") => Ok(Format::Exr),
-        _ => bail!(
-            "-o {}: the image format comes from the extension: .png (tone-mapped) or .exr \
-             (linear)",
-            path.display()
-        ),
-    }
-}
-
-/// The camera the flags and the file's cameras make.
-fn camera(a: &RenderArgs, tracer: &Tracer) -> Result<Camera> {
-    let cameras = tracer.cameras();
-    let base = match &a.camera {
-        Some(name) => Some(cameras.iter().find(|c| &c.name == name).with_context(|| {
-            let names: Vec<String> = cameras.iter().map(|c| format!("'{}'", c.name)).collect();
-            format!(
-                "--camera {name}: the file has no such camera (it has: {})",
-                if names.is_empty() {
-                    "none".into()
-                } else {
-                    names.join(", ")
-                }
-            )
-        })?),
-        None => cameras.first(),
-    };
-    let eye = a.eye.or(base.map(|c| c.eye));
-    let target = a.target.or(base.map(|c| c.target));
-    let (Some(eye), Some(target)) = (eye, target) else {
-        bail!(
-            "{}: the file has no camera; give one with --eye X,Y,Z --target X,Y,Z \
-             (and --up, --fov-y)",
-            a.file.display()
-        );
-    };
-    Ok(Camera {
-        name: base.map_or(String::new(), |c| c.name.clone()),
-        eye,
-        target,
-        up: a.up.or(base.map(|c| c.up)).unwrap_or([0.0, 1.0, 0.0]),
-        fov_y_deg: a.fov_y.or(base.map(|c| c.fov_y_deg)).unwrap_or(60.0),
-    })
-}
-
 pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
-    let format = format_of(&a.output)?;
+    let format = ImageFormat::of(&a.output, "-o")?;
     if a.max_depth > MAX_DEPTH_LIMIT {
         bail!("--max-depth {}: at most {MAX_DEPTH_LIMIT}", a.max_depth);
     }
@@ -178,7 +79,7 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
     tracer.set_max_depth(a.max_depth)?;
     let smooth = emission::reconstruction(&op, a.reconstruct, &a.file)?.is_some();
     tracer.set_smooth(smooth)?;
-    let cam = camera(a, &tracer)?;
+    let cam = a.view.camera(&tracer, &a.file)?;
     let (w, h) = a.size;
     let view = View::new(&cam, w, h)?;
     let lighting = a.emission.lighting(&op)?;
@@ -210,34 +111,20 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
         "rendered {w}x{h} in {seconds:.3} s: {} primary, {} shadow, {} secondary rays",
         r.primary, r.shadow, r.secondary
     )?;
-    match format {
-        Format::Png => {
-            let (scale, how) = exposure(&image, a.exposure);
+    let bytes = match format {
+        ImageFormat::Png => {
+            let (scale, how) = picture::exposure(&image, a.exposure);
             writeln!(
                 out,
                 "exposure: {:+.2} EV (x{scale:.4}, {how})",
                 scale.log2()
             )?;
-            let bytes = encode_png(&image, scale)?;
-            lrr_formats::write_atomic(&a.output, &bytes)
-                .with_context(|| format!("writing {}", a.output.display()))?;
+            picture::encode_png(&image, scale)?
         }
-        Format::Exr => {
-            let layer = RgbLayer {
-                name: None,
-                pixels: &image.pixels,
-            };
-            let note = "linear RGB radiance (W sr^-1 m^-2 in the scene's units), lrr render";
-            write_rgb(
-                &a.output,
-                w as usize,
-                h as usize,
-                &[layer],
-                a.exr_samples,
-                note,
-            )?;
-        }
-    }
+        ImageFormat::Exr => picture::encode_exr(&image, a.exr_samples, "lrr render")?,
+    };
+    lrr_formats::write_atomic(&a.output, &bytes)
+        .with_context(|| format!("writing {}", a.output.display()))?;
     writeln!(out, "wrote {}", a.output.display())?;
     Ok(())
 }
@@ -266,76 +153,4 @@ fn render_gpu(
     let seconds = start.elapsed().as_secs_f64();
     let rays = report.rays.unwrap_or_default();
     Ok((image, report.decision, rays, seconds))
-}
-
-/// The scale applied before the sRGB curve: `2^ev`, or the one mapping the 99th percentile of
-/// the luminance of lit pixels to 1.
-fn exposure(image: &Image, ev: Option<f32>) -> (f32, &'static str) {
-    if let Some(ev) = ev {
-        return (2f32.powf(ev), "--exposure");
-    }
-    let mut lum: Vec<f32> = image
-        .pixels
-        .iter()
-        .map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2])
-        .filter(|l| *l > 0.0)
-        .collect();
-    if lum.is_empty() {
-        return (1.0, "auto: the image is black");
-    }
-    let at = (lum.len() - 1) * 99 / 100;
-    let (_, p99, _) = lum.select_nth_unstable_by(at, f32::total_cmp);
-    (
-        1.0 / *p99,
-        "auto: the 99th percentile of the luminance maps to white",
-    )
-}
-
-/// The sRGB transfer function of a linear value in [0, 1].
-fn srgb(v: f32) -> u8 {
-    let v = v.clamp(0.0, 1.0);
-    let s = if v <= 0.003_130_8 {
-        12.92 * v
-    } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    };
-    (s * 255.0 + 0.5) as u8
-}
-
-/// The image as an 8-bit sRGB PNG, values scaled by `scale` and clipped.
-fn encode_png(image: &Image, scale: f32) -> Result<Vec<u8>> {
-    let mut bytes = Vec::new();
-    let mut enc = png::Encoder::new(&mut bytes, image.width, image.height);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-    let data: Vec<u8> = image
-        .pixels
-        .iter()
-        .flat_map(|p| p.map(|c| srgb(c * scale)))
-        .collect();
-    let mut writer = enc.write_header().context("encoding the PNG")?;
-    writer.write_image_data(&data).context("encoding the PNG")?;
-    writer.finish().context("encoding the PNG")?;
-    Ok(bytes)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn vectors_sizes_and_srgb_parse_and_map() {
-        assert_eq!(parse_vec3("1,-2.5, 3").unwrap(), [1.0, -2.5, 3.0]);
-        assert!(parse_vec3("1,2").unwrap_err().contains("X,Y,Z"));
-        assert!(parse_vec3("1,2,nan").is_err());
-        assert_eq!(parse_size("1920x1080").unwrap(), (1920, 1080));
-        assert!(parse_size("0x5").is_err());
-        assert!(parse_size("big").unwrap_err().contains("WxH"));
-        assert_eq!(srgb(0.0), 0);
-        assert_eq!(srgb(1.0), 255);
-        assert_eq!(srgb(2.0), 255);
-        // Mid-grey 0.18 linear is 118 in sRGB (IEC 61966-2-1).
-        assert_eq!(srgb(0.18), 118);
-    }
 }

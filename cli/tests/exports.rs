@@ -573,7 +573,7 @@ fn relight_writes_a_lightmap_per_frame_following_the_keyframes() {
         (1, [0.75, 0.5, 1.0]),
         (2, [0.5, 0.0, 1.0]),
     ] {
-        let frame = read_exr(&frames.join(format!("frame-{f:05}.exr")));
+        let frame = read_exr(&frames.join(format!("lightmap-{f:05}.exr")));
         for (i, got) in frame[0].3.iter().enumerate() {
             for c in 0..3 {
                 let want = warm[i][c] + scale[c] * cool[i][c];

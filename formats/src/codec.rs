@@ -522,7 +522,8 @@ mod tests {
         let short = |uv: &mut Vec<f32>| {
             uv.pop();
         };
-        let edits: [(&dyn Fn(&mut Vec<f32>), &str); 3] = [
+        type Edit<'a> = &'a dyn Fn(&mut Vec<f32>);
+        let edits: [(Edit, &str); 3] = [
             (&nan, "not finite"),
             (&fourth, "unused fourth corner"),
             (&short, "expected n * 8"),

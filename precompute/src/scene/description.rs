@@ -79,7 +79,7 @@ pub struct SceneDescription {
     #[serde(default, skip_serializing_if = "MeshHints::is_empty")]
     pub mesh: MeshHints,
     /// Materials (`[[material]]`), referred to by name.
-    #[serde(default, rename = "material")]
+    #[serde(default, rename = "material", skip_serializing_if = "Vec::is_empty")]
     pub materials: Vec<MaterialDesc>,
     /// Explicit polygon surfaces (`[[surface]]`).
     #[serde(default, rename = "surface", skip_serializing_if = "Vec::is_empty")]

@@ -1,13 +1,16 @@
 //! Scenes: Lambertian polygons with materials, grouped into named surfaces.
 //!
 //! Importers ([`obj`], [`gltf`], [`description`]) turn files into a [`Scene`]; [`procedural`] writes scene
-//! descriptions for the furnace and the analytic test pairs. Every face that reaches the mesher
+//! descriptions for the furnace and the analytic test pairs, [`showcase`] those of the ray
+//! tracer, [`building`] a two-floor house as glTF ([`glb`]) with its description. Every face that reaches the mesher
 //! is a planar convex polygon of 3 or 4 vertices whose counter-clockwise normal is its (only)
 //! front: `Scene::add_polygon` splits non-planar or concave quads and larger polygons into
 //! such pieces, and drops degenerate or duplicate faces with a warning naming where they came
 //! from.
 
+pub mod building;
 pub mod description;
+pub mod glb;
 pub mod gltf;
 mod model;
 pub mod obj;

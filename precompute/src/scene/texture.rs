@@ -139,7 +139,8 @@ impl UvMap {
         let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
         let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
         let det = a * c - b * b;
-        if !(det > 1e-24 * a * c) || !det.is_finite() {
+        let well_shaped = det.is_finite() && det > 1e-24 * a * c;
+        if !well_shaped {
             return None;
         }
         // s(p) = r1·(p − p0) and t(p) = r2·(p − p0) are p's coordinates along e1 and e2.

@@ -176,7 +176,7 @@ fn each_element_takes_the_mean_of_the_texels_it_covers() {
             let block = BLOCKS[2 * (ty / 4) + tx / 4];
             // An element one texel or more from a block edge sees its block's colour only
             // (bilinear filtering reaches half a texel).
-            let inner = |t: usize| t % 4 != 3 && t % 4 != 0 || t == 0 || t == 7;
+            let inner = |t: usize| (t % 4 != 3 && !t.is_multiple_of(4)) || t == 0 || t == 7;
             if inner(tx) && inner(ty) {
                 let want = block.map(|c| factor * srgb_to_linear(f64::from(c) / 255.0));
                 for k in 0..3 {

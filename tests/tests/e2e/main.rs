@@ -3,6 +3,7 @@
 
 mod accuracy;
 mod analytic;
+mod building;
 mod capi;
 mod cornell;
 mod display;

@@ -451,3 +451,50 @@ fn readers_we_did_not_write_accept_scene_uv_lightmaps() {
     );
     assert!(text.contains(" passed, 0 failed"), "{text}");
 }
+
+#[test]
+fn relight_fills_the_scenes_atlas_like_export() {
+    let dir = temp_dir("scene-lightmap-relight");
+    let file = baked(&dir);
+    let f = file.to_str().unwrap();
+    let anim = dir.join("anim.toml");
+    std::fs::write(
+        &anim,
+        "fps = 1.0\n[[group]]\nname = \"lamp\"\nkeys = [{ time = 0.0, intensity = 0.5 }]\n",
+    )
+    .unwrap();
+    let frames = dir.join("frames");
+    let said = lrr(&[
+        "relight",
+        f,
+        "--animation",
+        anim.to_str().unwrap(),
+        "-o",
+        frames.to_str().unwrap(),
+        "--size",
+        "64",
+        "--samples",
+        "float",
+        "-q",
+    ])
+    .unwrap();
+    assert!(said.contains("the scene's lightmap coordinates"), "{said}");
+    let exported = dir.join("half.exr");
+    lrr(&[
+        "export",
+        f,
+        "-o",
+        exported.to_str().unwrap(),
+        "--size",
+        "64",
+        "--samples",
+        "float",
+        "--group",
+        "lamp=0.5",
+    ])
+    .unwrap();
+    let (_, _, relit) = read_rgb(&frames.join("lightmap-00000.exr"));
+    let (_, _, want) = read_rgb(&exported);
+    assert_eq!(relit, want);
+    assert!(want.iter().any(|p| p[0] > 0.0));
+}
