@@ -48,6 +48,25 @@ pub struct ExportArgs {
     /// TEXCOORD_0; the vertex values then move to the attribute `_RADIOSITY`.
     #[arg(long)]
     pub lightmap: bool,
+    #[command(flatten)]
+    pub lightmap_args: LightmapArgs,
+    /// EXR: `all` (one RGB image, channels R, G, B) or `groups` (one layer per light group,
+    /// channels NAME.R, NAME.G, NAME.B, each the group alone at its --group intensity, so an
+    /// engine relights them by weighting the layers).
+    #[arg(long, value_enum, default_value_t = Layers::All)]
+    pub layers: Layers,
+    /// EXR sample type: `half` or `float`.
+    #[arg(long, value_enum, default_value_t = ExrSamples::Half)]
+    pub samples: ExrSamples,
+    /// glTF: the factor on B/π in the vertex colours and the texture, which are clamped to 1
+    /// [default: 1 over the brightest value on a surface that does not emit].
+    #[arg(long, value_name = "E")]
+    pub exposure: Option<f32>,
+}
+
+/// The lightmap's flags, shared by `lrr export` and `lrr relight`.
+#[derive(Debug, Args)]
+pub struct LightmapArgs {
     /// Lightmap coordinates: `scene` (the scene's own TEXCOORD_1, kept by the bake; the
     /// default when the file has them) or `generated` (charts packed here).
     #[arg(long, value_enum)]
@@ -64,18 +83,18 @@ pub struct ExportArgs {
     /// levels more).
     #[arg(long, value_name = "P", default_value_t = 2)]
     pub padding: usize,
-    /// EXR: `all` (one RGB image, channels R, G, B) or `groups` (one layer per light group,
-    /// channels NAME.R, NAME.G, NAME.B, each the group alone at its --group intensity, so an
-    /// engine relights them by weighting the layers).
-    #[arg(long, value_enum, default_value_t = Layers::All)]
-    pub layers: Layers,
-    /// EXR sample type: `half` or `float`.
-    #[arg(long, value_enum, default_value_t = ExrSamples::Half)]
-    pub samples: ExrSamples,
-    /// glTF: the factor on B/π in the vertex colours and the texture, which are clamped to 1
-    /// [default: 1 over the brightest value on a surface that does not emit].
-    #[arg(long, value_name = "E")]
-    pub exposure: Option<f32>,
+}
+
+impl LightmapArgs {
+    /// The layout these flags ask for (see [`LightmapLayout::new`]).
+    pub fn layout(&self, op: &Operator) -> Result<LightmapLayout> {
+        LightmapLayout::new(op, self.uv, self.size, self.texel_density, self.padding)
+    }
+
+    /// Whether any flag that shapes a lightmap was given.
+    fn given(&self) -> bool {
+        self.size.is_some() || self.texel_density.is_some() || self.uv.is_some()
+    }
 }
 
 /// `--uv`: where lightmap texels go.
@@ -283,7 +302,7 @@ fn check_flags(a: &ExportArgs, format: Format) -> Result<()> {
         if a.layers != Layers::All {
             bail!("--layers groups is for EXR outputs, not {name}");
         }
-        if !a.lightmap && (a.size.is_some() || a.texel_density.is_some() || a.uv.is_some()) {
+        if !a.lightmap && a.lightmap_args.given() {
             bail!("--size, --texel-density and --uv shape a lightmap: add --lightmap for {name}");
         }
         if let Some(e) = a.exposure
@@ -297,7 +316,7 @@ fn check_flags(a: &ExportArgs, format: Format) -> Result<()> {
 
 /// The lightmap's layout as the flags ask.
 fn lay_out(a: &ExportArgs, op: &Operator) -> Result<LightmapLayout> {
-    LightmapLayout::new(op, a.uv, a.size, a.texel_density, a.padding)
+    a.lightmap_args.layout(op)
 }
 
 /// The atlas of the exitant radiance `B/π` of `field` over the charts of `op`'s geometry.

@@ -19,7 +19,7 @@ use lrr_runtime::{Operator, Reconstruction, Rgb, RgbMut};
 
 use crate::emission::{Reconstruct, reconstruction};
 use crate::export::field::Field;
-use crate::export::{LightmapLayout, UvSource, lightmap_atlas};
+use crate::export::{LightmapArgs, LightmapLayout, lightmap_atlas};
 use crate::exr_image::{self, ExrSamples, RgbLayer};
 use crate::picture::{self, CameraArgs, ImageFormat, parse_size};
 use animation::{Animation, Track};
@@ -52,19 +52,8 @@ pub struct RelightArgs {
     /// frame.
     #[arg(long, value_name = "EV", allow_hyphen_values = true)]
     pub exposure: Option<f32>,
-    /// Lightmap coordinates: `scene` (the scene's own TEXCOORD_1, the default when the file
-    /// has them) or `generated` (charts packed as `lrr export` does).
-    #[arg(long, value_enum)]
-    pub uv: Option<UvSource>,
-    /// Lightmap: a square atlas of N×N texels [default: 1024 unless --texel-density is given].
-    #[arg(long, value_name = "N", conflicts_with = "texel_density")]
-    pub size: Option<usize>,
-    /// Lightmap: texels per scene unit.
-    #[arg(long, value_name = "T")]
-    pub texel_density: Option<f64>,
-    /// Lightmap: texels of dilated border around each chart.
-    #[arg(long, value_name = "P", default_value_t = 2)]
-    pub padding: usize,
+    #[command(flatten)]
+    pub lightmap: LightmapArgs,
     /// EXR sample type (lightmaps and EXR images): `half` or `float`.
     #[arg(long, value_enum, default_value_t = ExrSamples::Half)]
     pub samples: ExrSamples,
@@ -238,7 +227,7 @@ struct Lightmaps {
 
 impl Lightmaps {
     fn new(a: &RelightArgs, op: &Operator) -> Result<Self> {
-        let layout = LightmapLayout::new(op, a.uv, a.size, a.texel_density, a.padding)?;
+        let layout = a.lightmap.layout(op)?;
         Ok(Self {
             layout,
             samples: a.samples,
