@@ -95,8 +95,8 @@ fn edit_section(sections: &mut Vec<(u32, bool, Vec<u8>)>, op: u8, r: &mut Reader
     let which = usize::from(r.byte());
     let kinds: Vec<u32> = sections.iter().map(|s| s.0).collect();
     if op == 7 {
-        // Add a section of a small kind code (known, 1.1's YK and LIGHTS, or unknown).
-        let kind = u32::from(r.byte() % 16);
+        // Add a section of a small kind code (known up to 1.3.s LIGHTMAP, 18, or unknown).
+        let kind = u32::from(r.byte() % 20);
         let required = r.byte() & 1 == 1;
         let len = usize::from(r.byte() % 64);
         let payload = r.take(len).to_vec();
@@ -140,7 +140,7 @@ fn edit_section(sections: &mut Vec<(u32, bool, Vec<u8>)>, op: u8, r: &mut Reader
             sections.remove(s);
         }
         8 => {
-            let kind = u32::from(r.byte() % 16);
+            let kind = u32::from(r.byte() % 20);
             if kinds.contains(&kind) {
                 sections[s].1 = !sections[s].1;
             } else {

@@ -117,7 +117,8 @@ fn mutation_bases_are_valid_operator_files() {
 }
 
 /// Rewrites the operator seeds: the mutation bases and a real bake of a seed scene. Run by hand
-/// after a format change: `cargo test --release -p lrr-tests -- --ignored write_operator_seeds`.
+/// after a format change: `cargo test --release -p lrr-tests -- --ignored write_operator_seeds`
+/// (bake-lightmap.lrr: a glTF floor with TEXCOORD_1, format 1.3).
 #[test]
 #[ignore = "writes fuzz/seeds/operator_bytes/"]
 fn write_operator_seeds() {
@@ -129,4 +130,10 @@ fn write_operator_seeds() {
     let scene = root().join("fuzz/seeds/scene_description/two-squares.toml");
     let out = dir.join("bake-two-squares.lrr");
     crate::util::bake(&scene, &out, &[]).unwrap();
+    // Format 1.3: a bake with the scene's lightmap coordinates (section LIGHTMAP).
+    let gltf = crate::util::temp_dir("operator-seeds").join("floor.glb");
+    std::fs::write(&gltf, super::scene_lightmap::lit_floor().glb()).unwrap();
+    let out = dir.join("bake-lightmap.lrr");
+    let coarse = ["--element-size", "1", "--patch-size", "2"];
+    crate::util::bake(&gltf, &out, &coarse).unwrap();
 }
