@@ -95,7 +95,7 @@ fn edit_section(sections: &mut Vec<(u32, bool, Vec<u8>)>, op: u8, r: &mut Reader
     let which = usize::from(r.byte());
     let kinds: Vec<u32> = sections.iter().map(|s| s.0).collect();
     if op == 7 {
-        // Add a section of a small kind code (known up to 1.3.s LIGHTMAP, 18, or unknown).
+        // Add a section of a small kind code (known up to format 1.3's LIGHTMAP, 18, or unknown).
         let kind = u32::from(r.byte() % 20);
         let required = r.byte() & 1 == 1;
         let len = usize::from(r.byte() % 64);
