@@ -48,6 +48,7 @@
 
 mod batch;
 mod bvh;
+mod bvh4;
 mod camera;
 mod effects;
 mod math;
