@@ -86,7 +86,20 @@ fn lo(a: F4, b: F4) -> F4 {
     [m(a[0], b[0]), m(a[1], b[1]), m(a[2], b[2]), m(a[3], b[3])]
 }
 
-/// Bit `i` set where `f(a[i], b[i])`.
+#[inline(always)]
+fn neg(a: F4) -> F4 {
+    [-a[0], -a[1], -a[2], -a[3]]
+}
+
+/// Lane-wise `if a >= b { x } else { y }`.
+#[inline(always)]
+fn select_ge(a: F4, b: F4, x: F4, y: F4) -> F4 {
+    let s = |i: usize| if a[i] >= b[i] { x[i] } else { y[i] };
+    [s(0), s(1), s(2), s(3)]
+}
+
+/// Bit `i` set where `f(a[i], b[i])`: one comparison and `movmskps` (combining several
+/// comparisons lane by lane defeats the vectoriser, so each test is one comparison).
 #[inline(always)]
 fn bits(a: F4, b: F4, f: impl Fn(f32, f32) -> bool) -> u32 {
     (f(a[0], b[0]) as u32)
@@ -122,38 +135,38 @@ struct Group {
     info: u32,
 }
 
-/// The ray as the slab tests of a node read it: origin and reciprocal direction in four lanes,
-/// and per axis which side (0: minima, 1: maxima) is entered first.
+/// The ray as the slab tests of a node read it: origin and reciprocal direction in four lanes.
 struct BoxRay {
     origin: [F4; 3],
     inv: [F4; 3],
-    near: [usize; 3],
 }
 
 impl BoxRay {
     #[inline(always)]
     fn new(ray: &Ray) -> Self {
-        let inv = ray.inv;
         BoxRay {
             origin: ray.origin.map(splat),
-            inv: inv.map(splat),
-            near: inv.map(|i| (i < 0.0) as usize),
+            inv: ray.inv.map(splat),
         }
     }
 
     /// The entry distance into each child's box within `(0, t_max)`, and the children entered
-    /// as a bit mask. The operations of `bvh.rs`'s `enter` in the same order, four lanes wide.
+    /// as a bit mask. `OCT` has bit `a` set when the ray's direction is negative along axis `a`
+    /// (so the maxima are the near side): the values of `bvh.rs`'s `enter`, which takes the
+    /// `min` and `max` of both sides, four lanes wide. The far distance is scaled once, after
+    /// the minimum over the axes (the same value: rounding is monotone).
     #[inline(always)]
-    fn enter(&self, node: &Node, t_max: f32) -> (F4, u32) {
-        let mut near = splat(0.0);
-        let mut far = splat(t_max);
-        for a in 0..3 {
-            let n = self.near[a] & 1;
-            let t0 = mul(sub(node.bounds[n][a], self.origin[a]), self.inv[a]);
-            let t1 = mul(sub(node.bounds[n ^ 1][a], self.origin[a]), self.inv[a]);
-            near = hi(near, t0);
-            far = lo(far, mul(t1, splat(FAR_SCALE)));
-        }
+    fn enter<const OCT: usize>(&self, node: &Node, t_max: f32) -> (F4, u32) {
+        let side = |a: usize| (OCT >> a) & 1;
+        let slab = |a: usize, s: usize| mul(sub(node.bounds[s][a], self.origin[a]), self.inv[a]);
+        let near = hi(
+            hi(hi(splat(0.0), slab(0, side(0))), slab(1, side(1))),
+            slab(2, side(2)),
+        );
+        // (The far side in `enter`'s order, each axis scaled: written as one minimum of the
+        // three the vectoriser interleaves the axes' lanes.)
+        let scaled = |a: usize| mul(slab(a, side(a) ^ 1), splat(FAR_SCALE));
+        let far = lo(lo(lo(splat(t_max), scaled(0)), scaled(1)), scaled(2));
         (near, bits(near, far, |n, f| n <= f))
     }
 }
@@ -177,32 +190,44 @@ fn triangles<const KZ: usize>(ray: &Ray, g: &Group, t_min: f32, t_max: f32) -> (
     let mut v = sub(mul(ax, cy), mul(ay, cx));
     let mut w = sub(mul(bx, ay), mul(by, ax));
     let zero = splat(0.0);
-    let eq = |a: f32, b: f32| a == b;
-    let mut on_edge = bits(u, zero, eq) | bits(v, zero, eq) | bits(w, zero, eq);
-    while on_edge != 0 {
-        // On an edge in f32: the f64 products decide, as in `bvh.rs`.
-        let i = on_edge.trailing_zeros() as usize;
-        on_edge &= on_edge - 1;
-        let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
-        u[i] = f(cx[i], by[i], cy[i], bx[i]);
-        v[i] = f(ax[i], cy[i], ay[i], cx[i]);
-        w[i] = f(bx[i], ay[i], by[i], ax[i]);
+    // A lane with an edge function exactly zero has `(u v w)² = 0` or NaN (so do a few more,
+    // rounded to zero): then every lane is checked exactly.
+    let p = mul(mul(u, v), w);
+    if bits(mul(p, p), zero, |p, z| !(p > z)) != 0 {
+        [u, v, w] = on_edge([ax, ay, bx, by, cx, cy], [u, v, w]);
     }
-    let lt = |a: f32, b: f32| a < b;
-    let gt = |a: f32, b: f32| a > b;
-    let negative = bits(u, zero, lt) | bits(v, zero, lt) | bits(w, zero, lt);
-    let positive = bits(u, zero, gt) | bits(v, zero, gt) | bits(w, zero, gt);
+    // Signs all alike (zeros allowed): `min ≥ 0` or `max ≤ 0`, i.e. `max(min, -max) ≥ 0`. A NaN
+    // makes `det` and `t` NaN, which the distance test rejects.
+    let signs = hi(lo(lo(u, v), w), neg(hi(hi(u, v), w)));
     let det = add(add(u, v), w);
     let t_scaled = add(
         add(mul(u, mul(sz, az)), mul(v, mul(sz, bz))),
         mul(w, mul(sz, cz)),
     );
     let t = div(t_scaled, det);
-    let hit = !(negative & positive)
-        & !bits(det, zero, eq)
-        & bits(t, splat(t_min), gt)
-        & bits(t, splat(t_max), lt);
-    (t, hit & g.info & 0xf)
+    // `t_min < t < t_max` as `min(t - t_min, t_max - t) > 0` (a difference of floats is zero
+    // only between equals and has their order's sign; a NaN or infinite `t`, which `det = 0`
+    // gives, fails), and `-1` in place of it where the signs differ: one comparison (several
+    // combined lane by lane defeat the vectoriser). `det = 0` needs no test of its own.
+    let gate = select_ge(signs, zero, splat(f32::INFINITY), splat(-1.0));
+    let inside = lo(gate, lo(sub(t, splat(t_min)), sub(splat(t_max), t)));
+    (t, bits(inside, zero, |d, z| d > z) & g.info & 0xf)
+}
+
+/// The f64 edge functions of `bvh.rs` in the lanes with an edge function exactly zero in f32.
+#[cold]
+#[inline(never)]
+fn on_edge([ax, ay, bx, by, cx, cy]: [F4; 6], [mut u, mut v, mut w]: [F4; 3]) -> [F4; 3] {
+    for i in 0..4 {
+        if u[i] != 0.0 && v[i] != 0.0 && w[i] != 0.0 {
+            continue;
+        }
+        let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
+        u[i] = f(cx[i], by[i], cy[i], bx[i]);
+        v[i] = f(ax[i], cy[i], ay[i], cx[i]);
+        w[i] = f(bx[i], ay[i], by[i], ax[i]);
+    }
+    [u, v, w]
 }
 
 /// The file's BVH as 4-wide nodes over triangle groups.
@@ -265,9 +290,30 @@ impl Bvh4 {
             &mut heap
         };
         match ray.kz {
-            0 => self.closest::<0>(stack, ray, t_min, t_max),
-            1 => self.closest::<1>(stack, ray, t_min, t_max),
-            _ => self.closest::<2>(stack, ray, t_min, t_max),
+            0 => self.closest_kz::<0>(stack, ray, t_min, t_max),
+            1 => self.closest_kz::<1>(stack, ray, t_min, t_max),
+            _ => self.closest_kz::<2>(stack, ray, t_min, t_max),
+        }
+    }
+
+    /// [`Bvh4::closest_hit`] dispatched on the ray's octant.
+    #[inline(always)]
+    fn closest_kz<const KZ: usize>(
+        &self,
+        stack: &mut [(u32, f32)],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<Hit> {
+        match octant(ray) {
+            0 => self.closest::<KZ, 0>(stack, ray, t_min, t_max),
+            1 => self.closest::<KZ, 1>(stack, ray, t_min, t_max),
+            2 => self.closest::<KZ, 2>(stack, ray, t_min, t_max),
+            3 => self.closest::<KZ, 3>(stack, ray, t_min, t_max),
+            4 => self.closest::<KZ, 4>(stack, ray, t_min, t_max),
+            5 => self.closest::<KZ, 5>(stack, ray, t_min, t_max),
+            6 => self.closest::<KZ, 6>(stack, ray, t_min, t_max),
+            _ => self.closest::<KZ, 7>(stack, ray, t_min, t_max),
         }
     }
 
@@ -286,14 +332,35 @@ impl Bvh4 {
             &mut heap
         };
         match ray.kz {
-            0 => self.any::<0>(stack, ray, t_min, t_max),
-            1 => self.any::<1>(stack, ray, t_min, t_max),
-            _ => self.any::<2>(stack, ray, t_min, t_max),
+            0 => self.any_kz::<0>(stack, ray, t_min, t_max),
+            1 => self.any_kz::<1>(stack, ray, t_min, t_max),
+            _ => self.any_kz::<2>(stack, ray, t_min, t_max),
         }
     }
 
-    /// [`Bvh4::closest_hit`] for rays whose dominant axis is `KZ`.
-    fn closest<const KZ: usize>(
+    /// [`Bvh4::occluded`] dispatched on the ray's octant.
+    #[inline(always)]
+    fn any_kz<const KZ: usize>(
+        &self,
+        stack: &mut [u32],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> bool {
+        match octant(ray) {
+            0 => self.any::<KZ, 0>(stack, ray, t_min, t_max),
+            1 => self.any::<KZ, 1>(stack, ray, t_min, t_max),
+            2 => self.any::<KZ, 2>(stack, ray, t_min, t_max),
+            3 => self.any::<KZ, 3>(stack, ray, t_min, t_max),
+            4 => self.any::<KZ, 4>(stack, ray, t_min, t_max),
+            5 => self.any::<KZ, 5>(stack, ray, t_min, t_max),
+            6 => self.any::<KZ, 6>(stack, ray, t_min, t_max),
+            _ => self.any::<KZ, 7>(stack, ray, t_min, t_max),
+        }
+    }
+
+    /// [`Bvh4::closest_hit`] for rays whose dominant axis is `KZ`, in octant `OCT`.
+    fn closest<const KZ: usize, const OCT: usize>(
         &self,
         stack: &mut [(u32, f32)],
         ray: &Ray,
@@ -307,33 +374,57 @@ impl Bvh4 {
         loop {
             if at & LEAF == 0 {
                 let node = &self.nodes[at as usize];
-                let (near, mut mask) = boxes.enter(node, best_t);
+                let (near, mut mask) = boxes.enter::<OCT>(node, best_t);
                 if mask != 0 {
-                    let i = mask.trailing_zeros() as usize;
+                    // The nearest child is next, the others pushed farthest first.
+                    let entry = |i: u32| (node.child[i as usize], near[i as usize]);
+                    let mut a = entry(mask.trailing_zeros());
                     mask &= mask - 1;
                     if mask == 0 {
-                        at = node.child[i];
+                        at = a.0;
                         continue;
                     }
-                    // Two or more: the nearest is next, the others pushed farthest first.
-                    let mut c = [(node.child[i], near[i]); 4];
-                    let mut k = 1;
-                    while mask != 0 {
-                        let j = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        // Insertion, by decreasing entry distance.
-                        let entry = (node.child[j], near[j]);
-                        let mut p = k;
-                        while p > 0 && c[p - 1].1 < entry.1 {
-                            c[p] = c[p - 1];
-                            p -= 1;
-                        }
-                        c[p] = entry;
-                        k += 1;
+                    let mut b = entry(mask.trailing_zeros());
+                    mask &= mask - 1;
+                    if b.1 < a.1 {
+                        (a, b) = (b, a);
                     }
-                    stack[sp..sp + k - 1].copy_from_slice(&c[..k - 1]);
-                    sp += k - 1;
-                    at = c[k - 1].0;
+                    if mask == 0 {
+                        stack[sp] = b;
+                        sp += 1;
+                        at = a.0;
+                        continue;
+                    }
+                    let mut c = entry(mask.trailing_zeros());
+                    mask &= mask - 1;
+                    if c.1 < b.1 {
+                        (b, c) = (c, b);
+                        if b.1 < a.1 {
+                            (a, b) = (b, a);
+                        }
+                    }
+                    if mask == 0 {
+                        stack[sp] = c;
+                        stack[sp + 1] = b;
+                        sp += 2;
+                        at = a.0;
+                        continue;
+                    }
+                    let mut d = entry(mask.trailing_zeros());
+                    if d.1 < c.1 {
+                        (c, d) = (d, c);
+                        if c.1 < b.1 {
+                            (b, c) = (c, b);
+                            if b.1 < a.1 {
+                                (a, b) = (b, a);
+                            }
+                        }
+                    }
+                    stack[sp] = d;
+                    stack[sp + 1] = c;
+                    stack[sp + 2] = b;
+                    sp += 3;
+                    at = a.0;
                     continue;
                 }
             } else {
@@ -374,14 +465,20 @@ impl Bvh4 {
         }
     }
 
-    /// [`Bvh4::occluded`] for rays whose dominant axis is `KZ`.
-    fn any<const KZ: usize>(&self, stack: &mut [u32], ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    /// [`Bvh4::occluded`] for rays whose dominant axis is `KZ`, in octant `OCT`.
+    fn any<const KZ: usize, const OCT: usize>(
+        &self,
+        stack: &mut [u32],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> bool {
         let boxes = BoxRay::new(ray);
         let mut sp = 0usize;
         let mut at = 0usize;
         loop {
             let node = &self.nodes[at];
-            let (_, mut mask) = boxes.enter(node, t_max);
+            let (_, mut mask) = boxes.enter::<OCT>(node, t_max);
             while mask != 0 {
                 let i = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
@@ -410,6 +507,15 @@ impl Bvh4 {
             at = stack[sp] as usize;
         }
     }
+}
+
+/// Bit `a` set where the ray's direction is negative along axis `a` (its reciprocal is never
+/// zero: `Ray::new`).
+#[inline(always)]
+fn octant(ray: &Ray) -> usize {
+    (ray.inv[0] < 0.0) as usize
+        | ((ray.inv[1] < 0.0) as usize) << 1
+        | ((ray.inv[2] < 0.0) as usize) << 2
 }
 
 /// The conversion's state.
