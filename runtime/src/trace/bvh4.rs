@@ -3,35 +3,48 @@
 //! boxes and leaf triangles stored as structure of arrays in `[f32; 4]` lanes, so that one node
 //! is four slab tests and one group of triangles four watertight tests, in plain safe code the
 //! compiler turns into SSE (the workspace builds for generic x86-64: no AVX2 at compile time,
-//! no `unsafe`).
+//! no `unsafe`; docs/PERFORMANCE.md has the measurements).
 //!
 //! - Nodes: per axis the four children's minima and maxima (`bounds[0][axis]`,
-//!   `bounds[1][axis]`); the ray picks the near and far side of each axis by the sign of its
-//!   direction once, so a slab test is a subtraction and a product per side, with no
-//!   `min`/`max` between the two sides (the same values as `bvh.rs`'s `enter`, which takes the
-//!   `min`/`max` of both: the near side of a valid box is never the far one). Unused slots hold
-//!   an empty box (`+∞` minima, `−∞` maxima) that no ray enters.
+//!   `bounds[1][axis]`, 128 bytes a node). The traversal is monomorphised on the ray's octant
+//!   (and, for the triangle test, its dominant axis), so the near and far side of each axis are
+//!   fixed fields: a slab test is a subtraction and a product per side, with no `min`/`max`
+//!   between the two sides (the same values as `bvh.rs`'s `enter`, which takes the `min`/`max`
+//!   of both: the near side of a valid box is never the far one). Unused slots hold an empty
+//!   box (`+∞` minima, `−∞` maxima) that no ray enters.
 //! - Collapse: from each binary node, the inner child with the largest box is opened until
 //!   there are four children or only leaves (as the bake's `visibility/flat.rs` collapses obvhs'
-//!   tree). Every leaf of the file becomes one leaf slot of a wide node.
+//!   tree). Every leaf of the file becomes one leaf slot of a wide node. A node reached twice
+//!   (not a tree) or leaves listing more triangles than the file has are refused, so that a
+//!   damaged file cannot make the conversion blow up.
 //! - Leaves: each leaf's triangles (a contiguous run of the leaf order) in groups of four lanes
 //!   (a leaf of 1–4 triangles is one group; unused lanes repeat the last triangle and are
 //!   masked off), the 9 coordinates as lanes, tested with the watertight test of `bvh.rs`
 //!   operation for operation (the same f32 rounding, the same f64 fallback on a zero edge
-//!   function), so a triangle's distance is bit for bit the one `bvh.rs`'s `triangle` returns.
+//!   function), so a triangle's distance is bit for bit the one `bvh.rs`'s `triangle` returns;
+//!   only the accept tests are regrouped (exactly: see `triangles`) so that each is one
+//!   comparison.
 //! - Closest hit: a fixed stack of (child, entry distance); the children a ray enters are
-//!   visited nearest first (the farther ones pushed), a popped entry skipped when it starts
-//!   beyond the best hit. The answer is the triangle of least distance, ties between equal
-//!   distances broken by the lower leaf-order index, which does not depend on the visiting
-//!   order (`trace.wgsl`'s binary traversal breaks ties the same way).
+//!   visited nearest first (the farther ones pushed, farthest first), a popped entry skipped
+//!   when it starts beyond the best hit. The answer is the triangle of least distance, ties
+//!   between equal distances broken by the lower leaf-order index, which does not depend on
+//!   the visiting order (`trace.wgsl`'s binary traversal breaks ties the same way).
 //! - Any hit (shadow rays): children in slot order, leaves tested at once, the first hit ends
 //!   it.
 //!
 //! Exactness: the boxes of a tree hold their children's, and the slab test is monotone in the
-//! box (a ray that enters a box enters every box holding it), so the leaves whose triangles a
-//! traversal tests are the same as in the binary traversal of the same file: any-hit answers are
-//! the same booleans, and a closest hit is the same triangle at the same distance, up to the
-//! tie rule between triangles at the same distance.
+//! box (a ray that enters a box enters every box holding it), so a traversal tests the
+//! triangles of the leaves whose own box the ray enters, the same in the binary traversal of the
+//! same file: any-hit answers are the same booleans, and a closest hit is the same triangle at
+//! the same distance (the tests hold both traversals and brute force to it). The one exception
+//! left is shared by every traversal order: a triangle hit at a distance within rounding of its
+//! box's entry distance, behind a hit found first at a distance in between.
+//!
+//! Vectorisation: LLVM's SLP vectoriser turns the lane-wise helpers below into `subps`,
+//! `mulps`, `minps`, `maxps`, `cmpps` and `movmskps`, but only when each bit mask comes from one
+//! comparison and a reduction runs as a chain from a splat (`min(min(min(t_max, x), y), z)`):
+//! several comparisons combined lane by lane, or `min(x, min(y, z))`, are scalarised or
+//! interleaved across axes (checked in the assembly; `lrr bench render` measures the result).
 
 use lrr_formats::BvhNode;
 
@@ -44,8 +57,9 @@ type F4 = [f32; 4];
 const LEAF: u32 = 1 << 31;
 /// `Group::info`: the group ends its leaf.
 const LAST: u32 = 1 << 8;
-/// Stack entries kept on the caller's stack frame; a deeper tree gets a heap stack per query.
-const INLINE_STACK: usize = 64;
+/// Stack entries kept on the caller's stack frame; a deeper tree gets a heap stack per query
+/// (the tests' trees use both).
+const INLINE_STACK: usize = if cfg!(test) { 16 } else { 64 };
 
 #[inline(always)]
 fn splat(x: f32) -> F4 {
@@ -193,7 +207,10 @@ fn triangles<const KZ: usize>(ray: &Ray, g: &Group, t_min: f32, t_max: f32) -> (
     // A lane with an edge function exactly zero has `(u v w)² = 0` or NaN (so do a few more,
     // rounded to zero): then every lane is checked exactly.
     let p = mul(mul(u, v), w);
-    if bits(mul(p, p), zero, |p, z| !(p > z)) != 0 {
+    // Not `>` (NaN included), one comparison (`cmpnltps`).
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    let unclean = |p: f32, z: f32| !(p > z);
+    if bits(mul(p, p), zero, unclean) != 0 {
         [u, v, w] = on_edge([ax, ay, bx, by, cx, cy], [u, v, w]);
     }
     // Signs all alike (zeros allowed): `min ≥ 0` or `max ≤ 0`, i.e. `max(min, -max) ≥ 0`. A NaN
@@ -625,7 +642,7 @@ mod tests {
     use lrr_formats::{BvhNode, Geometry};
 
     use super::super::bvh::{self, Binary, Hit, Ray, triangle};
-    use super::{Bvh4, NotATree};
+    use super::{Bvh4, INLINE_STACK, NotATree};
 
     /// SplitMix64 in [0, 1).
     struct Rng(u64);
@@ -787,6 +804,7 @@ mod tests {
     #[test]
     fn the_wide_traversal_finds_what_brute_force_finds_on_random_rays() {
         let mut rng = Rng(0x5eed);
+        let mut stacks = [0; 2];
         for (count, size) in [
             (1, 3.0),
             (2, 3.0),
@@ -814,8 +832,13 @@ mod tests {
                     hits += check(&scene, &bvh4, &ray, 0.0, t_max) as usize;
                 }
                 assert!(count < 300 || hits > 10, "{count} triangles: {hits} hits");
+                stacks[(bvh4.stack > INLINE_STACK) as usize] += 1;
             }
         }
+        assert!(
+            stacks[0] > 0 && stacks[1] > 0,
+            "inline and heap stacks: {stacks:?}"
+        );
     }
 
     #[test]
