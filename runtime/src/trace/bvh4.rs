@@ -167,8 +167,7 @@ impl BoxRay {
     /// The entry distance into each child's box within `(0, t_max)`, and the children entered
     /// as a bit mask. `OCT` has bit `a` set when the ray's direction is negative along axis `a`
     /// (so the maxima are the near side): the values of `bvh.rs`'s `enter`, which takes the
-    /// `min` and `max` of both sides, four lanes wide. The far distance is scaled once, after
-    /// the minimum over the axes (the same value: rounding is monotone).
+    /// `min` and `max` of both sides, in the same order, four lanes wide.
     #[inline(always)]
     fn enter<const OCT: usize>(&self, node: &Node, t_max: f32) -> (F4, u32) {
         let side = |a: usize| (OCT >> a) & 1;
@@ -177,8 +176,8 @@ impl BoxRay {
             hi(hi(splat(0.0), slab(0, side(0))), slab(1, side(1))),
             slab(2, side(2)),
         );
-        // (The far side in `enter`'s order, each axis scaled: written as one minimum of the
-        // three the vectoriser interleaves the axes' lanes.)
+        // The far side in `enter`'s order, each axis scaled (scaled once after a minimum of the
+        // three, the same value, the vectoriser interleaves the axes' lanes: measured slower).
         let scaled = |a: usize| mul(slab(a, side(a) ^ 1), splat(FAR_SCALE));
         let far = lo(lo(lo(splat(t_max), scaled(0)), scaled(1)), scaled(2));
         (near, bits(near, far, |n, f| n <= f))
