@@ -295,8 +295,10 @@ struct Hit {
     tri: u32,
 }
 
-// bvh.rs `closest_hit`: the nearest triangle in (t_min, t_max); a fixed stack of (node, entry
-// distance), the nearer child first, a popped node skipped when a closer hit was found.
+// bvh.rs `closest_hit`: the nearest triangle in (t_min, t_max), between equal distances the
+// lower leaf-order index (an answer independent of the visiting order, the CPU's 4-wide
+// traversal's); a fixed stack of (node, entry distance), the nearer child first, a popped node
+// skipped when it starts beyond the best hit.
 fn closest_hit(ray: Ray, t_min: f32, t_max: f32) -> Hit {
     var best = Hit(t_max, NO_HIT);
     if enter(0u, ray, best.t) < 0.0 {
@@ -311,8 +313,8 @@ fn closest_hit(ray: Ray, t_min: f32, t_max: f32) -> Hit {
         var descend = false;
         if n.count > 0u {
             for (var i = n.first; i < n.first + n.count; i++) {
-                let t = triangle(ray, i, t_min, best.t);
-                if t >= 0.0 {
+                let t = triangle(ray, i, t_min, t_max);
+                if t >= 0.0 && (t < best.t || (t == best.t && i < best.tri)) {
                     best = Hit(t, i);
                 }
             }
@@ -343,11 +345,11 @@ fn closest_hit(ray: Ray, t_min: f32, t_max: f32) -> Hit {
         if descend {
             continue;
         }
-        // Pop the next node still nearer than the best hit.
+        // Pop the next node not beyond the best hit.
         var found = false;
         while sp > 0u {
             sp -= 1u;
-            if stack_t[sp] < best.t {
+            if stack_t[sp] <= best.t {
                 node = stack_node[sp];
                 found = true;
                 break;

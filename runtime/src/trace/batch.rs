@@ -2,7 +2,7 @@
 //! hits of a batch, the shadow rays from hits to the point lights and the mirror reflections
 //! of hits, each traced on the calling thread by the loops the renderer runs.
 
-use super::bvh::{Ray, closest_hit, occluded};
+use super::bvh::Ray;
 use super::camera::View;
 use super::math::{V3, dot, length, mad, normalize, scale, sub};
 use super::scene::TraceScene;
@@ -71,11 +71,13 @@ pub(crate) fn closest(
     (0..batch.len())
         .map(|i| {
             let ray = Ray::new(batch.origins[i], batch.dirs[i]);
-            closest_hit(scene, &ray, 0.0, batch.t_max[i]).map(|h| TraceHit {
-                t: h.t,
-                triangle: triangle_ids[h.tri as usize],
-                leaf: h.tri,
-            })
+            scene
+                .closest_hit(&ray, 0.0, batch.t_max[i])
+                .map(|h| TraceHit {
+                    t: h.t,
+                    triangle: triangle_ids[h.tri as usize],
+                    leaf: h.tri,
+                })
         })
         .collect()
 }
@@ -85,7 +87,7 @@ pub(crate) fn any(scene: &TraceScene, batch: &RayBatch) -> Vec<bool> {
     (0..batch.len())
         .map(|i| {
             let ray = Ray::new(batch.origins[i], batch.dirs[i]);
-            occluded(scene, &ray, 0.0, batch.t_max[i])
+            scene.occluded(&ray, 0.0, batch.t_max[i])
         })
         .collect()
 }

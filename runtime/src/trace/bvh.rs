@@ -1,6 +1,7 @@
-//! Closest-hit and any-hit traversal of the file's flattened binary BVH, and the watertight
-//! ray/triangle test (Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection", JCGT
-//! 2013).
+//! Rays and the watertight ray/triangle test (Woop, Benthin and Wald, "Watertight
+//! Ray/Triangle Intersection", JCGT 2013), and the binary traversal of the file's flattened BVH
+//! that `shaders/wgsl/trace.wgsl` runs (the CPU traverses the 4-wide collapse of the same tree,
+//! `bvh4.rs`, to the same answers; the binary loop stays here as the tests' reference).
 //!
 //! Why watertight and not Möller–Trumbore: the display triangles are the fans of quads that
 //! share edges and diagonals; Möller–Trumbore's barycentric tests round differently on the two
@@ -11,29 +12,36 @@
 //! conservative slab test (the far distance enlarged by `1 + 2γ₃`, Ize 2013) so a box never
 //! misses a ray the triangle test would hit.
 //!
-//! Traversal: a fixed stack of node ids (no recursion); at an interior node both children's
-//! boxes are tested, the nearer visited first and the farther pushed with its entry distance,
-//! which is skipped when popped if a closer hit was found meanwhile. The same loop, stack size
-//! and node layout serve a WGSL twin.
+//! Binary traversal (the WGSL twin's): a fixed stack of node ids (no recursion); at an interior
+//! node both children's boxes are tested, the nearer visited first and the farther pushed with
+//! its entry distance, which is skipped when popped if it starts beyond the best hit. The
+//! closest hit is the triangle of least distance, ties broken by the lower leaf-order index
+//! (which makes the answer independent of the visiting order, so the 4-wide traversal gives
+//! the same one).
 
+#[cfg(test)]
 use lrr_formats::BvhNode;
 
 use super::math::V3;
-use super::scene::{MAX_BVH_DEPTH, TraceScene};
+
+/// Deepest BVH the fixed traversal stacks hold (a binary BVH over 2³² triangles built by a
+/// balanced split is 32 deep; obvhs' trees stay far below 64 on every scene we bake).
+pub(crate) const MAX_BVH_DEPTH: usize = 64;
 
 /// `1 + 2γ₃` with γₙ = n ε / (1 - n ε), ε = 2⁻²⁴: the slab test's far distance is scaled by
 /// this so rounding never shrinks a box (pbrt-v4, `Bounds3::IntersectP`).
-const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+pub(super) const FAR_SCALE: f32 =
+    1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// A ray with what its box and triangle tests precompute.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Ray {
     pub origin: V3,
-    inv: V3,
+    pub(super) inv: V3,
     /// The watertight test's dominant axis `kz` (`kx = kz + 1`, `ky = kz + 2`, mod 3) and
     /// shear.
-    kz: usize,
-    shear: V3,
+    pub(super) kz: usize,
+    pub(super) shear: V3,
 }
 
 impl Ray {
@@ -77,6 +85,7 @@ pub(crate) struct Hit {
 }
 
 /// Entry distance of `ray` into `node`'s box within `(0, t_max)`, or `None`.
+#[cfg(test)]
 #[inline(always)]
 fn enter(node: &BvhNode, ray: &Ray, t_max: f32) -> Option<f32> {
     // Plain comparisons (one `minss`/`maxss` each) rather than `f32::min`, whose NaN rule
@@ -98,8 +107,14 @@ fn enter(node: &BvhNode, ray: &Ray, t_max: f32) -> Option<f32> {
 /// The watertight test of `ray` against the triangle `v`: its distance in `(t_min, t_max)`, or
 /// `None`. Two-sided (no culling).
 /// `KZ` is the ray's dominant axis, a constant so that the permutation costs nothing.
+#[cfg(test)]
 #[inline(always)]
-fn triangle<const KZ: usize>(ray: &Ray, v: &[f32; 9], t_min: f32, t_max: f32) -> Option<f32> {
+pub(super) fn triangle<const KZ: usize>(
+    ray: &Ray,
+    v: &[f32; 9],
+    t_min: f32,
+    t_max: f32,
+) -> Option<f32> {
     let (kx, ky, kz) = ((KZ + 1) % 3, (KZ + 2) % 3, KZ);
     let o = ray.origin;
     let rel = |i: usize| [v[i] - o[0], v[i + 1] - o[1], v[i + 2] - o[2]];
@@ -130,8 +145,18 @@ fn triangle<const KZ: usize>(ray: &Ray, v: &[f32; 9], t_min: f32, t_max: f32) ->
     (t > t_min && t < t_max).then_some(t)
 }
 
-/// The nearest triangle `ray` hits in `(t_min, t_max)`.
-pub(crate) fn closest_hit(scene: &TraceScene, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+/// A binary BVH and its triangles in leaf order (the file's, as `TraceScene` holds them).
+#[cfg(test)]
+#[derive(Clone, Copy)]
+pub(super) struct Binary<'a> {
+    pub nodes: &'a [BvhNode],
+    pub tris: &'a [[f32; 9]],
+}
+
+/// The nearest triangle `ray` hits in `(t_min, t_max)`, by the binary traversal (ties: the
+/// lower leaf-order index).
+#[cfg(test)]
+pub(super) fn closest_hit(scene: Binary, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
     match ray.kz {
         0 => closest_hit_kz::<0>(scene, ray, t_min, t_max),
         1 => closest_hit_kz::<1>(scene, ray, t_min, t_max),
@@ -140,8 +165,9 @@ pub(crate) fn closest_hit(scene: &TraceScene, ray: &Ray, t_min: f32, t_max: f32)
 }
 
 /// [`closest_hit`] for rays whose dominant axis is `KZ`.
+#[cfg(test)]
 fn closest_hit_kz<const KZ: usize>(
-    scene: &TraceScene,
+    scene: Binary,
     ray: &Ray,
     t_min: f32,
     t_max: f32,
@@ -166,11 +192,12 @@ fn closest_hit_kz<const KZ: usize>(
                 .iter()
                 .enumerate()
             {
-                if let Some(t) = triangle::<KZ>(ray, tri, t_min, best.t) {
-                    best = Hit {
-                        t,
-                        tri: (first + i) as u32,
-                    };
+                let i = (first + i) as u32;
+                let Some(t) = triangle::<KZ>(ray, tri, t_min, t_max) else {
+                    continue;
+                };
+                if t < best.t || (t == best.t && i < best.tri) {
+                    best = Hit { t, tri: i };
                 }
             }
         } else {
@@ -200,14 +227,14 @@ fn closest_hit_kz<const KZ: usize>(
                 (None, None) => {}
             }
         }
-        // Pop the next node still nearer than the best hit.
+        // Pop the next node not beyond the best hit.
         loop {
             if sp == 0 {
                 return (best.tri != u32::MAX).then_some(best);
             }
             sp -= 1;
             let (next, t_enter) = stack[sp];
-            if t_enter < best.t {
+            if t_enter <= best.t {
                 node = next as usize;
                 break;
             }
@@ -215,8 +242,10 @@ fn closest_hit_kz<const KZ: usize>(
     }
 }
 
-/// Whether any triangle blocks `ray` in `(t_min, t_max)` (shadow rays: the first hit ends it).
-pub(crate) fn occluded(scene: &TraceScene, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+/// Whether any triangle blocks `ray` in `(t_min, t_max)` by the binary traversal (the first hit
+/// ends it).
+#[cfg(test)]
+pub(super) fn occluded(scene: Binary, ray: &Ray, t_min: f32, t_max: f32) -> bool {
     match ray.kz {
         0 => occluded_kz::<0>(scene, ray, t_min, t_max),
         1 => occluded_kz::<1>(scene, ray, t_min, t_max),
@@ -225,7 +254,8 @@ pub(crate) fn occluded(scene: &TraceScene, ray: &Ray, t_min: f32, t_max: f32) ->
 }
 
 /// [`occluded`] for rays whose dominant axis is `KZ`.
-fn occluded_kz<const KZ: usize>(scene: &TraceScene, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+#[cfg(test)]
+fn occluded_kz<const KZ: usize>(scene: Binary, ray: &Ray, t_min: f32, t_max: f32) -> bool {
     let nodes = &scene.nodes;
     if nodes.is_empty() || enter(&nodes[0], ray, t_max).is_none() {
         return false;

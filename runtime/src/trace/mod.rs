@@ -15,11 +15,14 @@
 //!
 //! Only what the scene calls for is simulated ([`Effects`], decided per frame and explained by
 //! [`Decision::text`]); the loop is monomorphised per decision. Closest-hit and any-hit
-//! traversal use the watertight ray/triangle test (`bvh.rs` says why). Tiles of rows go to std
-//! threads; the image does not depend on their number.
+//! traversal run over the file's BVH collapsed into 4-wide nodes at load (`bvh4.rs`: four boxes
+//! and four triangles per SIMD test) and use the watertight ray/triangle test (`bvh.rs` says
+//! why); between triangles at the same distance the lower leaf-order index wins. Tiles of rows
+//! go to std threads; the image does not depend on their number.
 //!
 //! The structure is the one a WGSL twin mirrors: flat arrays indexed by `u32`, fixed-size
-//! stacks, no recursion, no trait objects in the hot loop.
+//! stacks, no recursion, no trait objects in the hot loop (the twin traverses the binary BVH,
+//! `bvh.rs`'s reference loop, to the same hits).
 //!
 //! ```
 //! use lrr_runtime::trace::{Lighting, Tracer, View};
@@ -48,6 +51,7 @@
 
 mod batch;
 mod bvh;
+mod bvh4;
 mod camera;
 mod effects;
 mod math;

@@ -8,12 +8,10 @@
 
 use lrr_formats::{BvhNode, Geometry, OperatorFile, PointLight, Smooth};
 
+use super::bvh::{Hit, MAX_BVH_DEPTH, Ray};
+use super::bvh4::{Bvh4, NotATree};
 use super::math::{V3, length, sub};
 use crate::error::{RuntimeError, input};
-
-/// Deepest BVH the fixed traversal stack holds (a binary BVH over 2³² triangles built by a
-/// balanced split is 32 deep; obvhs' trees stay far below 64 on every scene we bake).
-pub(crate) const MAX_BVH_DEPTH: usize = 64;
 
 /// How one material looks to the tracer (its diffuse part is already in the radiosity).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,10 +48,13 @@ impl Optics {
 /// The tracer's copy of a file's display data.
 #[derive(Debug, Clone)]
 pub(crate) struct TraceScene {
-    /// The file's BVH nodes (node 0 the root).
+    /// The file's BVH nodes (node 0 the root; what the GPU twin traverses).
+    #[cfg(feature = "gpu")]
     pub nodes: Vec<BvhNode>,
     /// Display triangles in leaf order (`Bvh::triangles` order): v0, v1, v2.
     pub tris: Vec<[f32; 9]>,
+    /// The same tree collapsed into 4-wide nodes, what the CPU traverses.
+    pub bvh4: Bvh4,
     /// Per leaf-order triangle: the file position of its element.
     pub tri_element: Vec<u32>,
     /// Per leaf-order triangle: its display triangle id (the file's `Bvh::triangles`).
@@ -103,7 +104,7 @@ impl TraceScene {
         };
         let all: Vec<(u32, [[f32; 3]; 3])> = g.triangles().collect();
         check_bvh(&bvh.nodes, &bvh.triangles, all.len())?;
-        let tris = bvh
+        let tris: Vec<[f32; 9]> = bvh
             .triangles
             .iter()
             .map(|&t| {
@@ -111,6 +112,14 @@ impl TraceScene {
                 [a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]]
             })
             .collect();
+        let bvh4 = Bvh4::new(&bvh.nodes, &tris).map_err(|e| {
+            bad(match e {
+                NotATree::Shared => "a BVH node is the child of two nodes",
+                NotATree::TooManyTriangles => {
+                    "the BVH's leaves list more triangles than the file has"
+                }
+            })
+        })?;
         let tri_element = bvh.triangles.iter().map(|&t| all[t as usize].0).collect();
         let (optics, material_names, element_material) = materials(file)?;
         let lights = file.display.point_lights.clone();
@@ -127,8 +136,10 @@ impl TraceScene {
             .first()
             .map_or(1.0, |root| length(sub(root.max, root.min)));
         Ok(TraceScene {
+            #[cfg(feature = "gpu")]
             nodes: bvh.nodes.clone(),
             tris,
+            bvh4,
             tri_element,
             tri_id: bvh.triangles.clone(),
             element_id: file.order.clone(),
@@ -146,6 +157,20 @@ impl TraceScene {
             has_smooth: smooth.is_some(),
             smooth,
         })
+    }
+
+    /// The nearest triangle `ray` hits in `(t_min, t_max)`; between triangles at the same
+    /// distance, the lower leaf-order index.
+    #[inline(always)]
+    pub(crate) fn closest_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        self.bvh4.closest_hit(ray, t_min, t_max)
+    }
+
+    /// Whether any triangle blocks `ray` in `(t_min, t_max)` (shadow rays: the first hit ends
+    /// it).
+    #[inline(always)]
+    pub(crate) fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        self.bvh4.occluded(ray, t_min, t_max)
     }
 
     /// Number of elements.

@@ -26,7 +26,7 @@
 
 use std::f32::consts::FRAC_1_PI;
 
-use super::bvh::{Ray, closest_hit, occluded};
+use super::bvh::Ray;
 use super::effects::MAX_DEPTH_LIMIT;
 use super::math::{V3, add, dot, length, mad, max_component, mul, normalize, scale, sub};
 use super::scene::{Optics, TraceScene};
@@ -122,7 +122,7 @@ fn highlights(
         let to_light = sub(light.position, origin);
         let reach = length(to_light);
         let shadow = Ray::new(origin, scale(to_light, 1.0 / reach));
-        if occluded(scene, &shadow, 0.0, reach * (1.0 - 1e-5)) {
+        if scene.occluded(&shadow, 0.0, reach * (1.0 - 1e-5)) {
             continue;
         }
         let lobe = dot(reflected, l).max(0.0).powf(optics.shininess) * norm;
@@ -162,7 +162,7 @@ pub(crate) fn radiance<const HIGHLIGHTS: bool, const SECONDARY: bool, const SMOO
     if !HIGHLIGHTS && !SECONDARY {
         // The diffuse loop: one closest hit, one load.
         counts.primary += 1;
-        return match closest_hit(scene, &Ray::new(origin, dir), 0.0, f32::INFINITY) {
+        return match scene.closest_hit(&Ray::new(origin, dir), 0.0, f32::INFINITY) {
             Some(hit) => {
                 let e = scene.tri_element[hit.tri as usize];
                 diffuse::<SMOOTH>(scene, frame, e, mad(origin, dir, hit.t))
@@ -186,7 +186,7 @@ pub(crate) fn radiance<const HIGHLIGHTS: bool, const SECONDARY: bool, const SMOO
         } else {
             counts.secondary += 1;
         }
-        let Some(hit) = closest_hit(scene, &Ray::new(ray.origin, ray.dir), 0.0, f32::INFINITY)
+        let Some(hit) = scene.closest_hit(&Ray::new(ray.origin, ray.dir), 0.0, f32::INFINITY)
         else {
             continue;
         };
