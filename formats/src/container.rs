@@ -17,7 +17,7 @@ pub const MAGIC: [u8; 8] = *b"\x89LRR\r\n\x1a\n";
 /// The major format version this crate reads and writes; files of another major are refused.
 pub const VERSION_MAJOR: u16 = 1;
 /// The newest minor format version this crate writes (files without the display sections of
-/// 1.2 are stamped 1.1); files of any minor version are read.
+/// 1.2 are stamped 1.1, files without LIGHTMAP 1.2); files of any minor version are read.
 pub const VERSION_MINOR: u16 = 3;
 /// Bytes in the header.
 pub const HEADER_LEN: usize = 64;
@@ -62,7 +62,7 @@ impl Section {
 /// writer.add(0x1000, false, vec![1, 2, 3]); // unknown to readers, optional: skipped by them
 /// let bytes = writer.to_bytes();
 /// let container = Container::parse(&bytes)?;
-/// assert_eq!(container.version(), (1, 2));
+/// assert_eq!(container.version(), (1, lrr_formats::VERSION_MINOR));
 /// assert_eq!(container.section(lrr_formats::kind::METADATA), Some(&b"{}"[..]));
 /// assert_eq!(container.kinds().collect::<Vec<_>>(), [1, 0x1000]);
 /// # Ok::<(), lrr_formats::FormatError>(())

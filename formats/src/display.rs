@@ -1,4 +1,4 @@
-//! What the file holds for display (format 1.2, every section optional): the smooth
+//! What the file holds for display (format 1.2, LIGHTMAP 1.3, every section optional): the smooth
 //! reconstruction weights, the materials a ray tracer shades with, point lights, cameras and a
 //! flattened BVH over the display triangles. This module holds the types alone (plain data, like
 //! `file.rs`); the sections' bytes and invariants live beside the other sections'.
