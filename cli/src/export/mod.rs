@@ -236,9 +236,7 @@ pub fn lightmap_atlas(op: &Operator, field: &Field, lay: &LightmapLayout) -> Atl
                 .as_ref()
                 .expect("Scene needs LIGHTMAP")
                 .uv;
-            let value = |s: usize, p: glam::DVec3| {
-                (!field.hidden(s)).then(|| field.at(s, p).map(|v| v / std::f32::consts::PI))
-            };
+            let value = |s, p| radiance(field, s, p);
             scene_uv::rasterise(&file.geometry, uv, *size, *size, *padding, &value)
         }
     }
@@ -319,11 +317,15 @@ fn lay_out(a: &ExportArgs, op: &Operator) -> Result<LightmapLayout> {
     a.lightmap_args.layout(op)
 }
 
+/// The exitant radiance `B/π` of `field` at point `p` of file position `s`; None for an element
+/// hidden in every frame (left to dilation).
+fn radiance(field: &Field, s: usize, p: glam::DVec3) -> Option<[f32; 3]> {
+    (!field.hidden(s)).then(|| field.at(s, p).map(|v| v / std::f32::consts::PI))
+}
+
 /// The atlas of the exitant radiance `B/π` of `field` over the charts of `op`'s geometry.
 pub fn radiance_atlas(op: &Operator, field: &Field, charts: &[Chart], layout: &Layout) -> Atlas {
-    let value = |s: usize, p: glam::DVec3| {
-        (!field.hidden(s)).then(|| field.at(s, p).map(|v| v / std::f32::consts::PI))
-    };
+    let value = |s, p| radiance(field, s, p);
     raster::rasterise(&op.file().geometry, charts, layout, &value)
 }
 

@@ -652,10 +652,20 @@ impl<'a> Importer<'a> {
         let mut c = factor;
         let mut base_texture = None;
         if let Some(info) = pbr.base_color_texture() {
-            let texture = self.texture(&info.texture(), &what)?;
-            let avg = self.scene.textures[texture].average();
+            let set = info.tex_coord() as usize;
+            let avg = if set < 2 {
+                let texture = self.texture(&info.texture(), &what)?;
+                base_texture = Some((texture, set));
+                self.scene.textures[texture].average()
+            } else {
+                self.scene.warnings.push(format!(
+                    "{}: {what}: its baseColor texture uses TEXCOORD_{set}; lrr reads sets 0 and \
+                     1, so the texture's mean over the image is used",
+                    self.origin
+                ));
+                self.decode(&info.texture(), &what)?.average()
+            };
             c = [0, 1, 2].map(|i| c[i] * avg[i]);
-            base_texture = Some((texture, info.tex_coord() as usize));
         }
         let clamp01 = |x: f32| f64::from(x).clamp(0.0, 1.0);
         let metal = clamp01(pbr.metallic_factor());
@@ -685,22 +695,11 @@ impl<'a> Importer<'a> {
         }
         let diffuse_share = (1.0 - metal) * (1.0 - trans) + metal * rough;
         let mut reflectance = c.map(|c| c * diffuse_share);
-        let texture = match base_texture {
-            Some((texture, set)) if set < 2 => Some(TextureBinding {
-                texture,
-                set,
-                scale: factor.map(|f| f * diffuse_share),
-            }),
-            Some((_, set)) => {
-                self.scene.warnings.push(format!(
-                    "{}: {what}: its baseColor texture uses TEXCOORD_{set}; lrr reads sets 0 and \
-                     1, so the texture's mean over the image is used",
-                    self.origin
-                ));
-                None
-            }
-            None => None,
-        };
+        let texture = base_texture.map(|(texture, set)| TextureBinding {
+            texture,
+            set,
+            scale: factor.map(|f| f * diffuse_share),
+        });
         if reflectance.iter().any(|r| *r > MAX_REFLECTANCE) {
             self.scene.warnings.push(format!(
                 "{}: {what}: diffuse reflectance {reflectance:.3?} clamped to {MAX_REFLECTANCE} \
@@ -714,8 +713,8 @@ impl<'a> Importer<'a> {
         if let Some(info) = m.emissive_texture()
             && radiance.iter().any(|r| *r != 0.0)
         {
-            let texture = self.texture(&info.texture(), &what)?;
-            let avg = self.scene.textures[texture].average();
+            // Emission is per material: only the mean is kept, not the image.
+            let avg = self.decode(&info.texture(), &what)?.average();
             radiance = [0, 1, 2].map(|i| radiance[i] * avg[i]);
         }
         let transmission = c.map(|c| c * (1.0 - metal) * trans);
@@ -754,12 +753,20 @@ impl<'a> Importer<'a> {
         Ok(id)
     }
 
-    /// A texture's image decoded into `Scene::textures` (once per glTF texture), with its
-    /// sampler's wrap modes.
+    /// A base colour texture in `Scene::textures` (decoded once per glTF texture).
     fn texture(&mut self, texture: &gltf::Texture, user: &str) -> Result<usize> {
         if let Some(&id) = self.textures.get(&texture.index()) {
             return Ok(id);
         }
+        let decoded = self.decode(texture, user)?;
+        self.scene.textures.push(decoded);
+        let id = self.scene.textures.len() - 1;
+        self.textures.insert(texture.index(), id);
+        Ok(id)
+    }
+
+    /// A texture's image decoded, with its sampler's wrap modes.
+    fn decode(&self, texture: &gltf::Texture, user: &str) -> Result<Texture> {
         let index = texture.source().index();
         let image = &self.doc.as_json().images[index];
         let what = format!("{user}: image {index}");
@@ -805,17 +812,14 @@ impl<'a> Importer<'a> {
             .name
             .clone()
             .unwrap_or_else(|| format!("image {index}"));
-        self.scene.textures.push(Texture {
+        Ok(Texture {
             name,
             width: rgb.width() as usize,
             height: rgb.height() as usize,
             texels: rgb.pixels().map(|p| p.0).collect(),
             wrap_u: wrap(sampler.wrap_s()),
             wrap_v: wrap(sampler.wrap_t()),
-        });
-        let id = self.scene.textures.len() - 1;
-        self.textures.insert(texture.index(), id);
-        Ok(id)
+        })
     }
 
     /// The bytes of a buffer view, checked against its buffer.

@@ -34,7 +34,7 @@ pub fn load(path: &std::path::Path) -> Result<Scene> {
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
-    let scene = match ext.as_str() {
+    let mut scene = match ext.as_str() {
         "obj" => obj::load(path)?,
         "toml" => description::load(path)?,
         "gltf" | "glb" => gltf::load(path)?,
@@ -46,7 +46,6 @@ pub fn load(path: &std::path::Path) -> Result<Scene> {
         }
     };
     scene.validate(&path.display().to_string())?;
-    let mut scene = scene;
     if let Some(w) = scene.partial_lightmap_warning() {
         scene.warnings.push(format!("{}: {w}", path.display()));
     }

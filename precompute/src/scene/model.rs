@@ -375,14 +375,21 @@ impl Scene {
     /// needs one channel.
     pub(crate) fn is_grey(&self) -> bool {
         let grey = |r: [f64; 3]| r[0] == r[1] && r[1] == r[2];
-        self.faces.iter().all(|f| {
-            let m = &self.materials[f.material];
-            grey(m.reflectance)
-                && match self.texture_of(f) {
-                    Some(t) => grey(t.scale) && self.textures[t.texture].is_grey(),
-                    None => true,
+        // Each texture's texels are scanned once, not once per face that uses it.
+        let mut grey_texture: Vec<Option<bool>> = vec![None; self.textures.len()];
+        for f in &self.faces {
+            if !grey(self.materials[f.material].reflectance) {
+                return false;
+            }
+            if let Some((t, _)) = self.texture_of(f) {
+                let texels = *grey_texture[t.texture]
+                    .get_or_insert_with(|| self.textures[t.texture].is_grey());
+                if !(grey(t.scale) && texels) {
+                    return false;
                 }
-        })
+            }
+        }
+        true
     }
 
     /// A warning when some faces but not all have lightmap coordinates (`TEXCOORD_1`): the
@@ -407,11 +414,11 @@ impl Scene {
         ))
     }
 
-    /// The texture binding that applies to a face: its material's, when the face has the
-    /// coordinate set it names.
-    fn texture_of(&self, face: &Face) -> Option<&TextureBinding> {
+    /// The texture binding that applies to a face and the face's coordinates for it: its
+    /// material's, when the face has the coordinate set it names.
+    fn texture_of<'a>(&'a self, face: &'a Face) -> Option<(&'a TextureBinding, &'a UvMap)> {
         let t = self.materials[face.material].texture.as_ref()?;
-        face.uv.get(t.set)?.as_ref().map(|_| t)
+        Some((t, face.uv.get(t.set)?.as_ref()?))
     }
 
     /// The diffuse reflectance of `polygon`, a piece of face `face` (an element): the
@@ -420,10 +427,9 @@ impl Scene {
     pub fn reflectance_over(&self, face: usize, polygon: &Polygon, lut: &[f64; 256]) -> [f64; 3] {
         let f = &self.faces[face];
         let m = &self.materials[f.material];
-        let Some(t) = self.texture_of(f) else {
+        let Some((t, map)) = self.texture_of(f) else {
             return m.reflectance;
         };
-        let map = f.uv[t.set].as_ref().expect("texture_of checked the set");
         let mean = texture::element_average(&self.textures[t.texture], lut, map, polygon);
         [0, 1, 2].map(|c| (t.scale[c] * mean[c]).min(MAX_TEXTURED_REFLECTANCE))
     }

@@ -227,19 +227,20 @@ fn triangle_average(texture: &Texture, lut: &[f64; 256], t: [[f64; 2]; 3]) -> [f
     };
     let mut sum = [0.0; 3];
     let mf = m as f64;
+    let mut add = |a: f64, b: f64| {
+        let [u, v] = at(a / mf, b / mf);
+        let s = texture.sample(lut, u, v);
+        for c in 0..3 {
+            sum[c] += s[c];
+        }
+    };
     for i in 0..m {
         for j in 0..m - i {
             // The upright sub-triangle at (i, j), and the inverted one beside it.
-            let mut centroids = vec![((i as f64 + 1.0 / 3.0) / mf, (j as f64 + 1.0 / 3.0) / mf)];
+            let (x, y) = (i as f64, j as f64);
+            add(x + 1.0 / 3.0, y + 1.0 / 3.0);
             if i + j + 1 < m {
-                centroids.push(((i as f64 + 2.0 / 3.0) / mf, (j as f64 + 2.0 / 3.0) / mf));
-            }
-            for (a, b) in centroids {
-                let [u, v] = at(a, b);
-                let s = texture.sample(lut, u, v);
-                for c in 0..3 {
-                    sum[c] += s[c];
-                }
+                add(x + 2.0 / 3.0, y + 2.0 / 3.0);
             }
         }
     }
