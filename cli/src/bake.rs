@@ -127,6 +127,7 @@ struct Report<'a> {
     visibility: &'a str,
     rays: u64,
     culled_pairs: u64,
+    enclosure: Option<lrr_precompute::bake::EnclosureSummary>,
     file_bytes: u64,
     stages: BTreeMap<String, f64>,
     meshing: summary::MeshingSummary,
@@ -192,6 +193,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
         visibility: baked.visibility,
         rays: baked.rays,
         culled_pairs: baked.culled_pairs,
+        enclosure: baked.enclosure,
         file_bytes,
         stages,
         meshing: summary::MeshingSummary::new(&scene.repairs, &baked.mesh.meshing),
@@ -218,6 +220,9 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
         "element size {:.4}, patch size {:.4}, {} samples/pair, visibility: {}, {} rays",
         report.element_size, report.patch_size, report.samples, report.visibility, report.rays
     )?;
+    if let Some(e) = &report.enclosure {
+        writeln!(out, "{}", e.line())?;
+    }
     crate::summary::print_times(out, &progress, report.total_seconds)?;
     report.meshing.print(out)?;
     let op = lrr_runtime::Operator::from_file(file)?;

@@ -30,6 +30,8 @@ pub struct ViewFactors {
     pub surfaces: Vec<String>,
     pub areas: Vec<f64>,
     pub matrix: Vec<Vec<f64>>,
+    /// Occlusion rays cast (0 when nothing can occlude).
+    pub rays: u64,
 }
 
 /// Surface-to-surface form factors: `F_ij = Σ_{e∈i} A_e Σ_{p⊂j} F_ep / A_i`, from the same
@@ -70,6 +72,7 @@ pub fn view_factors(scene: &Scene, a: &MeshArgs) -> Result<ViewFactors> {
             surfaces: scene.surfaces.clone(),
             areas,
             matrix,
+            rays: ff.rays(),
         })
     })??;
     Ok(result)

@@ -9,10 +9,13 @@ use crate::checkpoint::{self, Checkpoint, CheckpointSettings};
 use crate::cores::{Cores, OperatorInputs, build_cores};
 use crate::error::{Error, Result};
 use crate::formfactor::FormFactors;
+use crate::formfactor::enclosure::Enclosure;
+use crate::geometry::Polygon;
 use crate::mesh::MeshSizes;
 use crate::patches::{Mesh, PatchMethod};
 use crate::progress::Progress;
 use crate::scene::Scene;
+use crate::visibility::obvhs::ObvhsOccluder;
 use crate::visibility::{Backend, Occluder, nothing_occludes};
 
 /// Default quadrature/visibility samples per element-patch pair.
@@ -70,6 +73,9 @@ pub struct Prepared<'s> {
     pub visibility: Backend,
     /// The occlusion structure; `None` when nothing in the scene can occlude (no rays are cast).
     pub occluder: Option<Box<dyn Occluder>>,
+    /// Which elements' rows must sum to one (`formfactor::enclosure`); `None` when nothing
+    /// occludes (then the unoccluded factors already conserve).
+    pub enclosure: Option<Enclosure>,
 }
 
 impl<'s> Prepared<'s> {
@@ -121,6 +127,26 @@ impl<'s> Prepared<'s> {
             None => Mesh::build(scene, sizes, method, occluder.as_deref())?,
         };
         stage.finish();
+        let enclosure = match &occluder {
+            None => None,
+            Some(occ) => {
+                let stage = progress.stage("enclosure", 0);
+                let polygons: Vec<Polygon> = mesh.elements.iter().map(|e| e.polygon).collect();
+                // The test runs on the default backend's structure whatever answers the
+                // segments, so every backend rescales the same rows.
+                let own;
+                let probe = match occ.as_obvhs() {
+                    Some(o) => o,
+                    None => {
+                        own = ObvhsOccluder::build(scene);
+                        &own
+                    }
+                };
+                let e = Enclosure::probe(probe, &polygons);
+                stage.finish();
+                Some(e)
+            }
+        };
         Ok(Self {
             scene,
             sizes,
@@ -128,12 +154,14 @@ impl<'s> Prepared<'s> {
             mesh,
             visibility,
             occluder,
+            enclosure,
         })
     }
 
     /// A form-factor pass over this mesh with `samples` points per pair and this occluder.
     pub fn form_factors(&self, samples: u32) -> FormFactors<'_> {
         FormFactors::new(samples, self.occluder.as_deref())
+            .with_enclosure(self.enclosure.as_ref().map(|e| e.closed.as_slice()))
     }
 
     /// Name of the visibility method used (the file metadata's `visibility`).
@@ -210,6 +238,39 @@ impl<'s> Prepared<'s> {
     }
 }
 
+/// What the enclosure test found (`formfactor::enclosure`) and what it changed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct EnclosureSummary {
+    /// Elements every probe ray of which met a front, in a scene no probe ray left.
+    pub closed_elements: u64,
+    /// Of their rows, those rescaled to sum to one (the others had no partly visible pair, or
+    /// needed a factor beyond 2).
+    pub rows_rescaled: u64,
+    /// Probe rays cast.
+    pub rays: u64,
+    /// Probe rays that left the scene (any: no row is rescaled).
+    pub escaped: u64,
+    /// Probe rays that met the back of a face first.
+    pub backs: u64,
+}
+
+impl EnclosureSummary {
+    /// One line for the bake's output.
+    pub fn line(&self) -> String {
+        if self.escaped > 0 {
+            format!(
+                "enclosure: open ({} of {} probe rays leave the scene): rows kept as sampled",
+                self.escaped, self.rays
+            )
+        } else {
+            format!(
+                "enclosure: closed; {} elements see only fronts, {} rows rescaled to sum to one ({} probe rays, {} met a back)",
+                self.closed_elements, self.rows_rescaled, self.rays, self.backs
+            )
+        }
+    }
+}
+
 /// The result of a bake, in file order.
 pub struct Baked {
     /// Name of the scene (file metadata).
@@ -240,6 +301,8 @@ pub struct Baked {
     pub rays: u64,
     /// Element-patch pairs skipped because they face away from each other.
     pub culled_pairs: u64,
+    /// The enclosure test and the rows it rescaled (`None` when nothing occludes).
+    pub enclosure: Option<EnclosureSummary>,
     /// The form-factor checkpoint, to remove once the output is written.
     pub checkpoint: Option<Checkpoint>,
 }
@@ -273,6 +336,14 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
         stage.finish();
         let (_, culled, rays) = ff.stats.get();
         let visibility = prepared.visibility_name();
+        let enclosure = prepared.enclosure.as_ref().map(|e| EnclosureSummary {
+            closed_elements: e.closed_count() as u64,
+            rows_rescaled: ff.stats.conserved_rows(),
+            rays: e.rays,
+            escaped: e.escaped,
+            backs: e.backs,
+        });
+        drop(ff);
         Ok(Baked {
             scene_name: scene.name.clone(),
             sizes,
@@ -288,6 +359,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             display,
             rays,
             culled_pairs: culled,
+            enclosure,
             checkpoint,
         })
     })?

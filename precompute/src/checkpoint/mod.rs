@@ -155,5 +155,8 @@ pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
         env!("CARGO_PKG_VERSION").as_bytes(),
         // Backends agree on all but grazing rays: never mix their rows in one file.
         bake.visibility.as_bytes(),
+        // Rows of enclosed elements rescaled to sum to one (formfactor::enclosure); checkpoints
+        // of builds before it hold rows as sampled.
+        b"enclosed rows sum to one",
     ])
 }

@@ -14,6 +14,7 @@
 //! pair, never on the thread count or scheduling, so bakes are reproducible byte for byte.
 
 mod contour;
+pub mod enclosure;
 pub(crate) mod point;
 mod union;
 mod visible;
@@ -35,6 +36,8 @@ pub(crate) struct Stats {
     pub pairs: AtomicU64,
     pub culled_pairs: AtomicU64,
     pub rays: AtomicU64,
+    /// Rows rescaled to sum to one ([`enclosure`]).
+    pub conserved_rows: AtomicU64,
 }
 
 impl Stats {
@@ -45,6 +48,11 @@ impl Stats {
             self.rays.load(Ordering::Relaxed),
         )
     }
+
+    /// Rows rescaled to sum to one.
+    pub(crate) fn conserved_rows(&self) -> u64 {
+        self.conserved_rows.load(Ordering::Relaxed)
+    }
 }
 
 /// What a form-factor pass needs.
@@ -53,6 +61,9 @@ pub struct FormFactors<'a> {
     pub samples: u32,
     /// `None` when nothing can occlude.
     pub occluder: Option<&'a dyn Occluder>,
+    /// Per element id: whether its row must sum to one ([`enclosure::Enclosure::closed`]);
+    /// `None` rescales no row.
+    pub closed: Option<&'a [bool]>,
     pub(crate) stats: Stats,
 }
 
@@ -62,8 +73,21 @@ impl<'a> FormFactors<'a> {
         Self {
             samples: samples.max(1),
             occluder,
+            closed: None,
             stats: Stats::default(),
         }
+    }
+
+    /// Occlusion rays cast so far by this pass.
+    pub fn rays(&self) -> u64 {
+        self.stats.rays.load(Ordering::Relaxed)
+    }
+
+    /// The same pass, rescaling the rows of the elements `closed` marks (indexed by element
+    /// id, the `row_ids` of [`matrix`](Self::matrix)) so that they sum to one.
+    pub fn with_enclosure(mut self, closed: Option<&'a [bool]>) -> Self {
+        self.closed = closed;
+        self
     }
 
     /// Fills `out` (rows × targets, row-major) with `F(rows[i] → targets[j])` (a target is one
@@ -117,15 +141,20 @@ impl<'a> FormFactors<'a> {
     ) {
         let mut culled = 0u64;
         let mut rays = 0u64;
+        // The pairs whose visibility was partial (sampled, noisy): the ones a closed row rescales.
+        let mut partial = Vec::new();
         for (t_id, (target, out)) in targets.iter().zip(row.iter_mut()).enumerate() {
             *out = 0.0;
             let Some(t) = target.as_single() else {
                 let seed = (u64::from(e_id) << 32) | t_id as u64;
                 match union::multi_part(self.occluder, e, points, target, seed) {
                     None => culled += 1,
-                    Some((f, r)) => {
+                    Some((f, r, v)) => {
                         *out = f;
                         rays += r;
+                        if v > 0.0 && v < 1.0 {
+                            partial.push(t_id);
+                        }
                     }
                 }
                 continue;
@@ -151,6 +180,15 @@ impl<'a> FormFactors<'a> {
                 }
             };
             *out = unoccluded * visible;
+            if visible > 0.0 && visible < 1.0 {
+                partial.push(t_id);
+            }
+        }
+        let closed = self
+            .closed
+            .is_some_and(|c| c.get(e_id as usize).copied().unwrap_or(false));
+        if closed && conserve(row, &partial) {
+            self.stats.conserved_rows.fetch_add(1, Ordering::Relaxed);
         }
         self.stats
             .pairs
@@ -158,6 +196,31 @@ impl<'a> FormFactors<'a> {
         self.stats.culled_pairs.fetch_add(culled, Ordering::Relaxed);
         self.stats.rays.fetch_add(rays, Ordering::Relaxed);
     }
+}
+
+/// Most a closed row's partly visible pairs are scaled by (either way): beyond it the deficit
+/// is not theirs to carry (pairs sampled as fully visible or fully hidden are off), and the
+/// row is left as sampled.
+const MAX_RESCALE: f64 = 2.0;
+
+/// Rescales the partly visible pairs `partial` of a closed element's `row` so that the row
+/// sums to one; the other pairs (unoccluded: exact up to quadrature; hidden) keep their
+/// values. Returns whether it did: not when there is nothing to scale or the factor needed
+/// lies outside `[1 / MAX_RESCALE, MAX_RESCALE]`.
+fn conserve(row: &mut [f64], partial: &[usize]) -> bool {
+    let noisy: f64 = partial.iter().map(|&j| row[j]).sum();
+    if noisy <= 0.0 {
+        return false;
+    }
+    let sure: f64 = row.iter().sum::<f64>() - noisy;
+    let scale = (1.0 - sure) / noisy;
+    if !(scale.is_finite() && (1.0 / MAX_RESCALE..=MAX_RESCALE).contains(&scale)) {
+        return false;
+    }
+    for &j in partial {
+        row[j] *= scale;
+    }
+    true
 }
 
 #[cfg(test)]
@@ -191,6 +254,32 @@ mod tests {
             &|_| {},
         );
         assert!((out[0] - 0.199825).abs() < 1e-4, "{}", out[0]);
+    }
+
+    #[test]
+    fn a_closed_row_is_rescaled_through_its_partly_visible_pairs_only() {
+        // 0.5 unoccluded, 0.3 + 0.1 partly visible: the partial pairs carry the missing 0.1.
+        let mut row = [0.5, 0.3, 0.0, 0.1];
+        assert!(conserve(&mut row, &[1, 3]));
+        assert_eq!(row[0], 0.5);
+        assert_eq!(row[2], 0.0);
+        assert!((row[1] - 0.375).abs() < 1e-15 && (row[3] - 0.125).abs() < 1e-15);
+        assert!((row.iter().sum::<f64>() - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn rows_that_would_need_a_large_factor_are_left_alone() {
+        // Nothing partly visible: nothing to scale.
+        let mut row = [0.5, 0.3];
+        assert!(!conserve(&mut row, &[]));
+        // The partial pairs would have to grow by 5 (0.1 → 0.5): the deficit is not theirs.
+        let mut row = [0.5, 0.1];
+        assert!(!conserve(&mut row, &[1]));
+        assert_eq!(row, [0.5, 0.1]);
+        // Or shrink by more than half.
+        let mut row = [0.9, 0.3];
+        assert!(!conserve(&mut row, &[1]));
+        assert_eq!(row, [0.9, 0.3]);
     }
 
     #[test]

@@ -24,15 +24,15 @@ use crate::geometry::Polygon;
 use crate::geometry::sampling::Sample;
 use crate::visibility::Occluder;
 
-/// `F(e → target)` for a target of several parts, and the rays cast (`None` when every part
-/// faces away from `e`: a culled pair).
+/// `F(e → target)` for a target of several parts, the rays cast and the visible fraction
+/// (`None` when every part faces away from `e`: a culled pair).
 pub(super) fn multi_part(
     occluder: Option<&dyn Occluder>,
     e: &Polygon,
     points: &[Sample],
     target: &Region,
     seed: u64,
-) -> Option<(f64, u64)> {
+) -> Option<(f64, u64, f64)> {
     let mut unoccluded = 0.0;
     let mut any = false;
     for part in target.parts() {
@@ -49,13 +49,13 @@ pub(super) fn multi_part(
         return None;
     }
     if unoccluded <= 0.0 {
-        return Some((0.0, 0));
+        return Some((0.0, 0, 1.0));
     }
     let Some(occ) = occluder else {
-        return Some((unoccluded, 0));
+        return Some((unoccluded, 0, 1.0));
     };
     let (visible, rays) = visible_fraction(occ, e, Shape::Union(target), points, seed);
-    Some((unoccluded * visible, rays))
+    Some((unoccluded * visible, rays, visible))
 }
 
 #[cfg(test)]

@@ -60,6 +60,8 @@ pub struct ObvhsOccluder {
     scale: f64,
     /// Distance under which an end point counts as lying in a triangle's plane.
     plane_tolerance: f64,
+    /// The scene's bounding-box diagonal: no ray from inside the box is longer inside it.
+    diagonal: f64,
 }
 
 impl ObvhsOccluder {
@@ -109,6 +111,51 @@ impl ObvhsOccluder {
             centre,
             scale,
             plane_tolerance,
+            diagonal: (hi - lo).length(),
+        }
+    }
+
+    /// What the ray from the surface point `from` (normal `from_normal`) in the unit
+    /// `direction` meets first: the front of a face, its back, or nothing (it leaves the
+    /// scene). The own-face rule applies as for segments (the faces through `from` parallel to
+    /// its surface are skipped); where faces are crossed at the same distance (a zero-thickness
+    /// wall: two coincident faces back to back) a front among them wins.
+    pub fn first_hit(&self, from: DVec3, from_normal: DVec3, direction: DVec3) -> FirstHit {
+        let origin = from - self.centre;
+        let length = 2.0 * self.diagonal;
+        if !(origin.is_finite() && direction.is_finite() && length > 0.0) {
+            return FirstHit::Nothing;
+        }
+        let ray = FlatRay::new(
+            Vec3A::from((origin * self.scale).as_vec3()),
+            Vec3A::from(direction.as_vec3()),
+            0.0,
+            (length * self.scale * (1.0 + 1e-5)) as f32,
+        );
+        let eps = f64::from(SEGMENT_EPSILON) * length;
+        let sheared = ShearedRay::new(origin, direction, eps, length);
+        let (mut front, mut back) = (f64::INFINITY, f64::INFINITY);
+        // Every candidate is decided (no early exit): the nearest of each kind is wanted.
+        self.bvh.any_hit(&ray, |id| {
+            if self.own_face(id, origin, from_normal) {
+                return false;
+            }
+            let [a, b, c] = self.exact[id];
+            if let Some(t) = sheared.hit(a, b, c) {
+                if self.planes[id].0.dot(direction) < 0.0 {
+                    front = front.min(t);
+                } else {
+                    back = back.min(t);
+                }
+            }
+            false
+        });
+        if front.is_finite() && front <= back + self.plane_tolerance {
+            FirstHit::Front
+        } else if back.is_finite() {
+            FirstHit::Back
+        } else {
+            FirstHit::Nothing
         }
     }
 
@@ -141,6 +188,17 @@ impl ObvhsOccluder {
     }
 }
 
+/// What a ray from a surface meets first ([`ObvhsOccluder::first_hit`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FirstHit {
+    /// The front of a face: light leaving that face arrives along the ray.
+    Front,
+    /// The back of a face (one-sided faces emit and reflect from their front only).
+    Back,
+    /// Nothing: the ray leaves the scene.
+    Nothing,
+}
+
 /// The power of two that brings a scene diagonal into `(F32_DIAGONAL / 2, F32_DIAGONAL]`
 /// (1 for a diagonal that is zero or not finite).
 fn f32_scale(diagonal: f64) -> f64 {
@@ -155,6 +213,10 @@ fn f32_scale(diagonal: f64) -> f64 {
 }
 
 impl Occluder for ObvhsOccluder {
+    fn as_obvhs(&self) -> Option<&ObvhsOccluder> {
+        Some(self)
+    }
+
     fn occluded(&self, from: DVec3, from_normal: DVec3, to: DVec3, to_normal: DVec3) -> bool {
         let Some((origin, target, direction, length)) = relative_segment(self.centre, from, to)
         else {

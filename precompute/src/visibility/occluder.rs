@@ -41,6 +41,12 @@ pub trait Occluder: Sync {
             *b = self.occluded(s.from, e.normal, s.to, t.normal);
         }
     }
+
+    /// The default backend's structure, when this is it (its closest-hit query decides which
+    /// rows must sum to one, `formfactor::enclosure`; other backends build one for that).
+    fn as_obvhs(&self) -> Option<&super::obvhs::ObvhsOccluder> {
+        None
+    }
 }
 
 /// |cos| above which two faces count as parallel (the own-face rule).
