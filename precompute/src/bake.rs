@@ -16,7 +16,7 @@ use crate::patches::{Mesh, PatchMethod};
 use crate::progress::Progress;
 use crate::scene::Scene;
 use crate::visibility::obvhs::ObvhsOccluder;
-use crate::visibility::{Backend, Occluder, nothing_occludes};
+use crate::visibility::{Backend, ClosestHit, Occluder, nothing_occludes};
 
 /// Default quadrature/visibility samples per element-patch pair.
 pub const DEFAULT_SAMPLES: u32 = 16;
@@ -135,11 +135,11 @@ impl<'s> Prepared<'s> {
                 // The test runs on the default backend's structure whatever answers the
                 // segments, so every backend rescales the same rows.
                 let own;
-                let probe = match occ.as_obvhs() {
+                let probe = match occ.closest_hit() {
                     Some(o) => o,
                     None => {
                         own = ObvhsOccluder::build(scene);
-                        &own
+                        &own as &dyn ClosestHit
                     }
                 };
                 let e = Enclosure::probe(probe, &polygons);

@@ -7,7 +7,7 @@
 //! (DESIGN.md §4, "Rows that sum to one").
 //!
 //! The test, per element: [`RAYS`] cosine-distributed rays from points spread over the element
-//! ([`ObvhsOccluder::first_hit`], the exact f64 triangle test). An element is enclosed when every
+//! ([`ClosestHit::first_hit`]: the default backend's, exact f64 triangle test). An element is enclosed when every
 //! ray meets the front of a face; a ray that meets a back (a one-sided panel seen from behind,
 //! the hidden side of a contact) keeps the element's row as sampled. Because an element's rays
 //! can miss a small opening, the scene must be closed as well: one ray of any element that
@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use crate::geometry::Polygon;
 use crate::geometry::hash::mix;
 use crate::geometry::sampling::{pair_point, r2};
-use crate::visibility::obvhs::{FirstHit, ObvhsOccluder};
+use crate::visibility::{ClosestHit, FirstHit};
 
 /// Rays per element. A row is rescaled only when all of them meet fronts; with the scene-wide
 /// escape test it is what stands between an undetected opening and a rescaled row.
@@ -41,7 +41,7 @@ pub struct Enclosure {
 
 impl Enclosure {
     /// Tests every element (`polygons[i]` is element `i`).
-    pub fn probe(occluder: &ObvhsOccluder, polygons: &[Polygon]) -> Self {
+    pub fn probe(occluder: &dyn ClosestHit, polygons: &[Polygon]) -> Self {
         let counts: Vec<(u32, u32)> = polygons
             .par_iter()
             .enumerate()
@@ -68,7 +68,7 @@ impl Enclosure {
 }
 
 /// Rays of one element that leave the scene and that meet a back.
-fn element(occluder: &ObvhsOccluder, p: &Polygon, id: u32) -> (u32, u32) {
+fn element(occluder: &dyn ClosestHit, p: &Polygon, id: u32) -> (u32, u32) {
     let seed = mix(u64::from(id) ^ 0x656e_636c_6f73_6564); // "enclosed"
     let h = mix(seed);
     let shift = (
@@ -103,6 +103,7 @@ fn basis(n: DVec3) -> (DVec3, DVec3) {
 mod tests {
     use super::*;
     use crate::scene::Scene;
+    use crate::visibility::obvhs::ObvhsOccluder;
 
     fn polygons(scene: &Scene) -> Vec<Polygon> {
         scene.faces.iter().map(|f| f.polygon).collect()

@@ -21,7 +21,7 @@ mod watertight;
 use crate::error::Result;
 use crate::scene::Scene;
 
-pub use occluder::{Occluder, Segment};
+pub use occluder::{ClosestHit, FirstHit, Occluder, Segment};
 
 /// Which implementation answers the occlusion queries of a bake (`--visibility`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -27,7 +27,8 @@ use obvhs::triangle::Triangle;
 
 use super::flat::{FlatBvh, FlatRay};
 use super::occluder::{
-    Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, own_face, relative_segment, triangle_plane,
+    ClosestHit, FirstHit, Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, own_face, relative_segment,
+    triangle_plane,
 };
 use super::watertight::ShearedRay;
 use crate::scene::Scene;
@@ -115,12 +116,7 @@ impl ObvhsOccluder {
         }
     }
 
-    /// What the ray from the surface point `from` (normal `from_normal`) in the unit
-    /// `direction` meets first: the front of a face, its back, or nothing (it leaves the
-    /// scene). The own-face rule applies as for segments (the faces through `from` parallel to
-    /// its surface are skipped); where faces are crossed at the same distance (a zero-thickness
-    /// wall: two coincident faces back to back) a front among them wins.
-    pub fn first_hit(&self, from: DVec3, from_normal: DVec3, direction: DVec3) -> FirstHit {
+    fn first_hit_impl(&self, from: DVec3, from_normal: DVec3, direction: DVec3) -> FirstHit {
         let origin = from - self.centre;
         let length = 2.0 * self.diagonal;
         if !(origin.is_finite() && direction.is_finite() && length > 0.0) {
@@ -188,17 +184,6 @@ impl ObvhsOccluder {
     }
 }
 
-/// What a ray from a surface meets first ([`ObvhsOccluder::first_hit`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FirstHit {
-    /// The front of a face: light leaving that face arrives along the ray.
-    Front,
-    /// The back of a face (one-sided faces emit and reflect from their front only).
-    Back,
-    /// Nothing: the ray leaves the scene.
-    Nothing,
-}
-
 /// The power of two that brings a scene diagonal into `(F32_DIAGONAL / 2, F32_DIAGONAL]`
 /// (1 for a diagonal that is zero or not finite).
 fn f32_scale(diagonal: f64) -> f64 {
@@ -212,8 +197,14 @@ fn f32_scale(diagonal: f64) -> f64 {
     2f64.powi(exponent as i32)
 }
 
+impl ClosestHit for ObvhsOccluder {
+    fn first_hit(&self, from: DVec3, from_normal: DVec3, direction: DVec3) -> FirstHit {
+        self.first_hit_impl(from, from_normal, direction)
+    }
+}
+
 impl Occluder for ObvhsOccluder {
-    fn as_obvhs(&self) -> Option<&ObvhsOccluder> {
+    fn closest_hit(&self) -> Option<&dyn ClosestHit> {
         Some(self)
     }
 

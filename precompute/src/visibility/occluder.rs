@@ -42,11 +42,33 @@ pub trait Occluder: Sync {
         }
     }
 
-    /// The default backend's structure, when this is it (its closest-hit query decides which
-    /// rows must sum to one, `formfactor::enclosure`; other backends build one for that).
-    fn as_obvhs(&self) -> Option<&super::obvhs::ObvhsOccluder> {
+    /// The closest-hit query of this backend, when it is the one that decides which rows must
+    /// sum to one (`formfactor::enclosure`: the default backend's; others build one for that,
+    /// so that every backend rescales the same rows).
+    fn closest_hit(&self) -> Option<&dyn ClosestHit> {
         None
     }
+}
+
+/// What a ray from a surface meets first ([`ClosestHit::first_hit`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FirstHit {
+    /// The front of a face: light leaving that face arrives along the ray.
+    Front,
+    /// The back of a face (one-sided faces emit and reflect from their front only).
+    Back,
+    /// Nothing: the ray leaves the scene.
+    Nothing,
+}
+
+/// Answers "what does this ray meet first?" under the occlusion rules of [`Occluder`].
+pub trait ClosestHit: Sync {
+    /// What the ray from the surface point `from` (normal `from_normal`) in the unit
+    /// `direction` meets first: the front of a face, its back, or nothing (it leaves the
+    /// scene). The own-face rule applies as for segments (the faces through `from` parallel to
+    /// its surface are skipped); where faces are crossed at the same distance (a zero-thickness
+    /// wall: two coincident faces back to back) a front among them wins.
+    fn first_hit(&self, from: DVec3, from_normal: DVec3, direction: DVec3) -> FirstHit;
 }
 
 /// |cos| above which two faces count as parallel (the own-face rule).
