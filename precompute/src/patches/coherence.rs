@@ -583,6 +583,38 @@ mod tests {
         assert_eq!(fixed.n(), adaptive.n());
     }
 
+    /// With a threshold no estimate reaches, only the normal cone splits: each sphere cluster
+    /// larger than `A_min` then fits the 2MF cone (45° around its mean normal); without the
+    /// rule the whole sphere would be one patch.
+    #[test]
+    fn curved_clusters_are_split_to_the_normal_cone() {
+        let d = procedural::dense_sphere(3);
+        let scene = d.build("dense", Path::new(".")).unwrap();
+        let sizes = MeshSizes::resolve(&scene, None, None).unwrap();
+        let sphere = scene.surfaces.iter().position(|s| s == "sphere").unwrap() as u32;
+        let mesh = msc(&scene, 1e9, None);
+        mesh.validate().unwrap();
+        let a_min = 4.0 * sizes.element_size * sizes.element_size;
+        let cos = cluster::NORMAL_CONE_DEGREES.to_radians().cos();
+        let mut on_sphere = 0;
+        for p in mesh.patches.iter().filter(|p| p.surface == sphere) {
+            on_sphere += 1;
+            let parts = p.shape.parts();
+            let mean = parts
+                .iter()
+                .map(|q| q.area() * q.normal)
+                .sum::<DVec3>()
+                .normalize();
+            let fits = parts.iter().all(|q| q.normal.dot(mean) >= cos);
+            assert!(
+                fits || p.shape.area() <= a_min,
+                "a curved cluster kept whole"
+            );
+        }
+        println!("{on_sphere} patches on the sphere");
+        assert!(on_sphere >= 8, "{on_sphere} sphere patches");
+    }
+
     #[test]
     fn fifo_order_is_breadth_first() {
         // A binary tree over integer intervals: a node [a, b) splits while b - a > 1 and
