@@ -144,6 +144,7 @@ pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
             b"2msc".to_vec(),
             threshold.to_le_bytes().to_vec(),
             min_patch_area.unwrap_or(-1.0).to_le_bytes().to_vec(),
+            crate::patches::coherence::REVISION.to_le_bytes().to_vec(),
         ]
         .concat(),
     };

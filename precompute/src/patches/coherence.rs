@@ -9,7 +9,11 @@
 //!    hierarchy), except on dense surfaces, whose small pieces form one cluster per surface
 //!    (`cluster`).
 //! 2. Take the first node. If its area is at most `A_min`, or it cannot be split (one element),
-//!    it is a patch. Otherwise estimate the *error* of keeping it whole from its children (the
+//!    it is a patch. A cluster whose normals spread wider than the 2MF cone
+//!    (`cluster::NORMAL_CONE_DEGREES` around their mean) is split without a test: the measure
+//!    below stands for each child by one point and one normal, which on a curved cluster (a
+//!    hemisphere of a dense sphere) sees the scene from one direction only and underestimates
+//!    the error. Otherwise estimate the *error* of keeping it whole from its children (the
 //!    2×2, 1×2 or 4 subdivision children of a polygon, the two halves of a cluster's
 //!    bisection); above the threshold the children are pushed to the back of the list, else
 //!    the node is a patch. Repeat until the list is empty: `k` is an output.
@@ -73,6 +77,11 @@ use crate::visibility::Occluder;
 /// 0.0015 against the exact solve, where 2MF's default gives k = 242 at 0.0018
 /// (docs/MESHING.md).
 pub const DEFAULT_THRESHOLD: f64 = 1e-4;
+
+/// Revision of the refinement rules: part of the checkpoint key (`checkpoint::key`), since a
+/// rule change gives other patches (another `F_k`) for the same flags. 2: clusters wider than
+/// the normal cone are always split.
+pub(crate) const REVISION: u32 = 2;
 
 /// Visibility rays from a child's point to each probe.
 pub(crate) const PROBE_RAYS: u32 = 8;
@@ -187,6 +196,11 @@ pub(crate) fn two_msc(
         let children = ctx.children(node);
         if children.len() < 2 {
             return None;
+        }
+        // A cluster whose normals spread wider than the 2MF cone is split whatever its
+        // estimate: one point and one normal cannot stand for how its parts see the scene.
+        if ctx.too_curved(node) {
+            return Some(children);
         }
         let error = ctx.error(node, &children, probes);
         (error > refinement.threshold).then_some(children)
@@ -312,6 +326,15 @@ impl Ctx<'_> {
                 .into_iter()
                 .map(|set| cluster_node(self.pieces, set))
                 .collect(),
+        }
+    }
+
+    /// True for a cluster whose normals do not fit the 2MF cone around their mean: one
+    /// point and normal cannot stand for how it sees the scene.
+    fn too_curved(&self, node: &Node) -> bool {
+        match node {
+            Node::Polygon { .. } => false,
+            Node::Cluster { pieces } => !cluster::fits(&self.units, pieces, f64::INFINITY),
         }
     }
 
@@ -558,6 +581,38 @@ mod tests {
             );
         }
         assert_eq!(fixed.n(), adaptive.n());
+    }
+
+    /// With a threshold no estimate reaches, only the normal cone splits: each sphere cluster
+    /// larger than `A_min` then fits the 2MF cone (45° around its mean normal); without the
+    /// rule the whole sphere would be one patch.
+    #[test]
+    fn curved_clusters_are_split_to_the_normal_cone() {
+        let d = procedural::dense_sphere(3);
+        let scene = d.build("dense", Path::new(".")).unwrap();
+        let sizes = MeshSizes::resolve(&scene, None, None).unwrap();
+        let sphere = scene.surfaces.iter().position(|s| s == "sphere").unwrap() as u32;
+        let mesh = msc(&scene, 1e9, None);
+        mesh.validate().unwrap();
+        let a_min = 4.0 * sizes.element_size * sizes.element_size;
+        let cos = cluster::NORMAL_CONE_DEGREES.to_radians().cos();
+        let mut on_sphere = 0;
+        for p in mesh.patches.iter().filter(|p| p.surface == sphere) {
+            on_sphere += 1;
+            let parts = p.shape.parts();
+            let mean = parts
+                .iter()
+                .map(|q| q.area() * q.normal)
+                .sum::<DVec3>()
+                .normalize();
+            let fits = parts.iter().all(|q| q.normal.dot(mean) >= cos);
+            assert!(
+                fits || p.shape.area() <= a_min,
+                "a curved cluster kept whole"
+            );
+        }
+        println!("{on_sphere} patches on the sphere");
+        assert!(on_sphere >= 8, "{on_sphere} sphere patches");
     }
 
     #[test]

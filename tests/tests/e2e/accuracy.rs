@@ -6,7 +6,7 @@ use std::collections::HashMap;
 
 use lrr_cli::sweep::analysis;
 
-use crate::util::{cornell, lrr, root, temp_dir};
+use crate::util::{cornell, generated_scene, lrr, root, temp_dir};
 
 /// One CSV row by column name.
 type Record = HashMap<String, String>;
@@ -177,14 +177,17 @@ fn quick_accuracy_sweep_on_the_cornell_box() {
     }
 
     // 2MSC needs fewer patches than 2MF at equal error (interpolated on the curves). The
-    // issue's goal is half the k; on this mesh the measured median ratio is 1.24 (range
-    // 0.81–1.31; docs/ACCURACY.md): assert only that 2MSC wins at all.
+    // issue's goal is 0.6× the k (a ratio of 1.67); on this mesh the measured median ratio
+    // is 1.24 (range 0.81–1.31; docs/ACCURACY.md): asserted within 1.15× of that, so that a
+    // change of the refinement that moves it either way is seen.
     let ratio = analysis::k_ratio(&curve(&rows, "2mf"), &curve(&rows, "2msc"), 9)
         .expect("the 2MF and 2MSC curves overlap in error");
     println!("k(2MF)/k(2MSC) at equal error: {ratio:?}");
+    let measured = 1.24;
     assert!(
-        ratio.median > 1.0,
-        "2MSC does not need fewer patches: {ratio:?}"
+        ratio.median > measured / 1.15 && ratio.median < measured * 1.15,
+        "median ratio {} moved from the measured {measured}: {ratio:?}",
+        ratio.median
     );
     assert!(out.contains("At equal error, 2MF needs"), "{out}");
 
@@ -194,6 +197,43 @@ fn quick_accuracy_sweep_on_the_cornell_box() {
     let svg = std::fs::read_to_string(dir.join("accuracy.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("2MF") && svg.contains("2MSC"));
     assert!(svg.contains("Pareto front"));
+}
+
+/// The equal-error `k` ratio on a clustered scene (the dense sphere, quick mesh n = 1 684):
+/// pins what 2MSC achieves there, so a change of the refinement that moves it either way is
+/// seen. Measured median k(2MF)/k(2MSC) = 0.77 (range 0.75–0.99, 7 errors from 1.0e-2 to
+/// 6.5e-3; 0.60 on the same sweep before curved clusters were always split, docs/MESHING.md):
+/// 2MSC needs *more* patches than 2MF on this scene, far from the goal (a ratio of
+/// 1/0.6 = 1.67). Asserted within 1.15× of the measured value.
+#[test]
+fn equal_error_k_ratio_on_the_dense_sphere() {
+    let dir = temp_dir("accuracy-sphere");
+    let scene = generated_scene(&dir, "sphere", &["dense-sphere"]);
+    let csv = dir.join("sphere.csv");
+    lrr(&[
+        "accuracy",
+        scene.to_str().unwrap(),
+        "--quick",
+        "--quiet",
+        "--no-ref",
+        "--rounds",
+        "1",
+        "--thresholds",
+        "3e-3,1e-3,3e-4,1e-4",
+        "--csv",
+        csv.to_str().unwrap(),
+    ])
+    .unwrap_or_else(|e| panic!("lrr accuracy --quick failed: {e}"));
+    let (_, rows) = read_csv(&std::fs::read_to_string(&csv).unwrap());
+    let ratio = analysis::k_ratio(&curve(&rows, "2mf"), &curve(&rows, "2msc"), 9)
+        .expect("the 2MF and 2MSC curves overlap in error");
+    println!("dense sphere, k(2MF)/k(2MSC) at equal error: {ratio:?}");
+    let measured = 0.77;
+    assert!(
+        ratio.median > measured / 1.15 && ratio.median < measured * 1.15,
+        "median ratio {} moved from the measured {measured}: {ratio:?}",
+        ratio.median
+    );
 }
 
 #[test]
