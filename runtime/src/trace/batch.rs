@@ -1,8 +1,8 @@
 //! Rays in batches, by kind, for `lrr bench render`: the camera rays of a view, the closest
 //! hits of a batch, the shadow rays from hits to the point lights and the mirror reflections
 //! of hits, each traced on the calling thread: shadow rays by the renderer's any-hit loop,
-//! closest hits four consecutive rays at a time as packets (`bvh4/packet.rs`; the renderer
-//! traces ray by ray, to the same answers).
+//! closest hits four consecutive rays at a time as packets (`bvh4/packet.rs`, as the renderer
+//! traces camera rays; the same answers as ray by ray).
 
 use super::bvh::{Hit, Ray};
 use super::camera::View;

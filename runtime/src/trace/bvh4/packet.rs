@@ -15,9 +15,10 @@
 //!   triangle tests); a packet whose rays do not is traced ray by ray.
 //!
 //! Neighbouring camera rays visit mostly the same nodes, and the single-ray traversal spends
-//! its time on the control flow per node: `lrr bench render` measured ×1.15 on primary rays
-//! (four neighbouring pixels of a row) and ×1.35 on their mirror reflections
-//! (docs/PERFORMANCE.md).
+//! its time on the control flow per node: `lrr bench render` measured ×1.2 on primary rays
+//! (four neighbouring pixels of a row) and ×1.35 on their mirror reflections, whole frames
+//! ×0.85–0.89 the time (docs/PERFORMANCE.md). Used by the batch API (`batch.rs`) and for the
+//! renderer's camera rays (`tracer.rs`).
 
 use super::super::bvh::FAR_SCALE;
 use super::super::bvh::{Hit, Ray};
