@@ -949,9 +949,9 @@ mod tests {
                         std::array::from_fn(|i| if (p + i) % 5 == 0 { 4.0 } else { f32::INFINITY });
                     let t_min = if p % 7 == 0 { 1e-4 } else { 0.0 };
                     let got = bvh4.closest_hit4(&rays, t_min, t_max);
-                    for i in 0..4 {
-                        let want = bvh4.closest_hit(&rays[i], t_min, t_max[i]);
-                        assert_eq!(got[i], want, "ray {i} of packet {p}: {:?}", rays[i]);
+                    for (i, (ray, got)) in rays.iter().zip(got).enumerate() {
+                        let want = bvh4.closest_hit(ray, t_min, t_max[i]);
+                        assert_eq!(got, want, "ray {i} of packet {p}: {ray:?}");
                     }
                     let oct = super::octant(&rays[0]);
                     packed += rays

@@ -140,10 +140,9 @@ impl Bvh4 {
                 // `BoxRay::enter`, lane for lane), masked to the active rays.
                 let mut near = [[0.0f32; 4]; 4];
                 let mut child_rays = [0u32; 4];
-                for c in 0..4 {
+                for (c, (t, rays)) in near.iter_mut().zip(&mut child_rays).enumerate() {
                     let (n, mask) = lanes.enter::<OCT>(node, c, best_t);
-                    near[c] = n;
-                    child_rays[c] = mask & active;
+                    (*t, *rays) = (n, mask & active);
                 }
                 // The entered children ordered by the entry distance of the first ray active
                 // in each: nearest next, the others pushed farthest first.
@@ -211,10 +210,7 @@ impl Bvh4 {
                 }
                 sp -= 1;
                 let e = stack[sp];
-                let mut rays = 0;
-                for r in 0..4 {
-                    rays |= ((e.t[r] <= best_t[r]) as u32 & e.rays >> r & 1) << r;
-                }
+                let rays = bits(e.t, best_t, |t, best| t <= best) & e.rays;
                 if rays != 0 {
                     (at, active) = (e.at, rays);
                     break;
