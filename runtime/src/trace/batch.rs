@@ -1,8 +1,10 @@
 //! Rays in batches, by kind, for `lrr bench render`: the camera rays of a view, the closest
 //! hits of a batch, the shadow rays from hits to the point lights and the mirror reflections
-//! of hits, each traced on the calling thread by the loops the renderer runs.
+//! of hits, each traced on the calling thread: shadow rays by the renderer's any-hit loop,
+//! closest hits four consecutive rays at a time as packets (`bvh4/packet.rs`, as the renderer
+//! traces camera rays; the same answers as ray by ray).
 
-use super::bvh::Ray;
+use super::bvh::{Hit, Ray};
 use super::camera::View;
 use super::math::{V3, dot, length, mad, normalize, scale, sub};
 use super::scene::TraceScene;
@@ -62,24 +64,30 @@ pub(crate) fn primary(view: &View, width: u32, height: u32) -> RayBatch {
     batch
 }
 
-/// The closest hit of each ray.
+/// The closest hit of each ray, four consecutive rays at a time as a packet (neighbouring
+/// camera rays share most of their traversal; the answers are those ray by ray).
 pub(crate) fn closest(
     scene: &TraceScene,
     triangle_ids: &[u32],
     batch: &RayBatch,
 ) -> Vec<Option<TraceHit>> {
-    (0..batch.len())
-        .map(|i| {
-            let ray = Ray::new(batch.origins[i], batch.dirs[i]);
-            scene
-                .closest_hit(&ray, 0.0, batch.t_max[i])
-                .map(|h| TraceHit {
-                    t: h.t,
-                    triangle: triangle_ids[h.tri as usize],
-                    leaf: h.tri,
-                })
-        })
-        .collect()
+    let ray = |i: usize| Ray::new(batch.origins[i], batch.dirs[i]);
+    let hit = |h: Hit| TraceHit {
+        t: h.t,
+        triangle: triangle_ids[h.tri as usize],
+        leaf: h.tri,
+    };
+    let mut out = Vec::with_capacity(batch.len());
+    let packets = batch.len() / 4;
+    for p in 0..packets {
+        let rays = std::array::from_fn(|j| ray(4 * p + j));
+        let t_max = std::array::from_fn(|j| batch.t_max[4 * p + j]);
+        out.extend(scene.closest_hit4(&rays, 0.0, t_max).map(|h| h.map(hit)));
+    }
+    for i in 4 * packets..batch.len() {
+        out.push(scene.closest_hit(&ray(i), 0.0, batch.t_max[i]).map(hit));
+    }
+    out
 }
 
 /// Whether each ray is blocked before its far end.

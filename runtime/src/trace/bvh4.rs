@@ -50,6 +50,8 @@ use lrr_formats::BvhNode;
 
 use super::bvh::{FAR_SCALE, Hit, MAX_BVH_DEPTH, Ray};
 
+mod packet;
+
 /// Four lanes.
 type F4 = [f32; 4];
 
@@ -919,6 +921,47 @@ mod tests {
             }
             assert!(ties > 150, "{ties} rays with tied triangles");
         }
+    }
+
+    #[test]
+    fn packets_of_four_rays_answer_as_single_rays() {
+        // Packets of nearby rays (one origin, directions a little apart: mostly one octant, so
+        // the packet traversal) and of rays in any direction (mostly traced ray by ray), over
+        // the tree shapes above, some rays ending short.
+        let mut rng = Rng(0x9ac4);
+        let mut packed = 0;
+        for (count, size) in [(1, 3.0), (5, 2.0), (300, 1.0), (3000, 0.4)] {
+            let tris = soup(&mut rng, count, size);
+            for scene in [
+                Scene::sah(&tris),
+                Scene::median(&tris, 1),
+                Scene::median(&tris, 7),
+            ] {
+                let bvh4 = scene.bvh4();
+                for p in 0..300 {
+                    let o = [0.0; 3].map(|_| rng.unit() * 14.0 - 2.0);
+                    let d = [0.0; 3].map(|_| rng.unit() - 0.5);
+                    let spread = if p % 3 == 0 { 1.0 } else { 0.02 };
+                    let rays: [Ray; 4] = std::array::from_fn(|_| {
+                        Ray::new(o, d.map(|x| x + (rng.unit() - 0.5) * spread))
+                    });
+                    let t_max =
+                        std::array::from_fn(|i| if (p + i) % 5 == 0 { 4.0 } else { f32::INFINITY });
+                    let t_min = if p % 7 == 0 { 1e-4 } else { 0.0 };
+                    let got = bvh4.closest_hit4(&rays, t_min, t_max);
+                    for (i, (ray, got)) in rays.iter().zip(got).enumerate() {
+                        let want = bvh4.closest_hit(ray, t_min, t_max[i]);
+                        assert_eq!(got, want, "ray {i} of packet {p}: {ray:?}");
+                    }
+                    let oct = super::octant(&rays[0]);
+                    packed += rays
+                        .iter()
+                        .all(|r| super::octant(r) == oct && r.kz == rays[0].kz)
+                        as usize;
+                }
+            }
+        }
+        assert!(packed > 1000, "{packed} packets traced together");
     }
 
     #[test]

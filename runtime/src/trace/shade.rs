@@ -26,7 +26,7 @@
 
 use std::f32::consts::FRAC_1_PI;
 
-use super::bvh::Ray;
+use super::bvh::{Hit, Ray};
 use super::effects::MAX_DEPTH_LIMIT;
 use super::math::{V3, add, dot, length, mad, max_component, mul, normalize, scale, sub};
 use super::scene::{Optics, TraceScene};
@@ -149,20 +149,21 @@ pub(crate) fn fresnel(cos_i: f32, eta: f32) -> (f32, f32) {
 }
 
 /// The radiance arriving at `origin` from direction `-dir` (`dir` unit), with the effects the
-/// const parameters switch on.
+/// const parameters switch on; `primary` is the closest hit of that ray in `(0, ∞)` (the
+/// caller traces camera rays as packets).
 #[inline(always)]
 pub(crate) fn radiance<const HIGHLIGHTS: bool, const SECONDARY: bool, const SMOOTH: bool>(
     scene: &TraceScene,
     frame: &FrameInput,
-    origin: V3,
-    dir: V3,
+    (origin, dir): (V3, V3),
+    primary: Option<Hit>,
     max_depth: u32,
     counts: &mut RayCounts,
 ) -> V3 {
     if !HIGHLIGHTS && !SECONDARY {
         // The diffuse loop: one closest hit, one load.
         counts.primary += 1;
-        return match scene.closest_hit(&Ray::new(origin, dir), 0.0, f32::INFINITY) {
+        return match primary {
             Some(hit) => {
                 let e = scene.tri_element[hit.tri as usize];
                 diffuse::<SMOOTH>(scene, frame, e, mad(origin, dir, hit.t))
@@ -186,8 +187,12 @@ pub(crate) fn radiance<const HIGHLIGHTS: bool, const SECONDARY: bool, const SMOO
         } else {
             counts.secondary += 1;
         }
-        let Some(hit) = scene.closest_hit(&Ray::new(ray.origin, ray.dir), 0.0, f32::INFINITY)
-        else {
+        let hit = if ray.depth == 0 {
+            primary
+        } else {
+            scene.closest_hit(&Ray::new(ray.origin, ray.dir), 0.0, f32::INFINITY)
+        };
+        let Some(hit) = hit else {
             continue;
         };
         let e = scene.tri_element[hit.tri as usize];

@@ -10,6 +10,7 @@ use std::sync::Mutex;
 use lrr_formats::{Camera, OperatorFile, PointLight};
 
 use super::batch::{self, RayBatch, TraceHit};
+use super::bvh::Ray;
 use super::camera::View;
 use super::effects::{self, Decision, Effects, MAX_DEPTH_LIMIT};
 use super::math::{V3, scale};
@@ -382,17 +383,33 @@ impl Job<'_> {
     ) {
         let w = self.width as usize;
         let eye = self.view.eye();
-        for (i, px) in pixels.iter_mut().enumerate() {
+        let dir = |i: usize| {
             let (x, y) = ((i % w) as u32, (y0 + i / w) as u32);
-            let dir = self.view.direction(x, y, self.width, self.height);
-            *px = radiance::<HIGHLIGHTS, SECONDARY, SMOOTH>(
-                self.scene,
-                &self.frame,
-                eye,
-                dir,
-                self.effects.max_depth,
-                counts,
-            );
+            self.view.direction(x, y, self.width, self.height)
+        };
+        // Camera rays four pixels at a time as a packet (`bvh4/packet.rs`: the same hits as ray
+        // by ray), then each pixel's ray tree.
+        for (c, chunk) in pixels.chunks_mut(4).enumerate() {
+            let dirs: [V3; 4] = std::array::from_fn(|j| dir(4 * c + j.min(chunk.len() - 1)));
+            let hits = if chunk.len() == 4 {
+                let rays = dirs.map(|d| Ray::new(eye, d));
+                self.scene.closest_hit4(&rays, 0.0, [f32::INFINITY; 4])
+            } else {
+                dirs.map(|d| {
+                    self.scene
+                        .closest_hit(&Ray::new(eye, d), 0.0, f32::INFINITY)
+                })
+            };
+            for (j, px) in chunk.iter_mut().enumerate() {
+                *px = radiance::<HIGHLIGHTS, SECONDARY, SMOOTH>(
+                    self.scene,
+                    &self.frame,
+                    (eye, dirs[j]),
+                    hits[j],
+                    self.effects.max_depth,
+                    counts,
+                );
+            }
         }
     }
 }

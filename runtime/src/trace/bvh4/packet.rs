@@ -1,0 +1,221 @@
+//! Four rays through the 4-wide BVH together: one node fetch, one child ordering and one set of
+//! branches for the rays of a packet, each ray's slab tests and triangle tests its own (the
+//! single-ray traversal's values, with its own best distance), so every ray tests the triangles
+//! of the leaves whose box it enters, as alone: the same closest hits (the least distance, ties
+//! to the lower leaf-order index; the tests hold it to the single-ray traversal bit for bit; the
+//! order of visits differs, which only matters in the rounding case `bvh4.rs` names).
+//!
+//! - The rays are the lanes: per child one slab test of the four rays gives the child's mask
+//!   of rays and their entry distances directly (a first version with one ray's four children
+//!   in the lanes, as `bvh4.rs`, then the masks transposed per child, gained nothing).
+//! - Children are visited in the order of the entry distances of the first ray in each, the
+//!   nearest next, the others pushed farthest first with their rays and the rays' entry
+//!   distances; a popped entry keeps the rays whose best hit is not before their entry.
+//! - Rays of a packet must share the octant and the dominant axis (the monomorphised slab and
+//!   triangle tests); a packet whose rays do not is traced ray by ray.
+//!
+//! Neighbouring camera rays visit mostly the same nodes, and the single-ray traversal spends
+//! its time on the control flow per node: `lrr bench render` measured ×1.2 on primary rays
+//! (four neighbouring pixels of a row) and ×1.35 on their mirror reflections, whole frames
+//! ×0.85–0.89 the time (docs/PERFORMANCE.md). Used by the batch API (`batch.rs`) and for the
+//! renderer's camera rays (`tracer.rs`).
+
+use super::super::bvh::FAR_SCALE;
+use super::super::bvh::{Hit, Ray};
+use super::{
+    Bvh4, F4, INLINE_STACK, LAST, LEAF, Node, bits, hi, lo, mul, octant, splat, sub, triangles,
+};
+
+/// Four rays as the slab tests read them, one ray per lane.
+struct Lanes {
+    origin: [F4; 3],
+    inv: [F4; 3],
+}
+
+impl Lanes {
+    fn new(rays: &[Ray; 4]) -> Self {
+        Lanes {
+            origin: std::array::from_fn(|a| std::array::from_fn(|r| rays[r].origin[a])),
+            inv: std::array::from_fn(|a| std::array::from_fn(|r| rays[r].inv[a])),
+        }
+    }
+
+    /// Child `c`'s entry distance for each ray within `(0, t_max)` and the rays that enter it:
+    /// `BoxRay::enter`'s operations in its order, with the rays in the lanes.
+    #[inline(always)]
+    fn enter<const OCT: usize>(&self, node: &Node, c: usize, t_max: F4) -> (F4, u32) {
+        let side = |a: usize| (OCT >> a) & 1;
+        let slab = |a: usize, s: usize| {
+            mul(
+                sub(splat(node.bounds[s][a][c]), self.origin[a]),
+                self.inv[a],
+            )
+        };
+        let near = hi(
+            hi(hi(splat(0.0), slab(0, side(0))), slab(1, side(1))),
+            slab(2, side(2)),
+        );
+        let scaled = |a: usize| mul(slab(a, side(a) ^ 1), splat(FAR_SCALE));
+        let far = lo(lo(lo(t_max, scaled(0)), scaled(1)), scaled(2));
+        (near, bits(near, far, |n, f| n <= f))
+    }
+}
+
+/// A stack entry: a node or leaf slot, the rays that entered it, and their entry distances.
+#[derive(Clone, Copy)]
+struct Entry {
+    at: u32,
+    rays: u32,
+    t: F4,
+}
+
+const NO_ENTRY: Entry = Entry {
+    at: 0,
+    rays: 0,
+    t: [0.0; 4],
+};
+
+impl Bvh4 {
+    /// The closest hit of each of four rays in `(t_min, t_max[i])`: the same answers as
+    /// [`Bvh4::closest_hit`] ray by ray.
+    pub(crate) fn closest_hit4(&self, rays: &[Ray; 4], t_min: f32, t_max: F4) -> [Option<Hit>; 4] {
+        let oct = octant(&rays[0]);
+        let kz = rays[0].kz;
+        if self.nodes.is_empty() || rays.iter().any(|r| octant(r) != oct || r.kz != kz) {
+            return std::array::from_fn(|i| self.closest_hit(&rays[i], t_min, t_max[i]));
+        }
+        let (mut inline, mut heap);
+        let stack: &mut [Entry] = if self.stack <= INLINE_STACK {
+            inline = [NO_ENTRY; INLINE_STACK];
+            &mut inline
+        } else {
+            heap = vec![NO_ENTRY; self.stack];
+            &mut heap
+        };
+        match kz {
+            0 => self.closest4_kz::<0>(stack, rays, t_min, t_max, oct),
+            1 => self.closest4_kz::<1>(stack, rays, t_min, t_max, oct),
+            _ => self.closest4_kz::<2>(stack, rays, t_min, t_max, oct),
+        }
+    }
+
+    fn closest4_kz<const KZ: usize>(
+        &self,
+        stack: &mut [Entry],
+        rays: &[Ray; 4],
+        t_min: f32,
+        t_max: F4,
+        oct: usize,
+    ) -> [Option<Hit>; 4] {
+        match oct {
+            0 => self.closest4::<KZ, 0>(stack, rays, t_min, t_max),
+            1 => self.closest4::<KZ, 1>(stack, rays, t_min, t_max),
+            2 => self.closest4::<KZ, 2>(stack, rays, t_min, t_max),
+            3 => self.closest4::<KZ, 3>(stack, rays, t_min, t_max),
+            4 => self.closest4::<KZ, 4>(stack, rays, t_min, t_max),
+            5 => self.closest4::<KZ, 5>(stack, rays, t_min, t_max),
+            6 => self.closest4::<KZ, 6>(stack, rays, t_min, t_max),
+            _ => self.closest4::<KZ, 7>(stack, rays, t_min, t_max),
+        }
+    }
+
+    /// [`Bvh4::closest_hit4`] for rays whose dominant axis is `KZ`, in octant `OCT`. A hot
+    /// loop, kept in one piece.
+    fn closest4<const KZ: usize, const OCT: usize>(
+        &self,
+        stack: &mut [Entry],
+        rays: &[Ray; 4],
+        t_min: f32,
+        t_max: F4,
+    ) -> [Option<Hit>; 4] {
+        let lanes = Lanes::new(rays);
+        let (mut best_t, mut best_tri) = (t_max, [u32::MAX; 4]);
+        let mut sp = 0usize;
+        let mut at = 0u32;
+        let mut active = 0b1111u32;
+        loop {
+            if at & LEAF == 0 {
+                let node = &self.nodes[at as usize];
+                // Per child one slab test of the four rays (a ray in each lane: the values of
+                // `BoxRay::enter`, lane for lane), masked to the active rays.
+                let mut near = [[0.0f32; 4]; 4];
+                let mut child_rays = [0u32; 4];
+                for (c, (t, rays)) in near.iter_mut().zip(&mut child_rays).enumerate() {
+                    let (n, mask) = lanes.enter::<OCT>(node, c, best_t);
+                    (*t, *rays) = (n, mask & active);
+                }
+                // The entered children ordered by the entry distance of the first ray active
+                // in each: nearest next, the others pushed farthest first.
+                let mut order = [(0usize, 0.0f32); 4];
+                let mut n = 0;
+                for (c, &rays) in child_rays.iter().enumerate() {
+                    if rays != 0 {
+                        let key = near[c][rays.trailing_zeros() as usize];
+                        let mut j = n;
+                        while j > 0 && order[j - 1].1 < key {
+                            order[j] = order[j - 1];
+                            j -= 1;
+                        }
+                        order[j] = (c, key);
+                        n += 1;
+                    }
+                }
+                if n != 0 {
+                    for &(c, _) in &order[..n - 1] {
+                        stack[sp] = Entry {
+                            at: node.child[c],
+                            rays: child_rays[c],
+                            t: near[c],
+                        };
+                        sp += 1;
+                    }
+                    let c = order[n - 1].0;
+                    (at, active) = (node.child[c], child_rays[c]);
+                    continue;
+                }
+            } else {
+                let mut g = (at & !LEAF) as usize;
+                loop {
+                    let group = &self.groups[g];
+                    let mut each = active;
+                    while each != 0 {
+                        let r = each.trailing_zeros() as usize;
+                        each &= each - 1;
+                        let (t, mut hit) = triangles::<KZ>(&rays[r], group, t_min, t_max[r]);
+                        while hit != 0 {
+                            let i = hit.trailing_zeros();
+                            hit &= hit - 1;
+                            let tri = group.first + i;
+                            let t = t[i as usize];
+                            if t < best_t[r] || (t == best_t[r] && tri < best_tri[r]) {
+                                (best_t[r], best_tri[r]) = (t, tri);
+                            }
+                        }
+                    }
+                    if group.info & LAST != 0 {
+                        break;
+                    }
+                    g += 1;
+                }
+            }
+            // Pop the next entry with a ray whose best hit is not before it.
+            loop {
+                if sp == 0 {
+                    return std::array::from_fn(|r| {
+                        (best_tri[r] != u32::MAX).then_some(Hit {
+                            t: best_t[r],
+                            tri: best_tri[r],
+                        })
+                    });
+                }
+                sp -= 1;
+                let e = stack[sp];
+                let rays = bits(e.t, best_t, |t, best| t <= best) & e.rays;
+                if rays != 0 {
+                    (at, active) = (e.at, rays);
+                    break;
+                }
+            }
+        }
+    }
+}
