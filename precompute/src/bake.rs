@@ -36,8 +36,12 @@ pub struct BakeSettings {
     /// Refuse jobs whose working memory would exceed this many bytes (default: 80% of what
     /// the machine has available).
     pub max_memory: Option<u64>,
-    /// Where and how to checkpoint the form-factor stage (bake only).
+    /// Where and how to checkpoint the form-factor stage (bake only; with `refine`, the
+    /// first pass's rows).
     pub checkpoint: Option<CheckpointSettings>,
+    /// Refinement where light changes ([`crate::refine`]): split elements where a first
+    /// solve jumps between neighbours, adding at most this share of n; `None`: no refinement.
+    pub refine: Option<f64>,
 }
 
 impl Default for BakeSettings {
@@ -51,6 +55,7 @@ impl Default for BakeSettings {
             threads: None,
             max_memory: None,
             checkpoint: None,
+            refine: None,
         }
     }
 }
@@ -250,18 +255,35 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
         return Err(Error::Settings("--samples must be at least 1".into()));
     }
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
+    if let Some(budget) = settings.refine {
+        crate::refine::check_budget(budget)?;
+    }
     crate::pool::with_threads(settings.threads, || {
-        let prepared = Prepared::new(scene, sizes, settings.method, settings.visibility, progress)?;
-        let display = crate::display::build(scene, &prepared.mesh, progress)?;
-        let ff = prepared.form_factors(settings.samples);
-        let (fk, checkpoint) = prepared.element_patch_matrix(
+        let mut prepared =
+            Prepared::new(scene, sizes, settings.method, settings.visibility, progress)?;
+        // Borrows the occluder alone, so that refinement may replace the mesh.
+        let ff = FormFactors::new(settings.samples, prepared.occluder.as_deref());
+        let (mut fk, checkpoint) = prepared.element_patch_matrix(
             &ff,
             progress,
             settings.max_memory,
             settings.checkpoint.as_ref(),
         )?;
-        let (reflectance, emission) = prepared.file_order_materials();
         let channels = prepared.channels();
+        if let Some(budget) = settings.refine {
+            let (reflectance, emission) = prepared.file_order_materials();
+            let stage = progress.stage("first pass", 0);
+            let values =
+                crate::refine::first_pass(&prepared.mesh, &fk, &reflectance, &emission, channels)?;
+            stage.finish();
+            let refined =
+                crate::refine::refine(scene, &prepared.mesh, &fk, &values, budget, &ff, progress)?;
+            prepared.mesh = refined.mesh;
+            prepared.mesh.meshing.refined = refined.split;
+            fk = refined.fk;
+        }
+        let display = crate::display::build(scene, &prepared.mesh, progress)?;
+        let (reflectance, emission) = prepared.file_order_materials();
         let stage = progress.stage("operator", 0);
         let cores = build_cores(&OperatorInputs {
             fk: &fk,
