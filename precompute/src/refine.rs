@@ -8,7 +8,8 @@
 //!    scene's own emission through the low-rank operator: `B_P = M_c Vᵀ E_c`, then
 //!    `B_e = E_e + ρ_e Σ_p F_ep B_p` per channel, averaged over the channels.
 //! 2. *Indicator.* The smooth reconstruction's vertices ([`crate::mesh::smooth`]) say which
-//!    elements meet at a point of one smooth surface (not across creases or contact lines). At
+//!    elements have a corner at a point of one smooth surface (not across creases or contact
+//!    lines). At
 //!    each vertex the relative jump `(max B − min B) / (max B + B_floor)` of its elements is
 //!    taken, `B_floor` = [`FLOOR`] × the area-weighted mean radiosity (so the noise of dark
 //!    corners does not count); an element's indicator is the largest jump at its corners.
@@ -29,7 +30,8 @@ use crate::cores::{OperatorInputs, build_cores};
 use crate::error::{Error, Result};
 use crate::formfactor::FormFactors;
 use crate::geometry::{Polygon, Region};
-use crate::mesh::{Element, smooth, subdivide};
+use crate::memory;
+use crate::mesh::{Element, MAX_ELEMENTS, smooth, subdivide};
 use crate::patches::Mesh;
 use crate::progress::Progress;
 use crate::scene::Scene;
@@ -93,18 +95,28 @@ pub(crate) fn indicator(scene: &Scene, mesh: &Mesh, values: &[f64]) -> Vec<f64> 
     let total: f64 = area.iter().sum();
     let mean = values.iter().zip(&area).map(|(v, a)| v * a).sum::<f64>() / total.max(1e-300);
     let floor = FLOOR * mean.max(0.0) + f64::MIN_POSITIVE;
+    // The elements with a corner at each vertex. Not the vertex's weights: a boundary
+    // vertex extrapolates from a ring two elements wide, which marked elements far from the
+    // jump (tried: splits in a penumbra's umbra along the floor's edges).
+    let mut at: Vec<Vec<usize>> = vec![Vec::new(); s.offsets.len() - 1];
+    for (e, element) in elements.iter().enumerate() {
+        for &v in &s.corners[4 * e..4 * e + element.polygon.count] {
+            if v != lrr_formats::Smooth::NONE {
+                at[v as usize].push(e);
+            }
+        }
+    }
     let mut out = vec![0.0f64; values.len()];
-    for v in 0..s.offsets.len() - 1 {
-        let members = &s.positions[s.offsets[v] as usize..s.offsets[v + 1] as usize];
+    for members in &at {
         let (lo, hi) = members
             .iter()
             .fold((f64::INFINITY, 0.0f64), |(lo, hi), &e| {
-                let b = values[e as usize].max(0.0);
+                let b = values[e].max(0.0);
                 (lo.min(b), hi.max(b))
             });
         let jump = (hi - lo) / (hi + floor);
         for &e in members {
-            out[e as usize] = out[e as usize].max(jump);
+            out[e] = out[e].max(jump);
         }
     }
     out
@@ -172,11 +184,26 @@ pub(crate) fn refine(
     budget: f64,
     ff: &FormFactors,
     progress: &Progress,
+    max_memory: Option<u64>,
 ) -> Result<Refined> {
     check_budget(budget)?;
-    let marked = select(mesh, &indicator(scene, mesh, values), budget);
+    let ind = indicator(scene, mesh, values);
+    let marked = select(mesh, &ind, budget);
     let refined = split_marked(mesh, &marked);
     let (n0, k) = (mesh.n(), mesh.k());
+    if refined.n() > MAX_ELEMENTS {
+        return Err(Error::Limits(format!(
+            "--refine {budget} would make {} elements, more than the limit of {MAX_ELEMENTS}; \
+             use a smaller --refine or a larger --element-size",
+            refined.n()
+        )));
+    }
+    memory::check_with(
+        (refined.n() as u128) * (k as u128) * 12,
+        max_memory,
+        "the refined element-to-patch matrix",
+        "use a smaller --refine, or a larger --element-size or --patch-size",
+    )?;
     let mut position_of = vec![0usize; n0];
     for (s, &id) in mesh.order.iter().enumerate() {
         position_of[id as usize] = s;
