@@ -257,3 +257,82 @@ pub(crate) fn check_budget(budget: f64) -> Result<()> {
         )))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::MeshSizes;
+    use crate::scene::procedural;
+    use std::path::Path;
+
+    /// The rows kept from the first pass and the children's rows are what integrating every
+    /// row of the refined mesh afresh gives, bit for bit (the ids, hence the seeds, are kept).
+    #[test]
+    fn reused_rows_equal_rows_integrated_afresh() {
+        let scene = procedural::furnace(0.5, 1.0)
+            .build("f", Path::new("."))
+            .unwrap();
+        let sizes = MeshSizes {
+            element_size: 0.25,
+            patch_size: 0.5,
+        };
+        let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
+        let ff = FormFactors::new(4, None);
+        let targets: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
+        let rows = |m: &Mesh| {
+            let polygons: Vec<Polygon> = (0..m.n()).map(|s| m.element_at(s).polygon).collect();
+            let mut out = vec![0.0; m.n() * m.k()];
+            ff.matrix(&polygons, &m.order, &targets, &mut out, &|_| {});
+            out
+        };
+        let fk = rows(&mesh);
+        // A step in x across the middle of the box: the elements either side of it jump.
+        let xs: Vec<f64> = (0..mesh.n())
+            .map(|s| mesh.element_at(s).polygon.centroid().x)
+            .collect();
+        let mid = 0.5
+            * (xs.iter().cloned().fold(f64::MAX, f64::min)
+                + xs.iter().cloned().fold(f64::MIN, f64::max));
+        let values: Vec<f64> = xs
+            .iter()
+            .map(|&x| if x > mid { 1.0 } else { 0.1 })
+            .collect();
+        let budget = 0.25;
+        let refined = refine(
+            &scene,
+            &mesh,
+            &fk,
+            &values,
+            budget,
+            &ff,
+            &Progress::hidden(),
+            None,
+        )
+        .unwrap();
+        assert!(refined.split > 0);
+        assert!(refined.mesh.n() - mesh.n() <= (budget * mesh.n() as f64) as usize);
+        assert_eq!(refined.mesh.k(), mesh.k());
+        refined.mesh.validate().unwrap();
+        assert!(
+            refined.fk == rows(&refined.mesh),
+            "reused rows differ from fresh ones"
+        );
+        // Only elements at the step were split: every child's centroid is within one element
+        // of the middle.
+        for e in &refined.mesh.elements[mesh.n()..] {
+            let x = e.polygon.centroid().x;
+            assert!(
+                (x - mid).abs() <= sizes.element_size,
+                "a child at x = {x}, step at {mid}"
+            );
+        }
+    }
+
+    #[test]
+    fn bad_budgets_are_errors() {
+        for b in [-0.5, f64::NAN, f64::INFINITY] {
+            let e = check_budget(b).unwrap_err().to_string();
+            assert!(e.contains("--refine must be"), "{e}");
+        }
+    }
+}
