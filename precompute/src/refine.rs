@@ -176,6 +176,7 @@ pub(crate) fn split_marked(mesh: &Mesh, marked: &[bool]) -> Mesh {
 /// Refines the mesh of a first pass (`fk`, its n0×k rows, and the radiosity `values` per
 /// file position) with a budget of `budget · n0` new elements, integrating only the rows of
 /// the new elements.
+#[allow(clippy::too_many_arguments)] // the first pass (mesh, rows, values) and the bake's settings
 pub(crate) fn refine(
     scene: &Scene,
     mesh: &Mesh,

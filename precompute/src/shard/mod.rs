@@ -342,6 +342,19 @@ fn settings_text(sizes: MeshSizes, s: &BakeSettings, visibility: &str) -> String
     )
 }
 
+/// Sharded bakes and plans do not refine yet: the refinement needs a solve of the whole mesh
+/// (`crate::refine`), which every shard would have to repeat.
+fn no_refinement(settings: &BakeSettings) -> Result<()> {
+    match settings.refine {
+        Some(_) => Err(Error::Settings(
+            "--refine does not work with sharded bakes yet (it needs a solve of the whole mesh \
+             first); bake without --shard, or without --refine"
+                .into(),
+        )),
+        None => Ok(()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -368,18 +381,5 @@ mod tests {
         }
         let e = ShardSpec::parse("env/4", &slurm).unwrap_err().to_string();
         assert!(e.contains("from SLURM_ARRAY_TASK_ID"), "{e}");
-    }
-}
-
-/// Sharded bakes and plans do not refine yet: the refinement needs a solve of the whole mesh
-/// (`crate::refine`), which every shard would have to repeat.
-fn no_refinement(settings: &BakeSettings) -> Result<()> {
-    match settings.refine {
-        Some(_) => Err(Error::Settings(
-            "--refine does not work with sharded bakes yet (it needs a solve of the whole mesh \
-             first); bake without --shard, or without --refine"
-                .into(),
-        )),
-        None => Ok(()),
     }
 }
