@@ -261,6 +261,8 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
     crate::pool::with_threads(settings.threads, || {
         let mut prepared =
             Prepared::new(scene, sizes, settings.method, settings.visibility, progress)?;
+        // Before the form factors: bad point lights and cameras are refused early.
+        let mut display = crate::display::build(scene, &prepared.mesh, progress)?;
         // Borrows the occluder alone, so that refinement may replace the mesh.
         let ff = FormFactors::new(settings.samples, prepared.occluder.as_deref());
         let (mut fk, checkpoint) = prepared.element_patch_matrix(
@@ -291,8 +293,8 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             prepared.mesh = refined.mesh;
             prepared.mesh.meshing.refined = refined.split;
             fk = refined.fk;
+            display = crate::display::build(scene, &prepared.mesh, progress)?;
         }
-        let display = crate::display::build(scene, &prepared.mesh, progress)?;
         let (reflectance, emission) = prepared.file_order_materials();
         let stage = progress.stage("operator", 0);
         let cores = build_cores(&OperatorInputs {
