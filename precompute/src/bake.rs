@@ -247,6 +247,8 @@ pub struct Baked {
     pub culled_pairs: u64,
     /// The form-factor checkpoint, to remove once the output is written.
     pub checkpoint: Option<Checkpoint>,
+    /// `--refine`'s budget, when the mesh was refined (the file's metadata).
+    pub refine: Option<f64>,
 }
 
 /// Bakes a scene: the whole pipeline up to the k×k cores.
@@ -323,6 +325,8 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             rays,
             culled_pairs: culled,
             checkpoint,
+            // A budget of 0 refines nothing: the unrefined bake's bytes.
+            refine: settings.refine.filter(|&b| b > 0.0),
         })
     })?
 }

@@ -179,6 +179,7 @@ pub fn bake_shard(
             surfaces: &scene.surfaces,
             channels: prepared.channels(),
             display: &display,
+            refine: None,
         });
         let skeleton = part::encode_skeleton(&skeleton);
         let header = PartHeader {

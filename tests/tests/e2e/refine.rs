@@ -130,6 +130,16 @@ fn refinement_is_deterministic_across_thread_counts() {
     assert_eq!(bytes(1), bytes(2), "--refine depends on the thread count");
 }
 
+/// The file's metadata records the budget and the elements split (`lrr info` prints them).
+#[test]
+fn the_metadata_records_the_refinement() {
+    let out = temp_dir("refine-info").join("c.lrr");
+    crate::util::bake(&cornell(), &out, &["--element-size", "96", "--refine"]).unwrap();
+    let info = crate::util::lrr(&["info", out.to_str().unwrap()]).unwrap();
+    assert!(info.contains("refine: 0.5"), "{info}");
+    assert!(info.contains("refined_elements: "), "{info}");
+}
+
 /// A budget of 0 changes nothing: the bytes of an unrefined bake.
 #[test]
 fn a_zero_budget_is_the_unrefined_bake() {
