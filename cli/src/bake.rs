@@ -52,6 +52,12 @@ pub struct BakeArgs {
     /// With --shard: take the meshes from this plan (`lrr plan`) instead of meshing again.
     #[arg(long, value_name = "PLAN", requires = "shard")]
     pub plan: Option<PathBuf>,
+    /// Refine where light changes: solve once on the mesh, split the elements whose radiosity
+    /// jumps most against their neighbours (shadow edges, contact lines), adding at most
+    /// B·n elements (`--refine` alone: 0.5); `--element-size` stays the largest element.
+    /// Not with --shard yet. docs/MESHING.md.
+    #[arg(long, value_name = "B", num_args = 0..=1, default_missing_value = "0.5")]
+    pub refine: Option<f64>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -136,6 +142,12 @@ struct Report<'a> {
 
 pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     if let Some(spec) = &a.shard {
+        if a.refine.is_some() {
+            anyhow::bail!(
+                "--refine does not work with --shard yet (the refinement needs a solve of the \
+                 whole mesh first); bake without --shard, or without --refine"
+            );
+        }
         let output = a.output.as_ref().ok_or_else(|| {
             anyhow::anyhow!("--shard needs -o PART (with {{i}} for the shard index)")
         })?;
@@ -157,6 +169,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     stage.finish();
     let output = output_path(a, &scene.bake)?;
     let mut settings = a.mesh.settings_for(&scene)?;
+    settings.refine = a.refine;
     let checkpoint_path = checkpoint::path_for(&output);
     if !a.resume && checkpoint_path.exists() {
         eprintln!(

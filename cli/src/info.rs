@@ -69,6 +69,8 @@ pub fn run(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
             "method",
             "threshold",
             "min_patch_area",
+            "refine",
+            "refined_elements",
             "element_size",
             "patch_size",
             "samples",

@@ -228,6 +228,7 @@ impl MeshArgs {
             threads: self.threads,
             max_memory: self.max_memory,
             checkpoint: None,
+            refine: None,
         })
     }
 

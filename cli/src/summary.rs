@@ -143,6 +143,8 @@ pub struct MeshingSummary {
     pub grid_min_element_angle_degrees: f64,
     /// (stage, seconds) of the mesh stage: regions, grid, imprint, subdivide.
     pub stages: Vec<(String, f64)>,
+    /// Elements split by `--refine` (0 without).
+    pub refined_elements: usize,
 }
 
 impl MeshingSummary {
@@ -164,11 +166,19 @@ impl MeshingSummary {
             min_element_angle_degrees: m.min_angle,
             grid_min_element_angle_degrees: m.grid_min_angle,
             stages: m.stages.iter().map(|(s, t)| (s.to_string(), *t)).collect(),
+            refined_elements: m.refined,
         }
     }
 
     /// Two lines: the geometry repaired, the meshing done (regions, angles, stage times).
     pub fn print(&self, out: &mut dyn Write) -> Result<()> {
+        if self.refined_elements > 0 {
+            writeln!(
+                out,
+                "refinement: {} element(s) split where light changes",
+                self.refined_elements
+            )?;
+        }
         writeln!(
             out,
             "geometry: {} degenerate and {} duplicate face(s) dropped, {} non-planar polygon(s) split \

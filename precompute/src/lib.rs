@@ -45,6 +45,7 @@ pub mod patches;
 pub mod pool;
 pub mod progress;
 pub mod radiosity;
+pub mod refine;
 pub mod scene;
 pub mod shard;
 pub mod visibility;

@@ -23,6 +23,8 @@ pub(crate) struct Skeleton {
     pub method: String,
     /// 2MSC: the threshold and the `A_min` used.
     pub refinement: Option<[f64; 2]>,
+    /// `--refine`: the budget and the elements split.
+    pub refine: Option<(f64, usize)>,
     pub element_size: f64,
     pub patch_size: f64,
     pub samples: u32,
@@ -65,6 +67,8 @@ pub(crate) struct SkeletonInputs<'a> {
     pub channels: usize,
     /// From `display::build`.
     pub display: &'a Display,
+    /// `--refine`'s budget (the elements split are in the mesh's report).
+    pub refine: Option<f64>,
 }
 
 impl Skeleton {
@@ -83,6 +87,7 @@ impl Skeleton {
             scene_name: i.scene_name.to_string(),
             method: i.method.name().to_string(),
             refinement,
+            refine: i.refine.map(|b| (b, i.mesh.meshing.refined)),
             element_size: i.sizes.element_size,
             patch_size: i.sizes.patch_size,
             samples: i.samples,
@@ -115,6 +120,7 @@ impl Skeleton {
             surfaces: &b.surfaces,
             channels: b.cores.channels,
             display: &b.display,
+            refine: b.refine,
         })
     }
 
@@ -166,6 +172,8 @@ impl Skeleton {
             method: &self.method,
             threshold: self.refinement.map(|r| r[0]),
             min_patch_area: self.refinement.map(|r| r[1]),
+            refine: self.refine.map(|r| r.0),
+            refined_elements: self.refine.map(|r| r.1),
             element_size: self.element_size,
             patch_size: self.patch_size,
             samples: self.samples,
@@ -271,6 +279,12 @@ pub(crate) struct Metadata<'a> {
     pub threshold: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub min_patch_area: Option<f64>,
+    /// `--refine` only: its budget and the elements it split (absent otherwise, so unrefined
+    /// files stay as they were).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refine: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refined_elements: Option<usize>,
     pub element_size: f64,
     pub patch_size: f64,
     pub samples: u32,

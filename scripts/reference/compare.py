@@ -31,6 +31,7 @@ def main():
     ap.add_argument("--lrr", default="lrr")
     ap.add_argument("--worst", type=int, default=0)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--reconstruct", choices=["smooth", "flat"], help="passed to lrr probe")
     args = ap.parse_args()
     with open(args.reference) as f:
         ref = json.load(f)
@@ -39,7 +40,8 @@ def main():
         json.dump([{"position": p["position"], "normal": p["normal"]} for p in pts], f)
         f.flush()
         out = subprocess.run(
-            [args.lrr, "probe", args.bake, "--points", f.name, "--json"],
+            [args.lrr, "probe", args.bake, "--points", f.name, "--json"]
+            + (["--reconstruct", args.reconstruct] if args.reconstruct else []),
             check=True, capture_output=True, text=True,
         ).stdout
     got = np.array([p["radiosity"] for p in json.loads(out)], dtype=np.float64)

@@ -78,6 +78,19 @@ impl<'a> FormFactors<'a> {
         }
     }
 
+    /// Adds the counters of `other` (a pass over more rows of the same bake) to this one's.
+    pub(crate) fn absorb(&self, other: &FormFactors) {
+        let s = &other.stats;
+        for (mine, theirs) in [
+            (&self.stats.pairs, &s.pairs),
+            (&self.stats.culled_pairs, &s.culled_pairs),
+            (&self.stats.rays, &s.rays),
+            (&self.stats.conserved_rows, &s.conserved_rows),
+        ] {
+            mine.fetch_add(theirs.load(Ordering::Relaxed), Ordering::Relaxed);
+        }
+    }
+
     /// Occlusion rays cast so far by this pass.
     pub fn rays(&self) -> u64 {
         self.stats.rays.load(Ordering::Relaxed)

@@ -123,6 +123,8 @@ pub struct MeshReport {
     /// (stage, seconds): `regions` (grouping and merging), `grid` (clipped grids),
     /// `imprint` (contact and crossing cuts), `subdivide` (the hierarchy's leaves).
     pub stages: Vec<(&'static str, f64)>,
+    /// Elements split by refinement where light changes (`lrr bake --refine`), 0 without.
+    pub refined: usize,
 }
 
 /// The fine mesh: planar regions planned (`region`), faces cut at their contacts and

@@ -132,6 +132,7 @@ pub fn bake_shard(
     if settings.samples == 0 {
         return Err(Error::Settings("--samples must be at least 1".into()));
     }
+    no_refinement(settings)?;
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
     crate::pool::with_threads(settings.threads, || {
         let mesh = match plan {
@@ -178,6 +179,7 @@ pub fn bake_shard(
             surfaces: &scene.surfaces,
             channels: prepared.channels(),
             display: &display,
+            refine: None,
         });
         let skeleton = part::encode_skeleton(&skeleton);
         let header = PartHeader {
@@ -223,6 +225,7 @@ pub fn write_plan(
     output: &Path,
     progress: &Progress,
 ) -> Result<(usize, usize)> {
+    no_refinement(settings)?;
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
     crate::pool::with_threads(settings.threads, || {
         let prepared = Prepared::new(scene, sizes, settings.method, settings.visibility, progress)?;
@@ -338,6 +341,19 @@ fn settings_text(sizes: MeshSizes, s: &BakeSettings, visibility: &str) -> String
         "method {method}, element size {:?}, patch size {:?}, {} samples, visibility {visibility}",
         sizes.element_size, sizes.patch_size, s.samples
     )
+}
+
+/// Sharded bakes and plans do not refine yet: the refinement needs a solve of the whole mesh
+/// (`crate::refine`), which every shard would have to repeat.
+fn no_refinement(settings: &BakeSettings) -> Result<()> {
+    match settings.refine {
+        Some(_) => Err(Error::Settings(
+            "--refine does not work with sharded bakes yet (it needs a solve of the whole mesh \
+             first); bake without --shard, or without --refine"
+                .into(),
+        )),
+        None => Ok(()),
+    }
 }
 
 #[cfg(test)]

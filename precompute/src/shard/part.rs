@@ -367,6 +367,7 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
         scene_name,
         method,
         refinement,
+        refine: None, // sharded bakes refuse --refine
         element_size,
         patch_size,
         samples,

@@ -15,6 +15,7 @@ mod gltf_textures;
 mod import;
 mod meshing;
 mod reference;
+mod refine;
 mod render_reference;
 mod resilience;
 mod scene_description;
