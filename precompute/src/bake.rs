@@ -380,7 +380,6 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             escaped: e.escaped,
             backs: e.backs,
         });
-        drop(ff);
         Ok(Baked {
             scene_name: scene.name.clone(),
             sizes,
