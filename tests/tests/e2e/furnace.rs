@@ -52,6 +52,22 @@ fn reflectance_one_is_refused_with_an_explanation() {
     assert!(!dir.join("x.lrr").exists());
 }
 
+/// A closed 4 × 3 × 5 room (ρ = 0.6, radiance 1 everywhere) with `inside` added to its
+/// description, baked with the defaults: the operator and the bake's report.
+fn bake_room(name: &str, inside: &str) -> (Operator, serde_json::Value) {
+    let dir = temp_dir(name);
+    let path = dir.join("room.toml");
+    std::fs::write(&path, format!("{ROOM}{inside}")).unwrap();
+    let out = dir.join("room.lrr");
+    let report = dir.join("report.json");
+    bake(&path, &out, &["--report", report.to_str().unwrap()]).unwrap();
+    let report = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    (Operator::load(&out).unwrap(), report)
+}
+
+const ROOM: &str = "[[material]]\nname = \"w\"\nreflectance = [0.6, 0.6, 0.6]\nradiance = [1, 1, 1]\n\
+    [[box]]\nname = \"room\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [4, 3, 5]\ninward = true\n";
+
 /// A furnace that casts rays: a closed room with two boxes floating inside, every surface with
 /// the same reflectance and emission, still has `B = E / (1 - ρ)` everywhere, whatever occludes
 /// what (every element's visible factors sum to one). Sampled visibility alone does not conserve
@@ -59,28 +75,17 @@ fn reflectance_one_is_refused_with_an_explanation() {
 /// enclosed and the bake rescales their rows (`formfactor::enclosure`).
 #[test]
 fn an_occluded_furnace_stays_at_emission_over_one_minus_rho() {
-    let dir = temp_dir("occluded-furnace");
-    let path = dir.join("occluded.toml");
-    std::fs::write(
-        &path,
-        "[[material]]\nname = \"w\"\nreflectance = [0.6, 0.6, 0.6]\nradiance = [1, 1, 1]\n\
-         [[box]]\nname = \"room\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [4, 3, 5]\ninward = true\n\
-         [[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0.8, 0.7, 1.0]\nmax = [1.9, 1.6, 2.2]\n\
+    let (op, report) = bake_room(
+        "occluded-furnace",
+        "[[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0.8, 0.7, 1.0]\nmax = [1.9, 1.6, 2.2]\n\
          [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [2.2, 1.2, 2.6]\nmax = [3.3, 2.5, 3.9]\n",
-    )
-    .unwrap();
-    let out = dir.join("occluded.lrr");
-    let report = dir.join("report.json");
-    bake(&path, &out, &["--report", report.to_str().unwrap()]).unwrap();
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    );
     let rays = report["rays"].as_u64().unwrap();
     assert!(
         rays > 1_000_000,
         "the boxes occlude: the bake must cast rays ({rays})"
     );
     let enclosure = &report["enclosure"];
-    let op = Operator::load(&out).unwrap();
     assert_eq!(enclosure["escaped"], 0, "{enclosure}");
     assert_eq!(
         enclosure["closed_elements"].as_u64(),
@@ -116,23 +121,12 @@ fn an_occluded_furnace_stays_at_emission_over_one_minus_rho() {
 /// furnace no longer holds where the back is seen.
 #[test]
 fn elements_that_see_a_back_keep_their_rows() {
-    let dir = temp_dir("occluded-furnace-back");
-    let path = dir.join("panel.toml");
-    std::fs::write(
-        &path,
-        "[[material]]\nname = \"w\"\nreflectance = [0.6, 0.6, 0.6]\nradiance = [1, 1, 1]\n\
-         [[box]]\nname = \"room\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [4, 3, 5]\ninward = true\n\
-         [[surface]]\nname = \"panel\"\nmaterial = \"w\"\n\
+    let (op, report) = bake_room(
+        "occluded-furnace-back",
+        "[[surface]]\nname = \"panel\"\nmaterial = \"w\"\n\
          polygons = [[[1, 1.5, 1], [3, 1.5, 1], [3, 1.5, 4], [1, 1.5, 4]]]\n",
-    )
-    .unwrap();
-    let out = dir.join("panel.lrr");
-    let report = dir.join("report.json");
-    bake(&path, &out, &["--report", report.to_str().unwrap()]).unwrap();
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    );
     let enclosure = &report["enclosure"];
-    let op = Operator::load(&out).unwrap();
     let closed = enclosure["closed_elements"].as_u64().unwrap();
     assert_eq!(enclosure["escaped"], 0, "{enclosure}");
     assert!(enclosure["backs"].as_u64().unwrap() > 0, "{enclosure}");
