@@ -196,6 +196,12 @@ fn default_bake_against_reference(name: &str) -> (Errors, Errors) {
 /// Bakes the scene of reference `name` with the flags `extra` and measures its error, flat
 /// and smooth.
 fn bake_against_reference(name: &str, extra: &[&str]) -> (Errors, Errors) {
+    bake_against_noisy_reference(name, extra, 0.3)
+}
+
+/// [`bake_against_reference`], the reference's p90 noise allowed up to `noise_share` of the
+/// median error it measures.
+fn bake_against_noisy_reference(name: &str, extra: &[&str], noise_share: f64) -> (Errors, Errors) {
     let (doc, points) = load_reference(name);
     let scene = scene_path(&doc);
     assert_points_on_scene(&scene, &points);
@@ -225,7 +231,7 @@ fn bake_against_reference(name: &str, extra: &[&str]) -> (Errors, Errors) {
     );
     // Cornell: the reference's p90 noise 0.48% against the smooth median 1.96% (0.24×).
     assert!(
-        e.noise_p90 < 0.3 * smooth.median.min(e.median),
+        e.noise_p90 < noise_share * smooth.median.min(e.median),
         "{name}: the reference's noise ({e:?}) is not small against the error it measures"
     );
     (e, smooth)
@@ -250,10 +256,11 @@ fn assert_within(name: &str, e: &Errors, expected: [f64; 3]) {
     }
 }
 
-/// Measured smooth errors (median, p90, max) of the default bakes (docs/ACCURACY.md).
+/// Measured smooth errors (median, p90, max) of the default bakes (docs/ACCURACY.md; the closed
+/// scenes with their enclosed rows summing to one).
 const CORNELL_SMOOTH: [f64; 3] = [0.0196, 0.0980, 1.877];
-const CLUTTERED_SMOOTH: [f64; 3] = [0.0146, 0.1278, 1.977];
-const SPHERE_SMOOTH: [f64; 3] = [0.0284, 0.0802, 0.216];
+const CLUTTERED_SMOOTH: [f64; 3] = [0.0149, 0.1275, 1.983];
+const SPHERE_SMOOTH: [f64; 3] = [0.0280, 0.0803, 0.216];
 
 #[test]
 fn cornell_box_default_bake_against_the_path_tracer() {
@@ -270,22 +277,22 @@ fn cornell_box_default_bake_against_the_path_tracer() {
 #[test]
 fn cluttered_room_default_bake_against_the_path_tracer() {
     let (e, smooth) = default_bake_against_reference("cluttered");
-    assert_within("cluttered", &e, [0.0256, 0.1147, 1.772]);
+    assert_within("cluttered", &e, [0.0257, 0.1179, 1.772]);
     assert_within("cluttered smooth", &smooth, CLUTTERED_SMOOTH);
 }
 
 #[test]
 fn dense_sphere_default_bake_against_the_path_tracer() {
     let (e, smooth) = default_bake_against_reference("dense-sphere");
-    assert_within("dense-sphere", &e, [0.0331, 0.0951, 0.529]);
+    assert_within("dense-sphere", &e, [0.0328, 0.0944, 0.528]);
     assert_within("dense-sphere smooth", &smooth, SPHERE_SMOOTH);
 }
 
 /// Measured errors (flat, then smooth: median, p90, max) of the bakes with `--refine 0.5`
 /// (docs/ACCURACY.md, "Refinement where light changes").
 const CORNELL_REFINED: [[f64; 3]; 2] = [[0.0281, 0.0895, 0.652], [0.0172, 0.0784, 1.268]];
-const CLUTTERED_REFINED: [[f64; 3]; 2] = [[0.0249, 0.0909, 1.771], [0.0139, 0.0760, 0.775]];
-const SPHERE_REFINED: [[f64; 3]; 2] = [[0.0290, 0.0750, 0.380], [0.0215, 0.0587, 0.242]];
+const CLUTTERED_REFINED: [[f64; 3]; 2] = [[0.0241, 0.0923, 1.771], [0.0139, 0.0758, 0.783]];
+const SPHERE_REFINED: [[f64; 3]; 2] = [[0.0279, 0.0750, 0.379], [0.0217, 0.0575, 0.241]];
 
 /// `--refine 0.5` against the path tracer: within 1.25× of what it measured, and its smooth
 /// p90 below the default bake's (the refinement's purpose: the worst points lie where one
@@ -416,4 +423,26 @@ fn the_reference_meets_a_square_under_an_emitting_square() {
         }
     }
     assert_unbiased("squares", &points, &exact);
+}
+
+/// Issue #14's goal for the Cornell box (median ≤ 2%, p90 ≤ 5% against the path tracer) is
+/// reached with flags, not yet by the default bake: patches refined by 2MSC at a lower
+/// threshold and elements refined where light changes. Measured 1.34% / 4.68% smooth (k = 333,
+/// n = 2539) at 1.8–2.0× the default bake's time (docs/ACCURACY.md).
+#[test]
+fn cornell_box_meets_the_goal_with_2msc_and_refinement() {
+    let flags = ["--method", "2msc", "--threshold", "3e-5", "--refine", "0.2"];
+    // The reference's p90 noise (0.48%) is 0.36 of this median: still well under the p90.
+    let (_, smooth) = bake_against_noisy_reference("cornell-box", &flags, 0.4);
+    assert_within(
+        "cornell-box 2msc refined smooth",
+        &smooth,
+        [0.0134, 0.0468, 1.348],
+    );
+    assert!(
+        smooth.median <= 0.02 && smooth.p90 <= 0.05,
+        "the goal: median {:.4} ≤ 0.02 and p90 {:.4} ≤ 0.05",
+        smooth.median,
+        smooth.p90
+    );
 }
