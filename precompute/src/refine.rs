@@ -153,8 +153,8 @@ fn children(p: &Polygon) -> usize {
 }
 
 /// The mesh with the `marked` elements (by id) split once: a split element's first child
-/// keeps its id, the others are appended in id order; patches are unchanged.
-/// The refined mesh, and the id of every element's parent in `mesh` (its own id when kept).
+/// keeps its id, the others are appended in id order; patches are unchanged. Also the id of
+/// every element's parent in `mesh` (its own id when kept).
 pub(crate) fn split_marked(mesh: &Mesh, marked: &[bool]) -> (Mesh, Vec<u32>) {
     let mut elements = mesh.elements.clone();
     let mut parents: Vec<u32> = (0..mesh.n() as u32).collect();

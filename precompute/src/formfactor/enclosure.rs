@@ -19,7 +19,7 @@ use rayon::prelude::*;
 
 use crate::geometry::Polygon;
 use crate::geometry::hash::mix;
-use crate::geometry::sampling::{pair_point, r2};
+use crate::geometry::sampling::{pair_point, r2, shift};
 use crate::visibility::{ClosestHit, FirstHit};
 
 /// Rays per element. A row is rescaled only when all of them meet fronts; with the scene-wide
@@ -70,17 +70,15 @@ impl Enclosure {
 /// Rays of one element that leave the scene and that meet a back.
 fn element(occluder: &dyn ClosestHit, p: &Polygon, id: u32) -> (u32, u32) {
     let seed = mix(u64::from(id) ^ 0x656e_636c_6f73_6564); // "enclosed"
-    let h = mix(seed);
-    let shift = (
-        (h >> 11) as f64 / (1u64 << 53) as f64,
-        (mix(h) >> 11) as f64 / (1u64 << 53) as f64,
-    );
+    // The same rotation as the points': each ray's direction sample equals its point's
+    // (u, w) before the point is mapped onto the element (see the note on issue #14).
+    let shift = shift(seed);
     let (t, b) = basis(p.normal);
     let (mut out, mut back) = (0, 0);
     for i in 0..RAYS {
         let from = pair_point(p, i, seed).point;
         // Cosine-distributed direction (Malley): a uniform point of the disc lifted onto the
-        // hemisphere. The R2 points on the disc are decorrelated from those on the element.
+        // hemisphere.
         let (u, v) = r2(i, shift);
         let (r, phi) = (u.sqrt(), std::f64::consts::TAU * v);
         let d = t * (r * phi.cos()) + b * (r * phi.sin()) + p.normal * (1.0 - u).max(0.0).sqrt();

@@ -154,8 +154,17 @@ impl<'a> FormFactors<'a> {
     ) {
         let mut culled = 0u64;
         let mut rays = 0u64;
-        // The pairs whose visibility was partial (sampled, noisy): the ones a closed row rescales.
+        let closed = self
+            .closed
+            .is_some_and(|c| c.get(e_id as usize).copied().unwrap_or(false));
+        // The pairs whose visibility was partial (sampled, noisy): the ones a closed row
+        // rescales. Kept for closed rows only (no allocation in open scenes).
         let mut partial = Vec::new();
+        let mut note = |t_id: usize, visible: f64| {
+            if closed && visible > 0.0 && visible < 1.0 {
+                partial.push(t_id);
+            }
+        };
         for (t_id, (target, out)) in targets.iter().zip(row.iter_mut()).enumerate() {
             *out = 0.0;
             let Some(t) = target.as_single() else {
@@ -165,9 +174,7 @@ impl<'a> FormFactors<'a> {
                     Some((f, r, v)) => {
                         *out = f;
                         rays += r;
-                        if v > 0.0 && v < 1.0 {
-                            partial.push(t_id);
-                        }
+                        note(t_id, v);
                     }
                 }
                 continue;
@@ -193,13 +200,8 @@ impl<'a> FormFactors<'a> {
                 }
             };
             *out = unoccluded * visible;
-            if visible > 0.0 && visible < 1.0 {
-                partial.push(t_id);
-            }
+            note(t_id, visible);
         }
-        let closed = self
-            .closed
-            .is_some_and(|c| c.get(e_id as usize).copied().unwrap_or(false));
         if closed && conserve(row, &partial) {
             self.stats.conserved_rows.fetch_add(1, Ordering::Relaxed);
         }

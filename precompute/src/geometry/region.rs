@@ -4,8 +4,7 @@
 use glam::DVec3;
 
 use super::Polygon;
-use super::hash::mix;
-use super::sampling::{Sample, map_unit_square, r2};
+use super::sampling::{Sample, map_unit_square, r2, shift};
 
 /// A form-factor target: one convex polygon, or the union of several (a cluster patch).
 #[derive(Debug, Clone, PartialEq)]
@@ -79,12 +78,7 @@ impl Region {
     /// the part by area): the part's index and the sample, whose weight is the area density
     /// relative to uniform over the union (1 on average, like `sampling::pair_point`).
     pub fn pair_point(&self, i: u32, seed: u64) -> (usize, Sample) {
-        let h = mix(seed);
-        let shift = (
-            (h >> 11) as f64 / (1u64 << 53) as f64,
-            (mix(h) >> 11) as f64 / (1u64 << 53) as f64,
-        );
-        let (u, w) = r2(i, shift);
+        let (u, w) = r2(i, shift(seed));
         let a = u * self.area();
         // first part whose running sum exceeds a
         let j = self.cumulative[1..]

@@ -28,6 +28,16 @@ pub struct Sample {
 const R2_A1: f64 = 0.754_877_666_246_692_8;
 const R2_A2: f64 = 0.569_840_290_998_053_2;
 
+/// The Cranley–Patterson rotation of the R2 sequence for `seed`: two uniform numbers in
+/// [0, 1) from its hash.
+pub(crate) fn shift(seed: u64) -> (f64, f64) {
+    let h = mix(seed);
+    (
+        (h >> 11) as f64 / (1u64 << 53) as f64,
+        (mix(h) >> 11) as f64 / (1u64 << 53) as f64,
+    )
+}
+
 /// `i`-th point of the R2 sequence in the unit square, shifted by `shift`.
 pub(crate) fn r2(i: u32, shift: (f64, f64)) -> (f64, f64) {
     let i = f64::from(i);
@@ -63,11 +73,7 @@ pub fn quadrature(polygon: &Polygon, count: u32, out: &mut Vec<Sample>) {
 /// Ray weights must include it: a wedge-shaped quad's bilinear map crowds points toward its
 /// short side, and unweighted rays biased Cornell-box view factors by 0.2%.
 pub(crate) fn pair_point(polygon: &Polygon, i: u32, seed: u64) -> Sample {
-    let h = mix(seed);
-    let shift = (
-        (h >> 11) as f64 / (1u64 << 53) as f64,
-        (mix(h) >> 11) as f64 / (1u64 << 53) as f64,
-    );
+    let shift = shift(seed);
     let (u, w) = r2(i, shift);
     let mut s = map_unit_square(polygon.vertices(), u, w);
     if polygon.count == 4 {

@@ -116,45 +116,6 @@ impl ObvhsOccluder {
         }
     }
 
-    fn first_hit_impl(&self, from: DVec3, from_normal: DVec3, direction: DVec3) -> FirstHit {
-        let origin = from - self.centre;
-        let length = 2.0 * self.diagonal;
-        if !(origin.is_finite() && direction.is_finite() && length > 0.0) {
-            return FirstHit::Nothing;
-        }
-        let ray = FlatRay::new(
-            Vec3A::from((origin * self.scale).as_vec3()),
-            Vec3A::from(direction.as_vec3()),
-            0.0,
-            (length * self.scale * (1.0 + 1e-5)) as f32,
-        );
-        let eps = f64::from(SEGMENT_EPSILON) * length;
-        let sheared = ShearedRay::new(origin, direction, eps, length);
-        let (mut front, mut back) = (f64::INFINITY, f64::INFINITY);
-        // Every candidate is decided (no early exit): the nearest of each kind is wanted.
-        self.bvh.any_hit(&ray, |id| {
-            if self.own_face(id, origin, from_normal) {
-                return false;
-            }
-            let [a, b, c] = self.exact[id];
-            if let Some(t) = sheared.hit(a, b, c) {
-                if self.planes[id].0.dot(direction) < 0.0 {
-                    front = front.min(t);
-                } else {
-                    back = back.min(t);
-                }
-            }
-            false
-        });
-        if front.is_finite() && front <= back + self.plane_tolerance {
-            FirstHit::Front
-        } else if back.is_finite() {
-            FirstHit::Back
-        } else {
-            FirstHit::Nothing
-        }
-    }
-
     /// Which triangles block the segment, tested one by one without the BVH (a cross-check of
     /// the traversal for tests; ignores the own-face rule).
     pub fn blockers_brute_force(&self, from: DVec3, to: DVec3) -> Vec<usize> {
@@ -199,7 +160,42 @@ fn f32_scale(diagonal: f64) -> f64 {
 
 impl ClosestHit for ObvhsOccluder {
     fn first_hit(&self, from: DVec3, from_normal: DVec3, direction: DVec3) -> FirstHit {
-        self.first_hit_impl(from, from_normal, direction)
+        let origin = from - self.centre;
+        let length = 2.0 * self.diagonal;
+        if !(origin.is_finite() && direction.is_finite() && length > 0.0) {
+            return FirstHit::Nothing;
+        }
+        let ray = FlatRay::new(
+            Vec3A::from((origin * self.scale).as_vec3()),
+            Vec3A::from(direction.as_vec3()),
+            0.0,
+            (length * self.scale * (1.0 + 1e-5)) as f32,
+        );
+        let eps = f64::from(SEGMENT_EPSILON) * length;
+        let sheared = ShearedRay::new(origin, direction, eps, length);
+        let (mut front, mut back) = (f64::INFINITY, f64::INFINITY);
+        // Every candidate is decided (no early exit): the nearest of each kind is wanted.
+        self.bvh.any_hit(&ray, |id| {
+            if self.own_face(id, origin, from_normal) {
+                return false;
+            }
+            let [a, b, c] = self.exact[id];
+            if let Some(t) = sheared.hit(a, b, c) {
+                if self.planes[id].0.dot(direction) < 0.0 {
+                    front = front.min(t);
+                } else {
+                    back = back.min(t);
+                }
+            }
+            false
+        });
+        if front.is_finite() && front <= back + self.plane_tolerance {
+            FirstHit::Front
+        } else if back.is_finite() {
+            FirstHit::Back
+        } else {
+            FirstHit::Nothing
+        }
     }
 }
 
