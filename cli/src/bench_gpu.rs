@@ -26,6 +26,41 @@ pub struct GpuBenchArgs {
     /// with checks over the frame time without.
     #[arg(long)]
     pub bounds_checks: bool,
+    /// GPU: measure the gather with each of these lanes per row (powers of two up to 32), a
+    /// row each [default: about four octets per lane].
+    #[arg(long, value_delimiter = ',')]
+    pub row_lanes: Vec<u32>,
+    /// GPU: measure the gather with at most each of these workgroups per dispatch, a row each
+    /// [default: 4096].
+    #[arg(long, value_delimiter = ',')]
+    pub gather_groups: Vec<u32>,
+    /// GPU: measure the gather with each of these rows per lane and iteration (1 to 4), a row
+    /// each [default: the runtime's default].
+    #[arg(long, value_delimiter = ',')]
+    pub gather_rows: Vec<u32>,
+    /// GPU: measure binary16 operators with each of these loaders (`f16`: native f16 with
+    /// SHADER_F16, `unpack`: unpack2x16float, `bits`: integer widening), a row each [default:
+    /// the best the adapter has]. f32 operators get one row.
+    #[arg(long, value_delimiter = ',')]
+    pub f16_loader: Vec<F16Loader>,
+}
+
+/// `--f16-loader` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum F16Loader {
+    F16,
+    Unpack,
+    Bits,
+}
+
+impl F16Loader {
+    fn storage(self) -> lrr_runtime::gpu::Storage {
+        match self {
+            F16Loader::F16 => lrr_runtime::gpu::Storage::F16,
+            F16Loader::Unpack => lrr_runtime::gpu::Storage::F16Unpack,
+            F16Loader::Bits => lrr_runtime::gpu::Storage::F16Bits,
+        }
+    }
 }
 
 /// One measured operator on the GPU.
@@ -41,6 +76,12 @@ pub struct GpuRow {
     pub matrix_bytes: u64,
     /// Frames per second by GPU time (timestamp queries); `None` without them.
     pub gpu_fps: Option<f64>,
+    /// Frames per second by GPU time, frames run back to back (the GPU busy).
+    pub gpu_fps_busy: Option<f64>,
+    /// Read kernel time / frame time, both back to back.
+    pub read_fraction_busy: Option<f64>,
+    /// Bytes read per second of GPU time, back to back.
+    pub gb_per_s_busy: Option<f64>,
     /// Frames per second from the caller's emission to the caller's radiosity.
     pub end_to_end_fps: f64,
     /// Read kernel time / frame GPU time (1: the frame runs as fast as reading its bytes).
@@ -62,6 +103,14 @@ pub struct GpuRow {
     pub hybrid_gain: f64,
     /// GPU frame time with naga's bounds checks / without (`--bounds-checks`).
     pub bounds_check_cost: Option<f64>,
+    /// How the gather loads the matrix: F32, F16 (native), F16Unpack, F16Bits.
+    pub loader: String,
+    /// The gather's lanes per row.
+    pub row_lanes: u32,
+    /// The gather's rows per lane and iteration.
+    pub gather_rows: u32,
+    /// The gather's most workgroups per dispatch.
+    pub gather_groups: u32,
     pub kernels: String,
 }
 
@@ -77,6 +126,11 @@ impl GpuRow {
             cpu_adapter: gpu.is_cpu(),
             matrix_bytes: b.matrix_bytes,
             gpu_fps: b.gpu_fps(),
+            gpu_fps_busy: b.busy_fps(),
+            read_fraction_busy: b.busy_read_fraction(),
+            gb_per_s_busy: b
+                .gpu_frame_busy
+                .map(|t| b.matrix_bytes as f64 / secs(t) / 1e9),
             end_to_end_fps: b.end_to_end_fps(),
             read_fraction: b.read_fraction(),
             gb_per_s: b.gpu_frame.map(|t| b.matrix_bytes as f64 / secs(t) / 1e9),
@@ -88,6 +142,10 @@ impl GpuRow {
             hybrid_pipelined_fps: 1.0 / secs(b.hybrid_pipelined),
             hybrid_gain: b.hybrid_gain(),
             bounds_check_cost: None,
+            loader: format!("{:?}", b.storage),
+            row_lanes: b.row_lanes,
+            gather_rows: b.gather_rows,
+            gather_groups: b.gather_groups,
             kernels: b.kernels.clone(),
         }
     }
@@ -113,7 +171,43 @@ pub fn run(
         adapter: args.adapter.clone(),
         ..GpuOptions::default()
     };
-    let gpu = match Gpu::new(&options) {
+    let lanes: Vec<Option<u32>> = if args.row_lanes.is_empty() {
+        vec![None]
+    } else {
+        args.row_lanes.iter().copied().map(Some).collect()
+    };
+    let groups: Vec<Option<u32>> = if args.gather_groups.is_empty() {
+        vec![None]
+    } else {
+        args.gather_groups.iter().copied().map(Some).collect()
+    };
+    let rows: Vec<Option<u32>> = if args.gather_rows.is_empty() {
+        vec![None]
+    } else {
+        args.gather_rows.iter().copied().map(Some).collect()
+    };
+    let loaders: Vec<Option<lrr_runtime::gpu::Storage>> = if args.f16_loader.is_empty() {
+        vec![None]
+    } else {
+        args.f16_loader.iter().map(|l| Some(l.storage())).collect()
+    };
+    let mut variants = Vec::new();
+    for &f16_loader in &loaders {
+        for &row_lanes in &lanes {
+            for &gather_rows in &rows {
+                for &gather_groups in &groups {
+                    variants.push(GpuOptions {
+                        row_lanes,
+                        gather_rows,
+                        gather_groups,
+                        f16_loader,
+                        ..options.clone()
+                    });
+                }
+            }
+        }
+    }
+    let gpu = match Gpu::new(&variants[0]) {
         Ok(gpu) => gpu,
         Err(e) if device == Device::Auto => {
             eprintln!(
@@ -134,18 +228,41 @@ pub fn run(
     } else {
         None
     };
+    // The other variants' devices (the first is `gpu`).
+    let mut tuned = Vec::new();
+    for v in &variants[1..] {
+        tuned.push(Gpu::new(v).map_err(|e| anyhow::anyhow!("{}", one_line(&e)))?);
+    }
     let mut rows = Vec::new();
     let mut measure = |scene: &str, p: Precision, op: &Operator| -> Result<()> {
-        let bench = bench_operator(&gpu, op, args.frames)?;
-        let mut row = GpuRow::new(scene, p, &gpu, &bench);
-        if let Some(checked) = &checked {
-            row.bounds_check_cost = Some(bounds_check_cost(&gpu, checked, op, args.frames)?);
+        for (i, gpu) in std::iter::once(&gpu).chain(&tuned).enumerate() {
+            // An f32 operator is measured once per lanes/rows/groups variant, not once per
+            // binary16 loader.
+            if p == Precision::F32 && gpu.options().f16_loader != variants[0].f16_loader {
+                continue;
+            }
+            let bench = bench_operator(gpu, op, args.frames)?;
+            let mut row = GpuRow::new(scene, p, gpu, &bench);
+            if i == 0
+                && let Some(checked) = &checked
+            {
+                row.bounds_check_cost = Some(bounds_check_cost(gpu, checked, op, args.frames)?);
+            }
+            eprintln!(
+                "lrr bench: GPU {scene} {}×{} {} ({} lanes per row, {} rows per lane, at most {} \
+                 workgroups) done ({:.1} fps end to end, {} fps GPU time back to back)",
+                row.n,
+                row.k,
+                row.precision,
+                row.row_lanes,
+                row.gather_rows,
+                row.gather_groups,
+                row.end_to_end_fps,
+                row.gpu_fps_busy
+                    .map_or("-".to_owned(), |f| format!("{f:.1}"))
+            );
+            rows.push(row);
         }
-        eprintln!(
-            "lrr bench: GPU {scene} {}×{} {} done ({:.1} fps end to end)",
-            row.n, row.k, row.precision, row.end_to_end_fps
-        );
-        rows.push(row);
         Ok(())
     };
     if operators.cornell {
@@ -188,25 +305,33 @@ fn print_table(rows: &[GpuRow], out: &mut dyn Write) -> Result<()> {
     }
     writeln!(
         out,
-        "| scene | n | k | prec | MB/frame | fps (GPU time) | fps (end to end) | read / frame | \
-         GB/s | CPU fps | × CPU (GPU time) | × CPU (end to end) | pipelined fps | hybrid \
-         pipelined fps | hybrid gain | bounds checks cost |"
+        "GPU time by timestamps: \"busy\" of frames run back to back (then read passes back to \
+         back), \"waited\" of frames each read back and waited for (the GPU idles in between)"
     )?;
-    writeln!(out, "|{}", "---|".repeat(16))?;
+    writeln!(
+        out,
+        "| scene | n | k | prec | MB/frame | fps (GPU, busy) | read / frame (busy) | GB/s (busy) \
+         | fps (GPU, waited) | read / frame (waited) | fps (end to end) | CPU fps | × CPU (GPU \
+         time) | × CPU (end to end) | pipelined fps | hybrid pipelined fps | hybrid gain | \
+         bounds checks cost | loader | lanes/row | rows/lane | groups |"
+    )?;
+    writeln!(out, "|{}", "---|".repeat(22))?;
     for r in rows {
         writeln!(
             out,
-            "| {} | {} | {} | {} | {:.1} | {} | {:.1} | {} | {} | {:.1} | {:.2} | {:.2} | {:.1} | \
-             {:.1} | {:.2} | {} |",
+            "| {} | {} | {} | {} | {:.1} | {} | {} | {} | {} | {} | {:.1} | {:.1} | {:.2} | {:.2} \
+             | {:.1} | {:.1} | {:.2} | {} | {} | {} | {} | {} |",
             r.scene,
             r.n,
             r.k,
             r.precision,
             r.matrix_bytes as f64 / 1e6,
+            opt(r.gpu_fps_busy, 1),
+            opt(r.read_fraction_busy, 2),
+            opt(r.gb_per_s_busy, 1),
             opt(r.gpu_fps, 1),
-            r.end_to_end_fps,
             opt(r.read_fraction, 2),
-            opt(r.gb_per_s, 1),
+            r.end_to_end_fps,
             r.cpu_fps,
             r.speedup,
             r.speedup_end_to_end,
@@ -214,6 +339,10 @@ fn print_table(rows: &[GpuRow], out: &mut dyn Write) -> Result<()> {
             r.hybrid_pipelined_fps,
             r.hybrid_gain,
             opt(r.bounds_check_cost, 2),
+            r.loader,
+            r.row_lanes,
+            r.gather_rows,
+            r.gather_groups,
         )?;
     }
     let mut kernels: Vec<&str> = rows.iter().map(|r| r.kernels.as_str()).collect();

@@ -363,6 +363,7 @@ fn gpu_frames(
         gt.render_with(view, &buffer, &groups, effects, false, w, h)?;
     }
     let mut times: Vec<Vec<f64>> = vec![Vec::new(); kinds.len()];
+    let mut gpu_times: Vec<Vec<f64>> = vec![Vec::new(); kinds.len()];
     for round in 0..b.runs {
         for i in 0..kinds.len() {
             // Alternate the order round by round.
@@ -372,8 +373,9 @@ fn gpu_frames(
                 kinds.len() - 1 - i
             };
             let start = Instant::now();
-            gt.render_with(view, &buffer, &groups, kinds[k].1, false, w, h)?;
+            let (_, report) = gt.render_with(view, &buffer, &groups, kinds[k].1, false, w, h)?;
             times[k].push(start.elapsed().as_secs_f64());
+            gpu_times[k].extend(report.gpu.map(|d| d.as_secs_f64()));
         }
     }
     write!(out, "GPU frames, effects decided:\n{}", decision.text())?;
@@ -395,22 +397,46 @@ fn gpu_frames(
     }
     writeln!(
         out,
-        "{:<14} {:>11} {:>11} {:>11} {:>11} {:>10} {:>8}",
-        "frame", "primary", "shadow", "secondary", "ms (median)", "Mray/s", "range ms"
+        "wall: a frame from its first upload to the image read back (per-frame buffers, tiles, \
+         readback); GPU: the trace dispatches alone by timestamp queries ({})",
+        if gpu_times.iter().all(Vec::is_empty) {
+            "not available on this adapter"
+        } else {
+            "summed over the frame's tiles"
+        }
     )?;
-    for (((name, _), c), t) in kinds.iter().zip(&counts).zip(times) {
+    writeln!(
+        out,
+        "{:<14} {:>11} {:>11} {:>11} {:>9} {:>10} {:>11} {:>8} {:>12} {:>13}",
+        "frame",
+        "primary",
+        "shadow",
+        "secondary",
+        "wall ms",
+        "Mray/s",
+        "range ms",
+        "GPU ms",
+        "GPU Mray/s",
+        "primary Gray/s"
+    )?;
+    for ((((name, _), c), t), g) in kinds.iter().zip(&counts).zip(times).zip(gpu_times) {
         let (lo, mid, hi) = spread(t);
         let rays = (c.primary + c.shadow + c.secondary) as f64;
+        let gpu = (!g.is_empty()).then(|| spread(g).1);
+        let opt =
+            |v: Option<f64>, digits: usize| v.map_or("-".to_owned(), |v| format!("{v:.digits$}"));
         writeln!(
             out,
-            "{name:<14} {:>11} {:>11} {:>11} {:>11.1} {:>10.2} {:.1}-{:.1}",
+            "{name:<14} {:>11} {:>11} {:>11} {:>9.2} {:>10.1} {:>11} {:>8} {:>12} {:>13}",
             c.primary,
             c.shadow,
             c.secondary,
             mid * 1e3,
             rays / mid / 1e6,
-            lo * 1e3,
-            hi * 1e3
+            format!("{:.1}-{:.1}", lo * 1e3, hi * 1e3),
+            opt(gpu.map(|g| g * 1e3), 3),
+            opt(gpu.map(|g| rays / g / 1e6), 1),
+            opt(gpu.map(|g| c.primary as f64 / g / 1e9), 3),
         )?;
     }
     Ok(())

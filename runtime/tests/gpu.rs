@@ -123,6 +123,67 @@ fn every_kernel_variant_matches_the_cpu() {
     }
 }
 
+/// The gather's tuning knobs: lanes per row, rows per lane and iteration, the workgroup cap
+/// (down to one workgroup walking every row), on chunks whose row counts are no multiple of
+/// the rows a workgroup takes per iteration (so the clamped tail rows are exercised), in every
+/// layout the gather specialises (factored, plain grey, plain RGB per block).
+#[test]
+fn lanes_rows_and_workgroup_caps_match_the_cpu() {
+    let ops = [
+        synthetic::operator(2003, 61, 3, Precision::F32, Layout::Factored, 21).unwrap(),
+        synthetic::operator(1999, 37, 3, Precision::F16, Layout::Factored, 22).unwrap(),
+        synthetic::operator(1501, 29, 1, Precision::F32, Layout::PlainYk, 23).unwrap(),
+        synthetic::operator(1501, 29, 3, Precision::F32, Layout::PlainYk, 24).unwrap(),
+    ];
+    for row_lanes in [1, 4, 8, 32] {
+        for gather_rows in [1, 2, 3, 4] {
+            for gather_groups in [Some(1), Some(7), None] {
+                let options = GpuOptions {
+                    row_lanes: Some(row_lanes),
+                    gather_rows: Some(gather_rows),
+                    gather_groups,
+                    max_chunk_bytes: Some(40_000),
+                    ..GpuOptions::default()
+                };
+                let gpu = open(&options);
+                for op in &ops {
+                    let eval = GpuEvaluator::new(&gpu, op).unwrap();
+                    assert_eq!(eval.gather_rows(), gather_rows);
+                    assert!(eval.chunks() >= 2, "{}", eval.describe());
+                    drop(eval);
+                    compare(&gpu, op, u64::from(row_lanes * 10 + gather_rows));
+                }
+            }
+        }
+    }
+    for (options, what) in [
+        (
+            GpuOptions {
+                gather_rows: Some(5),
+                ..GpuOptions::default()
+            },
+            "gather rows",
+        ),
+        (
+            GpuOptions {
+                row_lanes: Some(3),
+                ..GpuOptions::default()
+            },
+            "lanes per row",
+        ),
+        (
+            GpuOptions {
+                gather_groups: Some(0),
+                ..GpuOptions::default()
+            },
+            "gather workgroups",
+        ),
+    ] {
+        let e = Gpu::new(&options).err().expect("refused");
+        assert!(e.to_string().contains(what), "{e}");
+    }
+}
+
 #[test]
 fn light_groups_match_the_cpu() {
     for layout in [Layout::Factored, Layout::PlainYk] {

@@ -119,6 +119,10 @@ pub const LANES: u32 = 64;
 /// Invocations per workgroup of the gather. Mirrored by `GATHER_SIZE` in `wgsl/gather.wgsl`.
 pub const GATHER_SIZE: u32 = 256;
 
+/// The most rows a gather lane takes per iteration ([`GatherConstants::rows`]). Mirrored by
+/// `MAX_ROWS` in `wgsl/gather.wgsl`.
+pub const MAX_GATHER_ROWS: u32 = 4;
+
 /// The most workgroups a dispatch may have in one dimension (WebGPU's default
 /// `max_compute_workgroups_per_dimension`; also lavapipe's).
 pub const MAX_WORKGROUPS_PER_DIMENSION: u32 = 65535;

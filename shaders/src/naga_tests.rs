@@ -135,6 +135,7 @@ fn overrides_are_the_ones_the_host_sets() {
                 .iter()
                 .map(|(name, _)| (*name).to_owned())
                 .collect(),
+            Pass::Read => vec!["KP".to_owned(), "READ_UNROLL".to_owned()],
             _ => vec!["KP".to_owned()],
         };
         set.sort();
@@ -221,6 +222,7 @@ fn workgroup_sizes_match() {
     assert_eq!(constant(&parse(Pass::SegmentSums), "LANES"), LANES);
     let gather = parse(Pass::ALL[4]);
     assert_eq!(constant(&gather, "GATHER_SIZE"), GATHER_SIZE);
+    assert_eq!(constant(&gather, "MAX_ROWS"), crate::MAX_GATHER_ROWS);
 }
 
 /// `struct Params` in common.wgsl against the `#[repr(C)]` Rust struct: naga's layouter (the

@@ -92,6 +92,9 @@ pub struct GatherConstants {
     pub factored: bool,
     /// `PER_BLOCK`: plain RGB, stored row block `c` serves channel `c` alone.
     pub per_block: bool,
+    /// `ROWS`: rows each lane takes per iteration of the gather's loop, 1 to
+    /// [`MAX_GATHER_ROWS`](crate::MAX_GATHER_ROWS) (more independent loads in flight).
+    pub rows: u32,
 }
 
 impl GatherConstants {
@@ -104,6 +107,7 @@ impl GatherConstants {
             z_shared: true,
             factored,
             per_block,
+            rows: 1,
         }
     }
 
@@ -113,6 +117,16 @@ impl GatherConstants {
     pub fn row_lanes_for(kp: u32, max_lanes: u32) -> u32 {
         let cap = max_lanes.clamp(1, 32);
         (kp / 8 / 4).max(1).next_power_of_two().min(cap)
+    }
+
+    /// `OCTETS_PER_LANE`: octets of a row each lane loads, `⌈KP / 8 / ROW_LANES⌉`.
+    pub fn octets_per_lane(&self) -> u32 {
+        (self.kp / 8).div_ceil(self.row_lanes.max(1)).max(1)
+    }
+
+    /// Rows a workgroup takes per iteration: `GATHER_SIZE / ROW_LANES · ROWS`.
+    pub fn rows_per_iteration(&self) -> u32 {
+        crate::GATHER_SIZE / self.row_lanes.max(1) * self.rows
     }
 
     /// `ZS_QUADS`: the vec4s of the workgroup copy of `Z` (1 when not shared).
@@ -127,11 +141,13 @@ impl GatherConstants {
     }
 
     /// The `(name, value)` pairs for `wgpu::PipelineCompilationOptions::constants`.
-    pub fn constants(&self) -> [(&'static str, f64); 6] {
+    pub fn constants(&self) -> [(&'static str, f64); 8] {
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
         [
             ("KP", f64::from(self.kp)),
             ("ROW_LANES", f64::from(self.row_lanes)),
+            ("OCTETS_PER_LANE", f64::from(self.octets_per_lane())),
+            ("ROWS", f64::from(self.rows)),
             ("Z_SHARED", flag(self.z_shared)),
             ("ZS_QUADS", f64::from(self.zs_quads())),
             ("FACTORED", flag(self.factored)),

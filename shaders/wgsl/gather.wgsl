@@ -13,16 +13,27 @@
 // in a grid-stride loop, so the copy is paid once for many rows; the row's partial sums are
 // added across its lanes by subgroup shuffles (reduce_subgroup.wgsl) or through workgroup
 // memory (reduce_workgroup.wgsl).
+// Latency: each lane takes ROWS rows per iteration (rows q * rows_per_group apart), and its
+// octet loop has a constant trip count (OCTETS_PER_LANE; a lane past the row's end loads the
+// row's last octet again and adds nothing), so the compiler can unroll it and issue every load
+// of every row before the first use; each row's file-order reads (order, reflectance) are
+// issued before its octets, and the emission reads of all ROWS rows together after them. A
+// row past the chunk's end is clamped to its last row for the loads and writes nothing.
 //
 // Indices (what lets the runtime build this pass without bounds checks): a row r < row_count
-// of the chunk reads octets r * KP / 8 + j, j < KP / 8, inside the binding of row_count * KP
-// entries the host binds; stored row first_row + r < blocks * n, so s < n and block < 3;
+// (clamped: min(r, row_count - 1), row_count >= 1 as the host dispatches only non-empty
+// chunks) of the chunk reads octets r * KP / 8 + j, j = min(j, KP / 8 - 1) < KP / 8, inside
+// the binding of row_count * KP entries the host binds; stored row first_row + r < blocks * n, so s < n and block < 3;
 // order[s] < n (a permutation, validated by the file reader); emission, reflectance and
 // radiosity hold 3 n values; zs and z hold 3 KP / 4 vec4s.
 
 // Lanes per row: a power of two, at most 32, and at most the adapter's smallest subgroup in
 // the subgroup variant.
 override ROW_LANES: u32 = 8u;
+// Octets each lane takes of a row: ceil(KP / 8 / ROW_LANES).
+override OCTETS_PER_LANE: u32 = 1u;
+// Rows each lane takes per iteration: 1 to MAX_ROWS.
+override ROWS: u32 = 1u;
 // Copy Z into workgroup memory (12 KP bytes of it) once per workgroup; else read it from z.
 override Z_SHARED: bool = true;
 // Elements of zs: 3 KP / 4 with Z_SHARED, else 1.
@@ -34,6 +45,8 @@ override PER_BLOCK: bool = false;
 
 // Invocations per workgroup: GATHER_SIZE / ROW_LANES rows at a time.
 const GATHER_SIZE: u32 = 256u;
+// The most rows per lane and iteration (the size of the per-row register arrays).
+const MAX_ROWS: u32 = 4u;
 
 // 3 planes of KP / 4 vec4s: Z (factored) or X (plain).
 @group(0) @binding(2) var<storage, read> z: array<vec4<f32>>;
@@ -76,39 +89,69 @@ fn gather(
     let lane = slot % ROW_LANES;
     let rows = GATHER_SIZE / ROW_LANES;
     let octets = KP / 8u;
+    let last = params.row_count - 1u;
     // Uniform across the workgroup: row_sum's barriers and shuffles see every lane.
-    for (var base = group.x * rows; base < params.row_count; base = base + groups.x * rows) {
-        let r = base + slot / ROW_LANES;
-        let valid = r < params.row_count;
-        let stored = params.first_row + r;
-        var block = 0u;
-        if PER_BLOCK {
-            block = stored / params.n;
-        }
-        let s = stored - block * params.n;
-        var w = vec3<f32>(0.0);
-        if valid {
-            for (var j = lane; j < octets; j = j + ROW_LANES) {
-                let f = load_octet(r * octets + j);
-                if PER_BLOCK {
-                    w.x = w.x + dot_octet(f, block, j);
-                } else {
-                    w = w + vec3<f32>(dot_octet(f, 0u, j), dot_octet(f, 1u, j), dot_octet(f, 2u, j));
-                }
-            }
-        }
-        w = row_sum(w, slot);
-        if valid && lane == 0u {
-            let i = 3u * order[s];
+    for (var base = group.x * rows * ROWS; base < params.row_count; base = base + groups.x * rows * ROWS) {
+        var w: array<vec3<f32>, MAX_ROWS>;
+        var s: array<u32, MAX_ROWS>;
+        var block: array<u32, MAX_ROWS>;
+        var id: array<u32, MAX_ROWS>;
+        var rho: array<vec3<f32>, MAX_ROWS>;
+        var e: array<vec3<f32>, MAX_ROWS>;
+        for (var q = 0u; q < ROWS; q = q + 1u) {
+            let r = min(base + q * rows + slot / ROW_LANES, last);
+            let stored = params.first_row + r;
+            block[q] = 0u;
             if PER_BLOCK {
-                radiosity[i + block] = emission[i + block] - w.x;
-            } else if FACTORED {
-                for (var c = 0u; c < 3u; c = c + 1u) {
-                    radiosity[i + c] = emission[i + c] + reflectance[3u * s + c] * w[c];
+                block[q] = stored / params.n;
+            }
+            s[q] = stored - block[q] * params.n;
+            id[q] = order[s[q]];
+            if FACTORED {
+                let t = 3u * s[q];
+                rho[q] = vec3<f32>(reflectance[t], reflectance[t + 1u], reflectance[t + 2u]);
+            }
+            var acc = vec3<f32>(0.0);
+            for (var p = 0u; p < OCTETS_PER_LANE; p = p + 1u) {
+                let j = lane + p * ROW_LANES;
+                let jc = min(j, octets - 1u);
+                let f = load_octet(r * octets + jc);
+                var d: vec3<f32>;
+                if PER_BLOCK {
+                    d = vec3<f32>(dot_octet(f, block[q], jc), 0.0, 0.0);
+                } else {
+                    d = vec3<f32>(dot_octet(f, 0u, jc), dot_octet(f, 1u, jc), dot_octet(f, 2u, jc));
                 }
-            } else {
-                for (var c = 0u; c < 3u; c = c + 1u) {
-                    radiosity[i + c] = emission[i + c] - w[c];
+                acc = acc + select(vec3<f32>(0.0), d, j < octets);
+            }
+            w[q] = acc;
+        }
+        for (var q = 0u; q < ROWS; q = q + 1u) {
+            let i = 3u * id[q];
+            e[q] = vec3<f32>(emission[i], emission[i + 1u], emission[i + 2u]);
+        }
+        for (var q = 0u; q < ROWS; q = q + 1u) {
+            w[q] = row_sum(w[q], slot);
+        }
+        if lane == 0u {
+            for (var q = 0u; q < ROWS; q = q + 1u) {
+                if base + q * rows + slot / ROW_LANES > last {
+                    continue;
+                }
+                let i = 3u * id[q];
+                if PER_BLOCK {
+                    let b = block[q];
+                    radiosity[i + b] = e[q][b] - w[q].x;
+                } else if FACTORED {
+                    let b = e[q] + rho[q] * w[q];
+                    radiosity[i] = b.x;
+                    radiosity[i + 1u] = b.y;
+                    radiosity[i + 2u] = b.z;
+                } else {
+                    let b = e[q] - w[q];
+                    radiosity[i] = b.x;
+                    radiosity[i + 1u] = b.y;
+                    radiosity[i + 2u] = b.z;
                 }
             }
         }

@@ -37,6 +37,19 @@ pub struct GpuBench {
     /// [`pipelined`](Self::pipelined) for the hybrid: the CPU computes the next frame's `Z`
     /// while the GPU gathers the previous one.
     pub hybrid_pipelined: Duration,
+    /// A frame by timestamp queries, frames run back to back ([`GpuEvaluator::burst`]: the
+    /// GPU busy, as in a renderer's steady state); `None` without `TIMESTAMP_QUERY`.
+    pub gpu_frame_busy: Option<Duration>,
+    /// The read kernel likewise, back to back.
+    pub gpu_read_busy: Option<Duration>,
+    /// How the gather loads the matrix ([`GpuEvaluator::storage`]).
+    pub storage: super::Storage,
+    /// The gather's lanes per row.
+    pub row_lanes: u32,
+    /// The gather's rows per lane and iteration.
+    pub gather_rows: u32,
+    /// The gather's most workgroups per dispatch.
+    pub gather_groups: u32,
     /// The kernels in use ([`GpuEvaluator::describe`]).
     pub kernels: String,
 }
@@ -57,9 +70,24 @@ impl GpuBench {
         Some(self.gpu_read?.as_secs_f64() / self.gpu_frame?.as_secs_f64())
     }
 
-    /// CPU frame time / GPU frame time (GPU time; end to end if there are no timestamps).
+    /// Frames per second by GPU time, back to back.
+    pub fn busy_fps(&self) -> Option<f64> {
+        self.gpu_frame_busy.map(|t| 1.0 / t.as_secs_f64())
+    }
+
+    /// Read kernel time / frame time, both back to back.
+    pub fn busy_read_fraction(&self) -> Option<f64> {
+        Some(self.gpu_read_busy?.as_secs_f64() / self.gpu_frame_busy?.as_secs_f64())
+    }
+
+    /// CPU frame time / GPU frame time (GPU time of frames back to back; end to end if there
+    /// are no timestamps).
     pub fn speedup(&self) -> f64 {
-        self.cpu_frame.as_secs_f64() / self.gpu_frame.unwrap_or(self.end_to_end).as_secs_f64()
+        let gpu = self
+            .gpu_frame_busy
+            .or(self.gpu_frame)
+            .unwrap_or(self.end_to_end);
+        self.cpu_frame.as_secs_f64() / gpu.as_secs_f64()
     }
 
     /// Full-GPU pipelined frame time / hybrid pipelined frame time: above 1, the hybrid wins.
@@ -122,6 +150,7 @@ pub fn bench_operator(gpu: &Gpu, op: &Operator, frames: usize) -> Result<GpuBenc
             ev.submit_hybrid(Rgb::triples(&e))
         })?);
     }
+    let burst = eval.burst(Rgb::triples(&e), frames)?;
     let some = |v: Vec<Duration>| (!v.is_empty()).then(|| median(v));
     Ok(GpuBench {
         n: op.n(),
@@ -135,6 +164,12 @@ pub fn bench_operator(gpu: &Gpu, op: &Operator, frames: usize) -> Result<GpuBenc
         hybrid_end_to_end: median(hybrid_e2e),
         hybrid_gpu: some(hybrid_gpu),
         hybrid_pipelined,
+        gpu_frame_busy: burst.as_ref().map(|(f, _)| median(f.clone())),
+        gpu_read_busy: burst.map(|(_, r)| median(r)),
+        storage: eval.storage(),
+        row_lanes: eval.row_lanes(),
+        gather_rows: eval.gather_rows(),
+        gather_groups: eval.gather_groups(),
         kernels: eval.describe(),
     })
 }

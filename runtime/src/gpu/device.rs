@@ -1,6 +1,7 @@
 //! Adapters and the device: which GPUs wgpu finds, which one is used, what it can do.
 
 use super::common::{GpuError, block_on};
+use crate::error::input;
 use lrr_shaders::{Reduce, Storage};
 
 /// What to ask of the GPU. `Default`: the best adapter, every fast path the adapter allows.
@@ -11,8 +12,8 @@ pub struct GpuOptions {
     /// Build every pass with naga's bounds checks (default: off where proven, see the module
     /// docs). For measuring what they cost.
     pub bounds_checks: bool,
-    /// The binary16 loader; `None`: native `f16` when the adapter has `SHADER_F16`, else
-    /// `unpack2x16float` when it has `SHADER_F16_IN_F32`, else integer widening.
+    /// The binary16 loader; `None`: `unpack2x16float` when the adapter has
+    /// `SHADER_F16_IN_F32`, else native `f16` when it has `SHADER_F16`, else integer widening.
     pub f16_loader: Option<Storage>,
     /// The gather's row reduction; `None`: subgroup shuffles when the adapter has `SUBGROUP`,
     /// else workgroup memory.
@@ -20,6 +21,16 @@ pub struct GpuOptions {
     /// Cap on a chunk of the stored matrix, below the adapter's limits (tests use it to
     /// chunk small operators).
     pub max_chunk_bytes: Option<u64>,
+    /// Lanes per row of the gather (a power of two, 1 to 32; with subgroup row sums at most
+    /// the adapter's smallest subgroup); `None`: about four octets per lane
+    /// (`GatherConstants::row_lanes_for`). For tuning (`lrr bench runtime --row-lanes`).
+    pub row_lanes: Option<u32>,
+    /// Most workgroups of one gather dispatch (rows beyond them are walked by the grid-stride
+    /// loop); `None`: 4096. For tuning (`lrr bench runtime --gather-groups`).
+    pub gather_groups: Option<u32>,
+    /// Rows each gather lane takes per iteration, 1 to 4; `None`: the default
+    /// (`GatherConstants::rows`). For tuning (`lrr bench runtime --gather-rows`).
+    pub gather_rows: Option<u32>,
 }
 
 /// One adapter wgpu found.
@@ -101,6 +112,26 @@ impl Gpu {
     /// With none usable: [`GpuError::NoAdapter`], naming every adapter found and how to install
     /// a driver.
     pub fn new(options: &GpuOptions) -> Result<Gpu, GpuError> {
+        if let Some(lanes) = options.row_lanes
+            && !(lanes.is_power_of_two() && lanes <= 32)
+        {
+            return Err(input(format!(
+                "GPU: {lanes} lanes per row: give a power of two from 1 to 32"
+            ))
+            .into());
+        }
+        if let Some(rows) = options.gather_rows
+            && !(1..=lrr_shaders::MAX_GATHER_ROWS).contains(&rows)
+        {
+            return Err(input(format!(
+                "GPU: {rows} gather rows per lane: give 1 to {}",
+                lrr_shaders::MAX_GATHER_ROWS
+            ))
+            .into());
+        }
+        if options.gather_groups == Some(0) {
+            return Err(input("GPU: 0 gather workgroups: give at least 1".to_owned()).into());
+        }
         let instance = instance();
         let found = block_on(instance.enumerate_adapters(wgpu::Backends::all().with_env()));
         let wanted = options.adapter.as_deref().map(str::to_lowercase);
@@ -144,6 +175,11 @@ impl Gpu {
             downlevel: adapter.get_downlevel_capabilities().flags,
             options: options.clone(),
         })
+    }
+
+    /// The options this device was opened with.
+    pub fn options(&self) -> &GpuOptions {
+        &self.options
     }
 
     /// The adapter's name.
@@ -191,20 +227,23 @@ impl Gpu {
         self.device.features().contains(feature)
     }
 
-    /// The binary16 loader: the option, or the best the adapter allows.
+    /// The binary16 loader: the option, or the best the adapter allows: `unpack2x16float` on
+    /// 16-byte word loads where the adapter has it (on an H100 it ran 1.03–1.07× the native
+    /// f16 loader's frame rate, docs/PERFORMANCE.md), else native `f16`, else integer
+    /// widening.
     pub(super) fn f16_loader(&self) -> Storage {
-        self.options
-            .f16_loader
-            .unwrap_or(if self.has(wgpu::Features::SHADER_F16) {
-                Storage::F16
-            } else if self
+        self.options.f16_loader.unwrap_or(
+            if self
                 .downlevel
                 .contains(wgpu::DownlevelFlags::SHADER_F16_IN_F32)
             {
                 Storage::F16Unpack
+            } else if self.has(wgpu::Features::SHADER_F16) {
+                Storage::F16
             } else {
                 Storage::F16Bits
-            })
+            },
+        )
     }
 
     /// The row reduction: the option, or subgroups when present.

@@ -32,6 +32,21 @@
 //! All four passes run in one compute pass whose timestamps (when the adapter has
 //! `TIMESTAMP_QUERY`) give [`FrameTiming::gpu`].
 //!
+//! # The gather's shape
+//!
+//! `ROW_LANES` lanes share a row (8 for k = 216), each lane takes `ROWS` rows per iteration of
+//! its grid-stride loop (1 for f32, 2 for binary16) with a constant trip count per row, so all
+//! of its loads are in flight before the first is used; binary16 is loaded as 16-byte words
+//! and widened with `unpack2x16float`. These defaults are the best of sweeps on an H100
+//! (`lrr bench runtime --device gpu --row-lanes … --gather-rows … --f16-loader …`,
+//! docs/PERFORMANCE.md); [`GpuOptions`] overrides each.
+//!
+//! # Measuring a GPU
+//!
+//! A datacenter GPU idles at low clocks (an H100: 345 MHz against 1980 MHz busy) and a burst of
+//! a few milliseconds does not raise them reliably: [`GpuEvaluator::burst`] runs 0.3 s of
+//! untimed frames back to back before it times frames, and the benchmark reports those.
+//!
 //! # Chunks
 //!
 //! The stored matrix is uploaded as rows of `KP` entries (`k` rounded up to a multiple of 8,

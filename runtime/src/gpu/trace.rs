@@ -60,6 +60,10 @@ pub struct GpuRenderReport {
     pub tiles: u32,
     /// Wall time from the first upload to the image read back.
     pub wall: Duration,
+    /// GPU time of the trace dispatches alone (the sum over tiles, by timestamp queries around
+    /// each tile's pass; not the smooth-vertex pass nor the copies); `None` when the adapter
+    /// has no `TIMESTAMP_QUERY`.
+    pub gpu: Option<Duration>,
 }
 
 /// The ray tracer on the GPU. See the [module docs](self).
@@ -399,6 +403,7 @@ impl GpuTracer {
                 rays,
                 tiles: 0,
                 wall: start.elapsed(),
+                gpu: None,
             };
             return Ok((image, report));
         }
@@ -452,9 +457,16 @@ impl GpuTracer {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
+        // Two timestamps per tile (its pass's start and end), resolved after the last tile
+        // and read back behind the image and the counters.
+        let queries = self
+            .gpu
+            .has(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| TileTimestamps::new(&self.gpu, tiles));
+        let query_bytes = queries.as_ref().map_or(0, |q| q.bytes);
         let readback = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("trace readback"),
-            size: image_bytes + counts_bytes,
+            size: image_bytes + counts_bytes + query_bytes,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -494,7 +506,7 @@ impl GpuTracer {
             {
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("trace"),
-                    timestamp_writes: None,
+                    timestamp_writes: queries.as_ref().map(|q| q.writes(t)),
                 });
                 pass.set_pipeline(&pipeline);
                 pass.set_bind_group(0, &bind_group, &[]);
@@ -503,11 +515,23 @@ impl GpuTracer {
             encoder.copy_buffer_to_buffer(&tile_image, 0, &readback, 16 * first, 16 * count);
             if t + 1 == tiles {
                 encoder.copy_buffer_to_buffer(&counts, 0, &readback, image_bytes, counts_bytes);
+                if let Some(q) = &queries {
+                    encoder.resolve_query_set(&q.set, 0..2 * tiles, &q.resolve, 0);
+                    encoder.copy_buffer_to_buffer(
+                        &q.resolve,
+                        0,
+                        &readback,
+                        image_bytes + counts_bytes,
+                        q.bytes,
+                    );
+                }
             }
             self.gpu.queue.submit([encoder.finish()]);
         }
         let words = read(&self.gpu, &readback)?;
-        let (rgba, counted) = words.split_at(4 * pixels as usize);
+        let (rgba, rest) = words.split_at(4 * pixels as usize);
+        let (counted, ticks) = rest.split_at((counts_bytes / 4) as usize);
+        let gpu = queries.as_ref().map(|q| q.elapsed(ticks));
         let image = Image {
             width,
             height,
@@ -529,6 +553,7 @@ impl GpuTracer {
                 rays,
                 tiles,
                 wall: start.elapsed(),
+                gpu,
             },
         ))
     }
@@ -611,6 +636,58 @@ fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
     unsafe {
         gpu.device
             .create_shader_module_trusted(descriptor, wgpu::ShaderRuntimeChecks::unchecked())
+    }
+}
+
+/// The timestamp queries of one frame: tile `t`'s pass writes entries `2 t` (start) and
+/// `2 t + 1` (end).
+struct TileTimestamps {
+    set: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    /// 8 bytes per query.
+    bytes: u64,
+    period_ns: f32,
+}
+
+impl TileTimestamps {
+    fn new(gpu: &Gpu, tiles: u32) -> Self {
+        let bytes = 16 * u64::from(tiles);
+        TileTimestamps {
+            set: gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("trace timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2 * tiles,
+            }),
+            resolve: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("trace timestamps"),
+                size: bytes,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            bytes,
+            period_ns: gpu.queue.get_timestamp_period(),
+        }
+    }
+
+    fn writes(&self, tile: u32) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.set,
+            beginning_of_pass_write_index: Some(2 * tile),
+            end_of_pass_write_index: Some(2 * tile + 1),
+        }
+    }
+
+    /// The sum over tiles of end − start, from the resolved ticks read back as f32 words.
+    fn elapsed(&self, words: &[f32]) -> Duration {
+        let ticks: Vec<u64> = words
+            .chunks_exact(2)
+            .map(|w| u64::from(w[0].to_bits()) | (u64::from(w[1].to_bits()) << 32))
+            .collect();
+        let sum: u64 = ticks
+            .chunks_exact(2)
+            .map(|t| t[1].saturating_sub(t[0]))
+            .sum();
+        Duration::from_nanos((sum as f64 * f64::from(self.period_ns)) as u64)
     }
 }
 
