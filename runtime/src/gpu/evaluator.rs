@@ -32,6 +32,16 @@ pub struct FrameTiming {
     pub end_to_end: Duration,
 }
 
+/// GPU times of a [`GpuEvaluator::burst`]: each frame's, and each read pass's of the faster
+/// read kernel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BurstTiming {
+    /// The timed frames, in order.
+    pub frames: Vec<Duration>,
+    /// The read passes of the faster kernel (by median), sorted.
+    pub reads: Vec<Duration>,
+}
+
 /// Where a frame's emission comes from.
 #[derive(Clone, Copy)]
 enum Source {
@@ -410,7 +420,7 @@ impl GpuEvaluator {
         &mut self,
         emission: Rgb<'_>,
         frames: usize,
-    ) -> Result<Option<(Vec<Duration>, Vec<Duration>)>, GpuError> {
+    ) -> Result<Option<BurstTiming>, GpuError> {
         if self.timestamps.is_none() {
             return Ok(None);
         }
@@ -472,7 +482,10 @@ impl GpuEvaluator {
         } else {
             narrow
         };
-        Ok(Some((f.to_vec(), reads)))
+        Ok(Some(BurstTiming {
+            frames: f.to_vec(),
+            reads,
+        }))
     }
 
     /// A frame's passes with no timestamps (the burst's warm-up).

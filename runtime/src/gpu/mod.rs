@@ -77,7 +77,7 @@ mod trace;
 
 pub use bench::{GpuBench, bench_operator, bounds_check_cost};
 pub use device::{AdapterSummary, Gpu, GpuOptions, adapters};
-pub use evaluator::{FrameTiming, GpuEvaluator};
+pub use evaluator::{BurstTiming, FrameTiming, GpuEvaluator};
 pub use lrr_shaders::{Reduce, Storage};
 pub use trace::{DEFAULT_TILE_PIXELS, GpuRenderReport, GpuTracer};
 /// The wgpu this module was built with, for a renderer binding [`GpuEvaluator::radiosity_buffer`].
