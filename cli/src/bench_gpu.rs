@@ -90,7 +90,8 @@ pub struct GpuRow {
     pub gb_per_s: Option<f64>,
     /// The CPU evaluator (every core) in the same run.
     pub cpu_fps: f64,
-    /// CPU frame time / GPU frame time (GPU time; end to end without timestamps).
+    /// CPU frame time / GPU frame time (GPU time of frames back to back; end to end without
+    /// timestamps).
     pub speedup: f64,
     /// CPU frame time / GPU end-to-end time.
     pub speedup_end_to_end: f64,
@@ -220,9 +221,10 @@ pub fn run(
     };
     eprintln!("lrr bench: GPU {}", gpu.describe());
     let checked = if args.bounds_checks {
+        // The first variant's gather shape, checked: compared with that variant's frames.
         let options = GpuOptions {
             bounds_checks: true,
-            ..options
+            ..variants[0].clone()
         };
         Some(Gpu::new(&options).map_err(|e| anyhow::anyhow!("{}", one_line(&e)))?)
     } else {

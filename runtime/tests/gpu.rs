@@ -124,7 +124,8 @@ fn every_kernel_variant_matches_the_cpu() {
 }
 
 /// The gather's tuning knobs: lanes per row, rows per lane and iteration, the workgroup cap
-/// (down to one workgroup walking every row), on chunks whose row counts are no multiple of
+/// (down to one workgroup walking every row), both row reductions (alternating over the
+/// caps), on chunks whose row counts are no multiple of
 /// the rows a workgroup takes per iteration (so the clamped tail rows are exercised), in every
 /// layout the gather specialises (factored, plain grey, plain RGB per block).
 #[test]
@@ -135,13 +136,21 @@ fn lanes_rows_and_workgroup_caps_match_the_cpu() {
         synthetic::operator(1501, 29, 1, Precision::F32, Layout::PlainYk, 23).unwrap(),
         synthetic::operator(1501, 29, 3, Precision::F32, Layout::PlainYk, 24).unwrap(),
     ];
+    let mut reduces = vec![Reduce::Workgroup];
+    if gpu().device().features().contains(wgpu::Features::SUBGROUP) {
+        reduces.push(Reduce::Subgroup);
+    }
     for row_lanes in [1, 4, 8, 32] {
         for gather_rows in [1, 2, 3, 4] {
-            for gather_groups in [Some(1), Some(7), None] {
+            for (gather_groups, &reduce) in [Some(1), Some(7), None]
+                .into_iter()
+                .zip(reduces.iter().cycle())
+            {
                 let options = GpuOptions {
                     row_lanes: Some(row_lanes),
                     gather_rows: Some(gather_rows),
                     gather_groups,
+                    reduce: Some(reduce),
                     max_chunk_bytes: Some(40_000),
                     ..GpuOptions::default()
                 };
@@ -174,6 +183,13 @@ fn lanes_rows_and_workgroup_caps_match_the_cpu() {
         (
             GpuOptions {
                 gather_groups: Some(0),
+                ..GpuOptions::default()
+            },
+            "gather workgroups",
+        ),
+        (
+            GpuOptions {
+                gather_groups: Some(65_536),
                 ..GpuOptions::default()
             },
             "gather workgroups",
@@ -405,6 +421,33 @@ fn timings_are_reported() {
         let g = t.gpu.expect("timestamps on an adapter that has them");
         assert!(g <= t.end_to_end, "{t:?}");
         assert!(eval.read_pass().unwrap().gpu.is_some());
+        // A burst: as many timed frames as asked (up to 42), each read kernel as often, every
+        // time positive; the frames leave the same radiosity as a single frame.
+        let start = std::time::Instant::now();
+        let burst = eval
+            .burst(Rgb::triples(&e), 7)
+            .unwrap()
+            .expect("timestamps");
+        let wall = start.elapsed();
+        assert_eq!((burst.frames.len(), burst.reads.len()), (7, 7));
+        for d in burst.frames.iter().chain(&burst.reads) {
+            assert!(d.as_nanos() > 0 && *d < wall, "{burst:?}");
+        }
+        assert!(
+            wall >= std::time::Duration::from_millis(300),
+            "the warm-up: {wall:?}"
+        );
+        let capped = eval
+            .burst(Rgb::triples(&e), 1000)
+            .unwrap()
+            .expect("timestamps");
+        assert_eq!(capped.frames.len(), 42);
+        let mut again = vec![[0.0f32; 3]; op.n()];
+        eval.evaluate(Rgb::triples(&e), RgbMut::triples(&mut again))
+            .unwrap();
+        assert_eq!(again, out);
+    } else {
+        assert!(eval.burst(Rgb::triples(&e), 3).unwrap().is_none());
     }
 }
 

@@ -288,6 +288,20 @@ fn compare_images(
     }
     let (image, report) = gt.render_lighting(&view, &lighting, w, h).unwrap();
     assert_eq!(report.decision, cpu_report.decision, "{name}");
+    // The trace dispatches' GPU time, where the adapter has timestamps, within the frame's wall.
+    let timestamps = gpu()
+        .device()
+        .features()
+        .contains(gpu::wgpu::Features::TIMESTAMP_QUERY);
+    let timed = timestamps && 2 * report.tiles <= gpu::wgpu::QUERY_SET_MAX_QUERIES;
+    assert_eq!(report.gpu.is_some(), timed, "{name}");
+    if let Some(g) = report.gpu {
+        assert!(
+            g.as_nanos() > 0 && g <= report.wall,
+            "{name}: {g:?} of {:?}",
+            report.wall
+        );
+    }
     let a = agreement(&image, &cpu);
     let pixels = (w * h) as usize;
     eprintln!(
@@ -353,6 +367,31 @@ fn a_diffuse_room_matches_the_cpu_twin_per_pixel() {
     let report = compare("diffuse room", &file, &cam, (97, 61), &[], Some(64 * 7));
     assert!(!report.decision.effects.secondary && !report.decision.effects.highlights);
     assert_eq!(report.tiles, (97 * 61u32).div_ceil(64 * 7));
+}
+
+/// A frame of more tiles than one timestamp query set can time (2 queries per tile, at most
+/// 4096): it renders, matches the CPU twin, and reports no GPU time rather than failing.
+#[test]
+fn a_frame_of_more_than_2048_tiles_renders_untimed() {
+    let mut faces = Vec::new();
+    room(&mut faces, 2, 0);
+    let file = file_of(
+        &faces,
+        vec![Material::diffuse("white", [0.7; 3])],
+        vec![],
+        0,
+    );
+    let cam = camera([2.0, 2.0, 3.9], [2.0, 1.5, 0.0]);
+    // 64 pixels: the smallest tile (one workgroup of the tracer).
+    let tile = 64;
+    let (w, h) = (260, 2100 * tile / 260 + 1);
+    let report = compare("many tiles", &file, &cam, (w, h), &[], Some(tile));
+    assert!(
+        2 * report.tiles > gpu::wgpu::QUERY_SET_MAX_QUERIES,
+        "{}",
+        report.tiles
+    );
+    assert!(report.gpu.is_none());
 }
 
 /// Every `every`-th quad of `faces` (from `first`) split into two triangles along a diagonal.

@@ -1,6 +1,7 @@
 // fk_f16_unpack.wgsl: the stored matrix in binary16 widened by `unpack2x16float`, for adapters
-// without native f16 that have wgpu::DownlevelFlags::SHADER_F16_IN_F32 (naga's
-// SHADER_FLOAT16_IN_FLOAT32 capability), for gather.wgsl. Entry 2 m is the low half of word m.
+// with wgpu::DownlevelFlags::SHADER_F16_IN_F32 (naga's SHADER_FLOAT16_IN_FLOAT32 capability),
+// native f16 or not: the runtime's default binary16 loader (on an H100 slightly faster than
+// native f16, docs/PERFORMANCE.md), for gather.wgsl. Entry 2 m is the low half of word m.
 
 // A chunk of whole rows of KP entries, 8 halves (16 bytes) per element.
 @group(0) @binding(1) var<storage, read> fk: array<vec4<u32>>;

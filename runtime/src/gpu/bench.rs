@@ -109,7 +109,9 @@ fn median(mut v: Vec<Duration>) -> Duration {
 /// Measures `frames` (at least 1) frames of `op` with its baked emission: GPU frames, read
 /// passes, hybrid frames and CPU frames alternate, so all see the same machine; one warm-up of
 /// each first. Then `frames` pipelined frames of the full GPU path and of the hybrid, twice
-/// each, alternated (the faster of the two runs of each).
+/// each, alternated (the faster of the two runs of each). Last, a
+/// [`burst`](GpuEvaluator::burst): 0.3 s of warm-up, then `frames` frames and read passes
+/// back to back, each timed (the busy GPU's figures).
 pub fn bench_operator(gpu: &Gpu, op: &Operator, frames: usize) -> Result<GpuBench, GpuError> {
     let mut eval = GpuEvaluator::new(gpu, op)?;
     let mut cpu = op.evaluator(0)?;

@@ -21,12 +21,12 @@ pub struct GpuOptions {
     /// Cap on a chunk of the stored matrix, below the adapter's limits (tests use it to
     /// chunk small operators).
     pub max_chunk_bytes: Option<u64>,
-    /// Lanes per row of the gather (a power of two, 1 to 32; with subgroup row sums at most
-    /// the adapter's smallest subgroup); `None`: about four octets per lane
+    /// Lanes per row of the gather (a power of two, 1 to 32; with subgroup row sums a larger
+    /// value is lowered to the adapter's smallest subgroup); `None`: about four octets per lane
     /// (`GatherConstants::row_lanes_for`). For tuning (`lrr bench runtime --row-lanes`).
     pub row_lanes: Option<u32>,
-    /// Most workgroups of one gather dispatch (rows beyond them are walked by the grid-stride
-    /// loop); `None`: 4096. For tuning (`lrr bench runtime --gather-groups`).
+    /// Most workgroups of one gather dispatch, 1 to 65535 (rows beyond them are walked by the
+    /// grid-stride loop); `None`: 4096. For tuning (`lrr bench runtime --gather-groups`).
     pub gather_groups: Option<u32>,
     /// Rows each gather lane takes per iteration, 1 to 4; `None`: the default
     /// (`GatherConstants::rows`). For tuning (`lrr bench runtime --gather-rows`).
@@ -129,8 +129,14 @@ impl Gpu {
             ))
             .into());
         }
-        if options.gather_groups == Some(0) {
-            return Err(input("GPU: 0 gather workgroups: give at least 1".to_owned()).into());
+        if let Some(groups) = options.gather_groups
+            && !(1..=lrr_shaders::MAX_WORKGROUPS_PER_DIMENSION).contains(&groups)
+        {
+            return Err(input(format!(
+                "GPU: {groups} gather workgroups: give 1 to {}",
+                lrr_shaders::MAX_WORKGROUPS_PER_DIMENSION
+            ))
+            .into());
         }
         let instance = instance();
         let found = block_on(instance.enumerate_adapters(wgpu::Backends::all().with_env()));
@@ -228,9 +234,9 @@ impl Gpu {
     }
 
     /// The binary16 loader: the option, or the best the adapter allows: `unpack2x16float` on
-    /// 16-byte word loads where the adapter has it (on an H100 it ran 1.03–1.07× the native
-    /// f16 loader's frame rate, docs/PERFORMANCE.md), else native `f16`, else integer
-    /// widening.
+    /// 16-byte word loads where the adapter has it (on an H100, at the default 8 lanes and 2
+    /// rows, 1.03–1.07× the native f16 loader's frame rate; 0.98–1.10× across the sweep,
+    /// docs/PERFORMANCE.md), else native `f16`, else integer widening.
     pub(super) fn f16_loader(&self) -> Storage {
         self.options.f16_loader.unwrap_or(
             if self

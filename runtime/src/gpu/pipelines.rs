@@ -58,8 +58,9 @@ impl Pipelines {
 
 /// Rows per gather lane and iteration by default: 2 for binary16 (half the bytes per load, so
 /// twice the rows to keep as many bytes in flight), 1 for f32. Measured on an H100
-/// (docs/PERFORMANCE.md, "GPU"): at 1769472 × 216 with 8 lanes per row, binary16 2840 fps with
-/// 2 rows against 2772 (native f16, 4 rows) and f32 1582 fps with 1 row against 1566 with 2.
+/// (docs/PERFORMANCE.md, "GPU"): at 1769472 × 216 with 8 lanes per row, binary16
+/// (`unpack2x16float`) 2840 fps with 2 rows against 2820 with 4, and f32 1582 fps with 1 row
+/// against 1566 with 2 and 1570 with 4 (at 221184 × 216: 10768, 10444, 10455).
 fn default_rows(storage: Storage) -> u32 {
     match storage {
         Storage::F32 => 1,

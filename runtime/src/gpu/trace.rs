@@ -62,7 +62,7 @@ pub struct GpuRenderReport {
     pub wall: Duration,
     /// GPU time of the trace dispatches alone (the sum over tiles, by timestamp queries around
     /// each tile's pass; not the smooth-vertex pass nor the copies); `None` when the adapter
-    /// has no `TIMESTAMP_QUERY`.
+    /// has no `TIMESTAMP_QUERY` or the frame has more than 2048 tiles.
     pub gpu: Option<Duration>,
 }
 
@@ -459,9 +459,10 @@ impl GpuTracer {
         });
         // Two timestamps per tile (its pass's start and end), resolved after the last tile
         // and read back behind the image and the counters.
-        let queries = self
-            .gpu
-            .has(wgpu::Features::TIMESTAMP_QUERY)
+        // A query set holds at most QUERY_SET_MAX_QUERIES (4096): a frame of more than 2048
+        // tiles (only with small tiles, `set_tile_pixels`) is not timed.
+        let queries = (self.gpu.has(wgpu::Features::TIMESTAMP_QUERY)
+            && 2 * tiles <= wgpu::QUERY_SET_MAX_QUERIES)
             .then(|| TileTimestamps::new(&self.gpu, tiles));
         let query_bytes = queries.as_ref().map_or(0, |q| q.bytes);
         let readback = device.create_buffer(&wgpu::BufferDescriptor {
@@ -677,7 +678,8 @@ impl TileTimestamps {
         }
     }
 
-    /// The sum over tiles of end − start, from the resolved ticks read back as f32 words.
+    /// The sum over tiles of end − start, from the resolved ticks (little-endian u64) read
+    /// back among the frame's f32 words: each tick is the bits of two words.
     fn elapsed(&self, words: &[f32]) -> Duration {
         let ticks: Vec<u64> = words
             .chunks_exact(2)
