@@ -619,7 +619,7 @@ impl GpuEvaluator {
                 &self.scratch
             }
         };
-        let bad = scan.then(|| values.iter().position(|&v| !crate::kernel::emission_ok(v)));
+        let bad = scan.then(|| crate::kernel::first_bad_emission(values));
         if let Some(Some(bad)) = bad {
             let id = bad / 3;
             return Err(input(format!(
