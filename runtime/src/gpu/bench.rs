@@ -43,7 +43,7 @@ pub struct GpuBench {
     /// The read kernel likewise, back to back.
     pub gpu_read_busy: Option<Duration>,
     /// How the gather loads the matrix ([`GpuEvaluator::storage`]).
-    pub storage: super::Storage,
+    pub storage: lrr_shaders::Storage,
     /// The gather's lanes per row.
     pub row_lanes: u32,
     /// The gather's rows per lane and iteration.
