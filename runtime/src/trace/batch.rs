@@ -90,14 +90,22 @@ pub(crate) fn closest(
     out
 }
 
-/// Whether each ray is blocked before its far end.
+/// Whether each ray is blocked before its far end, four consecutive rays at a time as a
+/// packet (shadow rays of neighbouring pixels towards one light share most of their
+/// traversal; the answers are those ray by ray).
 pub(crate) fn any(scene: &TraceScene, batch: &RayBatch) -> Vec<bool> {
-    (0..batch.len())
-        .map(|i| {
-            let ray = Ray::new(batch.origins[i], batch.dirs[i]);
-            scene.occluded(&ray, 0.0, batch.t_max[i])
-        })
-        .collect()
+    let ray = |i: usize| Ray::new(batch.origins[i], batch.dirs[i]);
+    let mut out = Vec::with_capacity(batch.len());
+    let packets = batch.len() / 4;
+    for p in 0..packets {
+        let rays = std::array::from_fn(|j| ray(4 * p + j));
+        let t_max = std::array::from_fn(|j| batch.t_max[4 * p + j]);
+        out.extend(scene.occluded4(&rays, 0.0, t_max));
+    }
+    for i in 4 * packets..batch.len() {
+        out.push(scene.occluded(&ray(i), 0.0, batch.t_max[i]));
+    }
+    out
 }
 
 /// The hit point and the normal facing the ray.
@@ -108,14 +116,21 @@ fn surface(scene: &TraceScene, batch: &RayBatch, i: usize, hit: &TraceHit) -> (V
     (p, if dot(d, n) < 0.0 { n } else { scale(n, -1.0) })
 }
 
-/// From every hit, a shadow ray to every point light in front of the surface.
+/// From every hit, a shadow ray to every point light in front of the surface, light by light
+/// (all of the first light's rays in the hits' order, then the next light's), so that
+/// consecutive rays head for one light and [`any`]'s packets of four share their traversal.
 pub(crate) fn shadow(scene: &TraceScene, batch: &RayBatch, hits: &[Option<TraceHit>]) -> RayBatch {
+    let surfaces: Vec<Option<(V3, V3)>> = hits
+        .iter()
+        .enumerate()
+        .map(|(i, hit)| {
+            let (p, n_f) = surface(scene, batch, i, hit.as_ref()?);
+            Some((mad(p, n_f, scene.epsilon), n_f))
+        })
+        .collect();
     let mut out = RayBatch::default();
-    for (i, hit) in hits.iter().enumerate() {
-        let Some(hit) = hit else { continue };
-        let (p, n_f) = surface(scene, batch, i, hit);
-        let origin = mad(p, n_f, scene.epsilon);
-        for light in &scene.lights {
+    for light in &scene.lights {
+        for &(origin, n_f) in surfaces.iter().flatten() {
             let to = sub(light.position, origin);
             let dist = length(to);
             if dist > 0.0 && dot(to, n_f) > 0.0 {

@@ -927,10 +927,10 @@ mod tests {
     fn packets_of_four_rays_answer_as_single_rays() {
         // Packets of nearby rays (one origin, directions a little apart: mostly one octant, so
         // the packet traversal) and of rays in any direction (mostly traced ray by ray), over
-        // the tree shapes above, some rays ending short.
+        // the tree shapes above, some rays ending short; closest hits and any hits.
         let mut rng = Rng(0x9ac4);
-        let mut packed = 0;
-        for (count, size) in [(1, 3.0), (5, 2.0), (300, 1.0), (3000, 0.4)] {
+        let (mut packed, mut blocked, mut total) = (0, 0, 0);
+        for (count, size) in [(1, 3.0), (5, 2.0), (300, 1.0), (3000, 0.4), (20000, 0.8)] {
             let tris = soup(&mut rng, count, size);
             for scene in [
                 Scene::sah(&tris),
@@ -953,15 +953,32 @@ mod tests {
                         let want = bvh4.closest_hit(ray, t_min, t_max[i]);
                         assert_eq!(got, want, "ray {i} of packet {p}: {ray:?}");
                     }
+                    let got = bvh4.occluded4(&rays, t_min, t_max);
+                    for (i, (ray, got)) in rays.iter().zip(got).enumerate() {
+                        let want = bvh4.occluded(ray, t_min, t_max[i]);
+                        assert_eq!(got, want, "any hit, ray {i} of packet {p}: {ray:?}");
+                        if count == 20000 {
+                            blocked += usize::from(got);
+                        }
+                    }
                     let oct = super::octant(&rays[0]);
                     packed += rays
                         .iter()
                         .all(|r| super::octant(r) == oct && r.kz == rays[0].kz)
                         as usize;
+                    if count == 20000 {
+                        total += 4;
+                    }
                 }
             }
         }
         assert!(packed > 1000, "{packed} packets traced together");
+        // In the dense soup both answers occur often: the any-hit packets exit early and run
+        // to the end.
+        assert!(
+            blocked > total / 5 && blocked < total * 4 / 5,
+            "{blocked} of {total} rays of the dense soup blocked"
+        );
     }
 
     #[test]

@@ -178,6 +178,13 @@ impl TraceScene {
         self.bvh4.closest_hit4(rays, t_min, t_max)
     }
 
+    /// [`TraceScene::occluded`] of four rays at once (a packet: `bvh4/packet.rs`), the same
+    /// answers.
+    #[inline(always)]
+    pub(crate) fn occluded4(&self, rays: &[Ray; 4], t_min: f32, t_max: [f32; 4]) -> [bool; 4] {
+        self.bvh4.occluded4(rays, t_min, t_max)
+    }
+
     /// Whether any triangle blocks `ray` in `(t_min, t_max)` (shadow rays: the first hit ends
     /// it).
     #[inline(always)]

@@ -139,7 +139,8 @@ impl Tracer {
         batch::any(&self.scene, rays)
     }
 
-    /// From every hit of `rays`, a shadow ray to each point light in front of the surface.
+    /// From every hit of `rays`, a shadow ray to each point light in front of the surface,
+    /// light by light (the first light's rays in the hits' order, then the next light's).
     pub fn shadow_rays(&self, rays: &RayBatch, hits: &[Option<TraceHit>]) -> RayBatch {
         batch::shadow(&self.scene, rays, hits)
     }

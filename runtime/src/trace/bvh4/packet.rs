@@ -19,6 +19,12 @@
 //! (four neighbouring pixels of a row) and ×1.35 on their mirror reflections, whole frames
 //! ×0.85–0.89 the time (docs/PERFORMANCE.md). Used by the batch API (`batch.rs`) and for the
 //! renderer's camera rays (`tracer.rs`).
+//!
+//! [`Bvh4::occluded4`] is the any-hit twin for shadow rays: the single-ray `any` traversal's
+//! order (children in slot order, leaves tested as they are met, inner nodes pushed), each
+//! stack entry with the rays that entered it; a ray leaves the packet at its first hit, the
+//! packet ends when all four are blocked or the stack is empty. Whether a ray is blocked does
+//! not depend on the order of visits, so the answers are the single ray's exactly.
 
 use super::super::bvh::FAR_SCALE;
 use super::super::bvh::{Hit, Ray};
@@ -213,6 +219,110 @@ impl Bvh4 {
                 let rays = bits(e.t, best_t, |t, best| t <= best) & e.rays;
                 if rays != 0 {
                     (at, active) = (e.at, rays);
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Whether any triangle blocks each of four rays in `(t_min, t_max[i])`: the same answers
+    /// as [`Bvh4::occluded`] ray by ray.
+    pub(crate) fn occluded4(&self, rays: &[Ray; 4], t_min: f32, t_max: F4) -> [bool; 4] {
+        let oct = octant(&rays[0]);
+        let kz = rays[0].kz;
+        if self.nodes.is_empty() || rays.iter().any(|r| octant(r) != oct || r.kz != kz) {
+            return std::array::from_fn(|i| self.occluded(&rays[i], t_min, t_max[i]));
+        }
+        let (mut inline, mut heap);
+        let stack: &mut [(u32, u32)] = if self.stack <= INLINE_STACK {
+            inline = [(0, 0); INLINE_STACK];
+            &mut inline
+        } else {
+            heap = vec![(0, 0); self.stack];
+            &mut heap
+        };
+        match kz {
+            0 => self.any4_kz::<0>(stack, rays, t_min, t_max, oct),
+            1 => self.any4_kz::<1>(stack, rays, t_min, t_max, oct),
+            _ => self.any4_kz::<2>(stack, rays, t_min, t_max, oct),
+        }
+    }
+
+    fn any4_kz<const KZ: usize>(
+        &self,
+        stack: &mut [(u32, u32)],
+        rays: &[Ray; 4],
+        t_min: f32,
+        t_max: F4,
+        oct: usize,
+    ) -> [bool; 4] {
+        match oct {
+            0 => self.any4::<KZ, 0>(stack, rays, t_min, t_max),
+            1 => self.any4::<KZ, 1>(stack, rays, t_min, t_max),
+            2 => self.any4::<KZ, 2>(stack, rays, t_min, t_max),
+            3 => self.any4::<KZ, 3>(stack, rays, t_min, t_max),
+            4 => self.any4::<KZ, 4>(stack, rays, t_min, t_max),
+            5 => self.any4::<KZ, 5>(stack, rays, t_min, t_max),
+            6 => self.any4::<KZ, 6>(stack, rays, t_min, t_max),
+            _ => self.any4::<KZ, 7>(stack, rays, t_min, t_max),
+        }
+    }
+
+    /// [`Bvh4::occluded4`] for rays whose dominant axis is `KZ`, in octant `OCT`.
+    fn any4<const KZ: usize, const OCT: usize>(
+        &self,
+        stack: &mut [(u32, u32)],
+        rays: &[Ray; 4],
+        t_min: f32,
+        t_max: F4,
+    ) -> [bool; 4] {
+        let lanes = Lanes::new(rays);
+        let mut blocked = 0u32;
+        let mut sp = 0usize;
+        let (mut at, mut active) = (0u32, 0b1111u32);
+        loop {
+            let node = &self.nodes[at as usize];
+            for c in 0..4 {
+                let (_, mask) = lanes.enter::<OCT>(node, c, t_max);
+                let entered = mask & active & !blocked;
+                if entered == 0 {
+                    continue;
+                }
+                let child = node.child[c];
+                if child & LEAF == 0 {
+                    stack[sp] = (child, entered);
+                    sp += 1;
+                    continue;
+                }
+                let mut g = (child & !LEAF) as usize;
+                loop {
+                    let group = &self.groups[g];
+                    let mut each = entered & !blocked;
+                    while each != 0 {
+                        let r = each.trailing_zeros() as usize;
+                        each &= each - 1;
+                        if triangles::<KZ>(&rays[r], group, t_min, t_max[r]).1 != 0 {
+                            blocked |= 1 << r;
+                        }
+                    }
+                    if blocked == 0b1111 {
+                        return [true; 4];
+                    }
+                    if group.info & LAST != 0 || entered & !blocked == 0 {
+                        break;
+                    }
+                    g += 1;
+                }
+            }
+            loop {
+                if sp == 0 {
+                    return std::array::from_fn(|r| blocked & (1 << r) != 0);
+                }
+                sp -= 1;
+                let (node, entered) = stack[sp];
+                let left = entered & !blocked;
+                if left != 0 {
+                    (at, active) = (node, left);
                     break;
                 }
             }
