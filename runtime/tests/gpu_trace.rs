@@ -373,14 +373,7 @@ fn a_diffuse_room_matches_the_cpu_twin_per_pixel() {
 /// 4096): it renders, matches the CPU twin, and reports no GPU time rather than failing.
 #[test]
 fn a_frame_of_more_than_2048_tiles_renders_untimed() {
-    let mut faces = Vec::new();
-    room(&mut faces, 2, 0);
-    let file = file_of(
-        &faces,
-        vec![Material::diffuse("white", [0.7; 3])],
-        vec![],
-        0,
-    );
+    let file = white_room(0);
     let cam = camera([2.0, 2.0, 3.9], [2.0, 1.5, 0.0]);
     // 64 pixels: the smallest tile (one workgroup of the tracer).
     let tile = 64;
@@ -819,16 +812,21 @@ fn unchecked_equals_checked(file: &OperatorFile, smooth: bool) {
     assert_eq!(checked, unchecked);
 }
 
-#[test]
-fn bad_calls_are_clear_errors() {
+/// A white room of 2 × 2 cells a wall with `groups` light groups, no lights.
+fn white_room(groups: usize) -> OperatorFile {
     let mut faces = Vec::new();
     room(&mut faces, 2, 0);
-    let file = file_of(
+    file_of(
         &faces,
         vec![Material::diffuse("white", [0.7; 3])],
         vec![],
-        1,
-    );
+        groups,
+    )
+}
+
+#[test]
+fn bad_calls_are_clear_errors() {
+    let file = white_room(1);
     let tracer = Tracer::new(&file).unwrap();
     let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
     let view = View::new(&camera([2.0, 2.0, 3.0], [2.0, 2.0, 0.0]), 8, 8).unwrap();
