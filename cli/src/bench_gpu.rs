@@ -172,31 +172,12 @@ pub fn run(
         adapter: args.adapter.clone(),
         ..GpuOptions::default()
     };
-    let lanes: Vec<Option<u32>> = if args.row_lanes.is_empty() {
-        vec![None]
-    } else {
-        args.row_lanes.iter().copied().map(Some).collect()
-    };
-    let groups: Vec<Option<u32>> = if args.gather_groups.is_empty() {
-        vec![None]
-    } else {
-        args.gather_groups.iter().copied().map(Some).collect()
-    };
-    let rows: Vec<Option<u32>> = if args.gather_rows.is_empty() {
-        vec![None]
-    } else {
-        args.gather_rows.iter().copied().map(Some).collect()
-    };
-    let loaders: Vec<Option<lrr_runtime::gpu::Storage>> = if args.f16_loader.is_empty() {
-        vec![None]
-    } else {
-        args.f16_loader.iter().map(|l| Some(l.storage())).collect()
-    };
+    let loaders: Vec<_> = args.f16_loader.iter().map(|l| l.storage()).collect();
     let mut variants = Vec::new();
-    for &f16_loader in &loaders {
-        for &row_lanes in &lanes {
-            for &gather_rows in &rows {
-                for &gather_groups in &groups {
+    for f16_loader in each(&loaders) {
+        for row_lanes in each(&args.row_lanes) {
+            for gather_rows in each(&args.gather_rows) {
+                for gather_groups in each(&args.gather_groups) {
                     variants.push(GpuOptions {
                         row_lanes,
                         gather_rows,
@@ -291,6 +272,15 @@ pub fn run(
         print_table(&rows, out)?;
     }
     Ok(true)
+}
+
+/// A swept flag's values as options, or the runtime's default alone when none was given.
+fn each<T: Copy>(values: &[T]) -> Vec<Option<T>> {
+    if values.is_empty() {
+        vec![None]
+    } else {
+        values.iter().copied().map(Some).collect()
+    }
 }
 
 fn print_table(rows: &[GpuRow], out: &mut dyn Write) -> Result<()> {

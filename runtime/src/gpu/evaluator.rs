@@ -431,7 +431,6 @@ impl GpuEvaluator {
         // timed frames follow the last batch with no wait.
         let warm = Instant::now();
         while warm.elapsed() < WARM_UP {
-            self.set_pair(0);
             for _ in 0..32 {
                 self.run_untimed(source);
             }
@@ -455,20 +454,7 @@ impl GpuEvaluator {
         encoder.resolve_query_set(&t.set, 0..6 * frames, &t.resolve, 0);
         encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.readback, 0, 48 * u64::from(frames));
         self.gpu.queue.submit([encoder.finish()]);
-        map(&self.gpu, &t.readback)?;
-        let ticks: Vec<u64> = {
-            let view = t.readback.get_mapped_range(..).map_err(mapping)?;
-            view.chunks_exact(8)
-                .take(6 * frames as usize)
-                .map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default()))
-                .collect()
-        };
-        t.readback.unmap();
-        let period = f64::from(t.period_ns);
-        let times: Vec<Duration> = ticks
-            .chunks_exact(2)
-            .map(|p| Duration::from_nanos((p[1].saturating_sub(p[0]) as f64 * period) as u64))
-            .collect();
+        let times = t.read_pairs(&self.gpu, 3 * frames as usize)?;
         let (f, r) = times.split_at(frames as usize);
         // The faster kernel's reads (by median), as read_pass takes the faster.
         let pick = |wide: usize| {
@@ -741,10 +727,10 @@ impl GpuEvaluator {
             }
             pass.set_pipeline(&p.gather);
             let rows_per_group = p.constants.rows_per_iteration();
+            let most = self.gather_groups();
             for (bind, chunk) in slot.iter().zip(&b.chunks) {
                 pass.set_bind_group(0, bind, &[]);
-                let most = self.gpu.options.gather_groups.unwrap_or(GATHER_MAX_GROUPS);
-                let groups = chunk.rows.div_ceil(rows_per_group).min(most.max(1));
+                let groups = chunk.rows.div_ceil(rows_per_group).min(most);
                 pass.dispatch_workgroups(groups, 1, 1);
             }
         }
@@ -793,16 +779,28 @@ impl GpuEvaluator {
             self.gpu.wait()?;
             return Ok(None);
         };
-        map(&self.gpu, &t.readback)?;
+        Ok(t.read_pairs(&self.gpu, 1)?.first().copied())
+    }
+}
+
+impl Timestamps {
+    /// Waits for the resolved queries in `readback` and returns the first `pairs` pairs'
+    /// durations (end − start of each pair, in the device's timestamp period).
+    fn read_pairs(&self, gpu: &Gpu, pairs: usize) -> Result<Vec<Duration>, GpuError> {
+        map(gpu, &self.readback)?;
         let ticks: Vec<u64> = {
-            let view = t.readback.get_mapped_range(..).map_err(mapping)?;
+            let view = self.readback.get_mapped_range(..).map_err(mapping)?;
             view.chunks_exact(8)
+                .take(2 * pairs)
                 .map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default()))
                 .collect()
         };
-        t.readback.unmap();
-        let ns = ticks[1].saturating_sub(ticks[0]) as f64 * f64::from(t.period_ns);
-        Ok(Some(Duration::from_nanos(ns as u64)))
+        self.readback.unmap();
+        let period = f64::from(self.period_ns);
+        Ok(ticks
+            .chunks_exact(2)
+            .map(|p| Duration::from_nanos((p[1].saturating_sub(p[0]) as f64 * period) as u64))
+            .collect())
     }
 }
 
