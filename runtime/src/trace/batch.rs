@@ -71,39 +71,45 @@ pub(crate) fn closest(
     triangle_ids: &[u32],
     batch: &RayBatch,
 ) -> Vec<Option<TraceHit>> {
-    let ray = |i: usize| Ray::new(batch.origins[i], batch.dirs[i]);
     let hit = |h: Hit| TraceHit {
         t: h.t,
         triangle: triangle_ids[h.tri as usize],
         leaf: h.tri,
     };
-    let mut out = Vec::with_capacity(batch.len());
-    let packets = batch.len() / 4;
-    for p in 0..packets {
-        let rays = std::array::from_fn(|j| ray(4 * p + j));
-        let t_max = std::array::from_fn(|j| batch.t_max[4 * p + j]);
-        out.extend(scene.closest_hit4(&rays, 0.0, t_max).map(|h| h.map(hit)));
-    }
-    for i in 4 * packets..batch.len() {
-        out.push(scene.closest_hit(&ray(i), 0.0, batch.t_max[i]).map(hit));
-    }
-    out
+    in_packets(
+        batch,
+        |rays, t_max| scene.closest_hit4(rays, 0.0, t_max).map(|h| h.map(hit)),
+        |ray, t_max| scene.closest_hit(ray, 0.0, t_max).map(hit),
+    )
 }
 
 /// Whether each ray is blocked before its far end, four consecutive rays at a time as a
 /// packet (shadow rays of neighbouring pixels towards one light share most of their
 /// traversal; the answers are those ray by ray).
 pub(crate) fn any(scene: &TraceScene, batch: &RayBatch) -> Vec<bool> {
+    in_packets(
+        batch,
+        |rays, t_max| scene.occluded4(rays, 0.0, t_max),
+        |ray, t_max| scene.occluded(ray, 0.0, t_max),
+    )
+}
+
+/// `four` on each run of four consecutive rays of `batch`, `one` on the rest, in order.
+fn in_packets<T>(
+    batch: &RayBatch,
+    four: impl Fn(&[Ray; 4], [f32; 4]) -> [T; 4],
+    one: impl Fn(&Ray, f32) -> T,
+) -> Vec<T> {
     let ray = |i: usize| Ray::new(batch.origins[i], batch.dirs[i]);
     let mut out = Vec::with_capacity(batch.len());
     let packets = batch.len() / 4;
     for p in 0..packets {
         let rays = std::array::from_fn(|j| ray(4 * p + j));
         let t_max = std::array::from_fn(|j| batch.t_max[4 * p + j]);
-        out.extend(scene.occluded4(&rays, 0.0, t_max));
+        out.extend(four(&rays, t_max));
     }
     for i in 4 * packets..batch.len() {
-        out.push(scene.occluded(&ray(i), 0.0, batch.t_max[i]));
+        out.push(one(&ray(i), batch.t_max[i]));
     }
     out
 }
