@@ -1,7 +1,7 @@
-//! Support for the fuzz targets in `fuzz_targets/`: the shared bodies ([`harness`], also
-//! replayed by the end-to-end tests) and an allocation meter for the loader's size limits.
+//! Support for the scene import fuzz targets in `fuzz_targets/`: the shared bodies
+//! ([`harness`], also replayed by the end-to-end tests) and a scratch folder per process. The
+//! operator file and kernel targets are in `runtime/`.
 
-pub mod alloc;
 pub mod harness;
 
 use std::path::{Path, PathBuf};

@@ -25,7 +25,9 @@
 pub(crate) mod scalar;
 pub(crate) mod shared;
 
-pub(crate) use shared::{Gather, LANES, Rows, emission_ok, first_bad_emission, padded};
+#[cfg(feature = "gpu")]
+pub(crate) use shared::first_bad_emission;
+pub(crate) use shared::{Gather, LANES, Rows, emission_ok, padded};
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod avx2;

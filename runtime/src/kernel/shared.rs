@@ -52,7 +52,9 @@ pub(crate) fn emission_ok(v: f32) -> bool {
 /// time with a fold that does not stop early (which the compiler vectorises: two compares and
 /// an and per value, no branch), and looks for the position only in a block that failed. A
 /// scalar `position` (a compare and a branch per value) cost the GPU path 0.4 ms of host time a
-/// frame at n = 221184; this takes 0.09 ms (docs/PERFORMANCE.md, GPU).
+/// frame at n = 221184; this takes 0.09 ms (docs/PERFORMANCE.md, GPU). (The CPU frame checks
+/// the values as its segment sums add them.)
+#[cfg(any(feature = "gpu", test))]
 pub(crate) fn first_bad_emission(values: &[f32]) -> Option<usize> {
     const BLOCK: usize = 256;
     for (b, block) in values.chunks(BLOCK).enumerate() {

@@ -1,7 +1,7 @@
 //! The fuzz corpora as ordinary tests: every seed (`fuzz/seeds/<target>/`) and every committed
 //! crash input (`fuzz/regressions/<target>/`) runs through the same function as the cargo-fuzz
-//! target of that name (fuzz/src/harness.rs, included here), on stable, in CI. Each must be
-//! accepted or refused with an error, never panic.
+//! target of that name (fuzz/src/harness.rs for the scene importers, fuzz/runtime/src/
+//! operators.rs and kernels.rs for the runtime, included here), on stable, in CI. Each must be accepted or refused with an error, never panic.
 
 use std::path::{Path, PathBuf};
 
@@ -9,8 +9,13 @@ use crate::util::{root, temp_dir};
 
 #[path = "../../../fuzz/src/harness.rs"]
 mod harness;
+#[path = "../../../fuzz/runtime/src/kernels.rs"]
+mod kernels;
+#[path = "../../../fuzz/runtime/src/operators.rs"]
+mod operators;
 
-const TARGETS: [&str; 5] = [
+const TARGETS: [&str; 6] = [
+    "kernels",
     "operator_bytes",
     "operator_mutated",
     "obj_import",
@@ -21,8 +26,9 @@ const TARGETS: [&str; 5] = [
 /// Runs one input through the target's body; `true` when it was accepted.
 fn run(target: &str, data: &[u8], dir: &Path) -> bool {
     match target {
-        "operator_bytes" => harness::operator_bytes(data),
-        "operator_mutated" => harness::operator_mutated(data),
+        "kernels" => kernels::kernels(data),
+        "operator_bytes" => operators::operator_bytes(data),
+        "operator_mutated" => operators::operator_mutated(data),
         "obj_import" => harness::obj_import(data, dir),
         "scene_description" => harness::scene_description(data, dir),
         "gltf_import" => harness::gltf_import(data, dir),
@@ -102,18 +108,45 @@ fn seeds_and_crash_inputs_give_ok_or_an_error_never_a_panic() {
     );
 }
 
+/// The `kernels` target on stable, without the fuzzer: inputs drawn at random (xorshift64*,
+/// fixed seed), so CI runs the scalar and AVX2 kernels against each other and against the f64
+/// evaluation on a few hundred operators and emissions each time.
+#[test]
+fn kernels_agree_on_random_operators_and_emissions() {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        state ^= state >> 12;
+        state ^= state << 25;
+        state ^= state >> 27;
+        state.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    };
+    let mut loaded = 0;
+    for i in 0..300 {
+        let len = 16 + (next() % 240) as usize;
+        let mut data: Vec<u8> = (0..len).map(|_| next() as u8).collect();
+        // Few edits on most inputs, so that most operators stay valid and reach the kernels.
+        data[9] %= if i % 4 == 0 { 16 } else { 2 };
+        loaded += usize::from(kernels::kernels(&data));
+    }
+    println!("kernels: 300 inputs, {loaded} operators loaded and evaluated");
+    assert!(
+        loaded >= 150,
+        "only {loaded} of 300 random operators loaded: the test is shallow"
+    );
+}
+
 #[test]
 fn mutation_bases_are_valid_operator_files() {
     // `operator_mutated` starts from these; an invalid base would leave the fuzzer shallow.
     for variant in 0..8 {
         assert!(
-            harness::operator_bytes(&harness::base_file(variant)),
+            operators::operator_bytes(&operators::base_file(variant)),
             "base {variant} does not load"
         );
     }
     // No edits: the base itself; the reseal bit alone changes nothing.
-    assert_eq!(harness::mutate(&[3]), harness::base_file(3));
-    assert_eq!(harness::mutate(&[0x83]), harness::base_file(3));
+    assert_eq!(operators::mutate(&[3]), operators::base_file(3));
+    assert_eq!(operators::mutate(&[0x83]), operators::base_file(3));
 }
 
 /// Rewrites the operator seeds: the mutation bases and a real bake of a seed scene. Run by hand
@@ -125,7 +158,11 @@ fn write_operator_seeds() {
     let dir = root().join("fuzz/seeds/operator_bytes");
     std::fs::create_dir_all(&dir).unwrap();
     for (name, variant) in [("base-f32-grey", 0), ("base-f16-rgb", 3), ("base-k3", 4)] {
-        std::fs::write(dir.join(format!("{name}.lrr")), harness::base_file(variant)).unwrap();
+        std::fs::write(
+            dir.join(format!("{name}.lrr")),
+            operators::base_file(variant),
+        )
+        .unwrap();
     }
     let scene = root().join("fuzz/seeds/scene_description/two-squares.toml");
     let out = dir.join("bake-two-squares.lrr");

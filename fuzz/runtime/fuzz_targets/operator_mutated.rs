@@ -3,9 +3,9 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use lrr_fuzz::{alloc, harness};
+use lrr_fuzz_runtime::{alloc, operators};
 
 fuzz_target!(|data: &[u8]| {
-    let bytes = harness::mutate(data);
-    alloc::check(bytes.len(), || harness::operator_bytes(&bytes));
+    let bytes = operators::mutate(data);
+    alloc::check(bytes.len(), || operators::operator_bytes(&bytes));
 });

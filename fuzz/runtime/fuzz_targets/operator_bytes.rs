@@ -3,8 +3,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use lrr_fuzz::{alloc, harness};
+use lrr_fuzz_runtime::{alloc, operators};
 
 fuzz_target!(|data: &[u8]| {
-    alloc::check(data.len(), || harness::operator_bytes(data));
+    alloc::check(data.len(), || operators::operator_bytes(data));
 });
