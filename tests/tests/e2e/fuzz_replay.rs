@@ -129,6 +129,11 @@ fn kernels_agree_on_random_operators_and_emissions() {
         loaded += usize::from(kernels::kernels(&data));
     }
     println!("kernels: 300 inputs, {loaded} operators loaded and evaluated");
+    if !lrr_runtime::SimdLevel::Avx2.supported() {
+        println!(
+            "kernels: this CPU lacks AVX2 (+FMA, F16C): the scalar kernels alone were checked"
+        );
+    }
     assert!(
         loaded >= 150,
         "only {loaded} of 300 random operators loaded: the test is shallow"
