@@ -50,6 +50,7 @@ use lrr_formats::BvhNode;
 
 use super::bvh::{FAR_SCALE, Hit, MAX_BVH_DEPTH, Ray};
 
+mod collapse;
 mod packet;
 
 /// Four lanes.
@@ -271,26 +272,7 @@ impl Bvh4 {
     /// Collapses `nodes` (the file's binary BVH: children after parents, checked by `scene.rs`:
     /// indices in bounds, at most [`MAX_BVH_DEPTH`] deep) over `tris` (in leaf order).
     pub(crate) fn new(nodes: &[BvhNode], tris: &[[f32; 9]]) -> Result<Self, NotATree> {
-        let mut b = Collapse {
-            bvh: Bvh4::default(),
-            binary: nodes,
-            tris,
-            seen: vec![false; nodes.len()],
-            triangles: 0,
-        };
-        if nodes.is_empty() {
-            return Ok(b.bvh);
-        }
-        b.seen[0] = true;
-        if nodes[0].count > 0 {
-            // A single leaf: one node whose only child is that leaf.
-            b.bvh.nodes.push(EMPTY_NODE);
-            b.set_child(0, 0, 0)?;
-            b.bvh.stack = 4;
-        } else {
-            b.push(0, 1)?;
-        }
-        Ok(b.bvh)
+        collapse::collapse(nodes, tris)
     }
 
     /// The nearest triangle `ray` hits in `(t_min, t_max)` (ties: the lower leaf-order index).
@@ -534,104 +516,6 @@ fn octant(ray: &Ray) -> usize {
     (ray.inv[0] < 0.0) as usize
         | ((ray.inv[1] < 0.0) as usize) << 1
         | ((ray.inv[2] < 0.0) as usize) << 2
-}
-
-/// The conversion's state.
-struct Collapse<'a> {
-    bvh: Bvh4,
-    binary: &'a [BvhNode],
-    tris: &'a [[f32; 9]],
-    /// Binary nodes already placed (a node reached twice: not a tree).
-    seen: Vec<bool>,
-    /// Triangles placed in groups so far.
-    triangles: usize,
-}
-
-impl Collapse<'_> {
-    /// Appends the wide node for the binary inner node `index` (at wide depth `depth`) and its
-    /// subtree, depth first; returns its position.
-    fn push(&mut self, index: usize, depth: usize) -> Result<u32, NotATree> {
-        let half_area = |n: &BvhNode| {
-            let d = [0, 1, 2].map(|a| (n.max[a] - n.min[a]).max(0.0));
-            d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
-        };
-        let first = self.binary[index].first as usize;
-        let mut children = vec![first, first + 1];
-        self.mark(first)?;
-        self.mark(first + 1)?;
-        while children.len() < 4 {
-            // Open the inner child with the largest box (the first of equals).
-            let mut widest: Option<(usize, f32)> = None;
-            for (slot, &c) in children.iter().enumerate() {
-                let n = &self.binary[c];
-                if n.count == 0 && widest.is_none_or(|(_, a)| half_area(n) > a) {
-                    widest = Some((slot, half_area(n)));
-                }
-            }
-            let Some((slot, _)) = widest else { break };
-            let c = self.binary[children[slot]].first as usize;
-            self.mark(c)?;
-            self.mark(c + 1)?;
-            children.splice(slot..=slot, [c, c + 1]);
-        }
-        let at = self.bvh.nodes.len();
-        self.bvh.nodes.push(EMPTY_NODE);
-        // A node at `depth` is popped, then pushes up to four: at most 3 · depth + 1 entries.
-        self.bvh.stack = self.bvh.stack.max(3 * depth + 1);
-        for (slot, &c) in children.iter().enumerate() {
-            self.set_child(at, slot, c)?;
-            if self.binary[c].count == 0 {
-                self.bvh.nodes[at].child[slot] = self.push(c, depth + 1)?;
-            }
-        }
-        Ok(at as u32)
-    }
-
-    fn mark(&mut self, c: usize) -> Result<(), NotATree> {
-        if std::mem::replace(&mut self.seen[c], true) {
-            return Err(NotATree::Shared);
-        }
-        Ok(())
-    }
-
-    /// Writes binary node `c`'s box into slot `slot` of wide node `at`, and its triangles as
-    /// groups when it is a leaf.
-    fn set_child(&mut self, at: usize, slot: usize, c: usize) -> Result<(), NotATree> {
-        let n = &self.binary[c];
-        for a in 0..3 {
-            self.bvh.nodes[at].bounds[0][a][slot] = n.min[a];
-            self.bvh.nodes[at].bounds[1][a][slot] = n.max[a];
-        }
-        if n.count == 0 {
-            return Ok(());
-        }
-        let (first, count) = (n.first as usize, n.count as usize);
-        self.triangles += count;
-        if self.triangles > self.tris.len() || self.bvh.groups.len() >= LEAF as usize {
-            return Err(NotATree::TooManyTriangles);
-        }
-        self.bvh.nodes[at].child[slot] = LEAF | self.bvh.groups.len() as u32;
-        for start in (first..first + count).step_by(4) {
-            let lanes = (first + count - start).min(4);
-            let mut group = Group {
-                v: [[0.0; 4]; 9],
-                first: start as u32,
-                info: (1 << lanes) - 1,
-            };
-            for lane in 0..4 {
-                // Unused lanes repeat the last triangle (masked off by `info`).
-                let tri = &self.tris[start + lane.min(lanes - 1)];
-                for (k, v) in tri.iter().enumerate() {
-                    group.v[k][lane] = *v;
-                }
-            }
-            if start + 4 >= first + count {
-                group.info |= LAST;
-            }
-            self.bvh.groups.push(group);
-        }
-        Ok(())
-    }
 }
 
 /// Stack bound of [`MAX_BVH_DEPTH`] binary levels collapsed (never more wide levels than
