@@ -76,11 +76,20 @@ pub(crate) fn closest(
         triangle: triangle_ids[h.tri as usize],
         leaf: h.tri,
     };
-    in_packets(
-        batch,
-        |rays, t_max| scene.closest_hit4(rays, 0.0, t_max).map(|h| h.map(hit)),
-        |ray, t_max| scene.closest_hit(ray, 0.0, t_max).map(hit),
-    )
+    let one = |ray: &Ray, t_max| scene.closest_hit(ray, 0.0, t_max).map(hit);
+    if scene.packets_of_eight() {
+        in_packets(
+            batch,
+            |rays: &[Ray; 8], t_max| scene.closest_hit8(rays, 0.0, t_max).map(|h| h.map(hit)),
+            one,
+        )
+    } else {
+        in_packets(
+            batch,
+            |rays: &[Ray; 4], t_max| scene.closest_hit4(rays, 0.0, t_max).map(|h| h.map(hit)),
+            one,
+        )
+    }
 }
 
 /// Whether each ray is blocked before its far end, four consecutive rays at a time as a
@@ -89,26 +98,26 @@ pub(crate) fn closest(
 pub(crate) fn any(scene: &TraceScene, batch: &RayBatch) -> Vec<bool> {
     in_packets(
         batch,
-        |rays, t_max| scene.occluded4(rays, 0.0, t_max),
+        |rays: &[Ray; 4], t_max| scene.occluded4(rays, 0.0, t_max),
         |ray, t_max| scene.occluded(ray, 0.0, t_max),
     )
 }
 
-/// `four` on each run of four consecutive rays of `batch`, `one` on the rest, in order.
-fn in_packets<T>(
+/// `many` on each run of `N` consecutive rays of `batch`, `one` on the rest, in order.
+fn in_packets<T, const N: usize>(
     batch: &RayBatch,
-    four: impl Fn(&[Ray; 4], [f32; 4]) -> [T; 4],
+    many: impl Fn(&[Ray; N], [f32; N]) -> [T; N],
     one: impl Fn(&Ray, f32) -> T,
 ) -> Vec<T> {
     let ray = |i: usize| Ray::new(batch.origins[i], batch.dirs[i]);
     let mut out = Vec::with_capacity(batch.len());
-    let packets = batch.len() / 4;
+    let packets = batch.len() / N;
     for p in 0..packets {
-        let rays = std::array::from_fn(|j| ray(4 * p + j));
-        let t_max = std::array::from_fn(|j| batch.t_max[4 * p + j]);
-        out.extend(four(&rays, t_max));
+        let rays = std::array::from_fn(|j| ray(N * p + j));
+        let t_max = std::array::from_fn(|j| batch.t_max[N * p + j]);
+        out.extend(many(&rays, t_max));
     }
-    for i in 4 * packets..batch.len() {
+    for i in N * packets..batch.len() {
         out.push(one(&ray(i), batch.t_max[i]));
     }
     out

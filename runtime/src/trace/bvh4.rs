@@ -52,6 +52,7 @@ use super::bvh::{FAR_SCALE, Hit, MAX_BVH_DEPTH, Ray};
 
 mod collapse;
 mod packet;
+mod packet8;
 
 /// Four lanes.
 type F4 = [f32; 4];
@@ -862,6 +863,136 @@ mod tests {
         assert!(
             blocked > total / 5 && blocked < total * 4 / 5,
             "{blocked} of {total} rays of the dense soup blocked"
+        );
+    }
+
+    #[test]
+    fn packets_of_eight_rays_answer_as_single_rays_with_and_without_avx2() {
+        // As above, eight rays a packet: the portable build against the single ray, and the
+        // AVX2 build against the portable one bit for bit (where the CPU has AVX2).
+        let avx2 = super::packet8::avx2_available();
+        if !avx2 {
+            eprintln!("no AVX2 on this CPU: only the portable packets of eight are checked");
+        }
+        let bits = |h: [Option<Hit>; 8]| h.map(|h| h.map(|h| (h.t.to_bits(), h.tri)));
+        let mut rng = Rng(0x8a7e);
+        let mut packed = 0;
+        for (count, size) in [(1, 3.0), (5, 2.0), (300, 1.0), (3000, 0.4), (20000, 0.8)] {
+            let tris = soup(&mut rng, count, size);
+            for scene in [
+                Scene::sah(&tris),
+                Scene::median(&tris, 1),
+                Scene::median(&tris, 7),
+            ] {
+                let bvh4 = scene.bvh4();
+                for p in 0..200 {
+                    let o = [0.0; 3].map(|_| rng.unit() * 14.0 - 2.0);
+                    let d = [0.0; 3].map(|_| rng.unit() - 0.5);
+                    let spread = if p % 3 == 0 { 1.0 } else { 0.02 };
+                    let rays: [Ray; 8] = std::array::from_fn(|_| {
+                        Ray::new(o, d.map(|x| x + (rng.unit() - 0.5) * spread))
+                    });
+                    let t_max =
+                        std::array::from_fn(|i| if (p + i) % 5 == 0 { 4.0 } else { f32::INFINITY });
+                    let t_min = if p % 7 == 0 { 1e-4 } else { 0.0 };
+                    let got = bvh4.closest_hit8_with(&rays, t_min, t_max, false);
+                    for (i, (ray, got)) in rays.iter().zip(got).enumerate() {
+                        let want = bvh4.closest_hit(ray, t_min, t_max[i]);
+                        assert_eq!(got, want, "ray {i} of packet {p}: {ray:?}");
+                    }
+                    if avx2 {
+                        let fast = bvh4.closest_hit8_with(&rays, t_min, t_max, true);
+                        assert_eq!(bits(fast), bits(got), "AVX2 against portable, packet {p}");
+                    }
+                    let oct = super::octant(&rays[0]);
+                    packed += rays
+                        .iter()
+                        .all(|r| super::octant(r) == oct && r.kz == rays[0].kz)
+                        as usize;
+                }
+            }
+        }
+        assert!(packed > 1000, "{packed} packets traced together");
+    }
+
+    /// Half the surface area of a box.
+    fn half_area(min: [f32; 3], max: [f32; 3]) -> f64 {
+        let d = [0, 1, 2].map(|a| (max[a] - min[a]).max(0.0) as f64);
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+    }
+
+    /// The SAH cost of the wide nodes of the collapse before the dynamic program (open the
+    /// child with the largest box until there are four), from binary node `i` down.
+    fn greedy_cost(nodes: &[BvhNode], i: usize) -> f64 {
+        let area = |n: &BvhNode| half_area(n.min, n.max);
+        let first = nodes[i].first as usize;
+        let mut children = vec![first, first + 1];
+        while children.len() < 4 {
+            let inner = children
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| nodes[**c].count == 0);
+            let Some((slot, _)) = inner.fold(None, |w: Option<(usize, &usize)>, (s, c)| match w {
+                Some((_, b)) if area(&nodes[*b]) >= area(&nodes[*c]) => w,
+                _ => Some((s, c)),
+            }) else {
+                break;
+            };
+            let c = nodes[children[slot]].first as usize;
+            children.splice(slot..=slot, [c, c + 1]);
+        }
+        let below: f64 = children
+            .iter()
+            .filter(|&&c| nodes[c].count == 0)
+            .map(|&c| greedy_cost(nodes, c))
+            .sum();
+        area(&nodes[i]) + below
+    }
+
+    #[test]
+    fn the_collapse_costs_no_more_than_opening_the_largest_child() {
+        // The dynamic program's wide nodes (their boxes: the union of their slots) against
+        // the greedy collapse's, by the SAH cost both minimise; every triangle in one lane.
+        let mut rng = Rng(0xc011);
+        let mut better = 0;
+        for (count, size) in [(16, 1.0), (300, 1.0), (3000, 0.4), (20000, 0.8)] {
+            let tris = soup(&mut rng, count, size);
+            for scene in [
+                Scene::sah(&tris),
+                Scene::median(&tris, 1),
+                Scene::median(&tris, 3),
+            ] {
+                let bvh4 = scene.bvh4();
+                let cost: f64 = bvh4
+                    .nodes
+                    .iter()
+                    .map(|n| {
+                        let slots = (0..4).filter(|&s| n.bounds[0][0][s].is_finite());
+                        assert!(slots.clone().count() >= 2, "a node of fewer than two slots");
+                        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+                        for s in slots {
+                            for a in 0..3 {
+                                lo[a] = lo[a].min(n.bounds[0][a][s]);
+                                hi[a] = hi[a].max(n.bounds[1][a][s]);
+                            }
+                        }
+                        half_area(lo, hi)
+                    })
+                    .sum();
+                let greedy = greedy_cost(&scene.nodes, 0);
+                assert!(cost <= greedy * (1.0 + 1e-9), "{count}: {cost} > {greedy}");
+                better += (cost < greedy * 0.99) as usize;
+                let lanes: u32 = bvh4
+                    .groups
+                    .iter()
+                    .map(|g| (g.info & 0xf).count_ones())
+                    .sum();
+                assert_eq!(lanes as usize, count);
+            }
+        }
+        assert!(
+            better >= 4,
+            "{better} trees cheaper than the greedy collapse's"
         );
     }
 
