@@ -46,8 +46,6 @@
 //! several comparisons combined lane by lane, or `min(x, min(y, z))`, are scalarised or
 //! interleaved across axes (checked in the assembly; `lrr bench render` measures the result).
 
-use lrr_formats::BvhNode;
-
 use super::bvh::{FAR_SCALE, Hit, MAX_BVH_DEPTH, Ray};
 
 mod collapse;
@@ -270,12 +268,6 @@ pub(crate) enum NotATree {
 }
 
 impl Bvh4 {
-    /// Collapses `nodes` (the file's binary BVH: children after parents, checked by `scene.rs`:
-    /// indices in bounds, at most [`MAX_BVH_DEPTH`] deep) over `tris` (in leaf order).
-    pub(crate) fn new(nodes: &[BvhNode], tris: &[[f32; 9]]) -> Result<Self, NotATree> {
-        collapse::collapse(nodes, tris)
-    }
-
     /// The nearest triangle `ray` hits in `(t_min, t_max)` (ties: the lower leaf-order index).
     #[inline]
     pub(crate) fn closest_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {

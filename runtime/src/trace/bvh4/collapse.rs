@@ -37,8 +37,16 @@ struct Best {
     open: u8,
 }
 
-/// Collapses `nodes` over `tris` (see [`Bvh4::new`]).
-pub(super) fn collapse(nodes: &[BvhNode], tris: &[[f32; 9]]) -> Result<Bvh4, NotATree> {
+impl Bvh4 {
+    /// Collapses `nodes` (the file's binary BVH: children after parents, checked by `scene.rs`:
+    /// indices in bounds, at most [`MAX_BVH_DEPTH`](super::super::bvh::MAX_BVH_DEPTH) deep)
+    /// over `tris` (in leaf order).
+    pub(crate) fn new(nodes: &[BvhNode], tris: &[[f32; 9]]) -> Result<Self, NotATree> {
+        collapse(nodes, tris)
+    }
+}
+
+fn collapse(nodes: &[BvhNode], tris: &[[f32; 9]]) -> Result<Bvh4, NotATree> {
     let mut b = Collapse {
         bvh: Bvh4::default(),
         binary: nodes,
