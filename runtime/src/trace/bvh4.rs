@@ -2,8 +2,8 @@
 //! children (a conversion, not a build: the same leaves, the same triangles in each), child
 //! boxes and leaf triangles stored as structure of arrays in `[f32; 4]` lanes, so that one node
 //! is four slab tests and one group of triangles four watertight tests, in plain safe code the
-//! compiler turns into SSE (the workspace builds for generic x86-64: no AVX2 at compile time,
-//! no `unsafe`; docs/PERFORMANCE.md has the measurements).
+//! compiler turns into SSE (the workspace builds for generic x86-64: no AVX2 at compile time;
+//! docs/PERFORMANCE.md has the measurements).
 //!
 //! - Nodes: per axis the four children's minima and maxima (`bounds[0][axis]`,
 //!   `bounds[1][axis]`, 128 bytes a node). The traversal is monomorphised on the ray's octant
@@ -12,11 +12,14 @@
 //!   between the two sides (the same values as `bvh.rs`'s `enter`, which takes the `min`/`max`
 //!   of both: the near side of a valid box is never the far one). Unused slots hold an empty
 //!   box (`+∞` minima, `−∞` maxima) that no ray enters.
-//! - Collapse: from each binary node, the inner child with the largest box is opened until
-//!   there are four children or only leaves (as the bake's `visibility/flat.rs` collapses obvhs'
-//!   tree). Every leaf of the file becomes one leaf slot of a wide node. A node reached twice
-//!   (not a tree) or leaves listing more triangles than the file has are refused, so that a
-//!   damaged file cannot make the conversion blow up.
+//! - Collapse (`bvh4/collapse.rs`): which binary inner nodes become wide nodes and which are
+//!   opened into their children is chosen by dynamic programming over the binary tree, the
+//!   least SAH cost of the wide nodes (Ylitie et al. 2017; before: open the child with the
+//!   largest box until there are four, as the bake's `visibility/flat.rs` does, which left
+//!   nodes of 3.1 children against 3.64 now on the dense scene). Every leaf of the file becomes
+//!   one leaf slot of a wide node. A node reached twice (not a tree) or leaves listing more
+//!   triangles than the file has are refused, so that a damaged file cannot make the
+//!   conversion blow up.
 //! - Leaves: each leaf's triangles (a contiguous run of the leaf order) in groups of four lanes
 //!   (a leaf of 1–4 triangles is one group; unused lanes repeat the last triangle and are
 //!   masked off), the 9 coordinates as lanes, tested with the watertight test of `bvh.rs`
@@ -31,6 +34,11 @@
 //!   the visiting order (`trace.wgsl`'s binary traversal breaks ties the same way).
 //! - Any hit (shadow rays): children in slot order, leaves tested at once, the first hit ends
 //!   it.
+//! - Packets (`bvh4/packet.rs`, `bvh4/packet8.rs`): four or eight neighbouring rays through
+//!   the same nodes, a ray per lane, each with this file's single-ray answers. Eight for closest
+//!   hits where the CPU has AVX2: the portable code compiled a second time for it and chosen at
+//!   run time (one `unsafe` call; without AVX2 the eight lanes take two SSE registers and
+//!   measured no faster than four, so packets of four are used there).
 //!
 //! Exactness: the boxes of a tree hold their children's, and the slab test is monotone in the
 //! box (a ray that enters a box enters every box holding it), so a traversal tests the
@@ -861,10 +869,17 @@ mod tests {
     #[test]
     fn packets_of_eight_rays_answer_as_single_rays_with_and_without_avx2() {
         // As above, eight rays a packet: the portable build against the single ray, and the
-        // AVX2 build against the portable one bit for bit (where the CPU has AVX2).
+        // AVX2 build against the portable one bit for bit. Without AVX2 the test fails (the
+        // AVX2 build, the one the tracer runs, would go untested) unless `LRR_SKIP_AVX2=1`
+        // says that is expected, as the kernels' tests do.
         let avx2 = super::packet8::avx2_available();
         if !avx2 {
-            eprintln!("no AVX2 on this CPU: only the portable packets of eight are checked");
+            assert!(
+                std::env::var_os("LRR_SKIP_AVX2").is_some(),
+                "this CPU lacks AVX2, so the AVX2 packets cannot be tested here: run on an \
+                 x86-64 CPU with it, or set LRR_SKIP_AVX2=1 to check the portable ones alone"
+            );
+            eprintln!("no AVX2 on this CPU (LRR_SKIP_AVX2 is set): portable packets alone");
         }
         let bits = |h: [Option<Hit>; 8]| h.map(|h| h.map(|h| (h.t.to_bits(), h.tri)));
         let mut rng = Rng(0x8a7e);

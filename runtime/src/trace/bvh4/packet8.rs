@@ -1,6 +1,21 @@
-//! Eight rays through the 4-wide BVH together: `packet.rs`'s traversals with eight rays in the
-//! lanes instead of four (one node fetch, one child ordering and one set of branches for eight
-//! neighbouring rays), the same answers ray by ray.
+//! Eight rays through the 4-wide BVH together: `packet.rs`'s closest-hit traversal with eight
+//! rays in the lanes instead of four (one node fetch, one child ordering and one set of
+//! branches for eight neighbouring rays), the same answers ray by ray (each ray tests the leaves
+//! whose box it enters, with the single-ray triangle test and its own best distance).
+//!
+//! The same safe code is compiled twice: for the build's target (generic x86-64: two SSE
+//! registers per eight lanes) and, inlined into a `#[target_feature(enable = "avx2")]`
+//! function, for AVX2 (one register, three-operand forms), chosen at run time. The operations
+//! and their order are the same and Rust fuses no product and sum, so both give the same bits
+//! (a test holds them to each other and to the single ray). The batch API and the renderer use
+//! packets of eight only where the CPU has AVX2 ([`Bvh4::packets_of_eight`]): built for SSE
+//! they measured no faster than packets of four, with AVX2 ×1.1–1.2 on camera rays and their
+//! reflections (`lrr bench render`, docs/PERFORMANCE.md round 4). Shadow rays stay in packets
+//! of four: an any-hit twin on eight lanes with AVX2 measured no faster.
+//!
+//! Camera rays come in blocks of 4 × 2 pixels (`batch.rs`, `tracer.rs`). Tried and dropped:
+//! the triangles of a leaf tested one at a time against the eight rays in the lanes (fewer
+//! tests when more rays than triangles are active; measured slower).
 
 use super::super::bvh::FAR_SCALE;
 use super::super::bvh::{Hit, Ray};
