@@ -1,8 +1,9 @@
 //! Rays in batches, by kind, for `lrr bench render`: the camera rays of a view, the closest
 //! hits of a batch, the shadow rays from hits to the point lights and the mirror reflections
 //! of hits, each traced on the calling thread: shadow rays by the renderer's any-hit loop,
-//! closest hits four consecutive rays at a time as packets (`bvh4/packet.rs`, as the renderer
-//! traces camera rays; the same answers as ray by ray).
+//! closest hits eight consecutive rays at a time as packets where the CPU has AVX2
+//! (`bvh4/packet8.rs`), else four (`bvh4/packet.rs`), as the renderer traces camera rays; the
+//! same answers as ray by ray.
 
 use super::bvh::{Hit, Ray};
 use super::camera::View;
@@ -80,8 +81,9 @@ pub(crate) fn primary(view: &View, width: u32, height: u32) -> RayBatch {
     batch
 }
 
-/// The closest hit of each ray, four consecutive rays at a time as a packet (neighbouring
-/// camera rays share most of their traversal; the answers are those ray by ray).
+/// The closest hit of each ray, eight consecutive rays at a time as a packet with AVX2, else
+/// four (neighbouring camera rays share most of their traversal; the answers are those ray by
+/// ray).
 pub(crate) fn closest(
     scene: &TraceScene,
     triangle_ids: &[u32],
