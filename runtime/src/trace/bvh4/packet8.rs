@@ -211,7 +211,21 @@ impl Bvh4 {
             #[allow(unsafe_code)]
             return unsafe { self.closest8_avx2::<KZ, OCT>(stack, rays, t_min, t_max) };
         }
+        #[cfg(not(target_arch = "x86_64"))]
         let _ = avx2;
+        self.closest8_portable::<KZ, OCT>(stack, rays, t_min, t_max)
+    }
+
+    /// [`Bvh4::closest8`] for the build's target, a function of its own as its AVX2 twin is
+    /// (not inlined 24 times into `closest_hit8_with`).
+    #[inline(never)]
+    fn closest8_portable<const KZ: usize, const OCT: usize>(
+        &self,
+        stack: &mut [Entry8],
+        rays: &[Ray; 8],
+        t_min: f32,
+        t_max: F8,
+    ) -> [Option<Hit>; 8] {
         self.closest8::<KZ, OCT>(stack, rays, t_min, t_max)
     }
 
