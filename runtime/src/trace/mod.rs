@@ -20,7 +20,7 @@
 //! why); between triangles at the same distance the lower leaf-order index wins. The batch API
 //! ([`Tracer::closest_hits`]) traces eight consecutive rays at a time as a packet where the CPU
 //! has AVX2 (`bvh4/packet8.rs`), four otherwise (`bvh4/packet.rs`; the same answers), the
-//! renderer its camera rays likewise, in blocks of 4 × 2 pixels.
+//! renderer its camera rays likewise.
 //! Tiles of rows
 //! go to std threads; the image does not depend on their number.
 //!

@@ -383,24 +383,25 @@ impl Job<'_> {
         pixels: &mut [[f32; 3]],
         counts: &mut RayCounts,
     ) {
-        // Camera rays eight pixels (blocks of 4 × 2) at a time as a packet where the CPU has
-        // AVX2 (`bvh4/packet8.rs`), else four of a row (`bvh4/packet.rs`): the same hits as
-        // ray by ray.
+        // Camera rays eight pixels at a time as a packet where the CPU has AVX2
+        // (`bvh4/packet8.rs`), else four (`bvh4/packet.rs`): the same hits as ray by ray, up
+        // to the rounding case `bvh4.rs` names, which depends on the order of visits. The
+        // pixels go in the band's order, a packet running on into the next row: blocks of
+        // 4 × 2 pixels (as `batch.rs` orders camera rays) changed one pixel of
+        // `gpu_trace.rs`'s diffuse room against the binary traversal's image, so not here.
         if self.scene.packets_of_eight() {
             let packet = |rays: &[Ray; 8]| self.scene.closest_hit8(rays, 0.0, [f32::INFINITY; 8]);
-            self.camera_packets::<8, 2, HIGHLIGHTS, SECONDARY, SMOOTH>(y0, pixels, counts, packet);
+            self.camera_packets::<8, HIGHLIGHTS, SECONDARY, SMOOTH>(y0, pixels, counts, packet);
         } else {
             let packet = |rays: &[Ray; 4]| self.scene.closest_hit4(rays, 0.0, [f32::INFINITY; 4]);
-            self.camera_packets::<4, 1, HIGHLIGHTS, SECONDARY, SMOOTH>(y0, pixels, counts, packet);
+            self.camera_packets::<4, HIGHLIGHTS, SECONDARY, SMOOTH>(y0, pixels, counts, packet);
         }
     }
 
-    /// [`Self::tile`] with the camera rays of blocks of `N / ROWS` × `ROWS` pixels through
-    /// `packet` (the band's pixels outside whole blocks ray by ray), then each pixel's ray
-    /// tree.
+    /// [`Self::tile`] with the camera rays `N` pixels at a time through `packet`, then each
+    /// pixel's ray tree.
     fn camera_packets<
         const N: usize,
-        const ROWS: usize,
         const HIGHLIGHTS: bool,
         const SECONDARY: bool,
         const SMOOTH: bool,
@@ -417,41 +418,25 @@ impl Job<'_> {
             let (x, y) = ((i % w) as u32, (y0 + i / w) as u32);
             self.view.direction(x, y, self.width, self.height)
         };
-        let cols = N / ROWS;
-        let rows = pixels.len() / w;
-        for r in (0..rows).step_by(ROWS) {
-            for x in (0..w).step_by(cols) {
-                // The block's pixels, row by row, clipped to the band.
-                let index = |j: usize| (r + j / cols) * w + x + j % cols;
-                let whole = r + ROWS <= rows && x + cols <= w;
-                let dirs: [V3; N] = std::array::from_fn(|j| dir(index(if whole { j } else { 0 })));
-                let hits = if whole {
-                    packet(&dirs.map(|d| Ray::new(eye, d)))
-                } else {
-                    [None; N]
-                };
-                for j in 0..N {
-                    if !whole && (r + j / cols >= rows || x + j % cols >= w) {
-                        continue;
-                    }
-                    let (d, hit) = if whole {
-                        (dirs[j], hits[j])
-                    } else {
-                        let d = dir(index(j));
-                        let hit = self
-                            .scene
-                            .closest_hit(&Ray::new(eye, d), 0.0, f32::INFINITY);
-                        (d, hit)
-                    };
-                    pixels[index(j)] = radiance::<HIGHLIGHTS, SECONDARY, SMOOTH>(
-                        self.scene,
-                        &self.frame,
-                        (eye, d),
-                        hit,
-                        self.effects.max_depth,
-                        counts,
-                    );
-                }
+        for (c, chunk) in pixels.chunks_mut(N).enumerate() {
+            let dirs: [V3; N] = std::array::from_fn(|j| dir(N * c + j.min(chunk.len() - 1)));
+            let hits = if chunk.len() == N {
+                packet(&dirs.map(|d| Ray::new(eye, d)))
+            } else {
+                dirs.map(|d| {
+                    self.scene
+                        .closest_hit(&Ray::new(eye, d), 0.0, f32::INFINITY)
+                })
+            };
+            for (j, px) in chunk.iter_mut().enumerate() {
+                *px = radiance::<HIGHLIGHTS, SECONDARY, SMOOTH>(
+                    self.scene,
+                    &self.frame,
+                    (eye, dirs[j]),
+                    hits[j],
+                    self.effects.max_depth,
+                    counts,
+                );
             }
         }
     }
