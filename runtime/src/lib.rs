@@ -12,8 +12,10 @@
 //! and one pass over `F_k` serves all three channels. That pass reads `n·k·4` bytes (f32) or
 //! `n·k·2` (f16, widened on the fly) and is the floor of a frame's cost.
 //!
-//! No third-party dependencies. The only `unsafe` code is the AVX2/FMA/F16C kernel
-//! (`kernel/avx2.rs`), used when the CPU has those features and checked against its safe twin.
+//! No third-party dependencies. The only `unsafe` code on the CPU is the AVX2/FMA/F16C kernel
+//! (`kernel/avx2.rs`) and the tracer's one call of its packet traversal compiled for AVX2
+//! (`trace/bvh4/packet8.rs`), used when the CPU has those features and checked against their
+//! safe twins.
 //!
 //! # Embedding
 //!

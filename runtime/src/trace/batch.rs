@@ -1,8 +1,9 @@
 //! Rays in batches, by kind, for `lrr bench render`: the camera rays of a view, the closest
 //! hits of a batch, the shadow rays from hits to the point lights and the mirror reflections
 //! of hits, each traced on the calling thread: shadow rays by the renderer's any-hit loop,
-//! closest hits four consecutive rays at a time as packets (`bvh4/packet.rs`, as the renderer
-//! traces camera rays; the same answers as ray by ray).
+//! closest hits eight consecutive rays at a time as packets where the CPU has AVX2
+//! (`bvh4/packet8.rs`), else four (`bvh4/packet.rs`), as the renderer traces camera rays; the
+//! same answers as ray by ray.
 
 use super::bvh::{Hit, Ray};
 use super::camera::View;
@@ -49,23 +50,40 @@ pub struct TraceHit {
     pub(crate) leaf: u32,
 }
 
-/// The camera rays of `view` on a `width × height` image, row by row.
+/// The camera rays of `view` on a `width × height` image in blocks of 4 × 2 pixels (the
+/// blocks row by row, each block's top row first; a last odd row or narrow column as single
+/// pixels after the blocks of its rows), so that the packets of eight (and four) rays of
+/// [`closest`] are neighbours in both directions: `lrr bench render` measured primary rays
+/// ×1.1 over whole rows (docs/PERFORMANCE.md, round 4).
 pub(crate) fn primary(view: &View, width: u32, height: u32) -> RayBatch {
     let mut batch = RayBatch::default();
-    for y in 0..height {
-        for x in 0..width {
-            batch.push(
-                view.eye(),
-                view.direction(x, y, width, height),
-                f32::INFINITY,
-            );
+    let mut push = |x: u32, y: u32| {
+        batch.push(
+            view.eye(),
+            view.direction(x, y, width, height),
+            f32::INFINITY,
+        )
+    };
+    for y in (0..height).step_by(2) {
+        let rows = (height - y).min(2);
+        let blocks = if rows == 2 { width / 4 } else { 0 };
+        for x in (0..4 * blocks).step_by(4) {
+            for (dx, dy) in (0..8).map(|j| (j % 4, j / 4)) {
+                push(x + dx, y + dy);
+            }
+        }
+        for dy in 0..rows {
+            for x in 4 * blocks..width {
+                push(x, y + dy);
+            }
         }
     }
     batch
 }
 
-/// The closest hit of each ray, four consecutive rays at a time as a packet (neighbouring
-/// camera rays share most of their traversal; the answers are those ray by ray).
+/// The closest hit of each ray, eight consecutive rays at a time as a packet with AVX2, else
+/// four (neighbouring camera rays share most of their traversal; the answers are those ray by
+/// ray).
 pub(crate) fn closest(
     scene: &TraceScene,
     triangle_ids: &[u32],
@@ -76,11 +94,20 @@ pub(crate) fn closest(
         triangle: triangle_ids[h.tri as usize],
         leaf: h.tri,
     };
-    in_packets(
-        batch,
-        |rays, t_max| scene.closest_hit4(rays, 0.0, t_max).map(|h| h.map(hit)),
-        |ray, t_max| scene.closest_hit(ray, 0.0, t_max).map(hit),
-    )
+    let one = |ray: &Ray, t_max| scene.closest_hit(ray, 0.0, t_max).map(hit);
+    if scene.packets_of_eight() {
+        in_packets(
+            batch,
+            |rays: &[Ray; 8], t_max| scene.closest_hit8(rays, 0.0, t_max).map(|h| h.map(hit)),
+            one,
+        )
+    } else {
+        in_packets(
+            batch,
+            |rays: &[Ray; 4], t_max| scene.closest_hit4(rays, 0.0, t_max).map(|h| h.map(hit)),
+            one,
+        )
+    }
 }
 
 /// Whether each ray is blocked before its far end, four consecutive rays at a time as a
@@ -89,26 +116,26 @@ pub(crate) fn closest(
 pub(crate) fn any(scene: &TraceScene, batch: &RayBatch) -> Vec<bool> {
     in_packets(
         batch,
-        |rays, t_max| scene.occluded4(rays, 0.0, t_max),
+        |rays: &[Ray; 4], t_max| scene.occluded4(rays, 0.0, t_max),
         |ray, t_max| scene.occluded(ray, 0.0, t_max),
     )
 }
 
-/// `four` on each run of four consecutive rays of `batch`, `one` on the rest, in order.
-fn in_packets<T>(
+/// `many` on each run of `N` consecutive rays of `batch`, `one` on the rest, in order.
+fn in_packets<T, const N: usize>(
     batch: &RayBatch,
-    four: impl Fn(&[Ray; 4], [f32; 4]) -> [T; 4],
+    many: impl Fn(&[Ray; N], [f32; N]) -> [T; N],
     one: impl Fn(&Ray, f32) -> T,
 ) -> Vec<T> {
     let ray = |i: usize| Ray::new(batch.origins[i], batch.dirs[i]);
     let mut out = Vec::with_capacity(batch.len());
-    let packets = batch.len() / 4;
+    let packets = batch.len() / N;
     for p in 0..packets {
-        let rays = std::array::from_fn(|j| ray(4 * p + j));
-        let t_max = std::array::from_fn(|j| batch.t_max[4 * p + j]);
-        out.extend(four(&rays, t_max));
+        let rays = std::array::from_fn(|j| ray(N * p + j));
+        let t_max = std::array::from_fn(|j| batch.t_max[N * p + j]);
+        out.extend(many(&rays, t_max));
     }
-    for i in 4 * packets..batch.len() {
+    for i in N * packets..batch.len() {
         out.push(one(&ray(i), batch.t_max[i]));
     }
     out

@@ -2,8 +2,8 @@
 //! children (a conversion, not a build: the same leaves, the same triangles in each), child
 //! boxes and leaf triangles stored as structure of arrays in `[f32; 4]` lanes, so that one node
 //! is four slab tests and one group of triangles four watertight tests, in plain safe code the
-//! compiler turns into SSE (the workspace builds for generic x86-64: no AVX2 at compile time,
-//! no `unsafe`; docs/PERFORMANCE.md has the measurements).
+//! compiler turns into SSE (the workspace builds for generic x86-64: no AVX2 at compile time;
+//! docs/PERFORMANCE.md has the measurements).
 //!
 //! - Nodes: per axis the four children's minima and maxima (`bounds[0][axis]`,
 //!   `bounds[1][axis]`, 128 bytes a node). The traversal is monomorphised on the ray's octant
@@ -12,11 +12,14 @@
 //!   between the two sides (the same values as `bvh.rs`'s `enter`, which takes the `min`/`max`
 //!   of both: the near side of a valid box is never the far one). Unused slots hold an empty
 //!   box (`+∞` minima, `−∞` maxima) that no ray enters.
-//! - Collapse: from each binary node, the inner child with the largest box is opened until
-//!   there are four children or only leaves (as the bake's `visibility/flat.rs` collapses obvhs'
-//!   tree). Every leaf of the file becomes one leaf slot of a wide node. A node reached twice
-//!   (not a tree) or leaves listing more triangles than the file has are refused, so that a
-//!   damaged file cannot make the conversion blow up.
+//! - Collapse (`bvh4/collapse.rs`): which binary inner nodes become wide nodes and which are
+//!   opened into their children is chosen by dynamic programming over the binary tree, the
+//!   least SAH cost of the wide nodes (Ylitie et al. 2017; before: open the child with the
+//!   largest box until there are four, as the bake's `visibility/flat.rs` does, which left
+//!   nodes of 3.1 children against 3.64 now on the dense scene). Every leaf of the file becomes
+//!   one leaf slot of a wide node. A node reached twice (not a tree) or leaves listing more
+//!   triangles than the file has are refused, so that a damaged file cannot make the
+//!   conversion blow up.
 //! - Leaves: each leaf's triangles (a contiguous run of the leaf order) in groups of four lanes
 //!   (a leaf of 1–4 triangles is one group; unused lanes repeat the last triangle and are
 //!   masked off), the 9 coordinates as lanes, tested with the watertight test of `bvh.rs`
@@ -31,6 +34,11 @@
 //!   the visiting order (`trace.wgsl`'s binary traversal breaks ties the same way).
 //! - Any hit (shadow rays): children in slot order, leaves tested at once, the first hit ends
 //!   it.
+//! - Packets (`bvh4/packet.rs`, `bvh4/packet8.rs`): four or eight neighbouring rays through
+//!   the same nodes, a ray per lane, each with this file's single-ray answers. Eight for closest
+//!   hits where the CPU has AVX2: the portable code compiled a second time for it and chosen at
+//!   run time (one `unsafe` call; without AVX2 the eight lanes take two SSE registers and
+//!   measured no faster than four, so packets of four are used there).
 //!
 //! Exactness: the boxes of a tree hold their children's, and the slab test is monotone in the
 //! box (a ray that enters a box enters every box holding it), so a traversal tests the
@@ -46,11 +54,11 @@
 //! several comparisons combined lane by lane, or `min(x, min(y, z))`, are scalarised or
 //! interleaved across axes (checked in the assembly; `lrr bench render` measures the result).
 
-use lrr_formats::BvhNode;
-
 use super::bvh::{FAR_SCALE, Hit, MAX_BVH_DEPTH, Ray};
 
+mod collapse;
 mod packet;
+mod packet8;
 
 /// Four lanes.
 type F4 = [f32; 4];
@@ -268,31 +276,6 @@ pub(crate) enum NotATree {
 }
 
 impl Bvh4 {
-    /// Collapses `nodes` (the file's binary BVH: children after parents, checked by `scene.rs`:
-    /// indices in bounds, at most [`MAX_BVH_DEPTH`] deep) over `tris` (in leaf order).
-    pub(crate) fn new(nodes: &[BvhNode], tris: &[[f32; 9]]) -> Result<Self, NotATree> {
-        let mut b = Collapse {
-            bvh: Bvh4::default(),
-            binary: nodes,
-            tris,
-            seen: vec![false; nodes.len()],
-            triangles: 0,
-        };
-        if nodes.is_empty() {
-            return Ok(b.bvh);
-        }
-        b.seen[0] = true;
-        if nodes[0].count > 0 {
-            // A single leaf: one node whose only child is that leaf.
-            b.bvh.nodes.push(EMPTY_NODE);
-            b.set_child(0, 0, 0)?;
-            b.bvh.stack = 4;
-        } else {
-            b.push(0, 1)?;
-        }
-        Ok(b.bvh)
-    }
-
     /// The nearest triangle `ray` hits in `(t_min, t_max)` (ties: the lower leaf-order index).
     #[inline]
     pub(crate) fn closest_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
@@ -534,104 +517,6 @@ fn octant(ray: &Ray) -> usize {
     (ray.inv[0] < 0.0) as usize
         | ((ray.inv[1] < 0.0) as usize) << 1
         | ((ray.inv[2] < 0.0) as usize) << 2
-}
-
-/// The conversion's state.
-struct Collapse<'a> {
-    bvh: Bvh4,
-    binary: &'a [BvhNode],
-    tris: &'a [[f32; 9]],
-    /// Binary nodes already placed (a node reached twice: not a tree).
-    seen: Vec<bool>,
-    /// Triangles placed in groups so far.
-    triangles: usize,
-}
-
-impl Collapse<'_> {
-    /// Appends the wide node for the binary inner node `index` (at wide depth `depth`) and its
-    /// subtree, depth first; returns its position.
-    fn push(&mut self, index: usize, depth: usize) -> Result<u32, NotATree> {
-        let half_area = |n: &BvhNode| {
-            let d = [0, 1, 2].map(|a| (n.max[a] - n.min[a]).max(0.0));
-            d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
-        };
-        let first = self.binary[index].first as usize;
-        let mut children = vec![first, first + 1];
-        self.mark(first)?;
-        self.mark(first + 1)?;
-        while children.len() < 4 {
-            // Open the inner child with the largest box (the first of equals).
-            let mut widest: Option<(usize, f32)> = None;
-            for (slot, &c) in children.iter().enumerate() {
-                let n = &self.binary[c];
-                if n.count == 0 && widest.is_none_or(|(_, a)| half_area(n) > a) {
-                    widest = Some((slot, half_area(n)));
-                }
-            }
-            let Some((slot, _)) = widest else { break };
-            let c = self.binary[children[slot]].first as usize;
-            self.mark(c)?;
-            self.mark(c + 1)?;
-            children.splice(slot..=slot, [c, c + 1]);
-        }
-        let at = self.bvh.nodes.len();
-        self.bvh.nodes.push(EMPTY_NODE);
-        // A node at `depth` is popped, then pushes up to four: at most 3 · depth + 1 entries.
-        self.bvh.stack = self.bvh.stack.max(3 * depth + 1);
-        for (slot, &c) in children.iter().enumerate() {
-            self.set_child(at, slot, c)?;
-            if self.binary[c].count == 0 {
-                self.bvh.nodes[at].child[slot] = self.push(c, depth + 1)?;
-            }
-        }
-        Ok(at as u32)
-    }
-
-    fn mark(&mut self, c: usize) -> Result<(), NotATree> {
-        if std::mem::replace(&mut self.seen[c], true) {
-            return Err(NotATree::Shared);
-        }
-        Ok(())
-    }
-
-    /// Writes binary node `c`'s box into slot `slot` of wide node `at`, and its triangles as
-    /// groups when it is a leaf.
-    fn set_child(&mut self, at: usize, slot: usize, c: usize) -> Result<(), NotATree> {
-        let n = &self.binary[c];
-        for a in 0..3 {
-            self.bvh.nodes[at].bounds[0][a][slot] = n.min[a];
-            self.bvh.nodes[at].bounds[1][a][slot] = n.max[a];
-        }
-        if n.count == 0 {
-            return Ok(());
-        }
-        let (first, count) = (n.first as usize, n.count as usize);
-        self.triangles += count;
-        if self.triangles > self.tris.len() || self.bvh.groups.len() >= LEAF as usize {
-            return Err(NotATree::TooManyTriangles);
-        }
-        self.bvh.nodes[at].child[slot] = LEAF | self.bvh.groups.len() as u32;
-        for start in (first..first + count).step_by(4) {
-            let lanes = (first + count - start).min(4);
-            let mut group = Group {
-                v: [[0.0; 4]; 9],
-                first: start as u32,
-                info: (1 << lanes) - 1,
-            };
-            for lane in 0..4 {
-                // Unused lanes repeat the last triangle (masked off by `info`).
-                let tri = &self.tris[start + lane.min(lanes - 1)];
-                for (k, v) in tri.iter().enumerate() {
-                    group.v[k][lane] = *v;
-                }
-            }
-            if start + 4 >= first + count {
-                group.info |= LAST;
-            }
-            self.bvh.groups.push(group);
-        }
-        Ok(())
-    }
 }
 
 /// Stack bound of [`MAX_BVH_DEPTH`] binary levels collapsed (never more wide levels than
@@ -978,6 +863,143 @@ mod tests {
         assert!(
             blocked > total / 5 && blocked < total * 4 / 5,
             "{blocked} of {total} rays of the dense soup blocked"
+        );
+    }
+
+    #[test]
+    fn packets_of_eight_rays_answer_as_single_rays_with_and_without_avx2() {
+        // As above, eight rays a packet: the portable build against the single ray, and the
+        // AVX2 build against the portable one bit for bit. Without AVX2 the test fails (the
+        // AVX2 build, the one the tracer runs, would go untested) unless `LRR_SKIP_AVX2=1`
+        // says that is expected, as the kernels' tests do.
+        let avx2 = super::packet8::avx2_available();
+        if !avx2 {
+            assert!(
+                std::env::var_os("LRR_SKIP_AVX2").is_some(),
+                "this CPU lacks AVX2, so the AVX2 packets cannot be tested here: run on an \
+                 x86-64 CPU with it, or set LRR_SKIP_AVX2=1 to check the portable ones alone"
+            );
+            eprintln!("no AVX2 on this CPU (LRR_SKIP_AVX2 is set): portable packets alone");
+        }
+        let bits = |h: [Option<Hit>; 8]| h.map(|h| h.map(|h| (h.t.to_bits(), h.tri)));
+        let mut rng = Rng(0x8a7e);
+        let mut packed = 0;
+        for (count, size) in [(1, 3.0), (5, 2.0), (300, 1.0), (3000, 0.4), (20000, 0.8)] {
+            let tris = soup(&mut rng, count, size);
+            for scene in [
+                Scene::sah(&tris),
+                Scene::median(&tris, 1),
+                Scene::median(&tris, 7),
+            ] {
+                let bvh4 = scene.bvh4();
+                for p in 0..200 {
+                    let o = [0.0; 3].map(|_| rng.unit() * 14.0 - 2.0);
+                    let d = [0.0; 3].map(|_| rng.unit() - 0.5);
+                    let spread = if p % 3 == 0 { 1.0 } else { 0.02 };
+                    let rays: [Ray; 8] = std::array::from_fn(|_| {
+                        Ray::new(o, d.map(|x| x + (rng.unit() - 0.5) * spread))
+                    });
+                    let t_max =
+                        std::array::from_fn(|i| if (p + i) % 5 == 0 { 4.0 } else { f32::INFINITY });
+                    let t_min = if p % 7 == 0 { 1e-4 } else { 0.0 };
+                    let got = bvh4.closest_hit8_with(&rays, t_min, t_max, false);
+                    for (i, (ray, got)) in rays.iter().zip(got).enumerate() {
+                        let want = bvh4.closest_hit(ray, t_min, t_max[i]);
+                        assert_eq!(got, want, "ray {i} of packet {p}: {ray:?}");
+                    }
+                    if avx2 {
+                        let fast = bvh4.closest_hit8_with(&rays, t_min, t_max, true);
+                        assert_eq!(bits(fast), bits(got), "AVX2 against portable, packet {p}");
+                    }
+                    let oct = super::octant(&rays[0]);
+                    packed += rays
+                        .iter()
+                        .all(|r| super::octant(r) == oct && r.kz == rays[0].kz)
+                        as usize;
+                }
+            }
+        }
+        assert!(packed > 1000, "{packed} packets traced together");
+    }
+
+    /// Half the surface area of a box.
+    fn half_area(min: [f32; 3], max: [f32; 3]) -> f64 {
+        let d = [0, 1, 2].map(|a| (max[a] - min[a]).max(0.0) as f64);
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+    }
+
+    /// The SAH cost of the wide nodes of the collapse before the dynamic program (open the
+    /// child with the largest box until there are four), from binary node `i` down.
+    fn greedy_cost(nodes: &[BvhNode], i: usize) -> f64 {
+        let area = |n: &BvhNode| half_area(n.min, n.max);
+        let first = nodes[i].first as usize;
+        let mut children = vec![first, first + 1];
+        while children.len() < 4 {
+            let inner = children
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| nodes[**c].count == 0);
+            let Some((slot, _)) = inner.fold(None, |w: Option<(usize, &usize)>, (s, c)| match w {
+                Some((_, b)) if area(&nodes[*b]) >= area(&nodes[*c]) => w,
+                _ => Some((s, c)),
+            }) else {
+                break;
+            };
+            let c = nodes[children[slot]].first as usize;
+            children.splice(slot..=slot, [c, c + 1]);
+        }
+        let below: f64 = children
+            .iter()
+            .filter(|&&c| nodes[c].count == 0)
+            .map(|&c| greedy_cost(nodes, c))
+            .sum();
+        area(&nodes[i]) + below
+    }
+
+    #[test]
+    fn the_collapse_costs_no_more_than_opening_the_largest_child() {
+        // The dynamic program's wide nodes (their boxes: the union of their slots) against
+        // the greedy collapse's, by the SAH cost both minimise; every triangle in one lane.
+        let mut rng = Rng(0xc011);
+        let mut better = 0;
+        for (count, size) in [(16, 1.0), (300, 1.0), (3000, 0.4), (20000, 0.8)] {
+            let tris = soup(&mut rng, count, size);
+            for scene in [
+                Scene::sah(&tris),
+                Scene::median(&tris, 1),
+                Scene::median(&tris, 3),
+            ] {
+                let bvh4 = scene.bvh4();
+                let cost: f64 = bvh4
+                    .nodes
+                    .iter()
+                    .map(|n| {
+                        let slots = (0..4).filter(|&s| n.bounds[0][0][s].is_finite());
+                        assert!(slots.clone().count() >= 2, "a node of fewer than two slots");
+                        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+                        for s in slots {
+                            for a in 0..3 {
+                                lo[a] = lo[a].min(n.bounds[0][a][s]);
+                                hi[a] = hi[a].max(n.bounds[1][a][s]);
+                            }
+                        }
+                        half_area(lo, hi)
+                    })
+                    .sum();
+                let greedy = greedy_cost(&scene.nodes, 0);
+                assert!(cost <= greedy * (1.0 + 1e-9), "{count}: {cost} > {greedy}");
+                better += (cost < greedy * 0.99) as usize;
+                let lanes: u32 = bvh4
+                    .groups
+                    .iter()
+                    .map(|g| (g.info & 0xf).count_ones())
+                    .sum();
+                assert_eq!(lanes as usize, count);
+            }
+        }
+        assert!(
+            better >= 4,
+            "{better} trees cheaper than the greedy collapse's"
         );
     }
 

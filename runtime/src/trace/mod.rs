@@ -18,8 +18,9 @@
 //! traversal run over the file's BVH collapsed into 4-wide nodes at load (`bvh4.rs`: four boxes
 //! and four triangles per SIMD test) and use the watertight ray/triangle test (`bvh.rs` says
 //! why); between triangles at the same distance the lower leaf-order index wins. The batch API
-//! ([`Tracer::closest_hits`]) traces four consecutive rays at a time as a packet
-//! (`bvh4/packet.rs`, the same answers), the renderer its camera rays four pixels at a time.
+//! ([`Tracer::closest_hits`]) traces eight consecutive rays at a time as a packet where the CPU
+//! has AVX2 (`bvh4/packet8.rs`), four otherwise (`bvh4/packet.rs`; the same answers), the
+//! renderer its camera rays likewise.
 //! Tiles of rows
 //! go to std threads; the image does not depend on their number.
 //!

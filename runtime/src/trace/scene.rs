@@ -178,6 +178,23 @@ impl TraceScene {
         self.bvh4.closest_hit4(rays, t_min, t_max)
     }
 
+    /// [`TraceScene::closest_hit`] of eight rays at once (a packet: `bvh4/packet8.rs`), the
+    /// same answers; for CPUs where [`TraceScene::packets_of_eight`].
+    #[inline(always)]
+    pub(crate) fn closest_hit8(
+        &self,
+        rays: &[Ray; 8],
+        t_min: f32,
+        t_max: [f32; 8],
+    ) -> [Option<Hit>; 8] {
+        self.bvh4.closest_hit8(rays, t_min, t_max)
+    }
+
+    /// Whether closest hits are best traced eight rays at a time on this CPU (AVX2).
+    pub(crate) fn packets_of_eight(&self) -> bool {
+        Bvh4::packets_of_eight()
+    }
+
     /// [`TraceScene::occluded`] of four rays at once (a packet: `bvh4/packet.rs`), the same
     /// answers.
     #[inline(always)]

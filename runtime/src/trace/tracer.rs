@@ -10,7 +10,7 @@ use std::sync::Mutex;
 use lrr_formats::{Camera, OperatorFile, PointLight};
 
 use super::batch::{self, RayBatch, TraceHit};
-use super::bvh::Ray;
+use super::bvh::{Hit, Ray};
 use super::camera::View;
 use super::effects::{self, Decision, Effects, MAX_DEPTH_LIMIT};
 use super::math::{V3, scale};
@@ -123,7 +123,8 @@ impl Tracer {
         self.scene.tris.len()
     }
 
-    /// The camera rays of `view` on a `width × height` image, row by row (benchmarks).
+    /// The camera rays of `view` on a `width × height` image, in blocks of 4 × 2 pixels
+    /// (benchmarks: the order in which [`Tracer::closest_hits`] packs them best).
     pub fn primary_rays(&self, view: &View, width: u32, height: u32) -> RayBatch {
         batch::primary(view, width, height)
     }
@@ -382,19 +383,45 @@ impl Job<'_> {
         pixels: &mut [[f32; 3]],
         counts: &mut RayCounts,
     ) {
+        // Camera rays eight pixels at a time as a packet where the CPU has AVX2
+        // (`bvh4/packet8.rs`), else four (`bvh4/packet.rs`): the same hits as ray by ray, up
+        // to the rounding case `bvh4.rs` names, which depends on the order of visits. The
+        // pixels go in the band's order, a packet running on into the next row: blocks of
+        // 4 × 2 pixels (as `batch.rs` orders camera rays) changed one pixel of
+        // `gpu_trace.rs`'s diffuse room against the binary traversal's image, so not here.
+        if self.scene.packets_of_eight() {
+            let packet = |rays: &[Ray; 8]| self.scene.closest_hit8(rays, 0.0, [f32::INFINITY; 8]);
+            self.camera_packets::<8, HIGHLIGHTS, SECONDARY, SMOOTH>(y0, pixels, counts, packet);
+        } else {
+            let packet = |rays: &[Ray; 4]| self.scene.closest_hit4(rays, 0.0, [f32::INFINITY; 4]);
+            self.camera_packets::<4, HIGHLIGHTS, SECONDARY, SMOOTH>(y0, pixels, counts, packet);
+        }
+    }
+
+    /// [`Self::tile`] with the camera rays `N` pixels at a time through `packet`, then each
+    /// pixel's ray tree.
+    fn camera_packets<
+        const N: usize,
+        const HIGHLIGHTS: bool,
+        const SECONDARY: bool,
+        const SMOOTH: bool,
+    >(
+        &self,
+        y0: usize,
+        pixels: &mut [[f32; 3]],
+        counts: &mut RayCounts,
+        packet: impl Fn(&[Ray; N]) -> [Option<Hit>; N],
+    ) {
         let w = self.width as usize;
         let eye = self.view.eye();
         let dir = |i: usize| {
             let (x, y) = ((i % w) as u32, (y0 + i / w) as u32);
             self.view.direction(x, y, self.width, self.height)
         };
-        // Camera rays four pixels at a time as a packet (`bvh4/packet.rs`: the same hits as ray
-        // by ray), then each pixel's ray tree.
-        for (c, chunk) in pixels.chunks_mut(4).enumerate() {
-            let dirs: [V3; 4] = std::array::from_fn(|j| dir(4 * c + j.min(chunk.len() - 1)));
-            let hits = if chunk.len() == 4 {
-                let rays = dirs.map(|d| Ray::new(eye, d));
-                self.scene.closest_hit4(&rays, 0.0, [f32::INFINITY; 4])
+        for (c, chunk) in pixels.chunks_mut(N).enumerate() {
+            let dirs: [V3; N] = std::array::from_fn(|j| dir(N * c + j.min(chunk.len() - 1)));
+            let hits = if chunk.len() == N {
+                packet(&dirs.map(|d| Ray::new(eye, d)))
             } else {
                 dirs.map(|d| {
                     self.scene

@@ -18,7 +18,8 @@
 //! its time on the control flow per node: `lrr bench render` measured ×1.2 on primary rays
 //! (four neighbouring pixels of a row) and ×1.35 on their mirror reflections, whole frames
 //! ×0.85–0.89 the time (docs/PERFORMANCE.md). Used by the batch API (`batch.rs`) and for the
-//! renderer's camera rays (`tracer.rs`).
+//! renderer's camera rays (`tracer.rs`) on a CPU without AVX2; with it, packets of eight
+//! (`packet8.rs`).
 //!
 //! [`Bvh4::occluded4`] is the any-hit twin for shadow rays: the single-ray `any` traversal's
 //! order (children in slot order, leaves tested as they are met, inner nodes pushed), each
