@@ -64,6 +64,9 @@ pub struct FormFactors<'a> {
     /// Per element id: whether its row must sum to one ([`enclosure::Enclosure::closed`]);
     /// `None` rescales no row.
     pub closed: Option<&'a [bool]>,
+    /// Rays of a partly visible pair, as a multiple of `samples` (`visible::ADAPTIVE_FACTOR`;
+    /// 1 for the cheap first pass of `crate::refine`).
+    pub(crate) adaptive: u32,
     pub(crate) stats: Stats,
 }
 
@@ -74,20 +77,8 @@ impl<'a> FormFactors<'a> {
             samples: samples.max(1),
             occluder,
             closed: None,
+            adaptive: visible::ADAPTIVE_FACTOR,
             stats: Stats::default(),
-        }
-    }
-
-    /// Adds the counters of `other` (a pass over more rows of the same bake) to this one's.
-    pub(crate) fn absorb(&self, other: &FormFactors) {
-        let s = &other.stats;
-        for (mine, theirs) in [
-            (&self.stats.pairs, &s.pairs),
-            (&self.stats.culled_pairs, &s.culled_pairs),
-            (&self.stats.rays, &s.rays),
-            (&self.stats.conserved_rows, &s.conserved_rows),
-        ] {
-            mine.fetch_add(theirs.load(Ordering::Relaxed), Ordering::Relaxed);
         }
     }
 
@@ -169,7 +160,7 @@ impl<'a> FormFactors<'a> {
             *out = 0.0;
             let Some(t) = target.as_single() else {
                 let seed = (u64::from(e_id) << 32) | t_id as u64;
-                match union::multi_part(self.occluder, e, points, target, seed) {
+                match union::multi_part(self.occluder, e, points, target, seed, self.adaptive) {
                     None => culled += 1,
                     Some((f, r, v)) => {
                         *out = f;
@@ -194,7 +185,8 @@ impl<'a> FormFactors<'a> {
                 None => 1.0,
                 Some(occ) => {
                     let seed = (u64::from(e_id) << 32) | t_id as u64;
-                    let (v, r) = visible_fraction(occ, e, Shape::One(t), points, seed);
+                    let (v, r) =
+                        visible_fraction(occ, e, Shape::One(t), points, seed, self.adaptive);
                     rays += r;
                     v
                 }

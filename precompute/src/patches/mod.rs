@@ -44,8 +44,8 @@ pub struct Mesh {
 }
 
 /// Checks the 2MSC parameters and fills in the default `A_min`: `(2h)²` (about 2×2 elements)
-/// at the default threshold and above, shrinking in proportion below it,
-/// `(2h)² · threshold / DEFAULT_THRESHOLD`, so that a smaller threshold keeps splitting down
+/// at thresholds of 1e-4 and above, shrinking in proportion below,
+/// `(2h)² · threshold / FULL_MIN_AREA_THRESHOLD`, so that a smaller threshold keeps splitting down
 /// to single elements (and `k → n`, the exact solve) instead of stopping at the cap.
 pub(crate) fn refinement(
     sizes: MeshSizes,
@@ -58,7 +58,7 @@ pub(crate) fn refinement(
              view vectors, e.g. 0.1), got {threshold}"
         )));
     }
-    let scale = (threshold / coherence::DEFAULT_THRESHOLD).min(1.0);
+    let scale = (threshold / coherence::FULL_MIN_AREA_THRESHOLD).min(1.0);
     let min_patch_area =
         min_patch_area.unwrap_or(4.0 * sizes.element_size * sizes.element_size * scale);
     if !(min_patch_area.is_finite() && min_patch_area >= 0.0) {
