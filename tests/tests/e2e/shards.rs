@@ -90,8 +90,9 @@ fn kill_mid_way(scene: &Path, dir: &Path, index: usize, count: usize, extra: &[&
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    // Header (40 bytes) + two records of 8 rows × 242 patches (24 + 8·242·8 bytes each).
-    let two_blocks = 40 + 2 * (24 + 8 * 242 * 8);
+    // Header (40 bytes) + two records of 8 rows × 333 patches (24 + 8·333·8 bytes each; the
+    // default bake: 2MSC, k = 333).
+    let two_blocks = 40 + 2 * (24 + 8 * 333 * 8);
     let start = Instant::now();
     let mut caught = false;
     while start.elapsed() < Duration::from_secs(120) {
@@ -158,7 +159,8 @@ fn shards_run_by_gnu_parallel_merge_into_the_bytes_of_a_single_bake() {
             assert!((0.85..=1.15).contains(&share), "shard {i}/{count}: {share}");
             assert!(!sub.join(format!("part-{i}.bin.ckpt")).exists());
         }
-        assert_eq!(covered, 2116, "the shards cover every row");
+        // The default bake's refined mesh (n0 = 2116 and 423 new elements).
+        assert_eq!(covered, 2539, "the shards cover every row");
     }
 }
 
