@@ -70,6 +70,8 @@ pub(crate) enum MeshFrom {
     /// Meshing it, then refining where light changes ([`crate::refine::refine_mesh`]).
     Refine {
         budget: f64,
+        /// The bake's samples per pair (the first pass takes at most these).
+        samples: u32,
         max_memory: Option<u64>,
     },
     /// A plan's mesh, made before (refined with this budget, if any).
@@ -77,10 +79,14 @@ pub(crate) enum MeshFrom {
 }
 
 impl MeshFrom {
-    /// Meshing, refined when `refine` is a budget above 0.
-    pub(crate) fn meshing(refine: Option<f64>, max_memory: Option<u64>) -> Self {
-        match refine {
-            Some(budget) if budget > 0.0 => Self::Refine { budget, max_memory },
+    /// Meshing, refined when the settings' `refine` is a budget above 0.
+    pub(crate) fn meshing(settings: &BakeSettings) -> Self {
+        match settings.refine {
+            Some(budget) if budget > 0.0 => Self::Refine {
+                budget,
+                samples: settings.samples,
+                max_memory: settings.max_memory,
+            },
             _ => Self::Build,
         }
     }
@@ -163,7 +169,11 @@ impl<'s> Prepared<'s> {
                 stage.finish();
                 (mesh, None)
             }
-            MeshFrom::Refine { budget, max_memory } => {
+            MeshFrom::Refine {
+                budget,
+                samples,
+                max_memory,
+            } => {
                 let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
                 stage.finish();
                 let mesh = crate::refine::refine_mesh(
@@ -171,6 +181,7 @@ impl<'s> Prepared<'s> {
                     mesh,
                     occluder.as_deref(),
                     budget,
+                    samples,
                     progress,
                     max_memory,
                 )?;
@@ -385,7 +396,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             settings.method,
             settings.visibility,
             progress,
-            MeshFrom::meshing(settings.refine, settings.max_memory),
+            MeshFrom::meshing(settings),
         )?;
         // Before the form factors: bad point lights and cameras are refused early.
         let display = crate::display::build(scene, &prepared.mesh, progress)?;

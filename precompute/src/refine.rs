@@ -5,7 +5,7 @@
 //! bake then integrates `F_k` over the refined mesh like any other.
 //!
 //! 1. *First pass.* `F_k` of the default mesh (`n0` elements) at [`FIRST_PASS_SAMPLES`] per
-//!    pair, one ray each, solved once with the scene's own emission through the low-rank
+//!    pair (or the bake's `--samples` when fewer), one ray each, solved once with the scene's own emission through the low-rank
 //!    operator: `B_P = M_c Vᵀ E_c`, then `B_e = E_e + ρ_e Σ_p F_ep B_p` per channel, averaged
 //!    over the channels. Its cost is about a tenth of the bake's form factors; every shard of
 //!    a sharded bake (or `lrr plan`, once) repeats it and gets the same mesh.
@@ -192,7 +192,8 @@ pub const FIRST_PASS_SAMPLES: u32 = 2;
 pub const REVISION: u32 = 2;
 
 /// The mesh refined where light changes, with a budget of `budget · n0` new elements: a
-/// first pass of [`FIRST_PASS_SAMPLES`] per pair (one ray each) over the mesh's own patches, solved through
+/// first pass of [`FIRST_PASS_SAMPLES`] per pair (one ray each; the bake's `samples` when
+/// fewer) over the mesh's own patches, solved through
 /// the low-rank operator ([`first_pass`]), ranks the elements ([`indicator`], [`select`]).
 /// Deterministic and cheap enough that every shard of a sharded bake (or `lrr plan`, once)
 /// makes the same mesh; the bake then integrates every row of the refined mesh. A budget of
@@ -202,6 +203,7 @@ pub(crate) fn refine_mesh(
     mesh: Mesh,
     occluder: Option<&dyn Occluder>,
     budget: f64,
+    samples: u32,
     progress: &Progress,
     max_memory: Option<u64>,
 ) -> Result<Mesh> {
@@ -220,7 +222,7 @@ pub(crate) fn refine_mesh(
     let polygons: Vec<Polygon> = (0..n0).map(|s| mesh.element_at(s).polygon).collect();
     let targets: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
     let mut fk = vec![0.0; n0 * k];
-    let mut ff = FormFactors::new(FIRST_PASS_SAMPLES, occluder);
+    let mut ff = FormFactors::new(FIRST_PASS_SAMPLES.min(samples), occluder);
     ff.adaptive = 1;
     ff.matrix(&polygons, &mesh.order, &targets, &mut fk, &|i| stage.inc(i));
     let (reflectance, emission) = crate::bake::file_order_materials(scene, &mesh);
@@ -321,7 +323,16 @@ mod tests {
         let run = |threads: usize, budget: f64| {
             crate::pool::with_threads(Some(threads), || {
                 let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
-                refine_mesh(&scene, mesh, Some(&occ), budget, &Progress::hidden(), None).unwrap()
+                refine_mesh(
+                    &scene,
+                    mesh,
+                    Some(&occ),
+                    budget,
+                    16,
+                    &Progress::hidden(),
+                    None,
+                )
+                .unwrap()
             })
             .unwrap()
         };

@@ -137,7 +137,7 @@ pub fn bake_shard(
     check_refine(settings)?;
     crate::pool::with_threads(settings.threads, || {
         let from = match plan {
-            None => MeshFrom::meshing(settings.refine, settings.max_memory),
+            None => MeshFrom::meshing(settings),
             Some(path) => {
                 let stage = progress.stage("read plan", 0);
                 let visibility = visibility_name(scene, settings.visibility);
@@ -238,7 +238,7 @@ pub fn write_plan(
             settings.method,
             settings.visibility,
             progress,
-            MeshFrom::meshing(settings.refine, settings.max_memory),
+            MeshFrom::meshing(settings),
         )?;
         let text = settings_text(sizes, settings, prepared.visibility_name());
         let stage = progress.stage("write", 0);

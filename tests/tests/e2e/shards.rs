@@ -290,6 +290,8 @@ fn a_merge_streams_within_a_memory_cap_smaller_than_f_k() {
     // n = 24576 elements, k = 384 patches: F_k is 75 MB in f64 (as baked), 38 MB in f32 (as
     // stored); the merge gets 35.9 MiB, just under F_k in f32 (the skeleton holds the BVH and
     // the smooth weights too, 3 copies each; compacting them in parts would leave more room).
+    // 2MF (a uniformly lit furnace is one coherent patch per wall to 2MSC), unrefined (it
+    // would split nothing here).
     let extra = [
         "--samples",
         "1",
@@ -297,6 +299,10 @@ fn a_merge_streams_within_a_memory_cap_smaller_than_f_k() {
         "0.02",
         "--patch-size",
         "0.2",
+        "--method",
+        "2mf",
+        "--refine",
+        "0",
     ];
     let single = dir.join("single.lrr");
     bake(&scene, &single, &extra).unwrap();
@@ -382,6 +388,8 @@ fn shards_of_a_2msc_bake_read_one_plan_and_merge_into_the_bytes_of_a_single_bake
         s(&plan),
         "--samples",
         "2",
+        "--method",
+        "2mf",
     ])
     .unwrap_err();
     assert!(
