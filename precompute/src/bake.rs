@@ -270,7 +270,7 @@ impl<'s> Prepared<'s> {
 
     /// Reflectance and emission of each element, in file order.
     pub(crate) fn file_order_materials(&self) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
-        file_order_materials(self.scene, &self.mesh)
+        self.mesh.file_order_materials(self.scene)
     }
 
     /// Channels of the cores: 1 for a grey scene, else 3.
@@ -281,32 +281,8 @@ impl<'s> Prepared<'s> {
     /// Reflectance and emission of each element, in original id order (a textured
     /// material's reflectance averaged over each element: `Scene::reflectance_over`).
     pub fn element_materials(&self) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
-        element_materials(self.scene, &self.mesh)
+        self.mesh.element_materials(self.scene)
     }
-}
-
-/// Reflectance and emission of each element of `mesh`, in original id order (a textured
-/// material's reflectance averaged over each element: `Scene::reflectance_over`).
-fn element_materials(scene: &Scene, mesh: &Mesh) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
-    let lut = crate::scene::texture::linear_lut();
-    mesh.elements
-        .iter()
-        .map(|e| {
-            let m = &scene.materials[scene.faces[e.face as usize].material];
-            let rho = scene.reflectance_over(e.face as usize, &e.polygon, &lut);
-            (rho, m.emission)
-        })
-        .unzip()
-}
-
-/// Reflectance and emission of each element of `mesh`, in file order.
-pub(crate) fn file_order_materials(scene: &Scene, mesh: &Mesh) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
-    let (rho, emission) = element_materials(scene, mesh);
-    let order = &mesh.order;
-    (
-        order.iter().map(|&e| rho[e as usize]).collect(),
-        order.iter().map(|&e| emission[e as usize]).collect(),
-    )
 }
 
 /// What the enclosure test found (`formfactor::enclosure`) and what it changed.

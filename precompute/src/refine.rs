@@ -225,7 +225,7 @@ pub(crate) fn refine_mesh(
     let mut ff = FormFactors::new(FIRST_PASS_SAMPLES.min(samples), occluder);
     ff.adaptive = 1;
     ff.matrix(&polygons, &mesh.order, &targets, &mut fk, &|i| stage.inc(i));
-    let (reflectance, emission) = crate::bake::file_order_materials(scene, &mesh);
+    let (reflectance, emission) = mesh.file_order_materials(scene);
     let channels = if scene.is_grey() { 1 } else { 3 };
     let values = first_pass(&mesh, &fk, &reflectance, &emission, channels)?;
     drop(fk);

@@ -331,6 +331,31 @@ fn inside(e: &Polygon, part: &Polygon) -> bool {
     })
 }
 
+impl Mesh {
+    /// Reflectance and emission of each element, in original id order (a textured material's
+    /// reflectance averaged over each element: `Scene::reflectance_over`).
+    pub(crate) fn element_materials(&self, scene: &Scene) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let lut = crate::scene::texture::linear_lut();
+        self.elements
+            .iter()
+            .map(|e| {
+                let m = &scene.materials[scene.faces[e.face as usize].material];
+                let rho = scene.reflectance_over(e.face as usize, &e.polygon, &lut);
+                (rho, m.emission)
+            })
+            .unzip()
+    }
+
+    /// Reflectance and emission of each element, in file order.
+    pub(crate) fn file_order_materials(&self, scene: &Scene) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let (rho, emission) = self.element_materials(scene);
+        (
+            self.order.iter().map(|&e| rho[e as usize]).collect(),
+            self.order.iter().map(|&e| emission[e as usize]).collect(),
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
