@@ -63,6 +63,21 @@ impl Default for BakeSettings {
     }
 }
 
+/// Which elements' rows must sum to one ([`Enclosure::probe`]). The test runs on the default
+/// backend's structure whatever answers the segments, so every backend rescales the same rows.
+fn enclosure_of(scene: &Scene, occ: &dyn Occluder, mesh: &Mesh) -> Enclosure {
+    let polygons: Vec<Polygon> = mesh.elements.iter().map(|e| e.polygon).collect();
+    let own;
+    let probe = match occ.closest_hit() {
+        Some(o) => o,
+        None => {
+            own = ObvhsOccluder::build(scene);
+            &own as &dyn ClosestHit
+        }
+    };
+    Enclosure::probe(probe, &polygons)
+}
+
 /// Where [`Prepared::with_mesh`] takes its mesh from.
 pub(crate) enum MeshFrom {
     /// Meshing the scene.
@@ -176,38 +191,30 @@ impl<'s> Prepared<'s> {
             } => {
                 let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
                 stage.finish();
-                let mesh = crate::refine::refine_mesh(
-                    scene,
-                    mesh,
-                    occluder.as_deref(),
-                    budget,
+                // The first pass rescales the rows the bake would (a closed scene's rows sum
+                // to one there too: in a furnace its radiosity is uniform and nothing splits).
+                let enclosure = occluder.as_deref().map(|occ| {
+                    let stage = progress.stage("enclosure", 0);
+                    let e = enclosure_of(scene, occ, &mesh);
+                    stage.finish();
+                    e
+                });
+                let first = crate::refine::FirstPass {
+                    occluder: occluder.as_deref(),
+                    closed: enclosure.as_ref().map(|e| e.closed.as_slice()),
                     samples,
-                    progress,
-                    max_memory,
-                )?;
+                };
+                let mesh =
+                    crate::refine::refine_mesh(scene, mesh, &first, budget, progress, max_memory)?;
                 (mesh, Some(budget))
             }
         };
-        let enclosure = match &occluder {
-            None => None,
-            Some(occ) => {
-                let stage = progress.stage("enclosure", 0);
-                let polygons: Vec<Polygon> = mesh.elements.iter().map(|e| e.polygon).collect();
-                // The test runs on the default backend's structure whatever answers the
-                // segments, so every backend rescales the same rows.
-                let own;
-                let probe = match occ.closest_hit() {
-                    Some(o) => o,
-                    None => {
-                        own = ObvhsOccluder::build(scene);
-                        &own as &dyn ClosestHit
-                    }
-                };
-                let e = Enclosure::probe(probe, &polygons);
-                stage.finish();
-                Some(e)
-            }
-        };
+        let enclosure = occluder.as_deref().map(|occ| {
+            let stage = progress.stage("enclosure", 0);
+            let e = enclosure_of(scene, occ, &mesh);
+            stage.finish();
+            e
+        });
         Ok(Self {
             scene,
             sizes,
@@ -222,8 +229,12 @@ impl<'s> Prepared<'s> {
 
     /// A form-factor pass over this mesh with `samples` points per pair and this occluder.
     pub fn form_factors(&self, samples: u32) -> FormFactors<'_> {
-        FormFactors::new(samples, self.occluder.as_deref())
-            .with_enclosure(self.enclosure.as_ref().map(|e| e.closed.as_slice()))
+        let mut ff = FormFactors::new(samples, self.occluder.as_deref())
+            .with_enclosure(self.enclosure.as_ref().map(|e| e.closed.as_slice()));
+        if !self.mesh.siblings.is_empty() {
+            ff.siblings = Some(&self.mesh.siblings);
+        }
+        ff
     }
 
     /// Name of the visibility method used (the file metadata's `visibility`).

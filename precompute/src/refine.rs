@@ -5,7 +5,8 @@
 //! bake then integrates `F_k` over the refined mesh like any other.
 //!
 //! 1. *First pass.* `F_k` of the default mesh (`n0` elements) at [`FIRST_PASS_SAMPLES`] per
-//!    pair (or the bake's `--samples` when fewer), one ray each, solved once with the scene's own emission through the low-rank
+//!    pair (or the bake's `--samples` when fewer), one ray each, the rows of enclosed elements
+//!    rescaled to sum to one as the bake's are (`formfactor::enclosure`), solved once with the scene's own emission through the low-rank
 //!    operator: `B_P = M_c Vᵀ E_c`, then `B_e = E_e + ρ_e Σ_p F_ep B_p` per channel, averaged
 //!    over the channels. Its cost is about a tenth of the bake's form factors; every shard of
 //!    a sharded bake (or `lrr plan`, once) repeats it and gets the same mesh.
@@ -155,20 +156,26 @@ fn children(p: &Polygon) -> usize {
 pub(crate) fn split_marked(mesh: &Mesh, marked: &[bool]) -> (Mesh, Vec<u32>) {
     let mut elements = mesh.elements.clone();
     let mut parents: Vec<u32> = (0..mesh.n() as u32).collect();
+    let mut siblings = vec![1u8; mesh.n()];
     for (id, _) in marked.iter().enumerate().filter(|(_, m)| **m) {
         let parent = mesh.elements[id].clone();
-        let mut kids = subdivide::split(&parent.polygon).into_iter();
+        let kids = subdivide::split(&parent.polygon);
+        let count = u8::try_from(kids.len()).unwrap_or(u8::MAX);
+        let mut kids = kids.into_iter();
         elements[id].polygon = kids.next().expect("a split has children");
+        siblings[id] = count;
         for polygon in kids {
             elements.push(Element {
                 polygon,
                 ..parent.clone()
             });
             parents.push(id as u32);
+            siblings.push(count);
         }
     }
     let refined = Mesh {
         meshing: mesh.meshing.clone(),
+        siblings,
         ..Mesh::from_parts(elements, mesh.patches.clone())
     };
     (refined, parents)
@@ -187,9 +194,21 @@ pub const DEFAULT_BUDGET: f64 = 0.2;
 pub const FIRST_PASS_SAMPLES: u32 = 2;
 
 /// Revision of the refinement rules, part of the checkpoint key (`checkpoint::key`) and of a
-/// sharded bake's settings: 2 is the first pass at [`FIRST_PASS_SAMPLES`] inside the mesh
-/// stage (1 reused the full first pass's rows, unsharded only).
-pub const REVISION: u32 = 2;
+/// sharded bake's settings: 3 is the first pass at [`FIRST_PASS_SAMPLES`] inside the mesh
+/// stage with enclosed rows summing to one (2: without; 1 reused the full first pass's rows,
+/// unsharded only).
+pub const REVISION: u32 = 3;
+
+/// What the first pass integrates with.
+pub(crate) struct FirstPass<'a> {
+    /// `None` when nothing can occlude.
+    pub occluder: Option<&'a dyn Occluder>,
+    /// Per element id of the unrefined mesh: whether its row sums to one (the bake's
+    /// enclosure test, `formfactor::enclosure`).
+    pub closed: Option<&'a [bool]>,
+    /// The bake's samples per pair: the first pass takes at most these.
+    pub samples: u32,
+}
 
 /// The mesh refined where light changes, with a budget of `budget · n0` new elements: a
 /// first pass of [`FIRST_PASS_SAMPLES`] per pair (one ray each; the bake's `samples` when
@@ -201,9 +220,8 @@ pub const REVISION: u32 = 2;
 pub(crate) fn refine_mesh(
     scene: &Scene,
     mesh: Mesh,
-    occluder: Option<&dyn Occluder>,
+    first: &FirstPass,
     budget: f64,
-    samples: u32,
     progress: &Progress,
     max_memory: Option<u64>,
 ) -> Result<Mesh> {
@@ -222,7 +240,8 @@ pub(crate) fn refine_mesh(
     let polygons: Vec<Polygon> = (0..n0).map(|s| mesh.element_at(s).polygon).collect();
     let targets: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
     let mut fk = vec![0.0; n0 * k];
-    let mut ff = FormFactors::new(FIRST_PASS_SAMPLES.min(samples), occluder);
+    let mut ff = FormFactors::new(FIRST_PASS_SAMPLES.min(first.samples), first.occluder)
+        .with_enclosure(first.closed);
     ff.adaptive = 1;
     ff.matrix(&polygons, &mesh.order, &targets, &mut fk, &|i| stage.inc(i));
     let (reflectance, emission) = mesh.file_order_materials(scene);

@@ -67,6 +67,9 @@ pub struct FormFactors<'a> {
     /// Rays of a partly visible pair, as a multiple of `samples` (`visible::ADAPTIVE_FACTOR`;
     /// 1 for the cheap first pass of `crate::refine`).
     pub(crate) adaptive: u32,
+    /// Per element id: the pieces its parent was split into (`Mesh::siblings`); its row takes
+    /// `samples` divided among them. `None`: every row takes `samples`.
+    pub(crate) siblings: Option<&'a [u8]>,
     pub(crate) stats: Stats,
 }
 
@@ -78,8 +81,20 @@ impl<'a> FormFactors<'a> {
             occluder,
             closed: None,
             adaptive: visible::ADAPTIVE_FACTOR,
+            siblings: None,
             stats: Stats::default(),
         }
+    }
+
+    /// Samples per pair of the row of element `id`: `samples`, divided among the pieces of a
+    /// split parent (the same samples per unit area as the unrefined mesh), at least 1.
+    pub(crate) fn row_samples(&self, id: u32) -> u32 {
+        let share = self
+            .siblings
+            .and_then(|s| s.get(id as usize).copied())
+            .unwrap_or(1)
+            .max(1);
+        (self.samples / u32::from(share)).max(1)
     }
 
     /// Occlusion rays cast so far by this pass.
@@ -114,7 +129,7 @@ impl<'a> FormFactors<'a> {
         out.par_chunks_mut(k)
             .enumerate()
             .for_each_init(Vec::new, |points, (i, row)| {
-                quadrature(&rows[i], self.samples, points);
+                quadrature(&rows[i], self.row_samples(row_ids[i]), points);
                 self.row(&rows[i], row_ids[i], points, targets, row);
                 progress(1);
             });

@@ -41,6 +41,10 @@ pub struct Mesh {
     pub(crate) weights: Vec<f64>,
     /// What building the fine mesh found (regions, imprints, angles, stage times).
     pub meshing: MeshReport,
+    /// Per element id: into how many pieces its parent was split by the refinement where
+    /// light changes (`crate::refine`): its row takes that share of the samples per pair, so
+    /// the samples per unit area stay the unrefined mesh's. Empty: nothing split (1 each).
+    pub(crate) siblings: Vec<u8>,
 }
 
 /// Checks the 2MSC parameters and fills in the default `A_min`: `(2h)²` (about 2×2 elements)
@@ -236,6 +240,7 @@ impl Mesh {
             index,
             weights,
             meshing: MeshReport::default(),
+            siblings: Vec::new(),
         }
     }
 
@@ -260,6 +265,12 @@ impl Mesh {
         // Shapes first, so that no check below can index out of bounds (a plan file is read
         // back through this: damaged input must be an error, never a panic).
         let n = self.n();
+        if !(self.siblings.is_empty() || self.siblings.len() == n) {
+            return Err(format!(
+                "{} split counts for {n} elements",
+                self.siblings.len()
+            ));
+        }
         if self.order.len() != n || self.weights.len() != n {
             return Err(format!(
                 "{} file positions and {} weights for {n} elements",
