@@ -20,8 +20,12 @@
 //!    at least [`MIN_JUMP`] and the elements added stay within the budget; each is split once
 //!    in the subdivision hierarchy (quads 2×2 or 1×2, triangles 4-way: `subdivide::split`), so
 //!    `--element-size` stays the upper bound and every child stays inside its patch.
-//! 4. *Ids.* The patches are unchanged; a split element's first child takes the parent's id
-//!    and the other children are appended after `n0` (ids seed the sampling of a row).
+//! 4. *Ids and samples.* The patches are unchanged; a split element's first child takes the
+//!    parent's id and the other children are appended after `n0` (ids seed the sampling of a
+//!    row). A child's row takes half the bake's samples per pair (`Mesh::siblings`,
+//!    `formfactor::MAX_SAMPLE_SHARE`: 8 of 16), so the four children of a 2×2 split cost
+//!    about twice what their parent did instead of four times (Cornell box: smooth p90 4.65%
+//!    against 4.53% with 16 samples per child; bake time in docs/ACCURACY.md).
 //!
 //! Everything runs in file order with sorts keyed by id: the result does not depend on the
 //! thread count.
@@ -195,8 +199,8 @@ pub const FIRST_PASS_SAMPLES: u32 = 2;
 
 /// Revision of the refinement rules, part of the checkpoint key (`checkpoint::key`) and of a
 /// sharded bake's settings: 3 is the first pass at [`FIRST_PASS_SAMPLES`] inside the mesh
-/// stage with enclosed rows summing to one (2: without; 1 reused the full first pass's rows,
-/// unsharded only).
+/// stage with enclosed rows summing to one, children sampled at their share of the samples
+/// (2: without either; 1 reused the full first pass's rows, unsharded only).
 pub const REVISION: u32 = 3;
 
 /// What the first pass integrates with.

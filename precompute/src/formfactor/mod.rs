@@ -55,6 +55,14 @@ impl Stats {
     }
 }
 
+/// The most a split element's samples per pair are divided by for each of its pieces
+/// (`crate::refine`): 2, so a 2×2 split's children take 8 of 16 samples each. Dividing by
+/// all 4 (the unrefined mesh's samples per unit area) was faster still (Cornell box: 1.7× the
+/// former default's bake time, against 1.8× at 2 and 2.1× at 1) but 4 samples were too few
+/// to see a box hide part of a wall-sized patch: in the occluded furnace
+/// (`tests/tests/e2e/furnace.rs`) the worst element went from 5.5e-3 to 9.4e-2.
+pub(crate) const MAX_SAMPLE_SHARE: u8 = 2;
+
 /// What a form-factor pass needs.
 pub struct FormFactors<'a> {
     /// Quadrature points (and visibility samples) per pair.
@@ -87,14 +95,14 @@ impl<'a> FormFactors<'a> {
     }
 
     /// Samples per pair of the row of element `id`: `samples`, divided among the pieces of a
-    /// split parent (the same samples per unit area as the unrefined mesh), at least 1.
+    /// split parent but by at most [`MAX_SAMPLE_SHARE`], at least 1.
     pub(crate) fn row_samples(&self, id: u32) -> u32 {
         let share = self
             .siblings
             .and_then(|s| s.get(id as usize).copied())
             .unwrap_or(1)
             .max(1);
-        (self.samples / u32::from(share)).max(1)
+        (self.samples / u32::from(share.min(MAX_SAMPLE_SHARE))).max(1)
     }
 
     /// Occlusion rays cast so far by this pass.
