@@ -192,9 +192,9 @@ impl<'s> Prepared<'s> {
                 let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
                 stage.finish();
                 // The first pass rescales the rows the bake would (a closed scene's rows sum
-                // to one there too: in a furnace its radiosity is uniform and nothing splits).
+                // to one there too, as far as its few samples let them: docs/MESHING.md).
                 let enclosure = occluder.as_deref().map(|occ| {
-                    let stage = progress.stage("enclosure", 0);
+                    let stage = progress.stage("first pass enclosure", 0);
                     let e = enclosure_of(scene, occ, &mesh);
                     stage.finish();
                     e
