@@ -346,16 +346,12 @@ mod tests {
         let run = |threads: usize, budget: f64| {
             crate::pool::with_threads(Some(threads), || {
                 let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
-                refine_mesh(
-                    &scene,
-                    mesh,
-                    Some(&occ),
-                    budget,
-                    16,
-                    &Progress::hidden(),
-                    None,
-                )
-                .unwrap()
+                let first = FirstPass {
+                    occluder: Some(&occ),
+                    closed: None,
+                    samples: 16,
+                };
+                refine_mesh(&scene, mesh, &first, budget, &Progress::hidden(), None).unwrap()
             })
             .unwrap()
         };
