@@ -90,7 +90,10 @@ pub(crate) enum MeshFrom {
         max_memory: Option<u64>,
     },
     /// A plan's mesh, made before (refined with this budget, if any).
-    Plan { mesh: Mesh, refine: Option<f64> },
+    Plan {
+        mesh: Box<Mesh>,
+        refine: Option<f64>,
+    },
 }
 
 impl MeshFrom {
@@ -177,7 +180,7 @@ impl<'s> Prepared<'s> {
         let (mesh, refine) = match from {
             MeshFrom::Plan { mesh, refine } => {
                 stage.finish();
-                (mesh, refine)
+                (*mesh, refine)
             }
             MeshFrom::Build => {
                 let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;

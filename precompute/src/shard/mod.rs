@@ -146,7 +146,7 @@ pub fn bake_shard(
                 let mesh = plan::read(path, &id)?;
                 stage.finish();
                 MeshFrom::Plan {
-                    mesh,
+                    mesh: Box::new(mesh),
                     refine: refine_budget(settings),
                 }
             }
