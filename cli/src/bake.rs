@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
+use lrr_precompute::refine::DEFAULT_BUDGET;
 use serde::Serialize;
 
 use crate::{MeshArgs, load_scene, summary};
@@ -52,12 +53,13 @@ pub struct BakeArgs {
     /// With --shard: take the meshes from this plan (`lrr plan`) instead of meshing again.
     #[arg(long, value_name = "PLAN", requires = "shard")]
     pub plan: Option<PathBuf>,
-    /// Refine where light changes: solve once on the mesh, split the elements whose radiosity
-    /// jumps most against their neighbours (shadow edges, contact lines), adding at most
-    /// B·n elements (`--refine` alone: 0.5); `--element-size` stays the largest element.
-    /// Not with --shard yet. docs/MESHING.md.
-    #[arg(long, value_name = "B", num_args = 0..=1, default_missing_value = "0.5")]
-    pub refine: Option<f64>,
+    /// Refine where light changes: solve once on the mesh (a cheap first pass), split the
+    /// elements whose radiosity jumps most against their neighbours (shadow edges, contact
+    /// lines), adding at most B·n elements (`--refine` alone: 0.5; `--refine 0`: none);
+    /// `--element-size` stays the largest element. docs/MESHING.md.
+    #[arg(long, value_name = "B", num_args = 0..=1, default_value_t = DEFAULT_BUDGET,
+          default_missing_value = "0.5")]
+    pub refine: f64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -142,12 +144,6 @@ struct Report<'a> {
 
 pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     if let Some(spec) = &a.shard {
-        if a.refine.is_some() {
-            anyhow::bail!(
-                "--refine does not work with --shard yet (the refinement needs a solve of the \
-                 whole mesh first); bake without --shard, or without --refine"
-            );
-        }
         let output = a.output.as_ref().ok_or_else(|| {
             anyhow::anyhow!("--shard needs -o PART (with {{i}} for the shard index)")
         })?;
@@ -159,6 +155,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
             checkpoint_rows: a.checkpoint_rows,
             report: a.report.as_deref(),
             plan: a.plan.as_deref(),
+            refine: Some(a.refine),
         };
         return crate::shard::run(&shard, out);
     }
@@ -169,7 +166,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     stage.finish();
     let output = output_path(a, &scene.bake)?;
     let mut settings = a.mesh.settings_for(&scene)?;
-    settings.refine = a.refine;
+    settings.refine = Some(a.refine);
     let checkpoint_path = checkpoint::path_for(&output);
     if !a.resume && checkpoint_path.exists() {
         eprintln!(

@@ -108,11 +108,11 @@ pub struct MeshArgs {
     pub patch_size: Option<f64>,
     /// How patches are built: `2mf` (uniform cut at the patch size) or `2msc` (adaptive:
     /// split while a patch lacks spatial coherence; `k` is an output) [default: the scene
-    /// description's `[bake] method`, else 2mf].
+    /// description's `[bake] method`, else 2msc].
     #[arg(long, value_name = "METHOD", value_enum)]
     pub method: Option<MethodArg>,
     /// 2MSC: largest estimated error share of a patch (docs/MESHING.md); smaller gives more
-    /// patches [default: `[bake] threshold`, else 1e-4].
+    /// patches [default: `[bake] threshold`, else 3e-5].
     #[arg(long, value_name = "T")]
     pub threshold: Option<f64>,
     /// 2MSC: patches of at most this area (scene units²) are not split further
@@ -205,8 +205,8 @@ impl MeshArgs {
     fn settings_over(&self, d: &BakeDefaults) -> Result<BakeSettings> {
         let method = match (self.method, d.method.as_deref()) {
             (Some(m), _) => m,
-            (None, Some("2msc")) => MethodArg::SpatialCoherence,
-            (None, Some("2mf") | None) => MethodArg::TwoFixed,
+            (None, Some("2msc") | None) => MethodArg::SpatialCoherence,
+            (None, Some("2mf")) => MethodArg::TwoFixed,
             (None, Some(other)) => anyhow::bail!("[bake] method '{other}' is not 2mf or 2msc"),
         };
         let method = match method {

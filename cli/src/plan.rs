@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use anyhow::Result;
 use clap::Args;
+use lrr_precompute::refine::DEFAULT_BUDGET;
 
 use crate::{MeshArgs, load_scene};
 use lrr_precompute::shard::write_plan;
@@ -22,13 +23,20 @@ pub struct PlanArgs {
     /// The shards' mesh flags: a shard refuses a plan made with other flags.
     #[command(flatten)]
     pub mesh: MeshArgs,
+    /// The shards' `--refine` (refinement where light changes is part of the plan's mesh)
+    /// [default: as `lrr bake`'s].
+    #[arg(long, value_name = "B", num_args = 0..=1, default_value_t = DEFAULT_BUDGET,
+          default_missing_value = "0.5")]
+    pub refine: f64,
 }
 
 pub fn run(a: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let start = Instant::now();
     let progress = a.mesh.progress();
     let scene = load_scene(&a.scene)?;
-    let (n, k) = write_plan(&scene, &a.mesh.settings_for(&scene)?, &a.output, &progress)?;
+    let mut settings = a.mesh.settings_for(&scene)?;
+    settings.refine = Some(a.refine);
+    let (n, k) = write_plan(&scene, &settings, &a.output, &progress)?;
     writeln!(
         out,
         "planned {} → {}: n = {n} elements, k = {k} patches ({:.2}s); bake the shards with \

@@ -23,6 +23,8 @@ pub struct ShardArgs<'a> {
     pub report: Option<&'a Path>,
     /// Meshes from `lrr plan`.
     pub plan: Option<&'a Path>,
+    /// `--refine`'s budget.
+    pub refine: Option<f64>,
 }
 
 #[derive(Serialize)]
@@ -56,6 +58,7 @@ pub fn run(a: &ShardArgs, out: &mut dyn Write) -> Result<()> {
     let scene = load_scene(a.scene)?;
     stage.finish();
     let mut settings = a.mesh.settings_for(&scene)?;
+    settings.refine = a.refine;
     settings.checkpoint = Some(CheckpointSettings {
         path: lrr_precompute::checkpoint::path_for(&output),
         resume: true,

@@ -63,6 +63,53 @@ impl Default for BakeSettings {
     }
 }
 
+/// Which elements' rows must sum to one ([`Enclosure::probe`]). The test runs on the default
+/// backend's structure whatever answers the segments, so every backend rescales the same rows.
+fn enclosure_of(scene: &Scene, occ: &dyn Occluder, mesh: &Mesh) -> Enclosure {
+    let polygons: Vec<Polygon> = mesh.elements.iter().map(|e| e.polygon).collect();
+    let own;
+    let probe = match occ.closest_hit() {
+        Some(o) => o,
+        None => {
+            own = ObvhsOccluder::build(scene);
+            &own as &dyn ClosestHit
+        }
+    };
+    Enclosure::probe(probe, &polygons)
+}
+
+/// Where [`Prepared::with_mesh`] takes its mesh from.
+pub(crate) enum MeshFrom {
+    /// Meshing the scene.
+    Build,
+    /// Meshing it, then refining where light changes ([`crate::refine::refine_mesh`]).
+    Refine {
+        budget: f64,
+        /// The bake's samples per pair (the first pass takes at most these).
+        samples: u32,
+        max_memory: Option<u64>,
+    },
+    /// A plan's mesh, made before (refined with this budget, if any).
+    Plan {
+        mesh: Box<Mesh>,
+        refine: Option<f64>,
+    },
+}
+
+impl MeshFrom {
+    /// Meshing, refined when the settings' `refine` is a budget above 0.
+    pub(crate) fn meshing(settings: &BakeSettings) -> Self {
+        match settings.refine {
+            Some(budget) if budget > 0.0 => Self::Refine {
+                budget,
+                samples: settings.samples,
+                max_memory: settings.max_memory,
+            },
+            _ => Self::Build,
+        }
+    }
+}
+
 /// A meshed scene with its visibility structure: what every command that integrates form
 /// factors starts from.
 pub struct Prepared<'s> {
@@ -74,6 +121,8 @@ pub struct Prepared<'s> {
     pub method: PatchMethod,
     /// The fine elements and coarse patches.
     pub mesh: Mesh,
+    /// The budget the mesh was refined with where light changes (`None`: not refined).
+    pub refine: Option<f64>,
     /// The backend asked for; `occluder` is `None` when nothing can occlude.
     pub visibility: Backend,
     /// The occlusion structure; `None` when nothing in the scene can occlude (no rays are cast).
@@ -94,18 +143,19 @@ impl<'s> Prepared<'s> {
         visibility: Backend,
         progress: &Progress,
     ) -> Result<Self> {
-        Self::with_mesh(scene, sizes, method, visibility, progress, None)
+        Self::with_mesh(scene, sizes, method, visibility, progress, MeshFrom::Build)
     }
 
-    /// [`new`](Self::new), with the mesh made before when `mesh` is given (a sharded bake's
-    /// plan, `crate::shard`): then only the BVH is built.
+    /// [`new`](Self::new), with the mesh refined where light changes (`MeshFrom::Refine`,
+    /// [`crate::refine`]) or made before (a sharded bake's plan, `crate::shard`: then only the
+    /// BVH is built).
     pub(crate) fn with_mesh(
         scene: &'s Scene,
         sizes: MeshSizes,
         method: PatchMethod,
         visibility: Backend,
         progress: &Progress,
-        mesh: Option<Mesh>,
+        from: MeshFrom,
     ) -> Result<Self> {
         if !visibility.available() {
             // Refuse before any work, even where no ray would be cast: the flag is wrong here.
@@ -127,36 +177,53 @@ impl<'s> Prepared<'s> {
         };
         stage.finish();
         let stage = progress.stage("mesh", 0);
-        let mesh = match mesh {
-            Some(mesh) => mesh,
-            None => Mesh::build(scene, sizes, method, occluder.as_deref())?,
-        };
-        stage.finish();
-        let enclosure = match &occluder {
-            None => None,
-            Some(occ) => {
-                let stage = progress.stage("enclosure", 0);
-                let polygons: Vec<Polygon> = mesh.elements.iter().map(|e| e.polygon).collect();
-                // The test runs on the default backend's structure whatever answers the
-                // segments, so every backend rescales the same rows.
-                let own;
-                let probe = match occ.closest_hit() {
-                    Some(o) => o,
-                    None => {
-                        own = ObvhsOccluder::build(scene);
-                        &own as &dyn ClosestHit
-                    }
-                };
-                let e = Enclosure::probe(probe, &polygons);
+        let (mesh, refine) = match from {
+            MeshFrom::Plan { mesh, refine } => {
                 stage.finish();
-                Some(e)
+                (*mesh, refine)
+            }
+            MeshFrom::Build => {
+                let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
+                stage.finish();
+                (mesh, None)
+            }
+            MeshFrom::Refine {
+                budget,
+                samples,
+                max_memory,
+            } => {
+                let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
+                stage.finish();
+                // The first pass rescales the rows the bake would (a closed scene's rows sum
+                // to one there too, as far as its few samples let them: docs/MESHING.md).
+                let enclosure = occluder.as_deref().map(|occ| {
+                    let stage = progress.stage("first pass enclosure", 0);
+                    let e = enclosure_of(scene, occ, &mesh);
+                    stage.finish();
+                    e
+                });
+                let first = crate::refine::FirstPass {
+                    occluder: occluder.as_deref(),
+                    closed: enclosure.as_ref().map(|e| e.closed.as_slice()),
+                    samples,
+                };
+                let mesh =
+                    crate::refine::refine_mesh(scene, mesh, &first, budget, progress, max_memory)?;
+                (mesh, Some(budget))
             }
         };
+        let enclosure = occluder.as_deref().map(|occ| {
+            let stage = progress.stage("enclosure", 0);
+            let e = enclosure_of(scene, occ, &mesh);
+            stage.finish();
+            e
+        });
         Ok(Self {
             scene,
             sizes,
             method,
             mesh,
+            refine,
             visibility,
             occluder,
             enclosure,
@@ -165,8 +232,12 @@ impl<'s> Prepared<'s> {
 
     /// A form-factor pass over this mesh with `samples` points per pair and this occluder.
     pub fn form_factors(&self, samples: u32) -> FormFactors<'_> {
-        FormFactors::new(samples, self.occluder.as_deref())
-            .with_enclosure(self.enclosure.as_ref().map(|e| e.closed.as_slice()))
+        let mut ff = FormFactors::new(samples, self.occluder.as_deref())
+            .with_enclosure(self.enclosure.as_ref().map(|e| e.closed.as_slice()));
+        if !self.mesh.siblings.is_empty() {
+            ff.siblings = Some(&self.mesh.siblings);
+        }
+        ff
     }
 
     /// Name of the visibility method used (the file metadata's `visibility`).
@@ -207,17 +278,13 @@ impl<'s> Prepared<'s> {
             n: self.mesh.n(),
             k: self.mesh.k(),
             visibility: self.visibility_name(),
+            refine: self.refine,
         }
     }
 
     /// Reflectance and emission of each element, in file order.
     pub(crate) fn file_order_materials(&self) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
-        let (rho, emission) = self.element_materials();
-        let order = &self.mesh.order;
-        (
-            order.iter().map(|&e| rho[e as usize]).collect(),
-            order.iter().map(|&e| emission[e as usize]).collect(),
-        )
+        self.mesh.file_order_materials(self.scene)
     }
 
     /// Channels of the cores: 1 for a grey scene, else 3.
@@ -228,18 +295,7 @@ impl<'s> Prepared<'s> {
     /// Reflectance and emission of each element, in original id order (a textured
     /// material's reflectance averaged over each element: `Scene::reflectance_over`).
     pub fn element_materials(&self) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
-        let lut = crate::scene::texture::linear_lut();
-        self.mesh
-            .elements
-            .iter()
-            .map(|e| {
-                let m = &self.scene.materials[self.scene.faces[e.face as usize].material];
-                let rho = self
-                    .scene
-                    .reflectance_over(e.face as usize, &e.polygon, &lut);
-                (rho, m.emission)
-            })
-            .unzip()
+        self.mesh.element_materials(self.scene)
     }
 }
 
@@ -324,43 +380,24 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
         crate::refine::check_budget(budget)?;
     }
     crate::pool::with_threads(settings.threads, || {
-        let mut prepared =
-            Prepared::new(scene, sizes, settings.method, settings.visibility, progress)?;
+        let prepared = Prepared::with_mesh(
+            scene,
+            sizes,
+            settings.method,
+            settings.visibility,
+            progress,
+            MeshFrom::meshing(settings),
+        )?;
         // Before the form factors: bad point lights and cameras are refused early.
-        let mut display = crate::display::build(scene, &prepared.mesh, progress)?;
-        // Borrows the occluder and the enclosure alone, so that refinement may replace the mesh.
-        let ff = FormFactors::new(settings.samples, prepared.occluder.as_deref())
-            .with_enclosure(prepared.enclosure.as_ref().map(|e| e.closed.as_slice()));
-        let (mut fk, checkpoint) = prepared.element_patch_matrix(
+        let display = crate::display::build(scene, &prepared.mesh, progress)?;
+        let ff = prepared.form_factors(settings.samples);
+        let (fk, checkpoint) = prepared.element_patch_matrix(
             &ff,
             progress,
             settings.max_memory,
             settings.checkpoint.as_ref(),
         )?;
         let channels = prepared.channels();
-        if let Some(budget) = settings.refine {
-            // Two rounds (half the budget each, the second solving on the first's mesh) were
-            // tried: the same median and p90 on the three reference scenes, a lower max.
-            let (reflectance, emission) = prepared.file_order_materials();
-            let stage = progress.stage("first pass", 0);
-            let values =
-                crate::refine::first_pass(&prepared.mesh, &fk, &reflectance, &emission, channels)?;
-            stage.finish();
-            let refined = crate::refine::refine(
-                scene,
-                &prepared.mesh,
-                &fk,
-                &values,
-                budget,
-                &ff,
-                progress,
-                settings.max_memory,
-            )?;
-            prepared.mesh = refined.mesh;
-            prepared.mesh.meshing.refined = refined.split;
-            fk = refined.fk;
-            display = crate::display::build(scene, &prepared.mesh, progress)?;
-        }
         let (reflectance, emission) = prepared.file_order_materials();
         let stage = progress.stage("operator", 0);
         let cores = build_cores(&OperatorInputs {

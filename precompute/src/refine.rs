@@ -1,12 +1,15 @@
-//! Refinement where light changes (issue #14, `lrr bake --refine B`): the fine mesh split
-//! once more where a first solve on it shows the radiosity jumping between neighbours (shadow
-//! boundaries, contact lines, the bright spots near emitters), under a budget of `B · n0` new
-//! elements.
+//! Refinement where light changes (issue #14, `lrr bake --refine B`, on by default with
+//! [`DEFAULT_BUDGET`]): the fine mesh split once more where a first solve on it shows the
+//! radiosity jumping between neighbours (shadow boundaries, contact lines, the bright spots
+//! near emitters), under a budget of `B · n0` new elements. It is part of the mesh stage: the
+//! bake then integrates `F_k` over the refined mesh like any other.
 //!
-//! 1. *First pass.* The default mesh (`n0` elements) is baked as usual up to `F_k` (the rows a
-//!    bake computes anyway, checkpointed as an unrefined bake's), and solved once with the
-//!    scene's own emission through the low-rank operator: `B_P = M_c Vᵀ E_c`, then
-//!    `B_e = E_e + ρ_e Σ_p F_ep B_p` per channel, averaged over the channels.
+//! 1. *First pass.* `F_k` of the default mesh (`n0` elements) at [`FIRST_PASS_SAMPLES`] per
+//!    pair (or the bake's `--samples` when fewer), one ray each, the rows of enclosed elements
+//!    rescaled to sum to one as the bake's are (`formfactor::enclosure`), solved once with the scene's own emission through the low-rank
+//!    operator: `B_P = M_c Vᵀ E_c`, then `B_e = E_e + ρ_e Σ_p F_ep B_p` per channel, averaged
+//!    over the channels. Its cost is about a tenth of the bake's form factors; every shard of
+//!    a sharded bake (or `lrr plan`, once) repeats it and gets the same mesh.
 //! 2. *Indicator.* The smooth reconstruction's vertices ([`crate::mesh::smooth`]) say which
 //!    elements have a corner at a point of one smooth surface (not across creases or contact
 //!    lines). At
@@ -17,14 +20,20 @@
 //!    at least [`MIN_JUMP`] and the elements added stay within the budget; each is split once
 //!    in the subdivision hierarchy (quads 2×2 or 1×2, triangles 4-way: `subdivide::split`), so
 //!    `--element-size` stays the upper bound and every child stays inside its patch.
-//! 4. *Rows.* The patches are unchanged, so the row of an element that was not split is the
-//!    one the first pass computed: it keeps its id (the sampling seed), a split element's
-//!    first child takes the parent's id and the other children are appended after `n0`. Only
-//!    the children's rows are integrated: `F_k` costs `(n0 + children) · k` rows, and a bake
-//!    that recomputed every row of the refined mesh would write the same bytes.
+//! 4. *Ids and samples.* The patches are unchanged; a split element's first child takes the
+//!    parent's id and the other children are appended after `n0` (ids seed the sampling of a
+//!    row). A child's row takes half the bake's samples per pair (`Mesh::siblings`,
+//!    `formfactor::MAX_SAMPLE_SHARE`: 8 of 16), so the four children of a 2×2 split cost
+//!    about twice what their parent did instead of four times (Cornell box: smooth p90 4.65%
+//!    against 4.53% with 16 samples per child; bake time in docs/ACCURACY.md).
 //!
 //! Everything runs in file order with sorts keyed by id: the result does not depend on the
 //! thread count.
+//!
+//! Tried and replaced: a first pass of the bake's own 16 samples, whose rows the bake then
+//! kept for the elements not split (only the children's rows integrated afterwards). It made
+//! the same mesh quality (Cornell box p90 4.7% against 4.5% now) at about the same total cost,
+//! but the first pass needed every row of `F_k`, which a shard of a sharded bake does not have.
 
 use crate::cores::{OperatorInputs, build_cores};
 use crate::error::{Error, Result};
@@ -35,19 +44,12 @@ use crate::mesh::{Element, MAX_ELEMENTS, smooth, subdivide};
 use crate::patches::Mesh;
 use crate::progress::Progress;
 use crate::scene::Scene;
+use crate::visibility::Occluder;
 
 /// Jumps below this relative size do not refine (a uniformly lit wall stays as it is).
 pub const MIN_JUMP: f64 = 0.1;
 /// `B_floor` as a share of the mean radiosity: below it differences count as noise.
 pub const FLOOR: f64 = 0.05;
-
-/// The refined mesh and its `F_k` (n×k, file order).
-pub(crate) struct Refined {
-    pub mesh: Mesh,
-    pub fk: Vec<f64>,
-    /// Elements split.
-    pub split: usize,
-}
 
 /// The first pass's radiosity per file position (channels averaged): the low-rank solve of
 /// the scene's emission through `F_k`.
@@ -158,44 +160,115 @@ fn children(p: &Polygon) -> usize {
 pub(crate) fn split_marked(mesh: &Mesh, marked: &[bool]) -> (Mesh, Vec<u32>) {
     let mut elements = mesh.elements.clone();
     let mut parents: Vec<u32> = (0..mesh.n() as u32).collect();
+    let mut siblings = vec![1u8; mesh.n()];
     for (id, _) in marked.iter().enumerate().filter(|(_, m)| **m) {
         let parent = mesh.elements[id].clone();
-        let mut kids = subdivide::split(&parent.polygon).into_iter();
+        let kids = subdivide::split(&parent.polygon);
+        let count = u8::try_from(kids.len()).unwrap_or(u8::MAX);
+        let mut kids = kids.into_iter();
         elements[id].polygon = kids.next().expect("a split has children");
+        siblings[id] = count;
         for polygon in kids {
             elements.push(Element {
                 polygon,
                 ..parent.clone()
             });
             parents.push(id as u32);
+            siblings.push(count);
         }
     }
     let refined = Mesh {
         meshing: mesh.meshing.clone(),
+        siblings,
         ..Mesh::from_parts(elements, mesh.patches.clone())
     };
     (refined, parents)
 }
 
-/// Refines the mesh of a first pass (`fk`, its n0×k rows, and the radiosity `values` per
-/// file position) with a budget of `budget · n0` new elements, integrating only the rows of
-/// the new elements.
-#[allow(clippy::too_many_arguments)] // the first pass (mesh, rows, values) and the bake's settings
-pub(crate) fn refine(
+/// `lrr bake`'s default budget: at most `0.2 · n0` new elements (issue #14: with 2MSC at its
+/// default threshold it meets the Cornell box's accuracy goal within 2× the former default
+/// bake's time; docs/ACCURACY.md).
+pub const DEFAULT_BUDGET: f64 = 0.2;
+
+/// Samples per element-patch pair of the first pass, a point pair each, without the adaptive
+/// rays of partly visible pairs: the first pass only ranks elements by how their radiosity
+/// jumps. Measured on the Cornell box (docs/ACCURACY.md, "Refinement where light changes"):
+/// 1 sample ranks worse (p90 5.0%), 2 as well as the bake's 16 (p90 4.5% against 4.7%) at an
+/// eighth of the kernel evaluations and a sixteenth or less of the rays.
+pub const FIRST_PASS_SAMPLES: u32 = 2;
+
+/// Revision of the refinement rules, part of the checkpoint key (`checkpoint::key`) and of a
+/// sharded bake's settings: 3 is the first pass at [`FIRST_PASS_SAMPLES`] inside the mesh
+/// stage with enclosed rows summing to one, children sampled at their share of the samples
+/// (2: without either; 1 reused the full first pass's rows, unsharded only).
+pub const REVISION: u32 = 3;
+
+/// What the first pass integrates with.
+pub(crate) struct FirstPass<'a> {
+    /// `None` when nothing can occlude.
+    pub occluder: Option<&'a dyn Occluder>,
+    /// Per element id of the unrefined mesh: whether its row sums to one (the bake's
+    /// enclosure test, `formfactor::enclosure`).
+    pub closed: Option<&'a [bool]>,
+    /// The bake's samples per pair: the first pass takes at most these.
+    pub samples: u32,
+}
+
+/// The mesh refined where light changes, with a budget of `budget · n0` new elements: a
+/// first pass of [`FIRST_PASS_SAMPLES`] per pair (one ray each; the bake's `samples` when
+/// fewer) over the mesh's own patches, solved through
+/// the low-rank operator ([`first_pass`]), ranks the elements ([`indicator`], [`select`]).
+/// Deterministic and cheap enough that every shard of a sharded bake (or `lrr plan`, once)
+/// makes the same mesh; the bake then integrates every row of the refined mesh. A budget of
+/// 0 returns the mesh unchanged. `meshing.refined` counts the elements split.
+pub(crate) fn refine_mesh(
     scene: &Scene,
-    mesh: &Mesh,
-    fk: &[f64],
-    values: &[f64],
+    mesh: Mesh,
+    first: &FirstPass,
     budget: f64,
-    ff: &FormFactors,
     progress: &Progress,
     max_memory: Option<u64>,
-) -> Result<Refined> {
+) -> Result<Mesh> {
     check_budget(budget)?;
+    if budget == 0.0 {
+        return Ok(mesh);
+    }
+    let (n0, k) = (mesh.n(), mesh.k());
+    memory::check_with(
+        (n0 as u128) * (k as u128) * 8,
+        max_memory,
+        "the first pass of --refine",
+        "use --refine 0, or a larger --element-size or --patch-size",
+    )?;
+    let stage = progress.stage("first pass", n0 as u64);
+    let polygons: Vec<Polygon> = (0..n0).map(|s| mesh.element_at(s).polygon).collect();
+    let targets: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
+    let mut fk = vec![0.0; n0 * k];
+    let mut ff = FormFactors::new(FIRST_PASS_SAMPLES.min(first.samples), first.occluder)
+        .with_enclosure(first.closed);
+    ff.adaptive = 1;
+    ff.matrix(&polygons, &mesh.order, &targets, &mut fk, &|i| stage.inc(i));
+    let (reflectance, emission) = mesh.file_order_materials(scene);
+    let channels = if scene.is_grey() { 1 } else { 3 };
+    let values = first_pass(&mesh, &fk, &reflectance, &emission, channels)?;
+    drop(fk);
+    stage.finish();
+    let (mut refined, split) = refine_by(scene, &mesh, &values, budget)?;
+    refined.meshing.refined = split;
+    Ok(refined)
+}
+
+/// The mesh with the elements that the first pass's radiosity `values` (per file position)
+/// ranks highest split once, within `budget · n0` new elements; and the elements split.
+pub(crate) fn refine_by(
+    scene: &Scene,
+    mesh: &Mesh,
+    values: &[f64],
+    budget: f64,
+) -> Result<(Mesh, usize)> {
     let ind = indicator(scene, mesh, values);
     let marked = select(mesh, &ind, budget);
-    let (refined, parents) = split_marked(mesh, &marked);
-    let (n0, k) = (mesh.n(), mesh.k());
+    let (refined, _) = split_marked(mesh, &marked);
     if refined.n() > MAX_ELEMENTS {
         return Err(Error::Limits(format!(
             "--refine {budget} would make {} elements, more than the limit of {MAX_ELEMENTS}; \
@@ -203,62 +276,7 @@ pub(crate) fn refine(
             refined.n()
         )));
     }
-    memory::check_with(
-        (refined.n() as u128) * (k as u128) * 12,
-        max_memory,
-        "the refined element-to-patch matrix",
-        "use a smaller --refine, or a larger --element-size or --patch-size",
-    )?;
-    let mut position_of = vec![0usize; n0];
-    for (s, &id) in mesh.order.iter().enumerate() {
-        position_of[id as usize] = s;
-    }
-    let fresh: Vec<usize> = (0..refined.n())
-        .filter(|&s| {
-            let id = refined.order[s] as usize;
-            id >= n0 || marked[id]
-        })
-        .collect();
-    let polygons: Vec<Polygon> = fresh
-        .iter()
-        .map(|&s| refined.element_at(s).polygon)
-        .collect();
-    let ids: Vec<u32> = fresh.iter().map(|&s| refined.order[s]).collect();
-    let targets: Vec<Region> = refined.patches.iter().map(|p| p.shape.clone()).collect();
-    let mut rows = vec![0.0; fresh.len() * k];
-    let stage = progress.stage("refined rows", fresh.len() as u64);
-    // A child is enclosed when its parent is (its rows sum to one likewise; the parent's probe
-    // rays were spread over the child's area and its siblings').
-    let closed: Option<Vec<bool>> = ff.closed.map(|c| {
-        parents
-            .iter()
-            .map(|&p| c.get(p as usize).copied().unwrap_or(false))
-            .collect()
-    });
-    let children = FormFactors::new(ff.samples, ff.occluder).with_enclosure(closed.as_deref());
-    children.matrix(&polygons, &ids, &targets, &mut rows, &|i| stage.inc(i));
-    ff.absorb(&children);
-    stage.finish();
-    let mut out = vec![0.0; refined.n() * k];
-    let mut next = fresh.iter().zip(rows.chunks(k.max(1))).peekable();
-    for s in 0..refined.n() {
-        let dst = &mut out[s * k..(s + 1) * k];
-        match next.peek() {
-            Some((f, row)) if **f == s => {
-                dst.copy_from_slice(row);
-                next.next();
-            }
-            _ => {
-                let p = position_of[refined.order[s] as usize];
-                dst.copy_from_slice(&fk[p * k..(p + 1) * k]);
-            }
-        }
-    }
-    Ok(Refined {
-        split: marked.iter().filter(|&&m| m).count(),
-        mesh: refined,
-        fk: out,
-    })
+    Ok((refined, marked.iter().filter(|&&m| m).count()))
 }
 
 /// `--refine` must be a share of n: a finite number ≥ 0.
@@ -280,10 +298,10 @@ mod tests {
     use crate::scene::procedural;
     use std::path::Path;
 
-    /// The rows kept from the first pass and the children's rows are what integrating every
-    /// row of the refined mesh afresh gives, bit for bit (the ids, hence the seeds, are kept).
+    /// A step of the radiosity across the middle of a box splits the elements at the step
+    /// only, within the budget, inside their patches.
     #[test]
-    fn reused_rows_equal_rows_integrated_afresh() {
+    fn a_step_splits_the_elements_beside_it() {
         let scene = procedural::furnace(0.5, 1.0)
             .build("f", Path::new("."))
             .unwrap();
@@ -292,16 +310,6 @@ mod tests {
             patch_size: 0.5,
         };
         let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
-        let ff = FormFactors::new(4, None);
-        let targets: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
-        let rows = |m: &Mesh| {
-            let polygons: Vec<Polygon> = (0..m.n()).map(|s| m.element_at(s).polygon).collect();
-            let mut out = vec![0.0; m.n() * m.k()];
-            ff.matrix(&polygons, &m.order, &targets, &mut out, &|_| {});
-            out
-        };
-        let fk = rows(&mesh);
-        // A step in x across the middle of the box: the elements either side of it jump.
         let xs: Vec<f64> = (0..mesh.n())
             .map(|s| mesh.element_at(s).polygon.centroid().x)
             .collect();
@@ -313,34 +321,52 @@ mod tests {
             .map(|&x| if x > mid { 1.0 } else { 0.1 })
             .collect();
         let budget = 0.25;
-        let refined = refine(
-            &scene,
-            &mesh,
-            &fk,
-            &values,
-            budget,
-            &ff,
-            &Progress::hidden(),
-            None,
-        )
-        .unwrap();
-        assert!(refined.split > 0);
-        assert!(refined.mesh.n() - mesh.n() <= (budget * mesh.n() as f64) as usize);
-        assert_eq!(refined.mesh.k(), mesh.k());
-        refined.mesh.validate().unwrap();
-        assert!(
-            refined.fk == rows(&refined.mesh),
-            "reused rows differ from fresh ones"
-        );
-        // Only elements at the step were split: every child's centroid is within one element
-        // of the middle.
-        for e in &refined.mesh.elements[mesh.n()..] {
+        let (refined, split) = refine_by(&scene, &mesh, &values, budget).unwrap();
+        assert!(split > 0);
+        assert!(refined.n() - mesh.n() <= (budget * mesh.n() as f64) as usize);
+        assert_eq!(refined.k(), mesh.k());
+        refined.validate().unwrap();
+        for e in &refined.elements[mesh.n()..] {
             let x = e.polygon.centroid().x;
             assert!(
                 (x - mid).abs() <= sizes.element_size,
                 "a child at x = {x}, step at {mid}"
             );
         }
+    }
+
+    /// The refined mesh is the same whatever the thread count, and a budget of 0 is the mesh.
+    #[test]
+    fn refinement_is_deterministic() {
+        let scene = procedural::dense_sphere(1)
+            .build("s", Path::new("."))
+            .unwrap();
+        let sizes = MeshSizes::resolve(&scene, None, None).unwrap();
+        let occ = crate::visibility::obvhs::ObvhsOccluder::build(&scene);
+        let run = |threads: usize, budget: f64| {
+            crate::pool::with_threads(Some(threads), || {
+                let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
+                let first = FirstPass {
+                    occluder: Some(&occ),
+                    closed: None,
+                    samples: 16,
+                };
+                refine_mesh(&scene, mesh, &first, budget, &Progress::hidden(), None).unwrap()
+            })
+            .unwrap()
+        };
+        let (one, two) = (run(1, 0.3), run(2, 0.3));
+        assert!(
+            one.meshing.refined > 0,
+            "the sphere's shadow splits elements"
+        );
+        assert_eq!(one.order, two.order);
+        assert_eq!(one.meshing.refined, two.meshing.refined);
+        let polygons =
+            |m: &Mesh| -> Vec<Polygon> { m.elements.iter().map(|e| e.polygon).collect() };
+        assert!(polygons(&one) == polygons(&two));
+        let unrefined = Mesh::two_fixed(&scene, sizes).unwrap();
+        assert_eq!(run(1, 0.0).order, unrefined.order);
     }
 
     #[test]

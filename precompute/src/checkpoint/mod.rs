@@ -37,6 +37,8 @@ pub(crate) struct Identity<'a> {
     pub k: usize,
     /// The visibility backend's name as the file's metadata records it.
     pub visibility: &'a str,
+    /// `--refine`'s budget when the mesh was refined where light changes.
+    pub refine: Option<f64>,
 }
 
 /// The rows `rows` (file positions) of `F_k`: element-to-patch form factors, row-major,
@@ -117,7 +119,8 @@ pub(crate) fn range_key(key: u64, rows: std::ops::Range<usize>) -> u64 {
 }
 
 /// Key of everything `F_k` depends on: the scene's geometry, the mesh sizes and method,
-/// n, k, the samples, the lrr version and the visibility backend.
+/// n, k, the samples, the refinement where light changes, the lrr version and the
+/// visibility backend.
 pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
     let mut geometry = Vec::with_capacity(bake.scene.faces.len() * 4 * 24);
     for f in &bake.scene.faces {
@@ -148,16 +151,28 @@ pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
         ]
         .concat(),
     };
-    file::hash_parts(&[
-        &geometry,
-        &sizes,
-        &counts,
-        &method,
+    // Refined meshes (`crate::refine`): the budget and the rules' revision; nothing for an
+    // unrefined mesh, whose key is as before.
+    let refine = match bake.refine {
+        None => Vec::new(),
+        Some(budget) => [
+            b"refine".to_vec(),
+            budget.to_le_bytes().to_vec(),
+            crate::refine::REVISION.to_le_bytes().to_vec(),
+        ]
+        .concat(),
+    };
+    let mut parts: Vec<&[u8]> = vec![&geometry, &sizes, &counts, &method];
+    if !refine.is_empty() {
+        parts.push(&refine);
+    }
+    parts.extend_from_slice(&[
         env!("CARGO_PKG_VERSION").as_bytes(),
         // Backends agree on all but grazing rays: never mix their rows in one file.
         bake.visibility.as_bytes(),
         // Rows of enclosed elements rescaled to sum to one (formfactor::enclosure); checkpoints
         // of builds before it hold rows as sampled.
-        b"enclosed rows sum to one",
-    ])
+        b"enclosed rows sum to one".as_slice(),
+    ]);
+    file::hash_parts(&parts)
 }

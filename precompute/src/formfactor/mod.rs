@@ -55,6 +55,14 @@ impl Stats {
     }
 }
 
+/// The most a split element's samples per pair are divided by for each of its pieces
+/// (`crate::refine`): 2, so a 2×2 split's children take 8 of 16 samples each. Dividing by
+/// all 4 (the unrefined mesh's samples per unit area) was faster still (Cornell box: 1.7× the
+/// former default's bake time, against 1.8× at 2 and 2.1× at 1) but 4 samples were too few
+/// to see a box hide part of a wall-sized patch: in the occluded furnace
+/// (`tests/tests/e2e/furnace.rs`) the worst element went from 5.5e-3 to 9.4e-2.
+pub(crate) const MAX_SAMPLE_SHARE: u8 = 2;
+
 /// What a form-factor pass needs.
 pub struct FormFactors<'a> {
     /// Quadrature points (and visibility samples) per pair.
@@ -64,6 +72,12 @@ pub struct FormFactors<'a> {
     /// Per element id: whether its row must sum to one ([`enclosure::Enclosure::closed`]);
     /// `None` rescales no row.
     pub closed: Option<&'a [bool]>,
+    /// Rays of a partly visible pair, as a multiple of `samples` (`visible::ADAPTIVE_FACTOR`;
+    /// 1 for the cheap first pass of `crate::refine`).
+    pub(crate) adaptive: u32,
+    /// Per element id: the pieces its parent was split into (`Mesh::siblings`); its row takes
+    /// `samples` divided among them. `None`: every row takes `samples`.
+    pub(crate) siblings: Option<&'a [u8]>,
     pub(crate) stats: Stats,
 }
 
@@ -74,21 +88,21 @@ impl<'a> FormFactors<'a> {
             samples: samples.max(1),
             occluder,
             closed: None,
+            adaptive: visible::ADAPTIVE_FACTOR,
+            siblings: None,
             stats: Stats::default(),
         }
     }
 
-    /// Adds the counters of `other` (a pass over more rows of the same bake) to this one's.
-    pub(crate) fn absorb(&self, other: &FormFactors) {
-        let s = &other.stats;
-        for (mine, theirs) in [
-            (&self.stats.pairs, &s.pairs),
-            (&self.stats.culled_pairs, &s.culled_pairs),
-            (&self.stats.rays, &s.rays),
-            (&self.stats.conserved_rows, &s.conserved_rows),
-        ] {
-            mine.fetch_add(theirs.load(Ordering::Relaxed), Ordering::Relaxed);
-        }
+    /// Samples per pair of the row of element `id`: `samples`, divided among the pieces of a
+    /// split parent but by at most [`MAX_SAMPLE_SHARE`], at least 1.
+    pub(crate) fn row_samples(&self, id: u32) -> u32 {
+        let share = self
+            .siblings
+            .and_then(|s| s.get(id as usize).copied())
+            .unwrap_or(1)
+            .max(1);
+        (self.samples / u32::from(share.min(MAX_SAMPLE_SHARE))).max(1)
     }
 
     /// Occlusion rays cast so far by this pass.
@@ -123,7 +137,7 @@ impl<'a> FormFactors<'a> {
         out.par_chunks_mut(k)
             .enumerate()
             .for_each_init(Vec::new, |points, (i, row)| {
-                quadrature(&rows[i], self.samples, points);
+                quadrature(&rows[i], self.row_samples(row_ids[i]), points);
                 self.row(&rows[i], row_ids[i], points, targets, row);
                 progress(1);
             });
@@ -169,7 +183,7 @@ impl<'a> FormFactors<'a> {
             *out = 0.0;
             let Some(t) = target.as_single() else {
                 let seed = (u64::from(e_id) << 32) | t_id as u64;
-                match union::multi_part(self.occluder, e, points, target, seed) {
+                match union::multi_part(self.occluder, e, points, target, seed, self.adaptive) {
                     None => culled += 1,
                     Some((f, r, v)) => {
                         *out = f;
@@ -194,7 +208,8 @@ impl<'a> FormFactors<'a> {
                 None => 1.0,
                 Some(occ) => {
                     let seed = (u64::from(e_id) << 32) | t_id as u64;
-                    let (v, r) = visible_fraction(occ, e, Shape::One(t), points, seed);
+                    let (v, r) =
+                        visible_fraction(occ, e, Shape::One(t), points, seed, self.adaptive);
                     rays += r;
                     v
                 }

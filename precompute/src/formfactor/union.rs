@@ -32,6 +32,7 @@ pub(super) fn multi_part(
     points: &[Sample],
     target: &Region,
     seed: u64,
+    adaptive: u32,
 ) -> Option<(f64, u64, f64)> {
     let mut unoccluded = 0.0;
     let mut any = false;
@@ -54,7 +55,7 @@ pub(super) fn multi_part(
     let Some(occ) = occluder else {
         return Some((unoccluded, 0, 1.0));
     };
-    let (visible, rays) = visible_fraction(occ, e, Shape::Union(target), points, seed);
+    let (visible, rays) = visible_fraction(occ, e, Shape::Union(target), points, seed, adaptive);
     Some((unoccluded * visible, rays, visible))
 }
 

@@ -19,7 +19,8 @@ pub(crate) fn faces_away(e: &Polygon, t: &Polygon) -> bool {
 }
 
 /// Kernel-weighted fraction of unblocked segments between the element's points and
-/// pair-specific points on the target, and the number of rays cast.
+/// pair-specific points on the target, and the number of rays cast. Partly visible pairs get
+/// `adaptive` times the rays ([`ADAPTIVE_FACTOR`] in a bake; 1: none).
 ///
 /// Each segment is weighted by the point-to-point kernel `cos θx cos θy / r²`, so the ratio
 /// converges to `∫∫ K V / ∫∫ K`, the visibility that multiplies the exact unoccluded factor.
@@ -31,13 +32,14 @@ pub(crate) fn visible_fraction(
     t: Shape<'_>,
     points: &[Sample],
     seed: u64,
+    adaptive: u32,
 ) -> (f64, u64) {
     let mut acc = Visibility::default();
     let first = points.len() as u32;
     acc.cast(occ, e, t, points, seed, 0..first);
-    if acc.visible > 0.0 && acc.visible < acc.total {
+    if adaptive > 1 && acc.visible > 0.0 && acc.visible < acc.total {
         // A shadow boundary crosses the pair: binary visibility is noisy here, so refine.
-        acc.cast(occ, e, t, points, seed, first..first * ADAPTIVE_FACTOR);
+        acc.cast(occ, e, t, points, seed, first..first * adaptive);
     }
     if acc.total <= 0.0 {
         // Every sampled segment was grazing: fall back to one ray between the element's
@@ -53,7 +55,7 @@ pub(crate) fn visible_fraction(
 /// `--samples` rays. Only pairs crossed by a shadow boundary pay for it (measured on the
 /// Cornell box: 16× there cut the surface-level reciprocity error from 0.5% to ~0.1% for
 /// about twice the rays).
-pub(super) const ADAPTIVE_FACTOR: u32 = 16;
+pub(crate) const ADAPTIVE_FACTOR: u32 = 16;
 
 /// Where a target's pair points lie: one polygon ([`pair_point`]), or a union of parts
 /// ([`Region::pair_point`], parts chosen by area).

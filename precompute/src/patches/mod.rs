@@ -41,11 +41,15 @@ pub struct Mesh {
     pub(crate) weights: Vec<f64>,
     /// What building the fine mesh found (regions, imprints, angles, stage times).
     pub meshing: MeshReport,
+    /// Per element id: into how many pieces its parent was split by the refinement where
+    /// light changes (`crate::refine`): its row takes that share of the samples per pair, so
+    /// the samples per unit area stay the unrefined mesh's. Empty: nothing split (1 each).
+    pub(crate) siblings: Vec<u8>,
 }
 
 /// Checks the 2MSC parameters and fills in the default `A_min`: `(2h)²` (about 2×2 elements)
-/// at the default threshold and above, shrinking in proportion below it,
-/// `(2h)² · threshold / DEFAULT_THRESHOLD`, so that a smaller threshold keeps splitting down
+/// at thresholds of 1e-4 and above, shrinking in proportion below,
+/// `(2h)² · threshold / FULL_MIN_AREA_THRESHOLD`, so that a smaller threshold keeps splitting down
 /// to single elements (and `k → n`, the exact solve) instead of stopping at the cap.
 pub(crate) fn refinement(
     sizes: MeshSizes,
@@ -58,7 +62,7 @@ pub(crate) fn refinement(
              view vectors, e.g. 0.1), got {threshold}"
         )));
     }
-    let scale = (threshold / coherence::DEFAULT_THRESHOLD).min(1.0);
+    let scale = (threshold / coherence::FULL_MIN_AREA_THRESHOLD).min(1.0);
     let min_patch_area =
         min_patch_area.unwrap_or(4.0 * sizes.element_size * sizes.element_size * scale);
     if !(min_patch_area.is_finite() && min_patch_area >= 0.0) {
@@ -236,6 +240,7 @@ impl Mesh {
             index,
             weights,
             meshing: MeshReport::default(),
+            siblings: Vec::new(),
         }
     }
 
@@ -260,6 +265,12 @@ impl Mesh {
         // Shapes first, so that no check below can index out of bounds (a plan file is read
         // back through this: damaged input must be an error, never a panic).
         let n = self.n();
+        if !(self.siblings.is_empty() || self.siblings.len() == n) {
+            return Err(format!(
+                "{} split counts for {n} elements",
+                self.siblings.len()
+            ));
+        }
         if self.order.len() != n || self.weights.len() != n {
             return Err(format!(
                 "{} file positions and {} weights for {n} elements",
@@ -329,6 +340,31 @@ fn inside(e: &Polygon, part: &Polygon) -> bool {
                 (b - a).cross(x - a).dot(part.normal) >= -tol * (b - a).length()
             })
     })
+}
+
+impl Mesh {
+    /// Reflectance and emission of each element, in original id order (a textured material's
+    /// reflectance averaged over each element: `Scene::reflectance_over`).
+    pub(crate) fn element_materials(&self, scene: &Scene) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let lut = crate::scene::texture::linear_lut();
+        self.elements
+            .iter()
+            .map(|e| {
+                let m = &scene.materials[scene.faces[e.face as usize].material];
+                let rho = scene.reflectance_over(e.face as usize, &e.polygon, &lut);
+                (rho, m.emission)
+            })
+            .unzip()
+    }
+
+    /// Reflectance and emission of each element, in file order.
+    pub(crate) fn file_order_materials(&self, scene: &Scene) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let (rho, emission) = self.element_materials(scene);
+        (
+            self.order.iter().map(|&e| rho[e as usize]).collect(),
+            self.order.iter().map(|&e| emission[e as usize]).collect(),
+        )
+    }
 }
 
 #[cfg(test)]

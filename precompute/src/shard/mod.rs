@@ -3,7 +3,8 @@
 //! part-i.bin`), and merged into the very bytes a single bake writes (`merge`).
 //!
 //! Form-factor rows are independent (every factor depends only on its element-patch pair),
-//! so a shard needs no other shard. Every shard meshes the scene itself: meshing is
+//! so a shard needs no other shard. Every shard meshes the scene itself (refinement where
+//! light changes included: its first pass, `crate::refine`, is part of the mesh stage): meshing is
 //! deterministic (the same elements, patches and order in every process, whatever the
 //! thread count) and costs a small fraction of a shard's form factors (docs/DISTRIBUTED.md
 //! measures both), so no plan file has to be shipped to the shards. A shard checkpoints its
@@ -29,7 +30,7 @@ use std::path::Path;
 
 use lrr_formats::Xxh64;
 
-use crate::bake::{BakeSettings, Prepared};
+use crate::bake::{BakeSettings, MeshFrom, Prepared};
 use crate::checkpoint::{self, Checkpoint, CheckpointSettings};
 use crate::error::{Error, Result};
 use crate::mesh::MeshSizes;
@@ -132,11 +133,11 @@ pub fn bake_shard(
     if settings.samples == 0 {
         return Err(Error::Settings("--samples must be at least 1".into()));
     }
-    no_refinement(settings)?;
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
+    check_refine(settings)?;
     crate::pool::with_threads(settings.threads, || {
-        let mesh = match plan {
-            None => None,
+        let from = match plan {
+            None => MeshFrom::meshing(settings),
             Some(path) => {
                 let stage = progress.stage("read plan", 0);
                 let visibility = visibility_name(scene, settings.visibility);
@@ -144,7 +145,10 @@ pub fn bake_shard(
                 let id = plan_identity(scene, &text);
                 let mesh = plan::read(path, &id)?;
                 stage.finish();
-                Some(mesh)
+                MeshFrom::Plan {
+                    mesh: Box::new(mesh),
+                    refine: refine_budget(settings),
+                }
             }
         };
         let prepared = Prepared::with_mesh(
@@ -153,7 +157,7 @@ pub fn bake_shard(
             settings.method,
             settings.visibility,
             progress,
-            mesh,
+            from,
         )?;
         let display = crate::display::build(scene, &prepared.mesh, progress)?;
         let stage = progress.stage("cut", 0);
@@ -179,7 +183,7 @@ pub fn bake_shard(
             surfaces: &scene.surfaces,
             channels: prepared.channels(),
             display: &display,
-            refine: None,
+            refine: prepared.refine,
         });
         let skeleton = part::encode_skeleton(&skeleton);
         let header = PartHeader {
@@ -225,10 +229,17 @@ pub fn write_plan(
     output: &Path,
     progress: &Progress,
 ) -> Result<(usize, usize)> {
-    no_refinement(settings)?;
     let sizes = MeshSizes::resolve(scene, settings.element_size, settings.patch_size)?;
+    check_refine(settings)?;
     crate::pool::with_threads(settings.threads, || {
-        let prepared = Prepared::new(scene, sizes, settings.method, settings.visibility, progress)?;
+        let prepared = Prepared::with_mesh(
+            scene,
+            sizes,
+            settings.method,
+            settings.visibility,
+            progress,
+            MeshFrom::meshing(settings),
+        )?;
         let text = settings_text(sizes, settings, prepared.visibility_name());
         let stage = progress.stage("write", 0);
         plan::write(output, &plan_identity(scene, &text), &prepared.mesh)?;
@@ -337,23 +348,29 @@ fn settings_text(sizes: MeshSizes, s: &BakeSettings, visibility: &str) -> String
             min_patch_area,
         } => format!("2msc threshold {threshold:?} min-patch-area {min_patch_area:?}"),
     };
+    // Refinement where light changes: the budget and the rules' revision (absent when the
+    // mesh is not refined, so unrefined plans and parts keep their text).
+    let refine = match refine_budget(s) {
+        Some(b) => format!(", refine {b:?} revision {}", crate::refine::REVISION),
+        None => String::new(),
+    };
     format!(
-        "method {method}, element size {:?}, patch size {:?}, {} samples, visibility {visibility}",
+        "method {method}, element size {:?}, patch size {:?}, {} samples, visibility {visibility}{refine}",
         sizes.element_size, sizes.patch_size, s.samples
     )
 }
 
-/// Sharded bakes and plans do not refine yet: the refinement needs a solve of the whole mesh
-/// (`crate::refine`), which every shard would have to repeat.
-fn no_refinement(settings: &BakeSettings) -> Result<()> {
+/// `--refine`'s budget, refused before any work when it is not a share of n.
+fn check_refine(settings: &BakeSettings) -> Result<()> {
     match settings.refine {
-        Some(_) => Err(Error::Settings(
-            "--refine does not work with sharded bakes yet (it needs a solve of the whole mesh \
-             first); bake without --shard, or without --refine"
-                .into(),
-        )),
+        Some(budget) => crate::refine::check_budget(budget),
         None => Ok(()),
     }
+}
+
+/// The budget a refined mesh records (`None` for none or 0: the unrefined bake).
+fn refine_budget(settings: &BakeSettings) -> Option<f64> {
+    settings.refine.filter(|&b| b > 0.0)
 }
 
 #[cfg(test)]

@@ -335,6 +335,14 @@ pub(crate) fn encode_skeleton(s: &Skeleton) -> Vec<u8> {
     e.f32s(&s.geometry.vertices);
     e.f32s(&s.geometry.normals);
     e.bytes(&s.display.to_container_bytes());
+    match s.refine {
+        None => e.u64(0),
+        Some((budget, split)) => {
+            e.u64(1);
+            e.u64(budget.to_bits());
+            e.u64(split as u64);
+        }
+    }
     e.0
 }
 
@@ -367,7 +375,7 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
         scene_name,
         method,
         refinement,
-        refine: None, // sharded bakes refuse --refine
+        refine: None, // read after the display, below
         element_size,
         patch_size,
         samples,
@@ -391,6 +399,10 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
     let n = skeleton.order.len();
     skeleton.display = Display::from_container_bytes(&d.bytes()?, n as u32)
         .map_err(|e| format!("the display sections: {e}"))?;
+    skeleton.refine = match d.u64()? {
+        0 => None,
+        _ => Some((d.f64()?, d.usize()?)),
+    };
     d.end()?;
     let sizes_agree = [
         skeleton.weights.len(),

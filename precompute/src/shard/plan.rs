@@ -51,6 +51,9 @@ pub(crate) fn write(path: &Path, id: &PlanIdentity, mesh: &Mesh) -> Result<()> {
     e.u64s(mesh.order.iter().map(|&v| u64::from(v)));
     e.u64s(mesh.index.iter().map(|&v| u64::from(v)));
     e.f64s(&mesh.weights);
+    // Elements split where light changes (`crate::refine`): the file's `refined_elements`.
+    e.u64(mesh.meshing.refined as u64);
+    e.bytes(&mesh.siblings);
     let body = e.0;
     let mut bytes = MAGIC.to_vec();
     bytes.extend_from_slice(&(body.len() as u64).to_le_bytes());
@@ -131,15 +134,19 @@ fn mesh(d: &mut Dec) -> Decoded<Mesh> {
             surface: d.u32()?,
         });
     }
-    let mesh = Mesh {
+    let mut mesh = Mesh {
         elements,
         patches,
         order: d.u32s()?,
         index: d.u32s()?,
         weights: d.f64s()?,
-        // Meshing happened in `lrr plan`, which reported it; a plan does not store the report.
+        // Meshing happened in `lrr plan`, which reported it; a plan does not store the report
+        // but for the elements refinement split (the file's metadata).
         meshing: crate::mesh::MeshReport::default(),
+        siblings: Vec::new(),
     };
+    mesh.meshing.refined = d.usize()?;
+    mesh.siblings = d.bytes()?;
     d.end()?;
     if mesh.order.len() != mesh.n() || mesh.weights.len() != mesh.n() {
         return Err("order or weights disagree with the elements".into());

@@ -55,12 +55,19 @@ fn reflectance_one_is_refused_with_an_explanation() {
 /// A closed 4 × 3 × 5 room (ρ = 0.6, radiance 1 everywhere) with `inside` added to its
 /// description, baked with the defaults: the operator and the bake's report.
 fn bake_room(name: &str, inside: &str) -> (Operator, serde_json::Value) {
+    bake_room_with(name, inside, &[])
+}
+
+/// [`bake_room`] with more bake flags.
+fn bake_room_with(name: &str, inside: &str, extra: &[&str]) -> (Operator, serde_json::Value) {
     let dir = temp_dir(name);
     let path = dir.join("room.toml");
     std::fs::write(&path, format!("{ROOM}{inside}")).unwrap();
     let out = dir.join("room.lrr");
     let report = dir.join("report.json");
-    bake(&path, &out, &["--report", report.to_str().unwrap()]).unwrap();
+    let mut flags = vec!["--report", report.to_str().unwrap()];
+    flags.extend_from_slice(extra);
+    bake(&path, &out, &flags).unwrap();
     let report = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     (Operator::load(&out).unwrap(), report)
 }
@@ -79,45 +86,56 @@ const PANEL: &str = "[[surface]]\nname = \"panel\"\nmaterial = \"w\"\n\
 /// enclosed and the bake rescales their rows (`formfactor::enclosure`).
 #[test]
 fn an_occluded_furnace_stays_at_emission_over_one_minus_rho() {
-    let (op, report) = bake_room(
-        "occluded-furnace",
-        "[[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0.8, 0.7, 1.0]\nmax = [1.9, 1.6, 2.2]\n\
-         [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [2.2, 1.2, 2.6]\nmax = [3.3, 2.5, 3.9]\n",
-    );
-    let rays = report["rays"].as_u64().unwrap();
-    assert!(
-        rays > 1_000_000,
-        "the boxes occlude: the bake must cast rays ({rays})"
-    );
-    let enclosure = &report["enclosure"];
-    assert_eq!(enclosure["escaped"], 0, "{enclosure}");
-    assert_eq!(
-        enclosure["closed_elements"].as_u64(),
-        Some(op.n() as u64),
-        "{enclosure}"
-    );
-    let rescaled = enclosure["rows_rescaled"].as_u64().unwrap();
-    assert!(rescaled > op.n() as u64 / 2, "{enclosure}");
-    let expected = std::f64::consts::PI / (1.0 - 0.6);
-    let errors: Vec<f64> = op
-        .evaluate_baked()
-        .iter()
-        .map(|b| (f64::from(b[0]) - expected).abs() / expected)
-        .collect();
-    let worst = errors.iter().copied().fold(0.0, f64::max);
-    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
-    println!(
-        "occluded furnace: n = {}, k = {}, {rescaled} rows rescaled, worst relative error \
-         {worst:.2e}, mean {mean:.2e}",
-        op.n(),
-        op.k()
-    );
-    // Measured 1.04e-7 worst, 4.9e-8 mean (n = 1728, k = 330, 2.1e7 rays, 1632 rows
-    // rescaled): f32 storage. Issue #14 asked for 1e-3 with the default bake.
-    assert!(
-        worst <= 1e-6 && mean <= 2e-7,
-        "worst {worst:.2e}, mean {mean:.2e}"
-    );
+    // Measured with 2MF (the default before issue #14's refinement): 1.04e-7 worst, 4.9e-8 mean
+    // (n = 1728, k = 330, 2.1e7 rays, 1632 rows rescaled): f32 storage. With the default, 2MSC
+    // (k = 30: one patch per wall and box face, the furnace's light being uniform) and
+    // refinement: 5.5e-3 worst, 2.0e-5 mean (n = 2073, 1965 rows rescaled); the worst rows are
+    // those whose samples saw no pair partly visible (nothing to rescale) though a box hides
+    // part of a wall-sized patch. Issue #14 asked for 1e-3 with the default bake: met by the
+    // mean, not by the worst element (docs/ACCURACY.md, "Rows that sum to one").
+    for (extra, worst_bound, mean_bound) in [
+        (&["--method", "2mf"][..], 1e-6, 2e-7),
+        (&[][..], 6.9e-3, 2.5e-5),
+    ] {
+        let (op, report) = bake_room_with(
+            "occluded-furnace",
+            "[[box]]\nname = \"a\"\nmaterial = \"w\"\nmin = [0.8, 0.7, 1.0]\nmax = [1.9, 1.6, 2.2]\n\
+             [[box]]\nname = \"b\"\nmaterial = \"w\"\nmin = [2.2, 1.2, 2.6]\nmax = [3.3, 2.5, 3.9]\n",
+            extra,
+        );
+        let rays = report["rays"].as_u64().unwrap();
+        assert!(
+            rays > 1_000_000,
+            "the boxes occlude: the bake must cast rays ({rays})"
+        );
+        let enclosure = &report["enclosure"];
+        assert_eq!(enclosure["escaped"], 0, "{enclosure}");
+        assert_eq!(
+            enclosure["closed_elements"].as_u64(),
+            Some(op.n() as u64),
+            "{enclosure}"
+        );
+        let rescaled = enclosure["rows_rescaled"].as_u64().unwrap();
+        assert!(rescaled > op.n() as u64 / 2, "{enclosure}");
+        let expected = std::f64::consts::PI / (1.0 - 0.6);
+        let errors: Vec<f64> = op
+            .evaluate_baked()
+            .iter()
+            .map(|b| (f64::from(b[0]) - expected).abs() / expected)
+            .collect();
+        let worst = errors.iter().copied().fold(0.0, f64::max);
+        let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+        println!(
+            "occluded furnace {extra:?}: n = {}, k = {}, {rescaled} rows rescaled, worst \
+             relative error {worst:.2e}, mean {mean:.2e}",
+            op.n(),
+            op.k()
+        );
+        assert!(
+            worst <= worst_bound && mean <= mean_bound,
+            "{extra:?}: worst {worst:.2e}, mean {mean:.2e}"
+        );
+    }
 }
 
 /// The same room with a one-sided panel floating inside, facing the floor: the elements that

@@ -506,7 +506,21 @@ fn room_bakes_like_its_description() {
     let a = dir.join("gltf.lrr");
     let b = dir.join("toml.lrr");
     for (scene, out) in [(&gltf_path, &a), (&desc_path, &b)] {
-        bake(scene, out, &["--element-size", "0.25", "--patch-size", "1"]).unwrap();
+        // Unrefined: the two imports' emissions differ in the last bits (radiance · π / π),
+        // which may reorder elements ranked equal at the refinement's budget.
+        bake(
+            scene,
+            out,
+            &[
+                "--element-size",
+                "0.25",
+                "--patch-size",
+                "1",
+                "--refine",
+                "0",
+            ],
+        )
+        .unwrap();
     }
     let fa = lrr_formats::OperatorFile::read(&a).unwrap();
     let fb = lrr_formats::OperatorFile::read(&b).unwrap();

@@ -154,11 +154,19 @@ fn each_element_takes_the_mean_of_the_texels_it_covers() {
         assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
         assert_eq!(scene.textures.len(), 1);
         let out = dir.join(format!("floor-{component}.lrr"));
-        // Elements of 0.25 on the 2 × 2 floor: one texel each (8 × 8), one block per 4 × 4.
+        // Elements of 0.25 on the 2 × 2 floor: one texel each (8 × 8), one block per 4 × 4
+        // (unrefined: the refinement where light changes would split some).
         bake(
             &path,
             &out,
-            &["--element-size", "0.25", "--patch-size", "1"],
+            &[
+                "--element-size",
+                "0.25",
+                "--patch-size",
+                "1",
+                "--refine",
+                "0",
+            ],
         )
         .unwrap();
         let file = lrr_formats::OperatorFile::read(&out).unwrap();

@@ -1,6 +1,6 @@
 //! Refinement where light changes (`lrr bake --refine`, docs/MESHING.md): smaller elements
 //! along a shadow's penumbra and nowhere else, the budget and `--element-size` respected,
-//! the same bytes whatever the thread count, refused with shards. Its accuracy against the
+//! the same bytes whatever the thread count and in sharded bakes. Its accuracy against the
 //! path tracer is measured in `reference.rs`.
 
 use std::path::PathBuf;
@@ -151,13 +151,72 @@ fn a_zero_budget_is_the_unrefined_bake() {
     assert_eq!(bytes(Some(0.0)), bytes(None));
 }
 
+/// Bad budgets are refused with the flag's name, with and without shards.
 #[test]
-fn refinement_is_refused_clearly() {
+fn bad_budgets_are_refused_clearly() {
     let dir = temp_dir("refine-refused");
-    let out = dir.join("part-{i}.bin");
-    let e =
-        crate::util::bake(&cornell(), &out, &["--shard", "0/2", "--refine", "0.5"]).unwrap_err();
-    assert!(e.contains("--refine does not work with --shard"), "{e}");
-    let e = crate::util::bake(&cornell(), &dir.join("c.lrr"), &["--refine=-1"]).unwrap_err();
+    for extra in [
+        vec!["--refine=-1"],
+        vec!["--refine", "NaN"],
+        vec!["--refine=-1", "--shard", "0/2"],
+    ] {
+        let out = dir.join("part-{i}.bin");
+        let e = crate::util::bake(&cornell(), &out, &extra).unwrap_err();
+        assert!(e.contains("--refine must be"), "{extra:?}: {e}");
+    }
+    let e = crate::util::lrr(&[
+        "plan",
+        cornell().to_str().unwrap(),
+        "-o",
+        dir.join("p.plan").to_str().unwrap(),
+        "--refine=-1",
+    ])
+    .unwrap_err();
     assert!(e.contains("--refine must be"), "{e}");
+}
+
+/// Shards refine as the single bake does (the first pass is part of the mesh stage), with and
+/// without a plan: their merge is the single bake's bytes.
+#[test]
+fn sharded_refined_bakes_merge_into_the_bytes_of_a_single_bake() {
+    let dir = temp_dir("refine-shards");
+    let extra = ["--element-size", "96", "--refine", "0.5"];
+    let single = dir.join("single.lrr");
+    crate::util::bake(&cornell(), &single, &extra).unwrap();
+    let plan = dir.join("p.plan");
+    let scene = cornell();
+    let mut args = vec![
+        "plan",
+        scene.to_str().unwrap(),
+        "-o",
+        plan.to_str().unwrap(),
+        "-q",
+    ];
+    args.extend_from_slice(&extra);
+    crate::util::lrr(&args).unwrap();
+    for with_plan in [false, true] {
+        let mut parts = Vec::new();
+        for i in 0..3 {
+            let part = dir.join(format!("part-{with_plan}-{i}.bin"));
+            let spec = format!("{i}/3");
+            let mut flags = vec!["--shard", spec.as_str()];
+            flags.extend_from_slice(&extra);
+            if with_plan {
+                flags.extend_from_slice(&["--plan", plan.to_str().unwrap()]);
+            }
+            crate::util::bake(&cornell(), &part, &flags).unwrap();
+            parts.push(part);
+        }
+        let merged = dir.join(format!("merged-{with_plan}.lrr"));
+        let mut args = vec!["merge"];
+        args.extend(parts.iter().map(|p| p.to_str().unwrap()));
+        args.extend_from_slice(&["-o", merged.to_str().unwrap(), "-q"]);
+        crate::util::lrr(&args).unwrap();
+        assert!(
+            std::fs::read(&merged).unwrap() == std::fs::read(&single).unwrap(),
+            "plan {with_plan}: the merged refined bake differs from the single one"
+        );
+    }
+    let info = crate::util::lrr(&["info", single.to_str().unwrap()]).unwrap();
+    assert!(info.contains("refine: 0.5"), "{info}");
 }

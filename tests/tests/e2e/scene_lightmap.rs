@@ -93,10 +93,18 @@ fn baked(dir: &Path) -> std::path::PathBuf {
     let scene = dir.join("floor.glb");
     std::fs::write(&scene, lit_floor().glb()).unwrap();
     let out = dir.join("floor.lrr");
+    // Unrefined: the counts below are the uniform grid's.
     bake(
         &scene,
         &out,
-        &["--element-size", "0.2", "--patch-size", "1"],
+        &[
+            "--element-size",
+            "0.2",
+            "--patch-size",
+            "1",
+            "--refine",
+            "0",
+        ],
     )
     .unwrap();
     out

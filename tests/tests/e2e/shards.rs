@@ -90,8 +90,9 @@ fn kill_mid_way(scene: &Path, dir: &Path, index: usize, count: usize, extra: &[&
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    // Header (40 bytes) + two records of 8 rows × 242 patches (24 + 8·242·8 bytes each).
-    let two_blocks = 40 + 2 * (24 + 8 * 242 * 8);
+    // Header (40 bytes) + two records of 8 rows × 333 patches (24 + 8·333·8 bytes each; the
+    // default bake: 2MSC, k = 333).
+    let two_blocks = 40 + 2 * (24 + 8 * 333 * 8);
     let start = Instant::now();
     let mut caught = false;
     while start.elapsed() < Duration::from_secs(120) {
@@ -158,7 +159,8 @@ fn shards_run_by_gnu_parallel_merge_into_the_bytes_of_a_single_bake() {
             assert!((0.85..=1.15).contains(&share), "shard {i}/{count}: {share}");
             assert!(!sub.join(format!("part-{i}.bin.ckpt")).exists());
         }
-        assert_eq!(covered, 2116, "the shards cover every row");
+        // The default bake's refined mesh (n0 = 2116 and 423 new elements).
+        assert_eq!(covered, 2539, "the shards cover every row");
     }
 }
 
@@ -288,6 +290,8 @@ fn a_merge_streams_within_a_memory_cap_smaller_than_f_k() {
     // n = 24576 elements, k = 384 patches: F_k is 75 MB in f64 (as baked), 38 MB in f32 (as
     // stored); the merge gets 35.9 MiB, just under F_k in f32 (the skeleton holds the BVH and
     // the smooth weights too, 3 copies each; compacting them in parts would leave more room).
+    // 2MF (a uniformly lit furnace is one coherent patch per wall to 2MSC), unrefined (it
+    // would split nothing here).
     let extra = [
         "--samples",
         "1",
@@ -295,6 +299,10 @@ fn a_merge_streams_within_a_memory_cap_smaller_than_f_k() {
         "0.02",
         "--patch-size",
         "0.2",
+        "--method",
+        "2mf",
+        "--refine",
+        "0",
     ];
     let single = dir.join("single.lrr");
     bake(&scene, &single, &extra).unwrap();
@@ -380,6 +388,8 @@ fn shards_of_a_2msc_bake_read_one_plan_and_merge_into_the_bytes_of_a_single_bake
         s(&plan),
         "--samples",
         "2",
+        "--method",
+        "2mf",
     ])
     .unwrap_err();
     assert!(

@@ -51,7 +51,11 @@ fn f16_plain_layout_and_light_groups_agree_with_the_default_file() {
 #[test]
 fn an_albedo_edit_equals_a_fresh_bake() {
     let dir = temp_dir("albedo");
-    let original = bake(&dir, "original", &cornell(), &[]);
+    // A mesh that does not depend on the materials: 2MSC's patches and the refinement where
+    // light changes (the default) follow the light, so a fresh bake of the edited scene may mesh
+    // otherwise (measured: 4.0e-3 relative L2 with the default flags); an edit keeps the mesh.
+    let flags = ["--method", "2mf", "--refine", "0"];
+    let original = bake(&dir, "original", &cornell(), &flags);
     // The same scene with a blue right wall and greyer floor.
     let text = std::fs::read_to_string(cornell()).unwrap();
     let edited = text
@@ -66,7 +70,7 @@ fn an_albedo_edit_equals_a_fresh_bake() {
     assert_ne!(edited, text);
     let scene = dir.join("edited.toml");
     std::fs::write(&scene, edited).unwrap();
-    let fresh = bake(&dir, "fresh", &scene, &[]);
+    let fresh = bake(&dir, "fresh", &scene, &flags);
     let mut op = original.clone();
     op.set_reflectance(&fresh.reflectance()).unwrap();
     let (a, b) = (op.evaluate_baked(), fresh.evaluate_baked());
