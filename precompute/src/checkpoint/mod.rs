@@ -170,9 +170,10 @@ pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
         env!("CARGO_PKG_VERSION").as_bytes(),
         // Backends agree on all but grazing rays: never mix their rows in one file.
         bake.visibility.as_bytes(),
-        // Rows of enclosed elements rescaled to sum to one (formfactor::enclosure); checkpoints
-        // of builds before it hold rows as sampled.
-        b"enclosed rows sum to one".as_slice(),
+        // Rows of enclosed elements rescaled to sum to one (formfactor::enclosure), through
+        // the whole row when the partly visible pairs cannot carry it; checkpoints of builds
+        // before either hold other rows.
+        b"enclosed rows sum to one; whole rows when partial pairs cannot".as_slice(),
     ]);
     file::hash_parts(&parts)
 }

@@ -3,8 +3,8 @@
 //! The factors of such an element to all targets sum to exactly one (whatever occludes what);
 //! sampled visibility does not conserve that sum (a closed room with floating boxes was off by
 //! 6.4e-3 in a furnace). [`super::FormFactors::row`] restores it on the rows this marks, by
-//! rescaling the row's partly visible pairs, the only ones that carry sampling noise
-//! (DESIGN.md §4, "Rows that sum to one").
+//! rescaling the row's partly visible pairs, the ones that carry sampling noise, or the whole
+//! row when they cannot carry the deficit (DESIGN.md §4, "Rows that sum to one").
 //!
 //! The test, per element: [`RAYS`] cosine-distributed rays from points spread over the element
 //! ([`ClosestHit::first_hit`]: the default backend's, exact f64 triangle test). An element is enclosed when every

@@ -228,29 +228,41 @@ impl<'a> FormFactors<'a> {
     }
 }
 
-/// Most a closed row's partly visible pairs are scaled by (either way): beyond it the deficit
-/// is not theirs to carry (pairs sampled as fully visible or fully hidden are off), and the
-/// row is left as sampled.
+/// Most a closed row's pairs are scaled by (either way): beyond it the row is left as sampled
+/// (an element that is not really enclosed, or a row too far off to trust either way).
 const MAX_RESCALE: f64 = 2.0;
 
-/// Rescales the partly visible pairs `partial` of a closed element's `row` so that the row
-/// sums to one; the other pairs (unoccluded: exact up to quadrature; hidden) keep their
-/// values. Returns whether it did: not when there is nothing to scale or the factor needed
-/// lies outside `[1 / MAX_RESCALE, MAX_RESCALE]`.
+/// Rescales a closed element's `row` so that it sums to one. First through its partly visible
+/// pairs `partial`, the ones that carry sampling noise; the other pairs (unoccluded: exact up
+/// to quadrature; hidden) keep their values. When there are none, or they would have to
+/// change by more than [`MAX_RESCALE`], the deficit is not theirs: a pair whose samples all
+/// agreed (fully visible or fully hidden) is itself off, typically a large patch that a box
+/// hides in part, missed by every sample. Then the whole row is scaled, so that the energy
+/// the element sends is conserved, spread over its pairs in proportion. Returns whether the
+/// row was rescaled: not when it is empty or needs a factor outside
+/// `[1 / MAX_RESCALE, MAX_RESCALE]` either way.
 fn conserve(row: &mut [f64], partial: &[usize]) -> bool {
+    let in_range =
+        |scale: f64| scale.is_finite() && (1.0 / MAX_RESCALE..=MAX_RESCALE).contains(&scale);
+    let total: f64 = row.iter().sum();
     let noisy: f64 = partial.iter().map(|&j| row[j]).sum();
-    if noisy <= 0.0 {
-        return false;
+    if noisy > 0.0 {
+        let scale = (1.0 - (total - noisy)) / noisy;
+        if in_range(scale) {
+            for &j in partial {
+                row[j] *= scale;
+            }
+            return true;
+        }
     }
-    let sure: f64 = row.iter().sum::<f64>() - noisy;
-    let scale = (1.0 - sure) / noisy;
-    if !(scale.is_finite() && (1.0 / MAX_RESCALE..=MAX_RESCALE).contains(&scale)) {
-        return false;
+    let scale = 1.0 / total;
+    if total > 0.0 && in_range(scale) {
+        for v in row.iter_mut() {
+            *v *= scale;
+        }
+        return true;
     }
-    for &j in partial {
-        row[j] *= scale;
-    }
-    true
+    false
 }
 
 #[cfg(test)]
@@ -298,18 +310,32 @@ mod tests {
     }
 
     #[test]
-    fn rows_that_would_need_a_large_factor_are_left_alone() {
-        // Nothing partly visible: nothing to scale.
-        let mut row = [0.5, 0.3];
-        assert!(!conserve(&mut row, &[]));
-        // The partial pairs would have to grow by 5 (0.1 → 0.5): the deficit is not theirs.
+    fn a_deficit_the_partial_pairs_cannot_carry_is_spread_over_the_row() {
+        let sums_to_one = |row: &[f64]| (row.iter().sum::<f64>() - 1.0).abs() < 1e-15;
+        // Nothing partly visible: the whole row is scaled (0.8 → 1).
+        let mut row = [0.5, 0.3, 0.0];
+        assert!(conserve(&mut row, &[]));
+        assert!(sums_to_one(&row) && (row[0] - 0.625).abs() < 1e-15 && row[2] == 0.0);
+        // The partial pairs would have to grow by 5 (0.1 → 0.5): the whole row instead.
         let mut row = [0.5, 0.1];
-        assert!(!conserve(&mut row, &[1]));
-        assert_eq!(row, [0.5, 0.1]);
-        // Or shrink by more than half.
+        assert!(conserve(&mut row, &[1]));
+        assert!(sums_to_one(&row) && (row[1] / row[0] - 0.2).abs() < 1e-15);
+        // Or shrink by more than half (0.3 → 0.1).
         let mut row = [0.9, 0.3];
-        assert!(!conserve(&mut row, &[1]));
-        assert_eq!(row, [0.9, 0.3]);
+        assert!(conserve(&mut row, &[1]));
+        assert!(sums_to_one(&row) && (row[1] / row[0] - 1.0 / 3.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn rows_that_would_need_a_large_factor_are_left_alone() {
+        // Empty, or summing to less than a half or more than two: not an enclosed row's
+        // sampling error; left as sampled.
+        for row in [[0.0, 0.0], [0.3, 0.1], [1.5, 0.6]] {
+            let mut r = row;
+            assert!(!conserve(&mut r, &[1]));
+            assert!(!conserve(&mut r, &[]));
+            assert_eq!(r, row);
+        }
     }
 
     #[test]
