@@ -174,6 +174,9 @@ pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
         // the whole row when the partly visible pairs cannot carry it; checkpoints of builds
         // before either hold other rows.
         b"enclosed rows sum to one; whole rows when partial pairs cannot".as_slice(),
+        // A pair whose sampled segments all graze falls back to the centroid segment only when
+        // that exchanges light (formfactor::visible); before, it counted a backward one.
+        b"grazing fallback only when the centroid segment exchanges light".as_slice(),
     ]);
     file::hash_parts(&parts)
 }

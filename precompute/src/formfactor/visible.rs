@@ -43,8 +43,18 @@ pub(crate) fn visible_fraction(
     }
     if acc.total <= 0.0 {
         // Every sampled segment was grazing: fall back to one ray between the element's
-        // centroid and that of the (nearest part of the) target.
+        // centroid and that of the (nearest part of the) target, if that segment exchanges
+        // light. If it does not either (the target's centroid behind the element, or the
+        // element behind the target: a large target with only a sliver in front), a ray along
+        // it says nothing about the pair and would pass through whatever wall both stand
+        // against (the own-face rule skips coincident faces): the pair counts as hidden.
+        // Before, such rays let a 2MSC bake leak 1e-5 of the light into a sealed room
+        // behind a concave corner (`tests/tests/hard_cases.rs`).
         let t = t.nearest_part(e.centroid());
+        let d = t.centroid() - e.centroid();
+        if d.dot(e.normal) <= 0.0 || d.dot(t.normal) >= 0.0 {
+            return (0.0, acc.rays);
+        }
         let blocked = occ.occluded(e.centroid(), e.normal, t.centroid(), t.normal);
         return (if blocked { 0.0 } else { 1.0 }, acc.rays + 1);
     }
