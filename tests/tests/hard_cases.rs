@@ -281,7 +281,7 @@ fn concave_corner_does_not_leak() {
         &[
             (&["--method", "2mf"], 1e-6),
             (&["--exact"], 1e-6),
-            (&[], 2e-5),
+            (&[], 1e-6),
         ],
     );
 }
