@@ -808,6 +808,18 @@ mod tests {
         }
     }
 
+    /// Packet `p` of a packet test: `N` rays from one origin, directions a little apart (every
+    /// third packet: in any direction), some ending short, and the packet's `t_min`.
+    fn packet<const N: usize>(rng: &mut Rng, p: usize) -> ([Ray; N], f32, [f32; N]) {
+        let o = [0.0; 3].map(|_| rng.unit() * 14.0 - 2.0);
+        let d = [0.0; 3].map(|_| rng.unit() - 0.5);
+        let spread = if p % 3 == 0 { 1.0 } else { 0.02 };
+        let rays = std::array::from_fn(|_| Ray::new(o, d.map(|x| x + (rng.unit() - 0.5) * spread)));
+        let t_max = std::array::from_fn(|i| if (p + i) % 5 == 0 { 4.0 } else { f32::INFINITY });
+        let t_min = if p % 7 == 0 { 1e-4 } else { 0.0 };
+        (rays, t_min, t_max)
+    }
+
     #[test]
     fn packets_of_four_rays_answer_as_single_rays() {
         // Packets of nearby rays (one origin, directions a little apart: mostly one octant, so
@@ -824,15 +836,7 @@ mod tests {
             ] {
                 let bvh4 = scene.bvh4();
                 for p in 0..300 {
-                    let o = [0.0; 3].map(|_| rng.unit() * 14.0 - 2.0);
-                    let d = [0.0; 3].map(|_| rng.unit() - 0.5);
-                    let spread = if p % 3 == 0 { 1.0 } else { 0.02 };
-                    let rays: [Ray; 4] = std::array::from_fn(|_| {
-                        Ray::new(o, d.map(|x| x + (rng.unit() - 0.5) * spread))
-                    });
-                    let t_max =
-                        std::array::from_fn(|i| if (p + i) % 5 == 0 { 4.0 } else { f32::INFINITY });
-                    let t_min = if p % 7 == 0 { 1e-4 } else { 0.0 };
+                    let (rays, t_min, t_max) = packet::<4>(&mut rng, p);
                     let got = bvh4.closest_hit4(&rays, t_min, t_max);
                     for (i, (ray, got)) in rays.iter().zip(got).enumerate() {
                         let want = bvh4.closest_hit(ray, t_min, t_max[i]);
@@ -893,15 +897,7 @@ mod tests {
             ] {
                 let bvh4 = scene.bvh4();
                 for p in 0..200 {
-                    let o = [0.0; 3].map(|_| rng.unit() * 14.0 - 2.0);
-                    let d = [0.0; 3].map(|_| rng.unit() - 0.5);
-                    let spread = if p % 3 == 0 { 1.0 } else { 0.02 };
-                    let rays: [Ray; 8] = std::array::from_fn(|_| {
-                        Ray::new(o, d.map(|x| x + (rng.unit() - 0.5) * spread))
-                    });
-                    let t_max =
-                        std::array::from_fn(|i| if (p + i) % 5 == 0 { 4.0 } else { f32::INFINITY });
-                    let t_min = if p % 7 == 0 { 1e-4 } else { 0.0 };
+                    let (rays, t_min, t_max) = packet::<8>(&mut rng, p);
                     let got = bvh4.closest_hit8_with(&rays, t_min, t_max, false);
                     for (i, (ray, got)) in rays.iter().zip(got).enumerate() {
                         let want = bvh4.closest_hit(ray, t_min, t_max[i]);
