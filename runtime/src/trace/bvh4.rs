@@ -813,10 +813,16 @@ mod tests {
     fn packet<const N: usize>(rng: &mut Rng, p: usize) -> ([Ray; N], f32, [f32; N]) {
         let o = [0.0; 3].map(|_| rng.unit() * 14.0 - 2.0);
         let d = [0.0; 3].map(|_| rng.unit() - 0.5);
-        let spread = if p % 3 == 0 { 1.0 } else { 0.02 };
+        let spread = if p.is_multiple_of(3) { 1.0 } else { 0.02 };
         let rays = std::array::from_fn(|_| Ray::new(o, d.map(|x| x + (rng.unit() - 0.5) * spread)));
-        let t_max = std::array::from_fn(|i| if (p + i) % 5 == 0 { 4.0 } else { f32::INFINITY });
-        let t_min = if p % 7 == 0 { 1e-4 } else { 0.0 };
+        let t_max = std::array::from_fn(|i| {
+            if (p + i).is_multiple_of(5) {
+                4.0
+            } else {
+                f32::INFINITY
+            }
+        });
+        let t_min = if p.is_multiple_of(7) { 1e-4 } else { 0.0 };
         (rays, t_min, t_max)
     }
 
