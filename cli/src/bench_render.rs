@@ -18,8 +18,8 @@ use lrr_runtime::trace::{Effects, Lighting, RayBatch, TraceHit, Tracer, View};
 #[derive(Debug, Args)]
 pub struct RenderBench {
     /// Operator file with a BVH and a camera [default: the generated dense scene: the dense
-    /// sphere (subdivision 6) in its room, every triangle split in 4 (328 k triangles), BVH by
-    /// the testkit's binned SAH builder, two point lights].
+    /// sphere (subdivision 6) in its room, every triangle split in 4 (328 k triangles), two
+    /// point lights, the BVH `--tree` builds].
     #[arg(long, value_name = "FILE.lrr")]
     pub file: Option<PathBuf>,
     /// Image size.
@@ -37,6 +37,29 @@ pub struct RenderBench {
     /// frame checked against the CPU twin per pixel.
     #[arg(long, value_enum, default_value_t = crate::render::TraceDevice::Cpu)]
     pub device: crate::render::TraceDevice,
+    /// The generated dense scene's BVH: `bake` the tree a bake stores (what users trace),
+    /// `testkit` the runtime testkit's simple binned SAH builder.
+    #[arg(long, value_enum, default_value_t = Tree::Bake)]
+    pub tree: Tree,
+    /// Embree's build quality (`rtcSetSceneBuildQuality`): `high` builds with spatial splits
+    /// (a triangle may sit in several leaves), `medium` a binned SAH tree like the file's.
+    #[arg(long, value_enum, default_value_t = EmbreeQuality::High)]
+    pub embree_quality: EmbreeQuality,
+}
+
+/// Which builder makes the generated scene's BVH (`--tree`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Tree {
+    Bake,
+    Testkit,
+}
+
+/// Embree's build quality (`--embree-quality`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum EmbreeQuality {
+    Low,
+    Medium,
+    High,
 }
 
 /// The scene under test: file, camera, what it is.
@@ -54,7 +77,7 @@ pub fn run(b: &RenderBench, out: &mut dyn Write) -> Result<()> {
         .with_context(|| format!("--size {}: expected WxH like 1920x1080", b.size))?;
     let bench = match &b.file {
         Some(path) => from_file(path)?,
-        None => dense()?,
+        None => dense(b.tree)?,
     };
     let tracer = Tracer::new(&bench.file)?;
     let view = View::new(&bench.camera, w as u32, h as u32)?;
@@ -81,7 +104,17 @@ pub fn run(b: &RenderBench, out: &mut dyn Write) -> Result<()> {
     let shadow = tracer.shadow_rays(&primary, &hits);
     let secondary = tracer.reflected_rays(&primary, &hits);
     let tris: Vec<[[f32; 3]; 3]> = bench.file.geometry.triangles().map(|(_, t)| t).collect();
-    let embree = baseline::Baseline::build(&tris)?;
+    let embree = baseline::Baseline::build(&tris, b.embree_quality)?;
+    if let Some(bvh) = &bench.file.display.bvh {
+        writeln!(
+            out,
+            "tree: SAH cost {:.1} (inner 1, triangle 1, relative to the root box), {} nodes; \
+             embree: build quality {:?}",
+            sah_cost(bvh),
+            bvh.nodes.len(),
+            b.embree_quality
+        )?;
+    }
     writeln!(
         out,
         "{:<10} {:>9} {:>14} {:>14} {:>22} {:>9}",
@@ -457,9 +490,30 @@ fn from_file(path: &Path) -> Result<Bench> {
     })
 }
 
+/// The surface area heuristic's cost of a binary BVH relative to its root box: the expected
+/// node visits plus triangle tests of a ray through the root box (the quality of a tree apart
+/// from how it is traversed).
+fn sah_cost(bvh: &lrr_formats::Bvh) -> f64 {
+    let area = |n: &lrr_formats::BvhNode| {
+        let d: Vec<f64> = (0..3)
+            .map(|a| f64::from(n.max[a] - n.min[a]).max(0.0))
+            .collect();
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+    };
+    let Some(root) = bvh.nodes.first() else {
+        return 0.0;
+    };
+    let total: f64 = bvh
+        .nodes
+        .iter()
+        .map(|n| area(n) * if n.count > 0 { f64::from(n.count) } else { 1.0 })
+        .sum();
+    total / area(root).max(f64::MIN_POSITIVE)
+}
+
 /// The dense sphere scene as display triangles, each split in 4, in an operator file made in
 /// memory (the operator itself is synthetic: the bench traces, it does not relight).
-fn dense() -> Result<Bench> {
+fn dense(tree: Tree) -> Result<Bench> {
     let scene = procedural::dense_sphere(procedural::MAX_SPHERE_SUBDIVISIONS)
         .build("dense", Path::new("."))?;
     let mut tris = Vec::new();
@@ -504,12 +558,20 @@ fn dense() -> Result<Bench> {
             light("top", [0.5, 0.9, 0.5]),
             light("corner", [0.15, 0.8, 0.85]),
         ],
-        bvh: Some(testkit::bvh::build(&file.geometry)),
+        bvh: Some(match tree {
+            Tree::Bake => lrr_precompute::display::bvh(&file.geometry),
+            Tree::Testkit => testkit::bvh::build(&file.geometry),
+        }),
         ..Display::default()
     };
     Ok(Bench {
-        what: "dense sphere (subdivision 6, triangles split in 4) in its room, testkit SAH BVH"
-            .into(),
+        what: format!(
+            "dense sphere (subdivision 6, triangles split in 4) in its room, {} BVH",
+            match tree {
+                Tree::Bake => "the bake's",
+                Tree::Testkit => "testkit SAH",
+            }
+        ),
         file,
         camera: Camera {
             name: "bench".into(),
@@ -537,7 +599,7 @@ fn split4(t: &[[f32; 3]; 3], out: &mut Vec<[[f32; 3]; 3]>) {
 
 /// Embree, or nothing in a build without it.
 mod baseline {
-    use super::{Answer, RayBatch};
+    use super::{Answer, EmbreeQuality, RayBatch};
     use anyhow::Result;
 
     #[cfg(feature = "embree")]
@@ -552,14 +614,14 @@ mod baseline {
 
     impl Baseline {
         #[cfg(feature = "embree")]
-        pub fn build(tris: &[[[f32; 3]; 3]]) -> Result<Self> {
+        pub fn build(tris: &[[[f32; 3]; 3]], quality: EmbreeQuality) -> Result<Self> {
             Ok(Baseline {
-                scene: crate::bench_render_embree::EmbreeScene::build(tris)?,
+                scene: crate::bench_render_embree::EmbreeScene::build(tris, quality)?,
             })
         }
 
         #[cfg(not(feature = "embree"))]
-        pub fn build(_tris: &[[[f32; 3]; 3]]) -> Result<Self> {
+        pub fn build(_tris: &[[[f32; 3]; 3]], _quality: EmbreeQuality) -> Result<Self> {
             Ok(Baseline {})
         }
 

@@ -1,14 +1,16 @@
 //! Embree 4's single-ray queries over a tracer's display triangles, the baseline of
 //! `lrr bench render` (cargo feature `embree` only): `rtcIntersect1` closest hits and
 //! `rtcOccluded1` any hits, one ray at a time on the calling thread, the way the CPU tracer
-//! traces. Scene flags default (no ROBUST: Embree's fast path), build quality HIGH (the
-//! tracer's BVH is built offline too); no filter functions.
+//! traces. Scene flags default (no ROBUST: Embree's fast path), build quality HIGH by default
+//! (the tracer's BVH is built offline too; `--embree-quality`); no filter functions.
 
 use std::ptr::null_mut;
 
 use anyhow::{Result, bail};
 use embree4_sys as sys;
 use lrr_runtime::trace::RayBatch;
+
+use crate::bench_render::EmbreeQuality;
 
 /// An Embree scene of triangles.
 pub struct EmbreeScene {
@@ -28,7 +30,7 @@ fn check(device: sys::RTCDevice, what: &str) -> Result<()> {
 
 impl EmbreeScene {
     /// Embree's BVH over `tris` (v0, v1, v2 each).
-    pub fn build(tris: &[[[f32; 3]; 3]]) -> Result<Self> {
+    pub fn build(tris: &[[[f32; 3]; 3]], quality: EmbreeQuality) -> Result<Self> {
         // SAFETY: FFI calls on handles made here; the buffers Embree returns are written within
         // the sizes they were made with; `Drop` releases the handles on every path.
         unsafe {
@@ -41,7 +43,14 @@ impl EmbreeScene {
                 scene: sys::rtcNewScene(device),
             };
             check(device, "creating the scene")?;
-            sys::rtcSetSceneBuildQuality(s.scene, sys::RTCBuildQuality::HIGH);
+            sys::rtcSetSceneBuildQuality(
+                s.scene,
+                match quality {
+                    EmbreeQuality::Low => sys::RTCBuildQuality::LOW,
+                    EmbreeQuality::Medium => sys::RTCBuildQuality::MEDIUM,
+                    EmbreeQuality::High => sys::RTCBuildQuality::HIGH,
+                },
+            );
             let count = tris.len();
             let geometry = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
             check(device, "creating the geometry")?;

@@ -9,7 +9,7 @@
 
 mod bvh;
 
-use lrr_formats::{Camera, Display, Geometry, LightmapUv, Material, Materials, PointLight};
+use lrr_formats::{Bvh, Camera, Display, Geometry, LightmapUv, Material, Materials, PointLight};
 
 use crate::error::{Error, Result};
 use crate::patches::Mesh;
@@ -38,6 +38,12 @@ pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display>
         bvh: Some(bvh),
         lightmap: lightmap(scene, mesh),
     })
+}
+
+/// The BVH a bake stores over `geometry`'s display triangles (section BVH), built as
+/// [`build`] builds it; `lrr bench render` traces the tree users get.
+pub fn bvh(geometry: &Geometry) -> Bvh {
+    bvh::build(geometry)
 }
 
 /// The scene's lightmap coordinates (`TEXCOORD_1`) at every element corner, in file order
