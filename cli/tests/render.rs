@@ -397,3 +397,53 @@ fn a_baked_file_renders_smooth_on_the_gpu_as_on_the_cpu() {
     assert!(text.contains("decided, flat"), "{text}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `lrr bench render` on the CPU traces the tree a bake stores by default: its SAH cost is the
+/// lower by far (docs/PERFORMANCE.md: 26.4 against the testkit builder's 69.3 on the dense
+/// scene), every ray kind is timed, and without Embree in the build it says how to add it.
+#[test]
+fn bench_render_traces_the_bakes_tree_by_default() {
+    let bench = |tree: &str| {
+        let mut out = Vec::new();
+        let argv = [
+            "lrr",
+            "bench",
+            "render",
+            "--size",
+            "48x27",
+            "--runs",
+            "1",
+            "--threads",
+            "1",
+            "--tree",
+            tree,
+        ];
+        lrr_cli::run(argv, &mut out).unwrap();
+        String::from_utf8(out).unwrap()
+    };
+    let sah = |text: &str| -> f64 {
+        let at = text.find("SAH cost ").expect(text) + "SAH cost ".len();
+        text[at..]
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let (bake, testkit) = (bench("bake"), bench("testkit"));
+    assert!(bake.contains("the bake's BVH (327760 triangles)"), "{bake}");
+    assert!(testkit.contains("testkit SAH BVH"), "{testkit}");
+    let (a, b) = (sah(&bake), sah(&testkit));
+    assert!(a > 20.0 && a < 0.5 * b, "SAH cost: bake {a}, testkit {b}");
+    for kind in ["primary", "shadow", "secondary"] {
+        let row = bake
+            .lines()
+            .find(|l| l.starts_with(kind))
+            .unwrap_or_else(|| panic!("no {kind} row: {bake}"));
+        let rate: f64 = row.split_whitespace().nth(2).unwrap().parse().unwrap();
+        assert!(rate > 0.0, "{row}");
+    }
+    if !cfg!(feature = "embree") {
+        assert!(bake.contains("embree: not in this build"), "{bake}");
+    }
+}
