@@ -5,7 +5,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::Args;
 use lrr_precompute::refine::DEFAULT_BUDGET;
 use serde::Serialize;
@@ -139,6 +139,10 @@ struct Report<'a> {
     file_bytes: u64,
     stages: BTreeMap<String, f64>,
     meshing: summary::MeshingSummary,
+    /// With `--resume`: rows of `F_k` and of `--refine`'s first pass taken from the
+    /// checkpoints instead of integrated again.
+    resumed_rows: u64,
+    resumed_first_pass_rows: u64,
     total_seconds: f64,
 }
 
@@ -174,16 +178,36 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
             checkpoint_path.display()
         );
     }
+    let first_pass_path = checkpoint::first_pass_path(&checkpoint_path);
+    if a.resume && !checkpoint_path.exists() && !first_pass_path.exists() {
+        bail!(
+            "--resume: neither {} nor {} exists: no interrupted bake of {} to continue (bake \
+             without --resume)",
+            checkpoint_path.display(),
+            first_pass_path.display(),
+            output.display()
+        );
+    }
+    // A bake cut off in its first pass (`--refine`) has no form-factor checkpoint yet: its
+    // rows start afresh, the first pass resumes (`checkpoint::element_patch_matrix`).
     settings.checkpoint = Some(CheckpointSettings {
-        path: checkpoint_path,
         resume: a.resume,
+        path: checkpoint_path,
         block_rows: a.checkpoint_rows,
     });
     let mut baked = bake(&scene, &settings, &progress)?;
     let stage = progress.stage("write", 0);
     let file = write::write(&baked, &output, a.storage(&scene.bake))
         .with_context(|| format!("writing the operator file {}", output.display()))?;
+    let resumed_rows = baked.checkpoint.as_ref().map_or(0, |c| c.resumed_rows());
+    let (resumed_first_pass_rows, first_pass_rows) = baked
+        .first_pass_checkpoint
+        .as_ref()
+        .map_or((0, 0), |c| (c.resumed_rows(), c.rows()));
     if let Some(c) = baked.checkpoint.take() {
+        c.remove()?;
+    }
+    if let Some(c) = baked.first_pass_checkpoint.take() {
         c.remove()?;
     }
     stage.finish();
@@ -207,6 +231,8 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
         file_bytes,
         stages,
         meshing: summary::MeshingSummary::new(&scene.repairs, &baked.mesh.meshing),
+        resumed_rows,
+        resumed_first_pass_rows,
         total_seconds: start.elapsed().as_secs_f64(),
     };
     if let Some(path) = &a.report {
@@ -232,6 +258,14 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     )?;
     if let Some(e) = &report.enclosure {
         writeln!(out, "{}", e.line())?;
+    }
+    if a.resume {
+        writeln!(
+            out,
+            "resumed: {} of {} form-factor rows and {} of {} first-pass rows taken from the \
+             checkpoints",
+            report.resumed_rows, report.n, report.resumed_first_pass_rows, first_pass_rows
+        )?;
     }
     crate::summary::print_times(out, &progress, report.total_seconds)?;
     report.meshing.print(out)?;

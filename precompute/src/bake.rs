@@ -88,6 +88,9 @@ pub(crate) enum MeshFrom {
         /// The bake's samples per pair (the first pass takes at most these).
         samples: u32,
         max_memory: Option<u64>,
+        /// Where the first pass's rows are checkpointed (`checkpoint::first_pass_path` of the
+        /// bake's checkpoint), if the bake checkpoints.
+        checkpoint: Option<CheckpointSettings>,
     },
     /// A plan's mesh, made before (refined with this budget, if any).
     Plan {
@@ -104,9 +107,26 @@ impl MeshFrom {
                 budget,
                 samples: settings.samples,
                 max_memory: settings.max_memory,
+                checkpoint: settings.checkpoint.as_ref().map(|c| {
+                    let path = checkpoint::first_pass_path(&c.path);
+                    CheckpointSettings {
+                        path,
+                        resume: c.resume,
+                        block_rows: c.block_rows,
+                    }
+                }),
             },
             _ => Self::Build,
         }
+    }
+}
+
+/// The file metadata's `visibility`: the backend's name, or none when nothing occludes.
+fn visibility_name(visibility: Backend, occludes: bool) -> &'static str {
+    if occludes {
+        visibility.name()
+    } else {
+        "none (nothing occludes)"
     }
 }
 
@@ -130,6 +150,8 @@ pub struct Prepared<'s> {
     /// Which elements' rows must sum to one (`formfactor::enclosure`); `None` when nothing
     /// occludes (then the unoccluded factors already conserve).
     pub enclosure: Option<Enclosure>,
+    /// The checkpoint of `--refine`'s first pass, to remove once the output is written.
+    pub first_pass_checkpoint: Option<Checkpoint>,
 }
 
 impl<'s> Prepared<'s> {
@@ -177,20 +199,21 @@ impl<'s> Prepared<'s> {
         };
         stage.finish();
         let stage = progress.stage("mesh", 0);
-        let (mesh, refine) = match from {
+        let (mesh, refine, first_pass_checkpoint) = match from {
             MeshFrom::Plan { mesh, refine } => {
                 stage.finish();
-                (*mesh, refine)
+                (*mesh, refine, None)
             }
             MeshFrom::Build => {
                 let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
                 stage.finish();
-                (mesh, None)
+                (mesh, None, None)
             }
             MeshFrom::Refine {
                 budget,
                 samples,
                 max_memory,
+                checkpoint,
             } => {
                 let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
                 stage.finish();
@@ -207,9 +230,31 @@ impl<'s> Prepared<'s> {
                     closed: enclosure.as_ref().map(|e| e.closed.as_slice()),
                     samples,
                 };
-                let mesh =
-                    crate::refine::refine_mesh(scene, mesh, &first, budget, progress, max_memory)?;
-                (mesh, Some(budget))
+                // The first pass's rows depend on the unrefined mesh and the first pass's
+                // sampling only (its light comes after): keyed as a bake of that mesh, tagged.
+                let key = checkpoint::first_pass_key(
+                    &checkpoint::Identity {
+                        scene,
+                        sizes,
+                        method,
+                        n: mesh.n(),
+                        k: mesh.k(),
+                        visibility: visibility_name(visibility, occluder.is_some()),
+                        refine: None,
+                        mesh: &mesh,
+                    },
+                    first.first_pass_samples(),
+                );
+                let (mesh, ckpt) = crate::refine::refine_mesh(
+                    scene,
+                    mesh,
+                    &first,
+                    budget,
+                    progress,
+                    max_memory,
+                    checkpoint.as_ref().map(|c| (c, key)),
+                )?;
+                (mesh, Some(budget), ckpt)
             }
         };
         let enclosure = occluder.as_deref().map(|occ| {
@@ -227,6 +272,7 @@ impl<'s> Prepared<'s> {
             visibility,
             occluder,
             enclosure,
+            first_pass_checkpoint,
         })
     }
 
@@ -242,11 +288,7 @@ impl<'s> Prepared<'s> {
 
     /// Name of the visibility method used (the file metadata's `visibility`).
     pub(crate) fn visibility_name(&self) -> &'static str {
-        if self.occluder.is_some() {
-            self.visibility.name()
-        } else {
-            "none (nothing occludes)"
-        }
+        visibility_name(self.visibility, self.occluder.is_some())
     }
 
     /// `F_k`, n×k row-major in file order (`checkpoint::element_patch_matrix`), saved block
@@ -266,6 +308,7 @@ impl<'s> Prepared<'s> {
             max_memory,
             checkpoint,
             0..self.mesh.n(),
+            "form factors",
         )
     }
 
@@ -279,6 +322,7 @@ impl<'s> Prepared<'s> {
             k: self.mesh.k(),
             visibility: self.visibility_name(),
             refine: self.refine,
+            mesh: &self.mesh,
         }
     }
 
@@ -366,6 +410,8 @@ pub struct Baked {
     pub enclosure: Option<EnclosureSummary>,
     /// The form-factor checkpoint, to remove once the output is written.
     pub checkpoint: Option<Checkpoint>,
+    /// The checkpoint of `--refine`'s first pass, to remove with it.
+    pub first_pass_checkpoint: Option<Checkpoint>,
     /// `--refine`'s budget, when the mesh was refined (the file's metadata).
     pub refine: Option<f64>,
 }
@@ -434,6 +480,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             culled_pairs: culled,
             enclosure,
             checkpoint,
+            first_pass_checkpoint: prepared.first_pass_checkpoint,
             // A budget of 0 refines nothing: the unrefined bake's bytes.
             refine: settings.refine.filter(|&b| b > 0.0),
         })

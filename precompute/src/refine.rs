@@ -35,10 +35,11 @@
 //! the same mesh quality (Cornell box p90 4.7% against 4.5% now) at about the same total cost,
 //! but the first pass needed every row of `F_k`, which a shard of a sharded bake does not have.
 
+use crate::checkpoint::{self, Checkpoint, CheckpointSettings};
 use crate::cores::{OperatorInputs, build_cores};
 use crate::error::{Error, Result};
 use crate::formfactor::FormFactors;
-use crate::geometry::{Polygon, Region};
+use crate::geometry::Polygon;
 use crate::memory;
 use crate::mesh::{Element, MAX_ELEMENTS, smooth, subdivide};
 use crate::patches::Mesh;
@@ -214,6 +215,13 @@ pub(crate) struct FirstPass<'a> {
     pub samples: u32,
 }
 
+impl FirstPass<'_> {
+    /// Samples per pair of the first pass: [`FIRST_PASS_SAMPLES`], or the bake's when fewer.
+    pub(crate) fn first_pass_samples(&self) -> u32 {
+        FIRST_PASS_SAMPLES.min(self.samples)
+    }
+}
+
 /// The mesh refined where light changes, with a budget of `budget · n0` new elements: a
 /// first pass of [`FIRST_PASS_SAMPLES`] per pair (one ray each; the bake's `samples` when
 /// fewer) over the mesh's own patches, solved through
@@ -221,6 +229,10 @@ pub(crate) struct FirstPass<'a> {
 /// Deterministic and cheap enough that every shard of a sharded bake (or `lrr plan`, once)
 /// makes the same mesh; the bake then integrates every row of the refined mesh. A budget of
 /// 0 returns the mesh unchanged. `meshing.refined` counts the elements split.
+///
+/// With `checkpoint` (its settings and [`checkpoint::first_pass_key`]) the first pass's rows
+/// are saved block by block as a bake's are, and taken from there when resuming; the open
+/// checkpoint is returned for the caller to remove once the bake's output is written.
 pub(crate) fn refine_mesh(
     scene: &Scene,
     mesh: Mesh,
@@ -228,10 +240,11 @@ pub(crate) fn refine_mesh(
     budget: f64,
     progress: &Progress,
     max_memory: Option<u64>,
-) -> Result<Mesh> {
+    checkpoint: Option<(&CheckpointSettings, u64)>,
+) -> Result<(Mesh, Option<Checkpoint>)> {
     check_budget(budget)?;
     if budget == 0.0 {
-        return Ok(mesh);
+        return Ok((mesh, None));
     }
     let (n0, k) = (mesh.n(), mesh.k());
     memory::check_with(
@@ -240,22 +253,25 @@ pub(crate) fn refine_mesh(
         "the first pass of --refine",
         "use --refine 0, or a larger --element-size or --patch-size",
     )?;
-    let stage = progress.stage("first pass", n0 as u64);
-    let polygons: Vec<Polygon> = (0..n0).map(|s| mesh.element_at(s).polygon).collect();
-    let targets: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
-    let mut fk = vec![0.0; n0 * k];
-    let mut ff = FormFactors::new(FIRST_PASS_SAMPLES.min(first.samples), first.occluder)
-        .with_enclosure(first.closed);
+    let mut ff =
+        FormFactors::new(first.first_pass_samples(), first.occluder).with_enclosure(first.closed);
     ff.adaptive = 1;
-    ff.matrix(&polygons, &mesh.order, &targets, &mut fk, &|i| stage.inc(i));
+    let (fk, saved) = checkpoint::element_patch_matrix(
+        &mesh,
+        &ff,
+        progress,
+        max_memory,
+        checkpoint,
+        0..n0,
+        "first pass",
+    )?;
     let (reflectance, emission) = mesh.file_order_materials(scene);
     let channels = if scene.is_grey() { 1 } else { 3 };
     let values = first_pass(&mesh, &fk, &reflectance, &emission, channels)?;
     drop(fk);
-    stage.finish();
     let (mut refined, split) = refine_by(scene, &mesh, &values, budget)?;
     refined.meshing.refined = split;
-    Ok(refined)
+    Ok((refined, saved))
 }
 
 /// The mesh with the elements that the first pass's radiosity `values` (per file position)
@@ -351,7 +367,17 @@ mod tests {
                     closed: None,
                     samples: 16,
                 };
-                refine_mesh(&scene, mesh, &first, budget, &Progress::hidden(), None).unwrap()
+                refine_mesh(
+                    &scene,
+                    mesh,
+                    &first,
+                    budget,
+                    &Progress::hidden(),
+                    None,
+                    None,
+                )
+                .unwrap()
+                .0
             })
             .unwrap()
         };

@@ -27,6 +27,8 @@ pub struct Checkpoint {
     file: File,
     /// Rows taken from the file when resuming (0 for a fresh checkpoint).
     pub(crate) resumed_rows: u64,
+    /// Rows the checkpoint covers (its shape's `n`).
+    rows: u64,
 }
 
 /// What a checkpoint describes: the bake it belongs to and its block size.
@@ -55,6 +57,16 @@ pub fn path_for(output: &Path) -> PathBuf {
     output.with_file_name(name)
 }
 
+/// The checkpoint of `--refine`'s first pass beside a bake's checkpoint `path`
+/// (`OUT.lrr.ckpt` → `OUT.lrr.first-pass.ckpt`): the rows of the unrefined mesh's `F_k`
+/// that decide where the mesh is split, kept until the bake's output is written, so a resumed
+/// bake rebuilds the same refined mesh without integrating them again.
+pub fn first_pass_path(path: &Path) -> PathBuf {
+    let name = path.file_name().unwrap_or_default().to_string_lossy();
+    let stem = name.strip_suffix(".ckpt").unwrap_or(&name);
+    path.with_file_name(format!("{stem}.first-pass.ckpt"))
+}
+
 impl Checkpoint {
     /// Starts a fresh checkpoint (replacing any old one).
     pub fn create(path: &Path, shape: Shape) -> Result<Self> {
@@ -66,6 +78,7 @@ impl Checkpoint {
             path: path.to_path_buf(),
             file,
             resumed_rows: 0,
+            rows: shape.n,
         })
     }
 
@@ -110,6 +123,7 @@ impl Checkpoint {
                 path: path.to_path_buf(),
                 file,
                 resumed_rows: 0,
+                rows: shape.n,
             },
             blocks,
         ))
@@ -135,6 +149,11 @@ impl Checkpoint {
     /// Rows of `F_k` this run took from the checkpoint instead of computing them.
     pub fn resumed_rows(&self) -> u64 {
         self.resumed_rows
+    }
+
+    /// Rows the checkpoint covers.
+    pub fn rows(&self) -> u64 {
+        self.rows
     }
 
     /// Deletes the checkpoint (after the output was written).

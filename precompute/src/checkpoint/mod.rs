@@ -5,7 +5,7 @@
 
 mod file;
 
-pub use file::{Checkpoint, path_for};
+pub use file::{Checkpoint, first_pass_path, path_for};
 
 use crate::error::Result;
 use crate::formfactor::FormFactors;
@@ -22,7 +22,7 @@ use crate::scene::Scene;
 pub struct CheckpointSettings {
     /// Checkpoint file (see [`path_for`]).
     pub path: std::path::PathBuf,
-    /// Continue from an existing checkpoint instead of starting over.
+    /// Continue from the checkpoint if it exists (else start afresh) instead of starting over.
     pub resume: bool,
     /// Rows per checkpoint block (default: about 10⁶ element-patch-sample triples).
     pub block_rows: Option<usize>,
@@ -39,6 +39,10 @@ pub(crate) struct Identity<'a> {
     pub visibility: &'a str,
     /// `--refine`'s budget when the mesh was refined where light changes.
     pub refine: Option<f64>,
+    /// The mesh itself: which elements (file order, ids) and which patches. A refined mesh
+    /// depends on the materials too (the first pass's light), so another reflectance can give
+    /// the same `n` and `k` with other elements.
+    pub mesh: &'a Mesh,
 }
 
 /// The rows `rows` (file positions) of `F_k`: element-to-patch form factors, row-major,
@@ -46,6 +50,7 @@ pub(crate) struct Identity<'a> {
 /// for a bake, one shard's range for a sharded one). Returns the open checkpoint, which the
 /// caller removes once the output is safely written. `checkpoint` comes with the bake's
 /// [`key`] (for a range, [`range_key`]).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn element_patch_matrix(
     mesh: &Mesh,
     ff: &FormFactors,
@@ -53,6 +58,7 @@ pub(crate) fn element_patch_matrix(
     max_memory: Option<u64>,
     checkpoint: Option<(&CheckpointSettings, u64)>,
     rows: std::ops::Range<usize>,
+    stage: &str,
 ) -> Result<(Vec<f64>, Option<Checkpoint>)> {
     let (n, k) = (rows.len(), mesh.k());
     let bytes = (n as u128) * (k as u128) * 12;
@@ -66,7 +72,7 @@ pub(crate) fn element_patch_matrix(
     let ids = &mesh.order[rows];
     let targets: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
     let mut fk = vec![0.0; n * k];
-    let stage = progress.stage("form factors", n as u64);
+    let stage = progress.stage(stage, n as u64);
     let block_rows = checkpoint
         .and_then(|(c, _)| c.block_rows)
         .unwrap_or_else(|| (1usize << 20) / (k.max(1) * ff.samples as usize))
@@ -81,7 +87,10 @@ pub(crate) fn element_patch_matrix(
             k: k as u64,
             block_rows: block_rows as u64,
         };
-        file = Some(if c.resume {
+        // Resuming with nothing saved (a bake cut off before this stage saved a block, or a
+        // shard's first run) starts the stage afresh; `lrr bake --resume` refuses when no
+        // checkpoint of the bake exists at all.
+        file = Some(if c.resume && c.path.exists() {
             let (mut f, saved) = Checkpoint::resume(&c.path, shape)?;
             for (b, values) in saved {
                 f.resumed_rows += (values.len() / k.max(1)) as u64;
@@ -109,6 +118,16 @@ pub(crate) fn element_patch_matrix(
     Ok((fk, file))
 }
 
+/// The key of `--refine`'s first pass over the unrefined mesh `bake` with `samples` per
+/// pair: a bake's key of that mesh, tagged (the first pass integrates one ray per pair).
+pub(crate) fn first_pass_key(bake: &Identity, samples: u32) -> u64 {
+    file::hash_parts(&[
+        &key(bake, samples).to_le_bytes(),
+        b"first pass of --refine, one ray per pair",
+        &crate::refine::REVISION.to_le_bytes(),
+    ])
+}
+
 /// The key of the rows `rows` of a bake whose key is `key` (a shard's checkpoint).
 pub(crate) fn range_key(key: u64, rows: std::ops::Range<usize>) -> u64 {
     file::hash_parts(&[
@@ -119,8 +138,8 @@ pub(crate) fn range_key(key: u64, rows: std::ops::Range<usize>) -> u64 {
 }
 
 /// Key of everything `F_k` depends on: the scene's geometry, the mesh sizes and method,
-/// n, k, the samples, the refinement where light changes, the lrr version and the
-/// visibility backend.
+/// n, k, the mesh itself (elements in file order with their ids, patch ranges), the samples,
+/// the refinement where light changes, the lrr version and the visibility backend.
 pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
     let mut geometry = Vec::with_capacity(bake.scene.faces.len() * 4 * 24);
     for f in &bake.scene.faces {
@@ -162,7 +181,19 @@ pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
         ]
         .concat(),
     };
-    let mut parts: Vec<&[u8]> = vec![&geometry, &sizes, &counts, &method];
+    let mut mesh = Vec::with_capacity(bake.mesh.n() * 100 + bake.mesh.index.len() * 4);
+    for s in 0..bake.mesh.n() {
+        mesh.extend_from_slice(&bake.mesh.order[s].to_le_bytes());
+        for v in bake.mesh.element_at(s).polygon.vertices() {
+            for c in v.to_array() {
+                mesh.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
+    for i in &bake.mesh.index {
+        mesh.extend_from_slice(&i.to_le_bytes());
+    }
+    let mut parts: Vec<&[u8]> = vec![&geometry, &sizes, &counts, &method, &mesh];
     if !refine.is_empty() {
         parts.push(&refine);
     }

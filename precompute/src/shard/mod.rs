@@ -151,7 +151,7 @@ pub fn bake_shard(
                 }
             }
         };
-        let prepared = Prepared::with_mesh(
+        let mut prepared = Prepared::with_mesh(
             scene,
             sizes,
             settings.method,
@@ -159,6 +159,8 @@ pub fn bake_shard(
             progress,
             from,
         )?;
+        // Removed with the rows' checkpoint once the part is written.
+        let first_pass_checkpoint = prepared.first_pass_checkpoint.take();
         let display = crate::display::build(scene, &prepared.mesh, progress)?;
         let stage = progress.stage("cut", 0);
         let costs = cost::row_costs(&prepared.mesh, prepared.occluder.is_some());
@@ -202,6 +204,9 @@ pub fn bake_shard(
         part::write(output, &header, &skeleton, &fk)?;
         let resumed_rows = checkpoint.as_ref().map_or(0, Checkpoint::resumed_rows);
         if let Some(c) = checkpoint {
+            c.remove()?;
+        }
+        if let Some(c) = first_pass_checkpoint {
             c.remove()?;
         }
         stage.finish();
@@ -294,6 +299,7 @@ fn shard_rows(
             settings.max_memory,
             Some((&c, key)),
             rows.clone(),
+            "form factors",
         )
     };
     if !path.exists() {

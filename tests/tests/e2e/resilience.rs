@@ -102,6 +102,10 @@ fn a_killed_bake_resumes_to_the_same_bytes() {
         "the bake finished before it could be killed"
     );
     assert!(!out.exists());
+    // The default bake refines where light changes: its first pass was saved whole before
+    // the form factors began.
+    let first = dir.join("cut.lrr.first-pass.ckpt");
+    assert!(first.exists(), "the first pass's checkpoint is kept");
     let text = bake(&cornell(), &out, &["--checkpoint-rows", "32", "--resume"]).unwrap();
     assert!(text.contains("baked"));
     assert_eq!(
@@ -109,7 +113,12 @@ fn a_killed_bake_resumes_to_the_same_bytes() {
         std::fs::read(&whole).unwrap(),
         "resumed bake differs"
     );
-    assert!(!ckpt.exists());
+    assert!(!ckpt.exists() && !first.exists());
+    // Rows were taken from the checkpoints, not integrated again: some of F_k's, all of the
+    // first pass's.
+    let [rows, n, first_rows, n0] = resumed(&text);
+    assert!(rows > 0 && rows < n, "{text}");
+    assert!(first_rows == n0 && n0 > 0 && n0 < n, "{text}");
     // A checkpoint of another bake is refused.
     let mut child = spawn_bake(&out, &["--checkpoint-rows", "32", "--threads", "1"]);
     wait_for(&mut child, || ckpt.exists());
@@ -122,6 +131,102 @@ fn a_killed_bake_resumes_to_the_same_bytes() {
     )
     .unwrap_err();
     assert!(err.contains("different bake"), "{err}");
+}
+
+/// `(F_k rows resumed, n, first-pass rows resumed, unrefined n)` from a resumed bake's output.
+fn resumed(text: &str) -> [u64; 4] {
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("resumed: "))
+        .unwrap_or_else(|| panic!("no resumed line: {text}"));
+    let numbers: Vec<u64> = line
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    numbers
+        .try_into()
+        .unwrap_or_else(|_| panic!("four counts expected: {line}"))
+}
+
+/// A bake killed during `--refine`'s first pass resumes it from its checkpoint and writes the
+/// bytes of an uninterrupted bake; a finished bake leaves no checkpoint behind.
+#[test]
+fn a_bake_killed_in_its_first_pass_resumes_it() {
+    let dir = temp_dir("resume-first");
+    let whole = dir.join("whole.lrr");
+    bake(&cornell(), &whole, &["--checkpoint-rows", "16"]).unwrap();
+    assert!(!dir.join("whole.lrr.first-pass.ckpt").exists());
+    let out = dir.join("cut.lrr");
+    let first = dir.join("cut.lrr.first-pass.ckpt");
+    let mut child = spawn_bake(&out, &["--checkpoint-rows", "16", "--threads", "1"]);
+    // Header 40 bytes, then records of 16 rows × k values: kill after a few.
+    let saved = wait_for(&mut child, || {
+        std::fs::metadata(&first)
+            .map(|m| m.len() > 100_000)
+            .unwrap_or(false)
+    });
+    let _ = child.kill();
+    child.wait().unwrap();
+    assert!(
+        saved && first.exists(),
+        "the bake finished before it could be killed"
+    );
+    let text = bake(&cornell(), &out, &["--checkpoint-rows", "16", "--resume"]).unwrap();
+    assert_eq!(
+        std::fs::read(&out).unwrap(),
+        std::fs::read(&whole).unwrap(),
+        "resumed bake differs"
+    );
+    let [_, n, first_rows, n0] = resumed(&text);
+    // 100 kB of rows of k = 333 values is at least 32 rows.
+    assert!(first_rows >= 32 && first_rows <= n0 && n0 < n, "{text}");
+    assert!(!first.exists() && !dir.join("cut.lrr.ckpt").exists());
+    // Nothing left to resume: refused, saying so.
+    let err = bake(&cornell(), &out, &["--resume"]).unwrap_err();
+    assert!(err.contains("no interrupted bake"), "{err}");
+}
+
+/// A refined mesh follows the materials (the first pass's light), so a scene edited between a
+/// killed bake and its resumption can give the same `n` and `k` with other elements: the
+/// checkpoint's key holds the mesh itself, and the rows are refused, never mixed.
+#[test]
+fn a_checkpoint_of_other_materials_is_refused() {
+    let dir = temp_dir("resume-materials");
+    let out = dir.join("cut.lrr");
+    let ckpt = dir.join("cut.lrr.ckpt");
+    // 2MF: k does not follow the materials (2MSC's patches do), so only the elements differ.
+    let flags = ["--method", "2mf", "--checkpoint-rows", "32"];
+    let mut child = spawn_bake(&out, &[&flags[..], &["--threads", "1"]].concat());
+    let saved = wait_for(&mut child, || {
+        std::fs::metadata(&ckpt)
+            .map(|m| m.len() > 100_000)
+            .unwrap_or(false)
+    });
+    let _ = child.kill();
+    child.wait().unwrap();
+    assert!(saved, "the bake finished before it could be killed");
+    // The same geometry, the white surfaces a darker grey.
+    let text = std::fs::read_to_string(cornell()).unwrap();
+    assert!(text.contains("reflectance = [0.725, 0.71, 0.68]"));
+    let edited = dir.join("edited.toml");
+    std::fs::write(
+        &edited,
+        text.replace(
+            "reflectance = [0.725, 0.71, 0.68]",
+            "reflectance = [0.2, 0.2, 0.2]",
+        ),
+    )
+    .unwrap();
+    let err = bake(&edited, &out, &[&flags[..], &["--resume"]].concat()).unwrap_err();
+    assert!(err.contains("different bake"), "{err}");
+    // Both bakes have n = 2539 and k = 242 (measured: `lrr bake … --method 2mf` of each), so
+    // only the mesh in the key tells them apart.
+    let whole = dir.join("edited.lrr");
+    let text = bake(&edited, &whole, &flags).unwrap();
+    assert!(
+        text.contains("n = 2539 elements, k = 242 patches"),
+        "{text}"
+    );
 }
 
 #[test]
