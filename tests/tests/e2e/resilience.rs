@@ -37,6 +37,25 @@ fn wait_for(child: &mut Child, cond: impl Fn() -> bool) -> bool {
     false
 }
 
+/// Bakes to `out` with `extra` flags and kills the bake once `file` holds more than `bytes`
+/// bytes; true if it did before the bake ended.
+fn kill_bake_when(
+    out: &std::path::Path,
+    extra: &[&str],
+    file: &std::path::Path,
+    bytes: u64,
+) -> bool {
+    let mut child = spawn_bake(out, extra);
+    let saved = wait_for(&mut child, || {
+        std::fs::metadata(file)
+            .map(|m| m.len() > bytes)
+            .unwrap_or(false)
+    });
+    let _ = child.kill();
+    child.wait().unwrap();
+    saved
+}
+
 #[test]
 fn a_bake_killed_while_writing_leaves_the_previous_file_intact() {
     let dir = temp_dir("sigkill");
@@ -88,15 +107,9 @@ fn a_killed_bake_resumes_to_the_same_bytes() {
     );
     let out = dir.join("cut.lrr");
     let ckpt = dir.join("cut.lrr.ckpt");
-    let mut child = spawn_bake(&out, &["--checkpoint-rows", "32", "--threads", "1"]);
     // Kill once a few blocks are saved (header 40 bytes + records of 32 rows).
-    let saved = wait_for(&mut child, || {
-        std::fs::metadata(&ckpt)
-            .map(|m| m.len() > 200_000)
-            .unwrap_or(false)
-    });
-    let _ = child.kill();
-    child.wait().unwrap();
+    let flags = ["--checkpoint-rows", "32", "--threads", "1"];
+    let saved = kill_bake_when(&out, &flags, &ckpt, 200_000);
     assert!(
         saved && ckpt.exists(),
         "the bake finished before it could be killed"
@@ -120,10 +133,7 @@ fn a_killed_bake_resumes_to_the_same_bytes() {
     assert!(rows > 0 && rows < n, "{text}");
     assert!(first_rows == n0 && n0 > 0 && n0 < n, "{text}");
     // A checkpoint of another bake is refused.
-    let mut child = spawn_bake(&out, &["--checkpoint-rows", "32", "--threads", "1"]);
-    wait_for(&mut child, || ckpt.exists());
-    let _ = child.kill();
-    child.wait().unwrap();
+    kill_bake_when(&out, &flags, &ckpt, 0);
     let err = bake(
         &cornell(),
         &out,
@@ -158,15 +168,9 @@ fn a_bake_killed_in_its_first_pass_resumes_it() {
     assert!(!dir.join("whole.lrr.first-pass.ckpt").exists());
     let out = dir.join("cut.lrr");
     let first = dir.join("cut.lrr.first-pass.ckpt");
-    let mut child = spawn_bake(&out, &["--checkpoint-rows", "16", "--threads", "1"]);
     // Header 40 bytes, then records of 16 rows × k values: kill after a few.
-    let saved = wait_for(&mut child, || {
-        std::fs::metadata(&first)
-            .map(|m| m.len() > 100_000)
-            .unwrap_or(false)
-    });
-    let _ = child.kill();
-    child.wait().unwrap();
+    let flags = ["--checkpoint-rows", "16", "--threads", "1"];
+    let saved = kill_bake_when(&out, &flags, &first, 100_000);
     assert!(
         saved && first.exists(),
         "the bake finished before it could be killed"
@@ -196,14 +200,12 @@ fn a_checkpoint_of_other_materials_is_refused() {
     let ckpt = dir.join("cut.lrr.ckpt");
     // 2MF: k does not follow the materials (2MSC's patches do), so only the elements differ.
     let flags = ["--method", "2mf", "--checkpoint-rows", "32"];
-    let mut child = spawn_bake(&out, &[&flags[..], &["--threads", "1"]].concat());
-    let saved = wait_for(&mut child, || {
-        std::fs::metadata(&ckpt)
-            .map(|m| m.len() > 100_000)
-            .unwrap_or(false)
-    });
-    let _ = child.kill();
-    child.wait().unwrap();
+    let saved = kill_bake_when(
+        &out,
+        &[&flags[..], &["--threads", "1"]].concat(),
+        &ckpt,
+        100_000,
+    );
     assert!(saved, "the bake finished before it could be killed");
     // The same geometry, the white surfaces a darker grey.
     let text = std::fs::read_to_string(cornell()).unwrap();
