@@ -447,3 +447,43 @@ fn bench_render_traces_the_bakes_tree_by_default() {
         assert!(bake.contains("embree: not in this build"), "{bake}");
     }
 }
+
+/// With Embree in the build (`--features embree`; scripts/test runs the tests named after it):
+/// Embree times the same rays, its rate and the ratio are numbers, and the two disagree on at
+/// most 1e-4 of the rays (docs/PERFORMANCE.md: 1 / 0 / 0 of 2 073 600 on this scene).
+#[cfg(feature = "embree")]
+#[test]
+fn bench_render_times_embree_on_the_same_rays() {
+    let mut out = Vec::new();
+    let argv = [
+        "lrr",
+        "bench",
+        "render",
+        "--size",
+        "192x108",
+        "--runs",
+        "1",
+        "--threads",
+        "1",
+    ];
+    lrr_cli::run(argv, &mut out).unwrap();
+    let text = String::from_utf8(out).unwrap();
+    assert!(text.contains("embree: build quality High"), "{text}");
+    for kind in ["primary", "shadow", "secondary"] {
+        let row: Vec<&str> = text
+            .lines()
+            .find(|l| l.starts_with(kind))
+            .unwrap_or_else(|| panic!("no {kind} row: {text}"))
+            .split_whitespace()
+            .collect();
+        let rays: f64 = row[1].parse().unwrap();
+        let embree: f64 = row[3].parse().expect(&text);
+        let ratio: f64 = row[4].parse().expect(&text);
+        let disagree: f64 = row.last().unwrap().parse().expect(&text);
+        assert!(embree > 0.0 && ratio > 0.0, "{text}");
+        assert!(
+            disagree <= 1e-4 * rays,
+            "{kind}: {disagree} of {rays}: {text}"
+        );
+    }
+}

@@ -8,7 +8,8 @@
 //! view in degrees) and a frame's [`Lighting`] (the evaluator's radiosity, the light groups'
 //! intensities) and returns linear RGB radiance per pixel:
 //!
-//! - the radiosity of the hit point as a radiance, `B / π` (flat element values for now);
+//! - the radiosity of the hit point as a radiance, `B / π` (the smooth reconstruction of the
+//!   file's SMOOTH weights by default, the element's flat value where a file has none);
 //! - Phong highlights from every point light, each behind a shadow ray;
 //! - mirror reflection and refraction (Snell, total internal reflection, Fresnel weights) as a
 //!   ray tree walked with an explicit stack up to a depth limit.

@@ -134,13 +134,17 @@ fn cornell_render_against_the_path_traced_image() {
     );
     // Measured with smooth shading and the default bake (2MSC, refined: 1.96%, 2.35%, 4.79%;
     // the former default, 2MF unrefined: 2.27%, 2.60%, 6.49%, flat 2.73%, 3.55%, 6.88%); see
-    // README "Against the real light". Asserted within 1.25x.
+    // README "Against the real light". Asserted within 1.25x, and the mean within issue #15's
+    // goal of 5% (the render and the committed reference are deterministic).
     assert!(l1 <= 1.25 * L1_MEASURED, "relative L1 error {l1}");
     assert!(
         median <= 1.25 * MEDIAN_MEASURED,
         "per-pixel median error {median}"
     );
-    assert!(mean <= 1.25 * MEAN_MEASURED, "per-pixel mean error {mean}");
+    assert!(
+        mean <= (1.25 * MEAN_MEASURED).min(0.05),
+        "per-pixel mean error {mean}"
+    );
 }
 
 const L1_MEASURED: f64 = 0.0196;
