@@ -273,7 +273,7 @@ fn frames(
         radiosity: &radiosity,
         group_intensities: &groups,
     };
-    let decision = tracer.decide(&lighting)?;
+    let decision = tracer.decide(view, &lighting)?;
     let (mut decided, mut all, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
     let mut counts = None;
     for round in 0..b.runs {
@@ -350,7 +350,7 @@ fn gpu_frames(
         group_intensities: &groups,
     };
     let buffer = gt.upload_radiosity(&radiosity)?;
-    let decision = tracer.decide(&lighting)?;
+    let decision = tracer.decide(view, &lighting)?;
     let decided = decision.effects;
     let primary = Effects {
         highlights: false,

@@ -671,6 +671,110 @@ fn the_image_does_not_depend_on_the_thread_count_and_forcing_effects_changes_not
     assert_eq!(counts.primary, 64 * 40);
 }
 
+/// The decision looks through the camera: a mirror, a glass pane and a specular panel that no
+/// camera ray can reach turn nothing on (and the image is the one with every effect forced
+/// on); a corner of the mirror in the view's edge turns secondary rays back on, and a mirror
+/// in view turns the highlights on too (it may show the specular panel).
+#[test]
+fn effects_out_of_the_cameras_view_are_not_simulated() {
+    let mirror = Material {
+        name: "mirror".into(),
+        mirror: [0.9; 3],
+        ..diffuse()
+    };
+    let shiny = Material {
+        name: "shiny".into(),
+        specular: [1.0; 3],
+        shininess: 20.0,
+        ..diffuse()
+    };
+    // A diffuse floor of 8 × 8 unit squares at z = 0 around the origin; beside it, at x = 6..8,
+    // a mirror, a glass pane and a specular panel, upright, facing -x.
+    let mut faces: Vec<Face> = (0..64)
+        .map(|e| {
+            let (x, y) = ((e % 8) as f32 - 4.0, (e / 8) as f32 - 4.0);
+            rect_z(0.0, x, y, x + 1.0, y + 1.0, true, 0)
+        })
+        .collect();
+    let upright = |x: f32, y0: f32, y1: f32, material: u32| {
+        quad(
+            [[x, y0, 0.0], [x, y0, 2.0], [x, y1, 2.0], [x, y1, 0.0]],
+            material,
+        )
+    };
+    faces.push(upright(6.0, -1.0, 1.0, 1));
+    faces.push(upright(7.0, -3.0, -2.0, 2));
+    faces.push(upright(8.0, 2.0, 3.0, 3));
+    let light = PointLight {
+        name: "bulb".into(),
+        position: [0.0, 0.0, 3.0],
+        intensity: [1.0; 3],
+        group: PointLight::FIXED,
+    };
+    let file = file_of(
+        &faces,
+        vec![diffuse(), mirror, glass(1.5, [0.0; 3]), shiny],
+        vec![light],
+        0,
+    );
+    let tracer = Tracer::new(&file).unwrap();
+    let b: Vec<[f32; 3]> = (0..faces.len()).map(|e| [0.1 * e as f32; 3]).collect();
+    let lighting = Lighting {
+        radiosity: &b,
+        group_intensities: &[],
+    };
+    let frame = |cam: Camera| {
+        let view = View::new(&cam, 48, 32).unwrap();
+        let (image, report) = tracer.render(&view, &lighting, 48, 32, 2).unwrap();
+        let (all, _) = tracer
+            .render_with(&view, &lighting, Effects::all(), 48, 32, 2)
+            .unwrap();
+        assert_eq!(image, all, "the decision changed the image");
+        assert_eq!(tracer.decide(&view, &lighting).unwrap(), report.decision);
+        report
+    };
+    // Straight down at the floor's middle, 40° wide: the floor only.
+    let down = frame(camera(
+        [0.0, 0.0, 5.0],
+        [0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        40.0,
+    ));
+    let text = down.decision.text();
+    assert!(!down.decision.effects.secondary, "{text}");
+    assert!(!down.decision.effects.highlights, "{text}");
+    assert!(text.contains("out of the camera's view"), "{text}");
+    assert!(
+        text.contains("none of it is in the camera's view"),
+        "{text}"
+    );
+    assert_eq!((down.rays.shadow, down.rays.secondary), (0, 0));
+    // Turned towards +x until the mirror's lower part enters the frame's top edge (the view
+    // axis 49.3° below the horizon, the mirror's foot 39.8°, its top 26.6°: half the vertical
+    // field is 20°).
+    let edge = frame(camera(
+        [0.0, 0.0, 5.0],
+        [4.3, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+        40.0,
+    ));
+    assert!(edge.decision.effects.secondary, "{}", edge.decision.text());
+    assert!(edge.decision.effects.highlights, "{}", edge.decision.text());
+    assert!(
+        edge.rays.secondary > 0,
+        "the mirror's lower part is in the frame"
+    );
+    // Looking at the mirror from the floor's far side: on, and rays reflected.
+    let at = frame(camera(
+        [-3.0, 0.0, 1.0],
+        [6.0, 0.0, 1.0],
+        [0.0, 0.0, 1.0],
+        30.0,
+    ));
+    assert!(at.decision.effects.secondary);
+    assert!(at.rays.secondary > 0);
+}
+
 #[test]
 fn a_file_without_bvh_or_with_a_bad_camera_is_a_clear_error() {
     let mut file = file_of(

@@ -242,7 +242,7 @@ impl GpuTracer {
         width: u32,
         height: u32,
     ) -> Result<(Image, GpuRenderReport), GpuError> {
-        let (intensities, decision) = self.tracer.frame_lights(group_intensities)?;
+        let (intensities, decision) = self.tracer.frame_lights(view, group_intensities)?;
         let effects = decision.effects;
         self.frame(
             view,
@@ -281,7 +281,7 @@ impl GpuTracer {
         width: u32,
         height: u32,
     ) -> Result<(Image, GpuRenderReport), GpuError> {
-        let (intensities, decision) = self.tracer.frame_lights(group_intensities)?;
+        let (intensities, decision) = self.tracer.frame_lights(view, group_intensities)?;
         if effects.max_depth > crate::trace::MAX_DEPTH_LIMIT {
             return Err(input(format!(
                 "the ray depth limit is at most {}, got {}",

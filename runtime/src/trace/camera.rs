@@ -73,6 +73,32 @@ impl View {
         self.eye
     }
 
+    /// Whether a camera ray may hit the triangle `t` (v0, v1, v2): false only when all three
+    /// corners lie outside one side of the view's pyramid (its four sides through the eye and
+    /// the plane of the eye itself), with a margin of 1e-4 of their distance for rounding, so
+    /// a triangle any camera ray hits is never called unseen.
+    pub(crate) fn may_see(&self, t: &[f32; 9]) -> bool {
+        let (f, r, u) = (self.forward, self.right, self.up);
+        // The pyramid's edges through the image plane's corners, in turn around it.
+        let corners = [
+            sub(sub(f, r), u),
+            sub(mad(f, r, 1.0), u),
+            mad(mad(f, r, 1.0), u, 1.0),
+            mad(sub(f, r), u, 1.0),
+        ];
+        let mut planes = [f; 5];
+        for i in 0..4 {
+            let n = cross(corners[i], corners[(i + 1) % 4]);
+            planes[i] = if dot(n, f) < 0.0 { scale(n, -1.0) } else { n };
+        }
+        let rel = |k: usize| sub([t[3 * k], t[3 * k + 1], t[3 * k + 2]], self.eye);
+        let points = [rel(0), rel(1), rel(2)];
+        !planes.iter().any(|n| {
+            let margin = 1e-4 * length(*n);
+            points.iter().all(|p| dot(*n, *p) < -margin * length(*p))
+        })
+    }
+
     /// The unit direction through pixel `(x, y)`'s centre (`y = 0` the top row).
     #[inline]
     pub(crate) fn direction(&self, x: u32, y: u32, width: u32, height: u32) -> V3 {

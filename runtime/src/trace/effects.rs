@@ -1,13 +1,17 @@
 //! Simulate only what the scene calls for: which effects a frame needs, decided from the
-//! materials, the point lights and this frame's light-group intensities, and why.
+//! materials, the point lights, this frame's light-group intensities and the camera, and why.
 //!
-//! - *highlights* (the Phong term, one shadow ray per point light at every hit of a specular
-//!   material): only when some material has a specular colour and some point light shines
-//!   this frame (non-zero intensity, its group's intensity non-zero). The radiosity already
-//!   holds the diffuse light, so without highlights a point light changes nothing and no
-//!   shadow ray is cast.
 //! - *secondary rays* (mirror reflection, refraction with Fresnel weights): only when some
-//!   material has a mirror reflectance or a transmission filter.
+//!   material has a mirror reflectance or a transmission filter, and some triangle of it lies
+//!   in the camera's view ([`View::may_see`](super::View): not wholly outside one side of the
+//!   view's pyramid). Without them only camera rays are traced, so a mirror out of view is
+//!   never hit.
+//! - *highlights* (the Phong term, one shadow ray per point light at every hit of a specular
+//!   material): only when some material has a specular colour, some point light shines this
+//!   frame (non-zero intensity, its group's intensity non-zero), and a specular triangle lies
+//!   in view or secondary rays are on (a mirror may show it). The radiosity already holds the
+//!   diffuse light, so without highlights a point light changes nothing and no shadow ray is
+//!   cast.
 //! - *smooth*: the radiosity at the hit point by the smooth reconstruction
 //!   ([`Reconstruction::at`](crate::Reconstruction::at): smooth-vertex values once per frame,
 //!   mean value coordinates per hit), when the file holds the weights (section SMOOTH) and the
@@ -19,6 +23,7 @@
 
 use std::fmt::Write as _;
 
+use super::View;
 use super::scene::TraceScene;
 
 /// Default limit of the ray tree: a primary ray and up to 8 bounces of reflection or
@@ -91,26 +96,62 @@ fn named(scene: &TraceScene, pick: impl Fn(usize) -> bool) -> (usize, String) {
     (names.len(), text)
 }
 
-/// The effects of a frame of `scene` whose point lights shine at `light_scale` times their
-/// intensity (one factor per light); `smooth`: the caller's choice of the smooth
-/// reconstruction (kept only when the file has SMOOTH weights).
+/// Which kinds of non-diffuse triangles `view` may see: (specular, mirror, transmissive);
+/// all true without a view.
+fn in_view(scene: &TraceScene, view: Option<&View>) -> (bool, bool, bool) {
+    let Some(view) = view else {
+        return (true, true, true);
+    };
+    let mut seen = (false, false, false);
+    for &t in &scene.special {
+        let o = scene.optics_of(scene.tri_element[t as usize]);
+        let wanted = (o.has_highlight() && !seen.0)
+            || (o.reflects() && !seen.1)
+            || (o.transmits() && !seen.2);
+        if wanted && view.may_see(&scene.tris[t as usize]) {
+            seen.0 |= o.has_highlight();
+            seen.1 |= o.reflects();
+            seen.2 |= o.transmits();
+            if seen == (true, true, true) {
+                break;
+            }
+        }
+    }
+    seen
+}
+
+/// The effects of a frame of `scene` seen through `view` (`None`: from anywhere) whose point
+/// lights shine at `light_scale` times their intensity (one factor per light); `smooth`: the
+/// caller's choice of the smooth reconstruction (kept only when the file has SMOOTH weights).
 pub(crate) fn decide(
     scene: &TraceScene,
+    view: Option<&View>,
     light_scale: &[f32],
     max_depth: u32,
     smooth: bool,
 ) -> Decision {
     let mut reasons = Vec::new();
     let (specular, specular_names) = named(scene, |i| scene.optics[i].has_highlight());
+    let (mirrors, mirror_names) = named(scene, |i| scene.optics[i].reflects());
+    let (glass, glass_names) = named(scene, |i| scene.optics[i].transmits());
+    let (specular_seen, mirror_seen, glass_seen) = in_view(scene, view);
+    let mirror_seen = mirrors > 0 && mirror_seen;
+    let glass_seen = glass > 0 && glass_seen;
+    let secondary = mirror_seen || glass_seen;
     let lit = scene
         .lights
         .iter()
         .zip(light_scale)
         .filter(|(l, s)| **s > 0.0 && l.intensity.iter().any(|&c| c > 0.0))
         .count();
-    let highlights = specular > 0 && lit > 0;
+    let specular_shown = specular_seen || secondary;
+    let highlights = specular > 0 && lit > 0 && specular_shown;
     reasons.push(match (specular, lit) {
         (0, _) => "highlights and shadow rays: off (no material has a specular colour Ks)".into(),
+        _ if !specular_shown => format!(
+            "highlights and shadow rays: off (specular {specular_names}, but none of it is in \
+             the camera's view and no mirror or glass is)"
+        ),
         (_, 0) if scene.lights.is_empty() => format!(
             "highlights and shadow rays: off (specular {specular_names}, but the file has no \
              point lights)"
@@ -125,19 +166,28 @@ pub(crate) fn decide(
              shining, one shadow ray each per specular hit)"
         ),
     });
-    let (mirrors, mirror_names) = named(scene, |i| scene.optics[i].reflects());
-    let (glass, glass_names) = named(scene, |i| scene.optics[i].transmits());
-    let secondary = mirrors + glass > 0;
     reasons.push(if secondary {
+        let mut what = Vec::new();
+        if mirror_seen {
+            what.push(format!("mirror {mirror_names}"));
+        }
+        if glass_seen {
+            what.push(format!("transmissive {glass_names} (Fresnel, refraction)"));
+        }
+        format!(
+            "secondary rays: on ({} in view; ray tree up to depth {max_depth})",
+            what.join("; ")
+        )
+    } else if mirrors + glass > 0 {
         let mut what = Vec::new();
         if mirrors > 0 {
             what.push(format!("mirror {mirror_names}"));
         }
         if glass > 0 {
-            what.push(format!("transmissive {glass_names} (Fresnel, refraction)"));
+            what.push(format!("transmissive {glass_names}"));
         }
         format!(
-            "secondary rays: on ({}; ray tree up to depth {max_depth})",
+            "secondary rays: off ({}, but out of the camera's view: camera rays cannot hit it)",
             what.join("; ")
         )
     } else {

@@ -65,6 +65,10 @@ pub(crate) struct TraceScene {
     pub normals: Vec<V3>,
     /// Per file position: index into `optics`.
     pub element_material: Vec<u32>,
+    /// Leaf-order indices of the triangles whose material is not purely diffuse (a specular
+    /// colour, a mirror reflectance or a transmission filter): what the effects decision
+    /// tests against the view (`effects::decide`).
+    pub special: Vec<u32>,
     pub optics: Vec<Optics>,
     /// Material names, for `--explain`.
     pub material_names: Vec<String>,
@@ -120,8 +124,15 @@ impl TraceScene {
                 }
             })
         })?;
-        let tri_element = bvh.triangles.iter().map(|&t| all[t as usize].0).collect();
+        let tri_element: Vec<u32> = bvh.triangles.iter().map(|&t| all[t as usize].0).collect();
         let (optics, material_names, element_material) = materials(file)?;
+        let special = (0..tris.len() as u32)
+            .filter(|&t| {
+                let e: u32 = tri_element[t as usize];
+                let o = &optics[element_material[e as usize] as usize];
+                o.has_highlight() || o.reflects() || o.transmits()
+            })
+            .collect();
         let lights = file.display.point_lights.clone();
         check_lights(&lights, file.lights.len())?;
         let smooth = match &file.display.smooth {
@@ -149,6 +160,7 @@ impl TraceScene {
                 .map(|c| [c[0], c[1], c[2]])
                 .collect(),
             element_material,
+            special,
             optics,
             material_names,
             lights,

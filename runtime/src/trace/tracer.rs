@@ -151,18 +151,25 @@ impl Tracer {
         batch::reflected(&self.scene, rays, hits)
     }
 
-    /// The effects a frame with these lights needs, and why (`lrr render --explain`).
-    pub fn decide(&self, lighting: &Lighting) -> Result<Decision, RuntimeError> {
+    /// The effects a frame with these lights through `view` needs, and why (`lrr render
+    /// --explain`).
+    pub fn decide(&self, view: &View, lighting: &Lighting) -> Result<Decision, RuntimeError> {
         let scales = self.light_intensities(lighting)?;
-        Ok(self.decision(&scales))
+        Ok(self.decision(view, &scales))
     }
 
-    fn decision(&self, intensities: &[V3]) -> Decision {
+    fn decision(&self, view: &View, intensities: &[V3]) -> Decision {
         let scales: Vec<f32> = intensities
             .iter()
             .map(|i| i[0].max(i[1]).max(i[2]))
             .collect();
-        effects::decide(&self.scene, &scales, self.max_depth, self.smooth)
+        effects::decide(
+            &self.scene,
+            Some(view),
+            &scales,
+            self.max_depth,
+            self.smooth,
+        )
     }
 
     /// Renders `view` at `width × height` with `threads` threads (0: one per available core),
@@ -176,7 +183,7 @@ impl Tracer {
         threads: usize,
     ) -> Result<(Image, RenderReport), RuntimeError> {
         let intensities = self.light_intensities(lighting)?;
-        let decision = self.decision(&intensities);
+        let decision = self.decision(view, &intensities);
         let effects = decision.effects;
         let (image, rays) = self.render_effects(
             view,
@@ -449,14 +456,15 @@ impl Tracer {
         &self.scene
     }
 
-    /// The point lights' intensities this frame and the effects it needs, from the group
-    /// intensities alone.
+    /// The point lights' intensities this frame and the effects it needs through `view`, from
+    /// the group intensities alone.
     pub(crate) fn frame_lights(
         &self,
+        view: &View,
         group_intensities: &[f32],
     ) -> Result<(Vec<V3>, Decision), RuntimeError> {
         let intensities = self.group_light_intensities(group_intensities)?;
-        let decision = self.decision(&intensities);
+        let decision = self.decision(view, &intensities);
         Ok((intensities, decision))
     }
 }
