@@ -62,7 +62,11 @@ if has sweep; then
     --bounds-checks
 fi
 if has render; then
+  # The dense scene on the tree a bake stores (the default since session 11), then on the
+  # testkit's tree that session 9's figures used.
   step render-dense 30 "$LRR" bench render --device gpu --size 1920x1080 --runs 11
+  step render-dense-testkit 30 "$LRR" bench render --device gpu --size 1920x1080 --runs 11 \
+    --tree testkit
   if [ -e .dev/cg.lrr ]; then
     step render-glass 20 "$LRR" bench render --device gpu --file .dev/cg.lrr --size 1920x1080 \
       --runs 11
