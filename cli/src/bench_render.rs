@@ -117,8 +117,14 @@ pub fn run(b: &RenderBench, out: &mut dyn Write) -> Result<()> {
     }
     writeln!(
         out,
-        "{:<10} {:>9} {:>14} {:>14} {:>22} {:>9}",
-        "kind", "rays", "tracer Mray/s", "embree Mray/s", "tracer/embree (range)", "disagree"
+        "{:<10} {:>9} {:>14} {:>14} {:>22} {:>9} {:>15}",
+        "kind",
+        "rays",
+        "tracer Mray/s",
+        "embree Mray/s",
+        "tracer/embree (range)",
+        "disagree",
+        "f64 sides with"
     )?;
     for (kind, rays) in [
         ("primary", &primary),
@@ -131,6 +137,10 @@ pub fn run(b: &RenderBench, out: &mut dyn Write) -> Result<()> {
         }
         let closest = kind != "shadow";
         let m = measure(&tracer, &embree, rays, closest, b.runs);
+        let arbiter = m.disagree.as_ref().map_or("n/a".into(), |d| {
+            let (t, e) = arbitrate(&tris, rays, d);
+            format!("{t} tr / {e} em")
+        });
         let (e_rate, ratio) = match (m.embree_s, m.ratios.is_empty()) {
             (Some(e), false) => {
                 let (lo, mid, hi) = spread(m.ratios.clone());
@@ -143,12 +153,15 @@ pub fn run(b: &RenderBench, out: &mut dyn Write) -> Result<()> {
         };
         writeln!(
             out,
-            "{kind:<10} {:>9} {:>14.2} {:>14} {:>22} {:>9}",
+            "{kind:<10} {:>9} {:>14.2} {:>14} {:>22} {:>9} {:>15}",
             rays.len(),
             rays.len() as f64 / m.tracer_s / 1e6,
             e_rate,
             ratio,
-            m.disagree.map_or("n/a".into(), |d| d.to_string())
+            m.disagree
+                .as_ref()
+                .map_or("n/a".into(), |d| d.rays.len().to_string()),
+            arbiter
         )?;
     }
     if !baseline::AVAILABLE {
@@ -167,7 +180,78 @@ struct Measured {
     /// Per round: Embree's time / the tracer's (the tracer's rate over Embree's).
     ratios: Vec<f64>,
     /// Rays where the two disagree (hit or miss, or the triangle at a distinct distance).
-    disagree: Option<usize>,
+    disagree: Option<Disagreement>,
+}
+
+/// The rays on which the tracer and Embree answered differently, with both answers.
+struct Disagreement {
+    rays: Vec<usize>,
+    /// Per ray of `rays`: (tracer, Embree): the hit's (distance, triangle id), or for shadow
+    /// rays blocked as distance 0 (None: a miss, not blocked).
+    answers: Vec<(Option<(f32, u32)>, Option<(f32, u32)>)>,
+}
+
+/// Most disagreeing rays [`arbitrate`] checks (each against every triangle in f64).
+const ARBITRATE_MAX: usize = 1000;
+
+/// Of the disagreeing rays (the first [`ARBITRATE_MAX`]), on how many a brute-force test of
+/// every triangle in f64 agrees with the tracer, and on how many with Embree: the same
+/// triangle, or a hit within 1e-6 relative of the f64 distance, or the same miss (for shadow
+/// rays: the same blocked or not).
+fn arbitrate(tris: &[[[f32; 3]; 3]], rays: &RayBatch, d: &Disagreement) -> (usize, usize) {
+    let (mut tracer, mut embree) = (0, 0);
+    for (&i, &(a, b)) in d.rays.iter().zip(&d.answers).take(ARBITRATE_MAX) {
+        let truth = nearest_f64(tris, rays.origins[i], rays.dirs[i], rays.t_max[i]);
+        let agrees = |x: Option<(f32, u32)>| match (x, truth) {
+            (None, None) => true,
+            (Some((0.0, u32::MAX)), Some(_)) => true, // a shadow ray blocked
+            (Some((t, id)), Some((tt, tid))) => {
+                id == tid || (f64::from(t) - tt).abs() <= 1e-6 * tt.abs()
+            }
+            _ => false,
+        };
+        tracer += agrees(a) as usize;
+        embree += agrees(b) as usize;
+    }
+    (tracer, embree)
+}
+
+/// The nearest triangle the ray `o + t d`, `0 < t < t_max`, hits, in f64 (Möller–Trumbore with
+/// the f32 data widened; edges count as inside): (distance, id).
+fn nearest_f64(tris: &[[[f32; 3]; 3]], o: [f32; 3], d: [f32; 3], t_max: f32) -> Option<(f64, u32)> {
+    let v = |p: [f32; 3]| p.map(f64::from);
+    let (o, d) = (v(o), v(d));
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let mut best: Option<(f64, u32)> = None;
+    for (id, t) in tris.iter().enumerate() {
+        let (a, b, c) = (v(t[0]), v(t[1]), v(t[2]));
+        let (e1, e2) = (sub(b, a), sub(c, a));
+        let p = cross(d, e2);
+        let det = dot(e1, p);
+        if det == 0.0 {
+            continue;
+        }
+        let s = sub(o, a);
+        let u = dot(s, p) / det;
+        let q = cross(s, e1);
+        let w = dot(d, q) / det;
+        let dist = dot(e2, q) / det;
+        if u < 0.0 || w < 0.0 || u + w > 1.0 || dist <= 0.0 || dist >= f64::from(t_max) {
+            continue;
+        }
+        if best.is_none_or(|(bt, _)| dist < bt) {
+            best = Some((dist, id as u32));
+        }
+    }
+    best
 }
 
 fn measure(
@@ -226,24 +310,40 @@ pub(crate) enum Answer {
 }
 
 impl Answer {
-    fn differences(&self, other: &Answer) -> usize {
+    /// The rays on which `self` (the tracer's) and `other` (Embree's) differ.
+    fn differences(&self, other: &Answer) -> Disagreement {
+        let mut d = Disagreement {
+            rays: Vec::new(),
+            answers: Vec::new(),
+        };
+        let blocked = |x: bool| x.then_some((0.0, u32::MAX));
         match (self, other) {
-            (Answer::Hits(a), Answer::Embree(b)) => a
-                .iter()
-                .zip(b)
-                .filter(|(a, b)| match (a, b) {
-                    (Some(a), Some((t, id))) => {
-                        a.triangle != *id && (a.t - t).abs() > 1e-4 * t.max(1e-6)
+            (Answer::Hits(a), Answer::Embree(b)) => {
+                for (i, (a, b)) in a.iter().zip(b).enumerate() {
+                    let differ = match (a, b) {
+                        (Some(a), Some((t, id))) => {
+                            a.triangle != *id && (a.t - t).abs() > 1e-4 * t.max(1e-6)
+                        }
+                        (None, None) => false,
+                        _ => true,
+                    };
+                    if differ {
+                        d.rays.push(i);
+                        d.answers.push((a.as_ref().map(|h| (h.t, h.triangle)), *b));
                     }
-                    (None, None) => false,
-                    _ => true,
-                })
-                .count(),
-            (Answer::Blocked(a), Answer::Blocked(b)) => {
-                a.iter().zip(b).filter(|(a, b)| a != b).count()
+                }
             }
-            _ => 0,
+            (Answer::Blocked(a), Answer::Blocked(b)) => {
+                for (i, (a, b)) in a.iter().zip(b).enumerate() {
+                    if a != b {
+                        d.rays.push(i);
+                        d.answers.push((blocked(*a), blocked(*b)));
+                    }
+                }
+            }
+            _ => {}
         }
+        d
     }
 }
 
@@ -638,5 +738,49 @@ mod baseline {
         pub fn answer(&self, _rays: &RayBatch, _closest: bool) -> Option<Answer> {
             None
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Disagreement, arbitrate, nearest_f64};
+    use lrr_runtime::trace::RayBatch;
+
+    /// Two unit right triangles at z = 1 and z = 2 over the origin's corner.
+    fn tris() -> Vec<[[f32; 3]; 3]> {
+        let at = |z: f32| [[0.0, 0.0, z], [1.0, 0.0, z], [0.0, 1.0, z]];
+        vec![at(2.0), at(1.0)]
+    }
+
+    #[test]
+    fn the_f64_arbiter_finds_the_nearest_triangle_and_sides_with_the_right_answer() {
+        let tris = tris();
+        let up = [0.0, 0.0, 1.0];
+        assert_eq!(
+            nearest_f64(&tris, [0.2, 0.2, 0.0], up, 10.0),
+            Some((1.0, 1))
+        );
+        // Far end before the first triangle; outside both; an edge point counts as inside.
+        assert_eq!(nearest_f64(&tris, [0.2, 0.2, 0.0], up, 0.5), None);
+        assert_eq!(nearest_f64(&tris, [0.8, 0.8, 0.0], up, 10.0), None);
+        assert_eq!(
+            nearest_f64(&tris, [0.5, 0.5, 0.0], up, 10.0),
+            Some((1.0, 1))
+        );
+        let rays = RayBatch {
+            origins: vec![[0.2, 0.2, 0.0], [0.8, 0.8, 0.0]],
+            dirs: vec![up; 2],
+            t_max: vec![10.0; 2],
+        };
+        // Ray 0: the tracer says triangle 1 at 1, Embree triangle 0 at 2; ray 1: the tracer
+        // a miss, Embree a hit; the blocked form (0, MAX) counts as any hit.
+        let d = Disagreement {
+            rays: vec![0, 1],
+            answers: vec![
+                (Some((1.0, 1)), Some((2.0, 0))),
+                (None, Some((0.0, u32::MAX))),
+            ],
+        };
+        assert_eq!(arbitrate(&tris, &rays, &d), (2, 0));
     }
 }
