@@ -183,12 +183,15 @@ struct Measured {
     disagree: Option<Disagreement>,
 }
 
+/// One side's answer for a ray: the hit's (distance, triangle id); for a shadow ray, blocked
+/// as `(0, u32::MAX)`; `None`: a miss (not blocked).
+type Said = Option<(f32, u32)>;
+
 /// The rays on which the tracer and Embree answered differently, with both answers.
 struct Disagreement {
     rays: Vec<usize>,
-    /// Per ray of `rays`: (tracer, Embree): the hit's (distance, triangle id), or for shadow
-    /// rays blocked as distance 0 (None: a miss, not blocked).
-    answers: Vec<(Option<(f32, u32)>, Option<(f32, u32)>)>,
+    /// Per ray of `rays`: (tracer, Embree).
+    answers: Vec<(Said, Said)>,
 }
 
 /// Most disagreeing rays [`arbitrate`] checks (each against every triangle in f64).
@@ -202,7 +205,7 @@ fn arbitrate(tris: &[[[f32; 3]; 3]], rays: &RayBatch, d: &Disagreement) -> (usiz
     let (mut tracer, mut embree) = (0, 0);
     for (&i, &(a, b)) in d.rays.iter().zip(&d.answers).take(ARBITRATE_MAX) {
         let truth = nearest_f64(tris, rays.origins[i], rays.dirs[i], rays.t_max[i]);
-        let agrees = |x: Option<(f32, u32)>| match (x, truth) {
+        let agrees = |x: Said| match (x, truth) {
             (None, None) => true,
             (Some((0.0, u32::MAX)), Some(_)) => true, // a shadow ray blocked
             (Some((t, id)), Some((tt, tid))) => {
