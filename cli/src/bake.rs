@@ -172,13 +172,19 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     let mut settings = a.mesh.settings_for(&scene)?;
     settings.refine = Some(a.refine);
     let checkpoint_path = checkpoint::path_for(&output);
-    if !a.resume && checkpoint_path.exists() {
-        eprintln!(
-            "lrr: note: starting over; {} holds an interrupted bake (add --resume to continue it)",
-            checkpoint_path.display()
-        );
-    }
     let first_pass_path = checkpoint::first_pass_path(&checkpoint_path);
+    if !a.resume {
+        if let Some(p) = [&checkpoint_path, &first_pass_path]
+            .iter()
+            .find(|p| p.exists())
+        {
+            eprintln!(
+                "lrr: note: starting over; {} holds an interrupted bake (add --resume to \
+                 continue it)",
+                p.display()
+            );
+        }
+    }
     if a.resume && !checkpoint_path.exists() && !first_pass_path.exists() {
         bail!(
             "--resume: neither {} nor {} exists: no interrupted bake of {} to continue (bake \
@@ -207,8 +213,12 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     if let Some(c) = baked.checkpoint.take() {
         c.remove()?;
     }
-    if let Some(c) = baked.first_pass_checkpoint.take() {
-        c.remove()?;
+    match baked.first_pass_checkpoint.take() {
+        Some(c) => c.remove()?,
+        // No first pass ran (`--refine 0`): an interrupted refined bake's is stale now.
+        None if first_pass_path.exists() => std::fs::remove_file(&first_pass_path)
+            .with_context(|| format!("removing {}", first_pass_path.display()))?,
+        None => {}
     }
     stage.finish();
     let file_bytes = std::fs::metadata(&output).map(|m| m.len()).unwrap_or(0);

@@ -256,15 +256,30 @@ pub(crate) fn refine_mesh(
     let mut ff =
         FormFactors::new(first.first_pass_samples(), first.occluder).with_enclosure(first.closed);
     ff.adaptive = 1;
-    let (fk, saved) = checkpoint::element_patch_matrix(
-        &mesh,
-        &ff,
-        progress,
-        max_memory,
-        checkpoint,
-        0..n0,
-        "first pass",
-    )?;
+    let run = |resume: bool| {
+        let settings = checkpoint.map(|(c, key)| {
+            let c = CheckpointSettings {
+                resume,
+                ..c.clone()
+            };
+            (c, key)
+        });
+        checkpoint::element_patch_matrix(
+            &mesh,
+            &ff,
+            progress,
+            max_memory,
+            settings.as_ref().map(|(c, key)| (c, *key)),
+            0..n0,
+            "first pass",
+        )
+    };
+    // A first-pass checkpoint of other settings (a bake resumed after the scene was edited,
+    // a shard run again with other flags) is stale, not an error: started over, with a note.
+    let (fk, saved) = match checkpoint {
+        Some((c, _)) if c.resume => checkpoint::resume_or_replace(&c.path, "the first pass", run)?,
+        _ => run(false)?,
+    };
     let (reflectance, emission) = mesh.file_order_materials(scene);
     let channels = if scene.is_grey() { 1 } else { 3 };
     let values = first_pass(&mesh, &fk, &reflectance, &emission, channels)?;

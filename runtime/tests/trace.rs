@@ -674,7 +674,8 @@ fn the_image_does_not_depend_on_the_thread_count_and_forcing_effects_changes_not
 /// The decision looks through the camera: a mirror, a glass pane and a specular panel that no
 /// camera ray can reach turn nothing on (and the image is the one with every effect forced
 /// on); a corner of the mirror in the view's edge turns secondary rays back on, and a mirror
-/// in view turns the highlights on too (it may show the specular panel).
+/// in view turns the highlights on too (it may show the specular panel); the specular panel
+/// alone turns on highlights only, the glass pane alone secondary rays.
 #[test]
 fn effects_out_of_the_cameras_view_are_not_simulated() {
     let mirror = Material {
@@ -764,6 +765,18 @@ fn effects_out_of_the_cameras_view_are_not_simulated() {
         edge.rays.secondary > 0,
         "the mirror's lower part is in the frame"
     );
+    // The specular panel alone in a narrow view: highlights, no secondary rays.
+    let shiny = frame(camera([3.0, 2.5, 1.0], [8.0, 2.5, 1.0], [0.0, 0.0, 1.0], 10.0));
+    let text = shiny.decision.text();
+    assert!(shiny.decision.effects.highlights, "{text}");
+    assert!(!shiny.decision.effects.secondary, "{text}");
+    assert!(shiny.rays.shadow > 0 && shiny.rays.secondary == 0, "{text}");
+    // The glass pane alone: secondary rays (and with them highlights: it may show the panel).
+    let pane = frame(camera([3.0, -2.5, 1.0], [7.0, -2.5, 1.0], [0.0, 0.0, 1.0], 10.0));
+    let text = pane.decision.text();
+    assert!(pane.decision.effects.secondary, "{text}");
+    assert!(text.contains("transmissive") && !text.contains("mirror 'mirror'"), "{text}");
+    assert!(pane.rays.secondary > 0, "{text}");
     // Looking at the mirror from the floor's far side: on, and rays reflected.
     let at = frame(camera(
         [-3.0, 0.0, 1.0],

@@ -5,8 +5,10 @@
 //! `OUT.lrr.ckpt` and flushed. A record is `block index, byte length, checksum, f64 payload`;
 //! a record cut short by a crash fails its length or checksum and is dropped on resume (with
 //! everything after it). The header holds a key hashed from everything `F_k` depends on (the
-//! scene geometry, mesh sizes, samples, n, k, the lrr version), so a checkpoint is never
-//! applied to a different bake. A successful bake deletes its checkpoint.
+//! scene geometry, mesh sizes, the mesh itself, samples, n, k, the lrr version), so a
+//! checkpoint is never applied to a different bake. A successful bake deletes its checkpoint.
+//! `--refine`'s first pass keeps its rows the same way in `OUT.lrr.first-pass.ckpt`
+//! ([`first_pass_path`]).
 
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, SeekFrom, Write};
@@ -103,8 +105,8 @@ impl Checkpoint {
             .map_err(|e| Error::io(path, e))?;
         if bytes.len() < HEADER || bytes[..HEADER] != shape.to_bytes()[..] {
             return Err(Error::Settings(format!(
-                "{}: this checkpoint belongs to a different bake (the scene, the mesh sizes, the samples or the \
-                 lrr version changed); delete it or bake without --resume",
+                "{}: this checkpoint belongs to a different bake (the scene, its materials, the mesh \
+                 sizes, the samples or the lrr version changed); delete it or bake without --resume",
                 path.display()
             )));
         }

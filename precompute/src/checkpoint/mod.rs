@@ -118,6 +118,29 @@ pub(crate) fn element_patch_matrix(
     Ok((fk, file))
 }
 
+/// `run(resume)`: resuming the checkpoint at `path` when it is there, and starting over, with a
+/// note on standard error (`whose` names what it was for), when it belongs to another bake.
+/// Shards, which always resume, use it for their rows; bakes and shards for their first pass.
+pub(crate) fn resume_or_replace<T>(
+    path: &std::path::Path,
+    whose: &str,
+    run: impl Fn(bool) -> Result<T>,
+) -> Result<T> {
+    if !path.exists() {
+        return run(false);
+    }
+    match run(true) {
+        Err(crate::error::Error::Settings(m)) if m.contains("different bake") => {
+            eprintln!(
+                "lrr: note: {} belongs to another bake; starting {whose} over",
+                path.display()
+            );
+            run(false)
+        }
+        other => other,
+    }
+}
+
 /// The key of `--refine`'s first pass over the unrefined mesh `bake` with `samples` per
 /// pair: a bake's key of that mesh, tagged (the first pass integrates one ray per pair).
 pub(crate) fn first_pass_key(bake: &Identity, samples: u32) -> u64 {
@@ -181,18 +204,21 @@ pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
         ]
         .concat(),
     };
-    let mut mesh = Vec::with_capacity(bake.mesh.n() * 100 + bake.mesh.index.len() * 4);
+    // The mesh, streamed into its own hash (a copy of every element would cost about 100
+    // bytes each).
+    let mut h = lrr_formats::Xxh64::new();
     for s in 0..bake.mesh.n() {
-        mesh.extend_from_slice(&bake.mesh.order[s].to_le_bytes());
+        h.update(&bake.mesh.order[s].to_le_bytes());
         for v in bake.mesh.element_at(s).polygon.vertices() {
             for c in v.to_array() {
-                mesh.extend_from_slice(&c.to_le_bytes());
+                h.update(&c.to_le_bytes());
             }
         }
     }
     for i in &bake.mesh.index {
-        mesh.extend_from_slice(&i.to_le_bytes());
+        h.update(&i.to_le_bytes());
     }
+    let mesh = h.finish().to_le_bytes();
     let mut parts: Vec<&[u8]> = vec![&geometry, &sizes, &counts, &method, &mesh];
     if !refine.is_empty() {
         parts.push(&refine);

@@ -302,19 +302,7 @@ fn shard_rows(
             "form factors",
         )
     };
-    if !path.exists() {
-        return run(false);
-    }
-    match run(true) {
-        Err(Error::Settings(m)) if m.contains("different bake") => {
-            eprintln!(
-                "lrr: note: {} belongs to another bake or shard; starting this shard over",
-                path.display()
-            );
-            run(false)
-        }
-        other => other,
-    }
+    checkpoint::resume_or_replace(&path, "this shard", run)
 }
 
 /// Hash of everything of the scene a bake reads: name, surfaces, materials, faces.

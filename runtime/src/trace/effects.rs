@@ -96,13 +96,19 @@ fn named(scene: &TraceScene, pick: impl Fn(usize) -> bool) -> (usize, String) {
     (names.len(), text)
 }
 
-/// Which kinds of non-diffuse triangles `view` may see: (specular, mirror, transmissive);
-/// all true without a view.
-fn in_view(scene: &TraceScene, view: Option<&View>) -> (bool, bool, bool) {
-    let Some(view) = view else {
-        return (true, true, true);
-    };
-    let mut seen = (false, false, false);
+/// Which kinds of non-diffuse triangles `view` may see: (specular, mirror, transmissive).
+fn in_view(scene: &TraceScene, view: &View) -> (bool, bool, bool) {
+    // Kinds the scene has none of count as seen, so the scan stops once the others are.
+    let has = |p: fn(&super::scene::Optics) -> bool| scene.optics.iter().any(p);
+    let mut seen = (
+        !has(|o| o.has_highlight()),
+        !has(|o| o.reflects()),
+        !has(|o| o.transmits()),
+    );
+    if seen == (true, true, true) {
+        return (false, false, false);
+    }
+    let none = seen;
     for &t in &scene.special {
         let o = scene.optics_of(scene.tri_element[t as usize]);
         let wanted = (o.has_highlight() && !seen.0)
@@ -117,15 +123,15 @@ fn in_view(scene: &TraceScene, view: Option<&View>) -> (bool, bool, bool) {
             }
         }
     }
-    seen
+    // A kind the scene lacks is not in view.
+    (seen.0 && !none.0, seen.1 && !none.1, seen.2 && !none.2)
 }
 
-/// The effects of a frame of `scene` seen through `view` (`None`: from anywhere) whose point
-/// lights shine at `light_scale` times their intensity (one factor per light); `smooth`: the
+/// The effects of a frame of `scene` seen through `view` whose point lights shine at `light_scale` times their intensity (one factor per light); `smooth`: the
 /// caller's choice of the smooth reconstruction (kept only when the file has SMOOTH weights).
 pub(crate) fn decide(
     scene: &TraceScene,
-    view: Option<&View>,
+    view: &View,
     light_scale: &[f32],
     max_depth: u32,
     smooth: bool,

@@ -163,13 +163,7 @@ impl Tracer {
             .iter()
             .map(|i| i[0].max(i[1]).max(i[2]))
             .collect();
-        effects::decide(
-            &self.scene,
-            Some(view),
-            &scales,
-            self.max_depth,
-            self.smooth,
-        )
+        effects::decide(&self.scene, view, &scales, self.max_depth, self.smooth)
     }
 
     /// Renders `view` at `width × height` with `threads` threads (0: one per available core),

@@ -221,13 +221,42 @@ fn a_checkpoint_of_other_materials_is_refused() {
     .unwrap();
     let err = bake(&edited, &out, &[&flags[..], &["--resume"]].concat()).unwrap_err();
     assert!(err.contains("different bake"), "{err}");
-    // Both bakes have n = 2539 and k = 242 (measured: `lrr bake … --method 2mf` of each), so
-    // only the mesh in the key tells them apart.
-    let whole = dir.join("edited.lrr");
-    let text = bake(&edited, &whole, &flags).unwrap();
+    // Both bakes have n = 2539 and k = 242, so only the mesh in the key tells them apart.
+    for (scene, name) in [(edited, "edited.lrr"), (cornell(), "original.lrr")] {
+        let text = bake(&scene, &dir.join(name), &flags).unwrap();
+        assert!(
+            text.contains("n = 2539 elements, k = 242 patches"),
+            "{text}"
+        );
+    }
+}
+
+/// A first-pass checkpoint left by another bake is stale, not an error: a shard (which always
+/// resumes) and `lrr bake --resume` start the first pass over and finish; a later unrefined
+/// bake removes a stale one.
+#[test]
+fn a_foreign_first_pass_checkpoint_is_started_over() {
+    let dir = temp_dir("first-pass-foreign");
+    let whole = dir.join("whole.lrr");
+    bake(&cornell(), &whole, &[]).unwrap();
+    // A checkpoint header of another bake (magic, then key, n, k and block rows all zero).
+    let foreign = [b"LRRCKPT1".as_slice(), &[0u8; 32]].concat();
+    let out = dir.join("cut.lrr");
+    let first = dir.join("cut.lrr.first-pass.ckpt");
+    std::fs::write(&first, &foreign).unwrap();
+    bake(&cornell(), &out, &["--resume"]).unwrap();
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&whole).unwrap());
+    assert!(!first.exists());
+    let part = dir.join("part.bin");
+    let part_first = dir.join("part.bin.first-pass.ckpt");
+    std::fs::write(&part_first, &foreign).unwrap();
+    let text = bake(&cornell(), &part, &["--shard", "0/3"]).unwrap();
+    assert!(part.exists() && !part_first.exists(), "{text}");
+    std::fs::write(&first, &foreign).unwrap();
+    bake(&cornell(), &out, &["--refine", "0"]).unwrap();
     assert!(
-        text.contains("n = 2539 elements, k = 242 patches"),
-        "{text}"
+        !first.exists(),
+        "an unrefined bake leaves a stale first pass behind"
     );
 }
 

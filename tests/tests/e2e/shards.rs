@@ -158,6 +158,7 @@ fn shards_run_by_gnu_parallel_merge_into_the_bytes_of_a_single_bake() {
                 / r["estimated_total_cost"].as_f64().unwrap();
             assert!((0.85..=1.15).contains(&share), "shard {i}/{count}: {share}");
             assert!(!sub.join(format!("part-{i}.bin.ckpt")).exists());
+            assert!(!sub.join(format!("part-{i}.bin.first-pass.ckpt")).exists());
         }
         // The default bake's refined mesh (n0 = 2116 and 423 new elements).
         assert_eq!(covered, 2539, "the shards cover every row");
