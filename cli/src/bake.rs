@@ -173,17 +173,16 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     settings.refine = Some(a.refine);
     let checkpoint_path = checkpoint::path_for(&output);
     let first_pass_path = checkpoint::first_pass_path(&checkpoint_path);
-    if !a.resume {
-        if let Some(p) = [&checkpoint_path, &first_pass_path]
+    if !a.resume
+        && let Some(p) = [&checkpoint_path, &first_pass_path]
             .iter()
             .find(|p| p.exists())
-        {
-            eprintln!(
-                "lrr: note: starting over; {} holds an interrupted bake (add --resume to \
-                 continue it)",
-                p.display()
-            );
-        }
+    {
+        eprintln!(
+            "lrr: note: starting over; {} holds an interrupted bake (add --resume to continue \
+             it)",
+            p.display()
+        );
     }
     if a.resume && !checkpoint_path.exists() && !first_pass_path.exists() {
         bail!(

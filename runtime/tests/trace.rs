@@ -766,16 +766,29 @@ fn effects_out_of_the_cameras_view_are_not_simulated() {
         "the mirror's lower part is in the frame"
     );
     // The specular panel alone in a narrow view: highlights, no secondary rays.
-    let shiny = frame(camera([3.0, 2.5, 1.0], [8.0, 2.5, 1.0], [0.0, 0.0, 1.0], 10.0));
+    let shiny = frame(camera(
+        [3.0, 2.5, 1.0],
+        [8.0, 2.5, 1.0],
+        [0.0, 0.0, 1.0],
+        10.0,
+    ));
     let text = shiny.decision.text();
     assert!(shiny.decision.effects.highlights, "{text}");
     assert!(!shiny.decision.effects.secondary, "{text}");
     assert!(shiny.rays.shadow > 0 && shiny.rays.secondary == 0, "{text}");
     // The glass pane alone: secondary rays (and with them highlights: it may show the panel).
-    let pane = frame(camera([3.0, -2.5, 1.0], [7.0, -2.5, 1.0], [0.0, 0.0, 1.0], 10.0));
+    let pane = frame(camera(
+        [3.0, -2.5, 1.0],
+        [7.0, -2.5, 1.0],
+        [0.0, 0.0, 1.0],
+        10.0,
+    ));
     let text = pane.decision.text();
     assert!(pane.decision.effects.secondary, "{text}");
-    assert!(text.contains("transmissive") && !text.contains("mirror 'mirror'"), "{text}");
+    assert!(
+        text.contains("transmissive") && !text.contains("mirror 'mirror'"),
+        "{text}"
+    );
     assert!(pane.rays.secondary > 0, "{text}");
     // Looking at the mirror from the floor's far side: on, and rays reflected.
     let at = frame(camera(
