@@ -718,6 +718,12 @@ mod baseline {
     impl Baseline {
         #[cfg(feature = "embree")]
         pub fn build(tris: &[[[f32; 3]; 3]], quality: EmbreeQuality) -> Result<Self> {
+            use embree4_sys::RTCBuildQuality as Q;
+            let quality = match quality {
+                EmbreeQuality::Low => Q::LOW,
+                EmbreeQuality::Medium => Q::MEDIUM,
+                EmbreeQuality::High => Q::HIGH,
+            };
             Ok(Baseline {
                 scene: crate::bench_render_embree::EmbreeScene::build(tris, quality)?,
             })

@@ -10,8 +10,6 @@ use anyhow::{Result, bail};
 use embree4_sys as sys;
 use lrr_runtime::trace::RayBatch;
 
-use crate::bench_render::EmbreeQuality;
-
 /// An Embree scene of triangles.
 pub struct EmbreeScene {
     device: sys::RTCDevice,
@@ -30,7 +28,7 @@ fn check(device: sys::RTCDevice, what: &str) -> Result<()> {
 
 impl EmbreeScene {
     /// Embree's BVH over `tris` (v0, v1, v2 each).
-    pub fn build(tris: &[[[f32; 3]; 3]], quality: EmbreeQuality) -> Result<Self> {
+    pub fn build(tris: &[[[f32; 3]; 3]], quality: sys::RTCBuildQuality) -> Result<Self> {
         // SAFETY: FFI calls on handles made here; the buffers Embree returns are written within
         // the sizes they were made with; `Drop` releases the handles on every path.
         unsafe {
@@ -43,14 +41,7 @@ impl EmbreeScene {
                 scene: sys::rtcNewScene(device),
             };
             check(device, "creating the scene")?;
-            sys::rtcSetSceneBuildQuality(
-                s.scene,
-                match quality {
-                    EmbreeQuality::Low => sys::RTCBuildQuality::LOW,
-                    EmbreeQuality::Medium => sys::RTCBuildQuality::MEDIUM,
-                    EmbreeQuality::High => sys::RTCBuildQuality::HIGH,
-                },
-            );
+            sys::rtcSetSceneBuildQuality(s.scene, quality);
             let count = tris.len();
             let geometry = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
             check(device, "creating the geometry")?;

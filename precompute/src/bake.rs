@@ -244,6 +244,7 @@ impl<'s> Prepared<'s> {
                         mesh: &mesh,
                     },
                     first.first_pass_samples(),
+                    crate::refine::REVISION,
                 );
                 let (mesh, ckpt) = crate::refine::refine_mesh(
                     scene,
@@ -321,7 +322,7 @@ impl<'s> Prepared<'s> {
             n: self.mesh.n(),
             k: self.mesh.k(),
             visibility: self.visibility_name(),
-            refine: self.refine,
+            refine: self.refine.map(|budget| (budget, crate::refine::REVISION)),
             mesh: &self.mesh,
         }
     }

@@ -1,7 +1,8 @@
 //! Support for the runtime's fuzz targets in `fuzz_targets/`: the shared bodies ([`operators`],
-//! [`kernels`], also replayed by the end-to-end tests) and an allocation meter for the loader's
+//! [`kernels`], [`trace`], also replayed by the end-to-end tests) and an allocation meter for the loader's
 //! size limits.
 
 pub mod alloc;
 pub mod kernels;
 pub mod operators;
+pub mod trace;

@@ -49,9 +49,14 @@ pub fn operator_mutated(data: &[u8]) -> bool {
 ///    afterwards wherever the table allows, so damaged offsets and lengths reach the layout
 ///    checks instead of failing the header checksum.
 pub fn mutate(data: &[u8]) -> Vec<u8> {
+    mutate_from(data, base_file)
+}
+
+/// [`mutate`] with the bases `base(variant)` (the trace target's files with display sections).
+pub fn mutate_from(data: &[u8], base: impl Fn(u8) -> Vec<u8>) -> Vec<u8> {
     let mut r = Reader(data);
     let variant = r.byte();
-    let base = base_file(variant);
+    let base = base(variant);
     let container = Container::parse(&base).expect("the base files are valid");
     let mut sections: Vec<(u32, bool, Vec<u8>)> = container
         .sections()

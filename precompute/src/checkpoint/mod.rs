@@ -37,8 +37,9 @@ pub(crate) struct Identity<'a> {
     pub k: usize,
     /// The visibility backend's name as the file's metadata records it.
     pub visibility: &'a str,
-    /// `--refine`'s budget when the mesh was refined where light changes.
-    pub refine: Option<f64>,
+    /// `--refine`'s budget when the mesh was refined where light changes, and the revision of
+    /// the refinement's rules (`refine::REVISION`).
+    pub refine: Option<(f64, u32)>,
     /// The mesh itself: which elements (file order, ids) and which patches. A refined mesh
     /// depends on the materials too (the first pass's light), so another reflectance can give
     /// the same `n` and `k` with other elements.
@@ -142,12 +143,13 @@ pub(crate) fn resume_or_replace<T>(
 }
 
 /// The key of `--refine`'s first pass over the unrefined mesh `bake` with `samples` per
-/// pair: a bake's key of that mesh, tagged (the first pass integrates one ray per pair).
-pub(crate) fn first_pass_key(bake: &Identity, samples: u32) -> u64 {
+/// pair under the refinement's rules `revision`: a bake's key of that mesh, tagged (the first
+/// pass integrates one ray per pair).
+pub(crate) fn first_pass_key(bake: &Identity, samples: u32, revision: u32) -> u64 {
     file::hash_parts(&[
         &key(bake, samples).to_le_bytes(),
         b"first pass of --refine, one ray per pair",
-        &crate::refine::REVISION.to_le_bytes(),
+        &revision.to_le_bytes(),
     ])
 }
 
@@ -197,10 +199,10 @@ pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
     // unrefined mesh, whose key is as before.
     let refine = match bake.refine {
         None => Vec::new(),
-        Some(budget) => [
+        Some((budget, revision)) => [
             b"refine".to_vec(),
             budget.to_le_bytes().to_vec(),
-            crate::refine::REVISION.to_le_bytes().to_vec(),
+            revision.to_le_bytes().to_vec(),
         ]
         .concat(),
     };

@@ -1,7 +1,7 @@
 //! The fuzz corpora as ordinary tests: every seed (`fuzz/seeds/<target>/`) and every committed
 //! crash input (`fuzz/regressions/<target>/`) runs through the same function as the cargo-fuzz
 //! target of that name (fuzz/src/harness.rs for the scene importers, fuzz/runtime/src/
-//! operators.rs and kernels.rs for the runtime, included here), on stable, in CI. Each must be accepted or refused with an error, never panic.
+//! operators.rs, kernels.rs and trace.rs for the runtime, included here), on stable, in CI. Each must be accepted or refused with an error, never panic.
 
 use std::path::{Path, PathBuf};
 
@@ -13,11 +13,14 @@ mod harness;
 mod kernels;
 #[path = "../../../fuzz/runtime/src/operators.rs"]
 mod operators;
+#[path = "../../../fuzz/runtime/src/trace.rs"]
+mod trace;
 
-const TARGETS: [&str; 6] = [
+const TARGETS: [&str; 7] = [
     "kernels",
     "operator_bytes",
     "operator_mutated",
+    "trace_mutated",
     "obj_import",
     "scene_description",
     "gltf_import",
@@ -29,6 +32,7 @@ fn run(target: &str, data: &[u8], dir: &Path) -> bool {
         "kernels" => kernels::kernels(data),
         "operator_bytes" => operators::operator_bytes(data),
         "operator_mutated" => operators::operator_mutated(data),
+        "trace_mutated" => trace::trace_mutated(data),
         "obj_import" => harness::obj_import(data, dir),
         "scene_description" => harness::scene_description(data, dir),
         "gltf_import" => harness::gltf_import(data, dir),
@@ -137,6 +141,37 @@ fn kernels_agree_on_random_operators_and_emissions() {
     assert!(
         loaded >= 150,
         "only {loaded} of 300 random operators loaded: the test is shallow"
+    );
+}
+
+/// The `trace_mutated` target on stable: 300 random edits of the tracer's base files (fixed
+/// seed), each loaded, made into a tracer and rendered when accepted, so CI runs the tracer's
+/// checks of damaged display sections every time; every base renders untouched.
+#[test]
+fn the_tracer_refuses_or_renders_damaged_files() {
+    for variant in 0..8 {
+        assert!(
+            trace::trace_mutated(&[variant]),
+            "base {variant} does not render"
+        );
+    }
+    let mut state = 0x5851_f42d_4c95_7f2du64;
+    let mut next = move || {
+        state ^= state >> 12;
+        state ^= state << 25;
+        state ^= state >> 27;
+        state.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    };
+    let mut rendered = 0;
+    for _ in 0..300 {
+        let len = 2 + (next() % 24) as usize;
+        let data: Vec<u8> = (0..len).map(|_| next() as u8).collect();
+        rendered += usize::from(trace::trace_mutated(&data));
+    }
+    println!("trace_mutated: 300 inputs, {rendered} files rendered");
+    assert!(
+        rendered >= 30,
+        "only {rendered} of 300 edited files rendered: shallow"
     );
 }
 
