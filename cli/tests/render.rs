@@ -398,29 +398,31 @@ fn a_baked_file_renders_smooth_on_the_gpu_as_on_the_cpu() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// `lrr bench render` of the dense scene at `size`, one round on one thread, with `extra` flags.
+fn bench_render(size: &str, extra: &[&str]) -> String {
+    let mut out = Vec::new();
+    let mut argv = vec![
+        "lrr",
+        "bench",
+        "render",
+        "--size",
+        size,
+        "--runs",
+        "1",
+        "--threads",
+        "1",
+    ];
+    argv.extend_from_slice(extra);
+    lrr_cli::run(argv, &mut out).unwrap();
+    String::from_utf8(out).unwrap()
+}
+
 /// `lrr bench render` on the CPU traces the tree a bake stores by default: its SAH cost is the
 /// lower by far (docs/PERFORMANCE.md: 26.4 against the testkit builder's 69.3 on the dense
 /// scene), every ray kind is timed, and without Embree in the build it says how to add it.
 #[test]
 fn bench_render_traces_the_bakes_tree_by_default() {
-    let bench = |tree: &str| {
-        let mut out = Vec::new();
-        let argv = [
-            "lrr",
-            "bench",
-            "render",
-            "--size",
-            "48x27",
-            "--runs",
-            "1",
-            "--threads",
-            "1",
-            "--tree",
-            tree,
-        ];
-        lrr_cli::run(argv, &mut out).unwrap();
-        String::from_utf8(out).unwrap()
-    };
+    let bench = |tree: &str| bench_render("48x27", &["--tree", tree]);
     let sah = |text: &str| -> f64 {
         let at = text.find("SAH cost ").expect(text) + "SAH cost ".len();
         text[at..]
@@ -455,20 +457,7 @@ fn bench_render_traces_the_bakes_tree_by_default() {
 #[cfg(feature = "embree")]
 #[test]
 fn bench_render_times_embree_on_the_same_rays() {
-    let mut out = Vec::new();
-    let argv = [
-        "lrr",
-        "bench",
-        "render",
-        "--size",
-        "192x108",
-        "--runs",
-        "1",
-        "--threads",
-        "1",
-    ];
-    lrr_cli::run(argv, &mut out).unwrap();
-    let text = String::from_utf8(out).unwrap();
+    let text = bench_render("192x108", &[]);
     assert!(text.contains("embree: build quality High"), "{text}");
     for kind in ["primary", "shadow", "secondary"] {
         let row: Vec<&str> = text

@@ -112,18 +112,22 @@ fn seeds_and_crash_inputs_give_ok_or_an_error_never_a_panic() {
     );
 }
 
+/// xorshift64* from `seed`: the random inputs' bytes.
+fn xorshift(mut state: u64) -> impl FnMut() -> u64 {
+    move || {
+        state ^= state >> 12;
+        state ^= state << 25;
+        state ^= state >> 27;
+        state.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+}
+
 /// The `kernels` target on stable, without the fuzzer: inputs drawn at random (xorshift64*,
 /// fixed seed), so CI runs the scalar and AVX2 kernels against each other and against the f64
 /// evaluation on a few hundred operators and emissions each time.
 #[test]
 fn kernels_agree_on_random_operators_and_emissions() {
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = move || {
-        state ^= state >> 12;
-        state ^= state << 25;
-        state ^= state >> 27;
-        state.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    };
+    let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
     let mut loaded = 0;
     for i in 0..300 {
         let len = 16 + (next() % 240) as usize;
@@ -155,13 +159,7 @@ fn the_tracer_refuses_or_renders_damaged_files() {
             "base {variant} does not render"
         );
     }
-    let mut state = 0x5851_f42d_4c95_7f2du64;
-    let mut next = move || {
-        state ^= state >> 12;
-        state ^= state << 25;
-        state ^= state >> 27;
-        state.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    };
+    let mut next = xorshift(0x5851_f42d_4c95_7f2d);
     let mut rendered = 0;
     for _ in 0..300 {
         let len = 2 + (next() % 24) as usize;
