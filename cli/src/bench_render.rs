@@ -45,6 +45,10 @@ pub struct RenderBench {
     /// (a triangle may sit in several leaves), `medium` a binned SAH tree like the file's.
     #[arg(long, value_enum, default_value_t = EmbreeQuality::High)]
     pub embree_quality: EmbreeQuality,
+    /// The view [default: the file's first camera, or the generated scene's]: what the rays
+    /// and frames see, and so which effects a frame needs.
+    #[command(flatten)]
+    pub view: crate::picture::CameraArgs,
 }
 
 /// Which builder makes the generated scene's BVH (`--tree`).
@@ -75,9 +79,21 @@ pub fn run(b: &RenderBench, out: &mut dyn Write) -> Result<()> {
     }
     let (w, h) = crate::bench_operators::parse_size(&b.size)
         .with_context(|| format!("--size {}: expected WxH like 1920x1080", b.size))?;
-    let bench = match &b.file {
-        Some(path) => from_file(path)?,
+    let mut bench = match &b.file {
+        Some(path) => from_file(path, &b.view)?,
         None => dense(b.tree)?,
+    };
+    let flags = &b.view;
+    bench.camera = match (&flags.camera, &b.file) {
+        (Some(_), Some(path)) => flags.camera(&Tracer::new(&bench.file)?, path)?,
+        (Some(name), None) => bail!("--camera {name}: the generated scene has no named cameras"),
+        (None, _) => Camera {
+            eye: flags.eye.unwrap_or(bench.camera.eye),
+            target: flags.target.unwrap_or(bench.camera.target),
+            up: flags.up.unwrap_or(bench.camera.up),
+            fov_y_deg: flags.fov_y.unwrap_or(bench.camera.fov_y_deg),
+            ..bench.camera
+        },
     };
     let tracer = Tracer::new(&bench.file)?;
     let view = View::new(&bench.camera, w as u32, h as u32)?;
@@ -578,14 +594,31 @@ fn gpu_frames(
     Ok(())
 }
 
-fn from_file(path: &Path) -> Result<Bench> {
+fn from_file(path: &Path, flags: &crate::picture::CameraArgs) -> Result<Bench> {
     let file = OperatorFile::read(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let given = match (flags.eye, flags.target) {
+        (Some(eye), Some(target)) => Some(Camera {
+            name: String::new(),
+            eye,
+            target,
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: 60.0,
+        }),
+        _ => None,
+    };
     let camera = file
         .display
         .cameras
         .first()
         .cloned()
-        .with_context(|| format!("{}: the file has no camera to bench with", path.display()))?;
+        .or(given)
+        .with_context(|| {
+            format!(
+                "{}: the file has no camera to bench with; give one with --eye X,Y,Z --target \
+                 X,Y,Z",
+                path.display()
+            )
+        })?;
     Ok(Bench {
         what: path.display().to_string(),
         file,

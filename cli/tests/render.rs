@@ -448,6 +448,29 @@ fn bench_render_traces_the_bakes_tree_by_default() {
     if !cfg!(feature = "embree") {
         assert!(bake.contains("embree: not in this build"), "{bake}");
     }
+    // Another view of the same scene: the flags move the camera (the frames' rays differ).
+    let moved = bench_render(
+        "48x27",
+        &[
+            "--eye",
+            "0.5,0.9,0.5",
+            "--target",
+            "0.5,0.0,0.5",
+            "--up",
+            "0,0,1",
+        ],
+    );
+    let primary = moved.lines().find(|l| l.starts_with("primary")).unwrap();
+    assert_eq!(primary.split_whitespace().nth(1), Some("1296"), "{moved}");
+    let shadow = |t: &str| {
+        t.lines()
+            .find(|l| l.starts_with("shadow"))
+            .map(str::to_owned)
+    };
+    assert_ne!(shadow(&moved), shadow(&bake), "the view did not move");
+    let mut out = Vec::new();
+    let err = lrr_cli::run(["lrr", "bench", "render", "--camera", "x"], &mut out).unwrap_err();
+    assert!(err.to_string().contains("no named cameras"), "{err}");
 }
 
 /// With Embree in the build (`--features embree`; scripts/test runs the tests named after it):
