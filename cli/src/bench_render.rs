@@ -66,10 +66,9 @@ pub enum EmbreeQuality {
     High,
 }
 
-/// The scene under test: file, camera, what it is.
+/// The scene under test: the file (its first camera the default view) and what it is.
 struct Bench {
     file: OperatorFile,
-    camera: Camera,
     what: String,
 }
 
@@ -79,24 +78,22 @@ pub fn run(b: &RenderBench, out: &mut dyn Write) -> Result<()> {
     }
     let (w, h) = crate::bench_operators::parse_size(&b.size)
         .with_context(|| format!("--size {}: expected WxH like 1920x1080", b.size))?;
-    let mut bench = match &b.file {
-        Some(path) => from_file(path, &b.view)?,
+    let bench = match &b.file {
+        Some(path) => from_file(path)?,
         None => dense(b.tree)?,
     };
-    let flags = &b.view;
-    bench.camera = match (&flags.camera, &b.file) {
-        (Some(_), Some(path)) => flags.camera(&Tracer::new(&bench.file)?, path)?,
-        (Some(name), None) => bail!("--camera {name}: the generated scene has no named cameras"),
-        (None, _) => Camera {
-            eye: flags.eye.unwrap_or(bench.camera.eye),
-            target: flags.target.unwrap_or(bench.camera.target),
-            up: flags.up.unwrap_or(bench.camera.up),
-            fov_y_deg: flags.fov_y.unwrap_or(bench.camera.fov_y_deg),
-            ..bench.camera
-        },
-    };
+    if let (Some(name), None) = (&b.view.camera, &b.file) {
+        bail!("--camera {name}: the generated scene has no named cameras");
+    }
     let tracer = Tracer::new(&bench.file)?;
-    let view = View::new(&bench.camera, w as u32, h as u32)?;
+    // The file's first camera (the generated scene's own), its fields overridden by the flags.
+    let camera = b.view.camera(
+        &tracer,
+        b.file
+            .as_deref()
+            .unwrap_or(Path::new("the generated scene")),
+    )?;
+    let view = View::new(&camera, w as u32, h as u32)?;
     if b.device == crate::render::TraceDevice::Gpu {
         writeln!(
             out,
@@ -594,35 +591,11 @@ fn gpu_frames(
     Ok(())
 }
 
-fn from_file(path: &Path, flags: &crate::picture::CameraArgs) -> Result<Bench> {
+fn from_file(path: &Path) -> Result<Bench> {
     let file = OperatorFile::read(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    let given = match (flags.eye, flags.target) {
-        (Some(eye), Some(target)) => Some(Camera {
-            name: String::new(),
-            eye,
-            target,
-            up: [0.0, 1.0, 0.0],
-            fov_y_deg: 60.0,
-        }),
-        _ => None,
-    };
-    let camera = file
-        .display
-        .cameras
-        .first()
-        .cloned()
-        .or(given)
-        .with_context(|| {
-            format!(
-                "{}: the file has no camera to bench with; give one with --eye X,Y,Z --target \
-                 X,Y,Z",
-                path.display()
-            )
-        })?;
     Ok(Bench {
         what: path.display().to_string(),
         file,
-        camera,
     })
 }
 
@@ -698,6 +671,13 @@ fn dense(tree: Tree) -> Result<Bench> {
             Tree::Bake => lrr_precompute::display::bvh(&file.geometry),
             Tree::Testkit => testkit::bvh::build(&file.geometry),
         }),
+        cameras: vec![Camera {
+            name: "bench".into(),
+            eye: [0.5, 0.55, 0.98],
+            target: [0.5, 0.4, 0.5],
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: 60.0,
+        }],
         ..Display::default()
     };
     Ok(Bench {
@@ -709,13 +689,6 @@ fn dense(tree: Tree) -> Result<Bench> {
             }
         ),
         file,
-        camera: Camera {
-            name: "bench".into(),
-            eye: [0.5, 0.55, 0.98],
-            target: [0.5, 0.4, 0.5],
-            up: [0.0, 1.0, 0.0],
-            fov_y_deg: 60.0,
-        },
     })
 }
 
