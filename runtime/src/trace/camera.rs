@@ -73,11 +73,9 @@ impl View {
         self.eye
     }
 
-    /// Whether a camera ray may hit the triangle `t` (v0, v1, v2): false only when all three
-    /// corners lie outside one side of the view's pyramid (its four sides through the eye and
-    /// the plane of the eye itself), with a margin of 1e-4 of their distance for rounding, so
-    /// a triangle any camera ray hits is never called unseen.
-    pub(crate) fn may_see(&self, t: &[f32; 9]) -> bool {
+    /// The view's pyramid, to test triangles against ([`Pyramid::may_see`]); made once per
+    /// frame, not per triangle.
+    pub(crate) fn pyramid(&self) -> Pyramid {
         let (f, r, u) = (self.forward, self.right, self.up);
         // Inward normals of the sides from the orthogonal frame itself (`f` unit, `r` and `u`
         // the half extents): the side through `f ± r` (all `s`: `f ± r + s u`) has normal
@@ -91,12 +89,10 @@ impl View {
             mad(scale(f, uu), u, 1.0),
             f,
         ];
-        let rel = |k: usize| sub([t[3 * k], t[3 * k + 1], t[3 * k + 2]], self.eye);
-        let points = [rel(0), rel(1), rel(2)];
-        !planes.iter().any(|n| {
-            let margin = 1e-4 * length(*n);
-            points.iter().all(|p| dot(*n, *p) < -margin * length(*p))
-        })
+        Pyramid {
+            eye: self.eye,
+            sides: planes.map(|n| (n, 1e-4 * length(n))),
+        }
     }
 
     /// The unit direction through pixel `(x, y)`'s centre (`y = 0` the top row).
@@ -105,6 +101,27 @@ impl View {
         let u = 2.0 * (x as f32 + 0.5) / width as f32 - 1.0;
         let v = 1.0 - 2.0 * (y as f32 + 0.5) / height as f32;
         normalize(mad(mad(self.forward, self.right, u), self.up, v))
+    }
+}
+
+/// A view's pyramid: its four sides through the eye and the plane of the eye itself, as inward
+/// normals with a rounding margin (1e-4 of each normal's length).
+pub(crate) struct Pyramid {
+    eye: V3,
+    sides: [(V3, f32); 5],
+}
+
+impl Pyramid {
+    /// Whether a camera ray may hit the triangle `t` (v0, v1, v2): false only when all three
+    /// corners lie outside one side of the pyramid, by the margin times their distance, so a
+    /// triangle any camera ray hits is never called unseen.
+    pub(crate) fn may_see(&self, t: &[f32; 9]) -> bool {
+        let rel = |k: usize| sub([t[3 * k], t[3 * k + 1], t[3 * k + 2]], self.eye);
+        let points = [rel(0), rel(1), rel(2)];
+        !self
+            .sides
+            .iter()
+            .any(|&(n, margin)| points.iter().all(|p| dot(n, *p) < -margin * length(*p)))
     }
 }
 
@@ -168,14 +185,14 @@ mod tests {
                     p[2] + e,
                 ];
                 assert!(
-                    view.may_see(&t),
+                    view.pyramid().may_see(&t),
                     "fov {fov} case {case}: a hit triangle culled"
                 );
                 // Behind the eye (the point mirrored through it) and far beside the view.
                 let q = sub(cam.eye, sub(p, cam.eye));
                 let t = [q[0], q[1], q[2], q[0] + e, q[1], q[2], q[0], q[1] + e, q[2]];
                 assert!(
-                    !view.may_see(&t),
+                    !view.pyramid().may_see(&t),
                     "fov {fov} case {case}: behind the eye kept"
                 );
                 if fov <= 60.0 {
@@ -192,7 +209,7 @@ mod tests {
                         side[2],
                     ];
                     assert!(
-                        !view.may_see(&t),
+                        !view.pyramid().may_see(&t),
                         "fov {fov} case {case}: beside the view kept"
                     );
                 }

@@ -3,7 +3,7 @@
 //!
 //! - *secondary rays* (mirror reflection, refraction with Fresnel weights): only when some
 //!   material has a mirror reflectance or a transmission filter, and some triangle of it lies
-//!   in the camera's view ([`View::may_see`](super::View): not wholly outside one side of the
+//!   in the camera's view (`View::pyramid`: not wholly outside one side of the
 //!   view's pyramid). Without them only camera rays are traced, so a mirror out of view is
 //!   never hit.
 //! - *highlights* (the Phong term, one shadow ray per point light at every hit of a specular
@@ -98,6 +98,7 @@ fn named(scene: &TraceScene, pick: impl Fn(usize) -> bool) -> (usize, String) {
 
 /// Which kinds of non-diffuse triangles `view` may see: (specular, mirror, transmissive).
 fn in_view(scene: &TraceScene, view: &View) -> (bool, bool, bool) {
+    let pyramid = view.pyramid();
     // Kinds the scene has none of count as seen, so the scan stops once the others are.
     let has = |p: fn(&super::scene::Optics) -> bool| scene.optics.iter().any(p);
     let mut seen = (
@@ -114,7 +115,7 @@ fn in_view(scene: &TraceScene, view: &View) -> (bool, bool, bool) {
         let wanted = (o.has_highlight() && !seen.0)
             || (o.reflects() && !seen.1)
             || (o.transmits() && !seen.2);
-        if wanted && view.may_see(&scene.tris[t as usize]) {
+        if wanted && pyramid.may_see(&scene.tris[t as usize]) {
             seen.0 |= o.has_highlight();
             seen.1 |= o.reflects();
             seen.2 |= o.transmits();
