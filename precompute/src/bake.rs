@@ -232,28 +232,26 @@ impl<'s> Prepared<'s> {
                 };
                 // The first pass's rows depend on the unrefined mesh and the first pass's
                 // sampling only (its light comes after): keyed as a bake of that mesh, tagged.
-                let key = checkpoint::first_pass_key(
-                    &checkpoint::Identity {
-                        scene,
-                        sizes,
-                        method,
-                        n: mesh.n(),
-                        k: mesh.k(),
-                        visibility: visibility_name(visibility, occluder.is_some()),
-                        refine: None,
-                        mesh: &mesh,
-                    },
-                    first.first_pass_samples(),
-                    crate::refine::REVISION,
-                );
+                // Hashed only when the bake checkpoints.
+                let resume = checkpoint.as_ref().map(|c| {
+                    let key = checkpoint::first_pass_key(
+                        &checkpoint::Identity {
+                            scene,
+                            sizes,
+                            method,
+                            n: mesh.n(),
+                            k: mesh.k(),
+                            visibility: visibility_name(visibility, occluder.is_some()),
+                            refine: None,
+                            mesh: &mesh,
+                        },
+                        first.first_pass_samples(),
+                        crate::refine::REVISION,
+                    );
+                    (c, key)
+                });
                 let (mesh, ckpt) = crate::refine::refine_mesh(
-                    scene,
-                    mesh,
-                    &first,
-                    budget,
-                    progress,
-                    max_memory,
-                    checkpoint.as_ref().map(|c| (c, key)),
+                    scene, mesh, &first, budget, progress, max_memory, resume,
                 )?;
                 (mesh, Some(budget), ckpt)
             }

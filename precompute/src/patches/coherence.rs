@@ -463,6 +463,9 @@ pub(crate) fn view(probes: &Probes, x: DVec3, normal: DVec3, out: &mut [f64]) {
 }
 
 #[cfg(test)]
+mod oracle;
+
+#[cfg(test)]
 mod tests {
     use super::*;
     use crate::patches::{Mesh, PatchMethod};

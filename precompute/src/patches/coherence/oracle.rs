@@ -1,0 +1,266 @@
+//! The ceiling of any split rule over 2MSC's hierarchy (issue #14; docs/MESHING.md, "The
+//! ceiling"): an *oracle* that knows the exact fine-mesh form factors `F` (n×n) and radiosity
+//! `B` refines the same hierarchy as [`two_msc`](super::two_msc) (the same roots and children),
+//! best first: it always splits the patch whose error is largest. 2MSC cannot do better than
+//! a rule that measures each node's error exactly, so where the oracle's curve stays above
+//! 0.6× 2MF's `k`, no better estimate in [`Ctx::error`] can reach that goal.
+//!
+//! A patch `P` kept whole makes the receiver `i` gather `F(i → P) B̄_P` instead of
+//! `Σ_{e∈P} F_ie B_e`. The oracle's node error is `Σ_i Σ_c (ρ_ic (F(i → P) B̄_Pc − Σ_e F_ie B_ec))²`,
+//! with `F(i → P)` either the sum of the exact factors (`LRR_ORACLE_ERROR=coherence`: what the
+//! covariance of the module docs estimates) or the bake's own element-to-patch factor
+//! (`total`, the default: coherence and the sampling of a large patch's visibility together).
+//! Every partition it reaches, and 2MF's and 2MSC's, is then solved through the low-rank
+//! operator and compared with the exact solve, as `lrr accuracy` does (relative L2 over the
+//! elements and channels), with the bake's element-to-patch factors (`LRR_ORACLE_FACTORS=real`,
+//! the default) or the sums of the exact ones (`ideal`).
+//!
+//! ```text
+//! LRR_ORACLE_SCENE=scene.toml LRR_ORACLE_DIV=10 cargo test --release -p lrr-precompute --lib \
+//!     oracle_ceiling -- --ignored --nocapture 2> curves.txt
+//! python3 scripts/k-ratio.py curves.txt
+//! ```
+//!
+//! `LRR_ORACLE_DIV=D` sets the element size to the scene's diagonal over `D` (10: `lrr
+//! accuracy --quick`'s mesh), `LRR_ORACLE_H` to a length; neither: the bake's default.
+//! Memory `16 n²` bytes; the Cornell box's default mesh (n = 2 116) takes about two minutes on
+//! two cores.
+
+use super::*;
+use crate::formfactor::FormFactors;
+use crate::geometry::Polygon;
+use crate::patches::Mesh;
+use crate::patches::PatchMethod;
+use crate::radiosity::{ElementData, relative_l2, solve_dense};
+use crate::visibility::obvhs::ObvhsOccluder;
+use faer::Mat;
+use faer::linalg::solvers::Solve;
+use std::path::{Path, PathBuf};
+
+/// The exact answer on the fine mesh and what the oracle needs to measure a partition.
+struct Truth<'a> {
+    n: usize,
+    /// Exact fine-mesh factors, n×n row-major (original ids).
+    f: Vec<f64>,
+    area: Vec<f64>,
+    rho: Vec<[f64; 3]>,
+    emission: Vec<[f64; 3]>,
+    /// The exact solve.
+    b: Vec<[f64; 3]>,
+    polygons: &'a [Polygon],
+    /// The bake's element-to-patch factors.
+    ff: &'a FormFactors<'a>,
+    real_factors: bool,
+    total_error: bool,
+}
+
+impl Truth<'_> {
+    /// The oracle's error of keeping `ids` (shape `shape`) as one patch (module docs).
+    fn node_error(&self, ids: &[usize], shape: &Region) -> f64 {
+        let a: f64 = ids.iter().map(|&e| self.area[e]).sum();
+        let mut mean = [0.0; 3];
+        for &e in ids {
+            for (c, m) in mean.iter_mut().enumerate() {
+                *m += self.area[e] * self.b[e][c] / a;
+            }
+        }
+        let to_patch: Vec<f64> = if self.total_error {
+            let all: Vec<u32> = (0..self.n as u32).collect();
+            let mut column = vec![0.0; self.n];
+            let shape = std::slice::from_ref(shape);
+            self.ff
+                .matrix(self.polygons, &all, shape, &mut column, &|_| {});
+            column
+        } else {
+            (0..self.n)
+                .map(|i| ids.iter().map(|&e| self.f[i * self.n + e]).sum())
+                .collect()
+        };
+        let mut total = 0.0;
+        for (i, to_patch) in to_patch.iter().enumerate() {
+            let row = &self.f[i * self.n..(i + 1) * self.n];
+            for (c, mean) in mean.iter().enumerate() {
+                let exact: f64 = ids.iter().map(|&e| row[e] * self.b[e][c]).sum();
+                total += (self.rho[i][c] * (to_patch * mean - exact)).powi(2);
+            }
+        }
+        total
+    }
+
+    /// `k` and the relative L2 error against the exact solve of the low-rank solution for a
+    /// partition: the patch of every element (original ids) and the patches' shapes.
+    fn measure(&self, patch_of: &[u32], shapes: &[Region]) -> (usize, f64) {
+        let (n, k) = (self.n, shapes.len());
+        let mut fnk = vec![0.0; n * k];
+        if self.real_factors {
+            let ids: Vec<u32> = (0..n as u32).collect();
+            self.ff
+                .matrix(self.polygons, &ids, shapes, &mut fnk, &|_| {});
+        } else {
+            for i in 0..n {
+                for e in 0..n {
+                    fnk[i * k + patch_of[e] as usize] += self.f[i * n + e];
+                }
+            }
+        }
+        let mut patch_area = vec![0.0; k];
+        for (e, &p) in patch_of.iter().enumerate() {
+            patch_area[p as usize] += self.area[e];
+        }
+        let mut out = vec![[0.0; 3]; n];
+        for c in 0..3 {
+            // (I − W ρ F_nk) b = W E with W_pe = A_e / A_p; then B = E + ρ F_nk b.
+            let mut m = Mat::<f64>::identity(k, k);
+            let mut rhs = Mat::<f64>::zeros(k, 1);
+            for (e, &p) in patch_of.iter().enumerate() {
+                let p = p as usize;
+                let w = self.area[e] / patch_area[p];
+                rhs[(p, 0)] += w * self.emission[e][c];
+                for q in 0..k {
+                    m[(p, q)] -= w * self.rho[e][c] * fnk[e * k + q];
+                }
+            }
+            let b = m.partial_piv_lu().solve(&rhs);
+            for (i, out) in out.iter_mut().enumerate() {
+                let gathered: f64 = (0..k).map(|q| fnk[i * k + q] * b[(q, 0)]).sum();
+                out[c] = self.emission[i][c] + self.rho[i][c] * gathered;
+            }
+        }
+        (k, relative_l2(&out, &self.b))
+    }
+}
+
+fn env(name: &str) -> Option<String> {
+    std::env::var(name).ok()
+}
+
+/// Element ids of a node.
+fn node_ids(ctx: &Ctx, node: &Node) -> Vec<usize> {
+    let range = |first: u32, count: u32| first as usize..(first + count) as usize;
+    match node {
+        Node::Polygon { first, count, .. } => range(*first, *count).collect(),
+        Node::Cluster { pieces } => pieces
+            .iter()
+            .flat_map(|&p| range(ctx.pieces[p].first, ctx.pieces[p].count))
+            .collect(),
+    }
+}
+
+#[test]
+#[ignore = "experiment (minutes): prints the k/error curves of 2MF, 2MSC and the oracle"]
+fn oracle_ceiling() {
+    let path = env("LRR_ORACLE_SCENE")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/cornell-box.toml")
+        });
+    let scene = crate::scene::load(&path).unwrap();
+    let h = env("LRR_ORACLE_H")
+        .map(|s| s.parse::<f64>().unwrap())
+        .or_else(|| env("LRR_ORACLE_DIV").map(|d| scene.extent() / d.parse::<f64>().unwrap()));
+    let sizes = MeshSizes::resolve(&scene, h, None).unwrap();
+    let h = sizes.element_size;
+    let occ = ObvhsOccluder::build(&scene);
+    let ff = FormFactors::new(16, Some(&occ));
+
+    let base = Mesh::two_fixed(&scene, sizes).unwrap();
+    let n = base.n();
+    let (rho, emission) = base.element_materials(&scene);
+    let polygons: Vec<Polygon> = base.elements.iter().map(|e| e.polygon).collect();
+    let ids: Vec<u32> = (0..n as u32).collect();
+    let singles: Vec<Region> = polygons.iter().map(|&p| Region::single(p)).collect();
+    let mut f = vec![0.0; n * n];
+    ff.matrix(&polygons, &ids, &singles, &mut f, &|_| {});
+    let data = ElementData {
+        reflectance: &rho,
+        emission: &emission,
+    };
+    let b = solve_dense(&f, &data).unwrap();
+    let truth = Truth {
+        n,
+        f,
+        area: polygons.iter().map(Polygon::area).collect(),
+        rho,
+        emission,
+        b,
+        polygons: &polygons,
+        ff: &ff,
+        real_factors: env("LRR_ORACLE_FACTORS").as_deref() != Some("ideal"),
+        total_error: env("LRR_ORACLE_ERROR").as_deref() != Some("coherence"),
+    };
+    eprintln!(
+        "# {}: n = {n}, h = {h}, factors {}, oracle error {}",
+        path.display(),
+        if truth.real_factors { "real" } else { "ideal" },
+        if truth.total_error {
+            "total"
+        } else {
+            "coherence"
+        },
+    );
+    let of_mesh = |mesh: &Mesh| {
+        let patch_of: Vec<u32> = mesh.elements.iter().map(|e| e.patch).collect();
+        let shapes: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
+        truth.measure(&patch_of, &shapes)
+    };
+    for m in [1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0] {
+        let s = MeshSizes {
+            element_size: h,
+            patch_size: m * h,
+        };
+        let (k, error) = of_mesh(&Mesh::two_fixed(&scene, s).unwrap());
+        eprintln!("2mf k {k} error {error:.4e} multiple {m}");
+    }
+    for threshold in [3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5] {
+        let method = PatchMethod::SpatialCoherence {
+            threshold,
+            min_patch_area: None,
+        };
+        let (k, error) = of_mesh(&Mesh::build(&scene, sizes, method, Some(&occ)).unwrap());
+        eprintln!("2msc k {k} error {error:.4e} threshold {threshold:e}");
+    }
+
+    // The oracle: the same roots and children as `two_msc`, best first by the node's error.
+    let (_, pieces, _) = crate::mesh::fine_mesh(&scene, sizes).unwrap();
+    let ctx = Ctx {
+        pieces: &pieces,
+        units: pieces.iter().map(|p| Unit::of(&p.polygon)).collect(),
+        materials: &[],
+        element_size: h,
+    };
+    // (error, node, children); a node without children has error −1 and is never split.
+    let score = |node: Node| {
+        let children = ctx.children(&node);
+        let error = if children.len() < 2 {
+            -1.0
+        } else {
+            truth.node_error(&node_ids(&ctx, &node), &ctx.patch(&node).1.shape)
+        };
+        (error, node, children)
+    };
+    let mut live: Vec<(f64, Node, Vec<Node>)> =
+        roots(&pieces, sizes).into_par_iter().map(score).collect();
+    for budget in [40, 60, 100, 150, 250, 350, 500, 700] {
+        while live.len() < budget {
+            let worst = (0..live.len())
+                .max_by(|&a, &b| live[a].0.total_cmp(&live[b].0))
+                .expect("patches");
+            if live[worst].0 < 0.0 {
+                break; // every patch is one element
+            }
+            let (_, _, children) = live.swap_remove(worst);
+            let scored: Vec<_> = children.into_par_iter().map(score).collect();
+            live.extend(scored);
+        }
+        let mut patch_of = vec![0; n];
+        let mut shapes = Vec::with_capacity(live.len());
+        for (p, (_, node, _)) in live.iter().enumerate() {
+            for e in node_ids(&ctx, node) {
+                patch_of[e] = p as u32;
+            }
+            shapes.push(ctx.patch(node).1.shape);
+        }
+        let (k, error) = truth.measure(&patch_of, &shapes);
+        eprintln!("oracle k {k} error {error:.4e}");
+    }
+}
