@@ -76,6 +76,38 @@ pub(crate) fn refinement(
     })
 }
 
+/// What 2MSC measures against: the probes (the 2MF patches at the patch size, with their
+/// coarse solve) and each piece's material (means over the channels).
+pub(crate) fn msc_inputs<'a>(
+    scene: &Scene,
+    sizes: MeshSizes,
+    pieces: &[subdivide::Piece],
+    elements: &[Element],
+    occluder: Option<&'a dyn Occluder>,
+) -> Result<(coherence::Probes<'a>, Vec<coherence::Material>)> {
+    // Probes at half the patch size were tried: 4× the probing cost for the same k at
+    // equal error on the Cornell box.
+    let probe_patches = two_fixed_patches(pieces, sizes, &mut elements.to_vec());
+    let material = |face: u32| {
+        let m = &scene.materials[scene.faces[face as usize].material];
+        coherence::Material {
+            reflectance: m.reflectance.iter().sum::<f64>() / 3.0,
+            emission: m.emission.iter().sum::<f64>() / 3.0,
+        }
+    };
+    let (reflectance, emission) = probe_patches
+        .iter()
+        .map(|p| {
+            let m = material(p.face);
+            (m.reflectance, m.emission)
+        })
+        .unzip();
+    let targets = probe_patches.into_iter().map(|p| p.shape).collect();
+    let probes = coherence::Probes::new(targets, reflectance, emission, occluder)?;
+    let materials = pieces.iter().map(|p| material(p.face)).collect();
+    Ok((probes, materials))
+}
+
 /// The 2MF patches: the uniform cut of each large piece, clusters of the small pieces of each
 /// surface (a lone small piece is its own patch). Patches are numbered in piece order (a
 /// cluster where its first piece comes), depth-first within a piece; sets `elements[..].patch`.
@@ -177,26 +209,7 @@ impl Mesh {
         occluder: Option<&dyn Occluder>,
     ) -> Result<Self> {
         let (mut elements, pieces, meshing) = fine_mesh(scene, sizes)?;
-        // Probes at half the patch size were tried: 4× the probing cost for the same k at
-        // equal error on the Cornell box.
-        let probe_patches = two_fixed_patches(&pieces, sizes, &mut elements.clone());
-        let material = |face: u32| {
-            let m = &scene.materials[scene.faces[face as usize].material];
-            coherence::Material {
-                reflectance: m.reflectance.iter().sum::<f64>() / 3.0,
-                emission: m.emission.iter().sum::<f64>() / 3.0,
-            }
-        };
-        let (reflectance, emission) = probe_patches
-            .iter()
-            .map(|p| {
-                let m = material(p.face);
-                (m.reflectance, m.emission)
-            })
-            .unzip();
-        let targets = probe_patches.into_iter().map(|p| p.shape).collect();
-        let probes = coherence::Probes::new(targets, reflectance, emission, occluder)?;
-        let materials: Vec<coherence::Material> = pieces.iter().map(|p| material(p.face)).collect();
+        let (probes, materials) = msc_inputs(scene, sizes, &pieces, &elements, occluder)?;
         let patches = coherence::two_msc(
             &pieces,
             &materials,

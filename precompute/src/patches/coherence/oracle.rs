@@ -41,12 +41,12 @@ use std::path::{Path, PathBuf};
 struct Truth<'a> {
     n: usize,
     /// Exact fine-mesh factors, n×n row-major (original ids).
-    f: Vec<f64>,
+    f: &'a [f64],
     area: Vec<f64>,
-    rho: Vec<[f64; 3]>,
-    emission: Vec<[f64; 3]>,
+    rho: &'a [[f64; 3]],
+    emission: &'a [[f64; 3]],
     /// The exact solve.
-    b: Vec<[f64; 3]>,
+    b: &'a [[f64; 3]],
     polygons: &'a [Polygon],
     /// The bake's element-to-patch factors.
     ff: &'a FormFactors<'a>,
@@ -126,7 +126,7 @@ impl Truth<'_> {
                 out[c] = self.emission[i][c] + self.rho[i][c] * gathered;
             }
         }
-        (k, relative_l2(&out, &self.b))
+        (k, relative_l2(&out, self.b))
     }
 }
 
@@ -146,9 +146,8 @@ fn node_ids(ctx: &Ctx, node: &Node) -> Vec<usize> {
     }
 }
 
-#[test]
-#[ignore = "experiment (minutes): prints the k/error curves of 2MF, 2MSC and the oracle"]
-fn oracle_ceiling() {
+/// The scene (`LRR_ORACLE_SCENE`, default the Cornell box) and its mesh sizes.
+fn scene_and_sizes() -> (PathBuf, crate::scene::Scene, MeshSizes) {
     let path = env("LRR_ORACLE_SCENE")
         .map(PathBuf::from)
         .unwrap_or_else(|| {
@@ -159,35 +158,72 @@ fn oracle_ceiling() {
         .map(|s| s.parse::<f64>().unwrap())
         .or_else(|| env("LRR_ORACLE_DIV").map(|d| scene.extent() / d.parse::<f64>().unwrap()));
     let sizes = MeshSizes::resolve(&scene, h, None).unwrap();
+    (path, scene, sizes)
+}
+
+/// The exact fine-mesh factors and solve, on the 2MF mesh's elements (original ids).
+struct Exact {
+    polygons: Vec<Polygon>,
+    f: Vec<f64>,
+    rho: Vec<[f64; 3]>,
+    emission: Vec<[f64; 3]>,
+    b: Vec<[f64; 3]>,
+}
+
+impl Exact {
+    fn new(scene: &crate::scene::Scene, sizes: MeshSizes, ff: &FormFactors) -> Self {
+        let base = Mesh::two_fixed(scene, sizes).unwrap();
+        let n = base.n();
+        let (rho, emission) = base.element_materials(scene);
+        let polygons: Vec<Polygon> = base.elements.iter().map(|e| e.polygon).collect();
+        let ids: Vec<u32> = (0..n as u32).collect();
+        let singles: Vec<Region> = polygons.iter().map(|&p| Region::single(p)).collect();
+        let mut f = vec![0.0; n * n];
+        ff.matrix(&polygons, &ids, &singles, &mut f, &|_| {});
+        let data = ElementData {
+            reflectance: &rho,
+            emission: &emission,
+        };
+        let b = solve_dense(&f, &data).unwrap();
+        Self {
+            polygons,
+            f,
+            rho,
+            emission,
+            b,
+        }
+    }
+
+    fn truth<'a>(&'a self, ff: &'a FormFactors<'a>, real: bool, total: bool) -> Truth<'a> {
+        Truth {
+            n: self.polygons.len(),
+            f: &self.f,
+            area: self.polygons.iter().map(Polygon::area).collect(),
+            rho: &self.rho,
+            emission: &self.emission,
+            b: &self.b,
+            polygons: &self.polygons,
+            ff,
+            real_factors: real,
+            total_error: total,
+        }
+    }
+}
+
+#[test]
+#[ignore = "experiment (minutes): prints the k/error curves of 2MF, 2MSC and the oracle"]
+fn oracle_ceiling() {
+    let (path, scene, sizes) = scene_and_sizes();
     let h = sizes.element_size;
     let occ = ObvhsOccluder::build(&scene);
     let ff = FormFactors::new(16, Some(&occ));
-
-    let base = Mesh::two_fixed(&scene, sizes).unwrap();
-    let n = base.n();
-    let (rho, emission) = base.element_materials(&scene);
-    let polygons: Vec<Polygon> = base.elements.iter().map(|e| e.polygon).collect();
-    let ids: Vec<u32> = (0..n as u32).collect();
-    let singles: Vec<Region> = polygons.iter().map(|&p| Region::single(p)).collect();
-    let mut f = vec![0.0; n * n];
-    ff.matrix(&polygons, &ids, &singles, &mut f, &|_| {});
-    let data = ElementData {
-        reflectance: &rho,
-        emission: &emission,
-    };
-    let b = solve_dense(&f, &data).unwrap();
-    let truth = Truth {
-        n,
-        f,
-        area: polygons.iter().map(Polygon::area).collect(),
-        rho,
-        emission,
-        b,
-        polygons: &polygons,
-        ff: &ff,
-        real_factors: env("LRR_ORACLE_FACTORS").as_deref() != Some("ideal"),
-        total_error: env("LRR_ORACLE_ERROR").as_deref() != Some("coherence"),
-    };
+    let exact = Exact::new(&scene, sizes, &ff);
+    let n = exact.polygons.len();
+    let truth = exact.truth(
+        &ff,
+        env("LRR_ORACLE_FACTORS").as_deref() != Some("ideal"),
+        env("LRR_ORACLE_ERROR").as_deref() != Some("coherence"),
+    );
     eprintln!(
         "# {}: n = {n}, h = {h}, factors {}, oracle error {}",
         path.display(),
@@ -211,7 +247,7 @@ fn oracle_ceiling() {
         let (k, error) = of_mesh(&Mesh::two_fixed(&scene, s).unwrap());
         eprintln!("2mf k {k} error {error:.4e} multiple {m}");
     }
-    for threshold in [3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5] {
+    for threshold in [3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6] {
         let method = PatchMethod::SpatialCoherence {
             threshold,
             min_patch_area: None,
@@ -220,6 +256,9 @@ fn oracle_ceiling() {
         eprintln!("2msc k {k} error {error:.4e} threshold {threshold:e}");
     }
 
+    if env("LRR_ORACLE_SKIP").is_some() {
+        return; // 2MF and 2MSC only
+    }
     // The oracle: the same roots and children as `two_msc`, best first by the node's error.
     let (_, pieces, _) = crate::mesh::fine_mesh(&scene, sizes).unwrap();
     let ctx = Ctx {
@@ -262,5 +301,141 @@ fn oracle_ceiling() {
         }
         let (k, error) = truth.measure(&patch_of, &shapes);
         eprintln!("oracle k {k} error {error:.4e}");
+    }
+}
+
+#[test]
+#[ignore = "experiment: 2MSC's estimate against the oracle's error, node by node"]
+fn estimate_against_oracle() {
+    let (_, scene, sizes) = scene_and_sizes();
+    let h = sizes.element_size;
+    let occ = ObvhsOccluder::build(&scene);
+    let ff = FormFactors::new(16, Some(&occ));
+    let exact = Exact::new(&scene, sizes, &ff);
+    let (n, polygons) = (exact.polygons.len(), &exact.polygons);
+    let truth = exact.truth(
+        &ff,
+        true,
+        env("LRR_ORACLE_ERROR").as_deref() == Some("total"),
+    );
+    // The probes and materials as `Mesh::two_msc` makes them.
+    let (elements, pieces, _) = crate::mesh::fine_mesh(&scene, sizes).unwrap();
+    let (probes, materials) =
+        crate::patches::msc_inputs(&scene, sizes, &pieces, &elements, Some(&occ)).unwrap();
+    let ctx = Ctx {
+        pieces: &pieces,
+        units: pieces.iter().map(|p| Unit::of(&p.polygon)).collect(),
+        materials: &materials,
+        element_size: h,
+    };
+    // Every splittable node down to `LRR_ORACLE_MIN` elements (default 4).
+    let min: usize = env("LRR_ORACLE_MIN").map_or(4, |s| s.parse().unwrap());
+    let mut nodes = Vec::new();
+    let mut stack = roots(&pieces, sizes);
+    while let Some(node) = stack.pop() {
+        let children = ctx.children(&node);
+        if children.len() < 2 || node_ids(&ctx, &node).len() < min {
+            continue;
+        }
+        stack.extend(children.iter().cloned());
+        nodes.push((node, children));
+    }
+    struct Row {
+        estimate: f64,
+        oracle: f64,
+        elements: usize,
+        point: DVec3,
+        face: u32,
+    }
+    let rows: Vec<Row> = nodes
+        .par_iter()
+        .map(|(node, children)| {
+            let ids = node_ids(&ctx, node);
+            let patch = ctx.patch(node).1;
+            Row {
+                estimate: ctx.error(node, children, &probes),
+                oracle: truth.node_error(&ids, &patch.shape).sqrt(),
+                elements: ids.len(),
+                point: ctx.representative(node).0,
+                face: patch.face,
+            }
+        })
+        .collect();
+    // Ranks (0 = smallest) and Spearman's rank correlation.
+    let rank = |key: fn(&Row) -> f64| {
+        let mut order: Vec<usize> = (0..rows.len()).collect();
+        order.sort_by(|&a, &b| key(&rows[a]).total_cmp(&key(&rows[b])));
+        let mut r = vec![0.0; rows.len()];
+        for (i, &o) in order.iter().enumerate() {
+            r[o] = i as f64;
+        }
+        r
+    };
+    let (re, ro) = (rank(|r| r.estimate), rank(|r| r.oracle));
+    let m = rows.len() as f64;
+    let d2: f64 = re.iter().zip(&ro).map(|(a, b)| (a - b).powi(2)).sum();
+    let spearman = 1.0 - 6.0 * d2 / (m * (m * m - 1.0));
+    eprintln!("# {} nodes, Spearman {spearman:.3}", rows.len());
+    let mut order: Vec<usize> = (0..rows.len()).collect();
+    order.sort_by(|&a, &b| (ro[b] - re[b]).total_cmp(&(ro[a] - re[a])));
+    let show = |label: &str, i: usize| {
+        let r = &rows[i];
+        eprintln!(
+            "{label} ranks: oracle {} estimate {}; {} elements of face {} at {:?}: estimate \
+             {:.2e}, oracle {:.2e}",
+            ro[i], re[i], r.elements, r.face, r.point, r.estimate, r.oracle
+        );
+    };
+    for &i in order.iter().take(20) {
+        show("under", i);
+    }
+    for &i in order.iter().rev().take(10) {
+        show("over", i);
+    }
+    // The most under-estimated node: its elements, its children's estimates, the receivers
+    // that carry its error (first channel).
+    let worst = order[0];
+    let (node, children) = &nodes[worst];
+    let ids = node_ids(&ctx, node);
+    for &e in &ids {
+        let (x, b) = (polygons[e].centroid(), truth.b[e][0]);
+        eprintln!("# element {e} at {x:?}: B {b:.4}");
+    }
+    let piece = match node {
+        Node::Polygon { piece, .. } => *piece as usize,
+        Node::Cluster { pieces } => pieces[0],
+    };
+    let material = ctx.materials[piece];
+    for c in children {
+        let (x, normal, _) = ctx.representative(c);
+        let mut f = vec![0.0; probes.targets.len()];
+        view(&probes, x, normal, &mut f);
+        let gathered: f64 = f.iter().zip(&probes.radiosity).map(|(f, b)| f * b).sum();
+        let b = material.emission + material.reflectance * gathered;
+        eprintln!("# child at {x:?}: estimated b {b:.4}");
+    }
+    let area: f64 = ids.iter().map(|&e| truth.area[e]).sum();
+    let mean: f64 = ids
+        .iter()
+        .map(|&e| truth.area[e] * truth.b[e][0])
+        .sum::<f64>()
+        / area;
+    let mut receivers: Vec<(f64, usize)> = (0..n)
+        .map(|i| {
+            let row = &truth.f[i * n..(i + 1) * n];
+            let to_patch: f64 = ids.iter().map(|&e| row[e]).sum();
+            let exact: f64 = ids.iter().map(|&e| row[e] * truth.b[e][0]).sum();
+            (truth.rho[i][0] * (to_patch * mean - exact), i)
+        })
+        .collect();
+    receivers.sort_by(|x, y| y.0.abs().total_cmp(&x.0.abs()));
+    for &(d, i) in receivers.iter().take(8) {
+        let row = &truth.f[i * n..(i + 1) * n];
+        let f: Vec<String> = ids.iter().map(|&e| format!("{:.4}", row[e])).collect();
+        let (x, b) = (polygons[i].centroid(), truth.b[i][0]);
+        eprintln!(
+            "# receiver {i} at {x:?}, B {b:.4}: error {d:.3e}, F to the elements {}",
+            f.join(" ")
+        );
     }
 }
