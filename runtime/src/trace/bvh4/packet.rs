@@ -5,6 +5,9 @@
 //! to the lower leaf-order index; the tests hold it to the single-ray traversal bit for bit; the
 //! order of visits differs, which only matters in the rounding case `bvh4.rs` names).
 //!
+//! - The traversal (`closest_packet`) is generic over the number of lanes, 4 here and 8 in
+//!   `packet8.rs`; the lane operations are loops over a constant count, which the compiler
+//!   unrolls (hand-unrolled per count, as before, measured the same: docs/PERFORMANCE.md).
 //! - The rays are the lanes: per child one slab test of the four rays gives the child's mask
 //!   of rays and their entry distances directly (a first version with one ray's four children
 //!   in the lanes, as `bvh4.rs`, then the masks transposed per child, gained nothing).
@@ -29,18 +32,36 @@
 
 use super::super::bvh::FAR_SCALE;
 use super::super::bvh::{Hit, Ray};
-use super::{
-    Bvh4, F4, INLINE_STACK, LAST, LEAF, Node, bits, hi, lo, mul, octant, splat, sub, triangles,
-};
+use super::{Bvh4, F4, INLINE_STACK, LAST, LEAF, Node, octant, triangles};
 
-/// Four rays as the slab tests read them, one ray per lane.
-struct Lanes {
-    origin: [F4; 3],
-    inv: [F4; 3],
+/// `N` rays (4 or 8) as the slab tests read them, one ray per lane.
+pub(super) struct Lanes<const N: usize> {
+    origin: [[f32; N]; 3],
+    inv: [[f32; N]; 3],
 }
 
-impl Lanes {
-    fn new(rays: &[Ray; 4]) -> Self {
+/// Lane-wise `f` on `N` lanes (unrolled: `N` is a constant).
+#[inline(always)]
+fn zip<const N: usize>(a: [f32; N], b: [f32; N], f: impl Fn(f32, f32) -> f32) -> [f32; N] {
+    let mut out = a;
+    for (o, b) in out.iter_mut().zip(b) {
+        *o = f(*o, b);
+    }
+    out
+}
+
+/// Lane `i` of the result is bit `i`: whether `f` holds in that lane.
+#[inline(always)]
+fn mask<const N: usize>(a: [f32; N], b: [f32; N], f: impl Fn(f32, f32) -> bool) -> u32 {
+    let mut bits = 0;
+    for (i, (a, b)) in a.into_iter().zip(b).enumerate() {
+        bits |= u32::from(f(a, b)) << i;
+    }
+    bits
+}
+
+impl<const N: usize> Lanes<N> {
+    pub(super) fn new(rays: &[Ray; N]) -> Self {
         Lanes {
             origin: std::array::from_fn(|a| std::array::from_fn(|r| rays[r].origin[a])),
             inv: std::array::from_fn(|a| std::array::from_fn(|r| rays[r].inv[a])),
@@ -50,37 +71,40 @@ impl Lanes {
     /// Child `c`'s entry distance for each ray within `(0, t_max)` and the rays that enter it:
     /// `BoxRay::enter`'s operations in its order, with the rays in the lanes.
     #[inline(always)]
-    fn enter<const OCT: usize>(&self, node: &Node, c: usize, t_max: F4) -> (F4, u32) {
+    fn enter<const OCT: usize>(&self, node: &Node, c: usize, t_max: [f32; N]) -> ([f32; N], u32) {
         let side = |a: usize| (OCT >> a) & 1;
         let slab = |a: usize, s: usize| {
-            mul(
-                sub(splat(node.bounds[s][a][c]), self.origin[a]),
-                self.inv[a],
-            )
+            let d = zip([node.bounds[s][a][c]; N], self.origin[a], |b, o| b - o);
+            zip(d, self.inv[a], |d, inv| d * inv)
         };
+        // `if a > b { a } else { b }` (`maxps`; `f32::max`'s NaN rule would cost more).
+        let hi = |a, b| zip(a, b, |a, b| if a > b { a } else { b });
+        let lo = |a, b| zip(a, b, |a, b| if a < b { a } else { b });
         let near = hi(
-            hi(hi(splat(0.0), slab(0, side(0))), slab(1, side(1))),
+            hi(hi([0.0; N], slab(0, side(0))), slab(1, side(1))),
             slab(2, side(2)),
         );
-        let scaled = |a: usize| mul(slab(a, side(a) ^ 1), splat(FAR_SCALE));
+        let scaled = |a: usize| zip(slab(a, side(a) ^ 1), [FAR_SCALE; N], |s, f| s * f);
         let far = lo(lo(lo(t_max, scaled(0)), scaled(1)), scaled(2));
-        (near, bits(near, far, |n, f| n <= f))
+        (near, mask(near, far, |n, f| n <= f))
     }
 }
 
 /// A stack entry: a node or leaf slot, the rays that entered it, and their entry distances.
 #[derive(Clone, Copy)]
-struct Entry {
+pub(super) struct Entry<const N: usize> {
     at: u32,
     rays: u32,
-    t: F4,
+    t: [f32; N],
 }
 
-const NO_ENTRY: Entry = Entry {
-    at: 0,
-    rays: 0,
-    t: [0.0; 4],
-};
+impl<const N: usize> Entry<N> {
+    pub(super) const EMPTY: Self = Entry {
+        at: 0,
+        rays: 0,
+        t: [0.0; N],
+    };
+}
 
 impl Bvh4 {
     /// The closest hit of each of four rays in `(t_min, t_max[i])`: the same answers as
@@ -92,11 +116,11 @@ impl Bvh4 {
             return std::array::from_fn(|i| self.closest_hit(&rays[i], t_min, t_max[i]));
         }
         let (mut inline, mut heap);
-        let stack: &mut [Entry] = if self.stack <= INLINE_STACK {
-            inline = [NO_ENTRY; INLINE_STACK];
+        let stack: &mut [Entry<4>] = if self.stack <= INLINE_STACK {
+            inline = [Entry::EMPTY; INLINE_STACK];
             &mut inline
         } else {
-            heap = vec![NO_ENTRY; self.stack];
+            heap = vec![Entry::EMPTY; self.stack];
             &mut heap
         };
         match kz {
@@ -108,7 +132,7 @@ impl Bvh4 {
 
     fn closest4_kz<const KZ: usize>(
         &self,
-        stack: &mut [Entry],
+        stack: &mut [Entry<4>],
         rays: &[Ray; 4],
         t_min: f32,
         t_max: F4,
@@ -126,26 +150,39 @@ impl Bvh4 {
         }
     }
 
-    /// [`Bvh4::closest_hit4`] for rays whose dominant axis is `KZ`, in octant `OCT`. A hot
-    /// loop, kept in one piece.
+    /// [`Bvh4::closest_hit4`] for rays whose dominant axis is `KZ`, in octant `OCT`.
     fn closest4<const KZ: usize, const OCT: usize>(
         &self,
-        stack: &mut [Entry],
+        stack: &mut [Entry<4>],
         rays: &[Ray; 4],
         t_min: f32,
         t_max: F4,
     ) -> [Option<Hit>; 4] {
+        self.closest_packet::<4, KZ, OCT>(stack, rays, t_min, t_max)
+    }
+
+    /// The closest hits of `N` rays (4 or 8) whose dominant axis is `KZ`, in octant `OCT`. A
+    /// hot loop, kept in one piece and inlined into its callers (`closest4`, and the two
+    /// builds of `packet8.rs`'s `closest8`).
+    #[inline(always)]
+    pub(super) fn closest_packet<const N: usize, const KZ: usize, const OCT: usize>(
+        &self,
+        stack: &mut [Entry<N>],
+        rays: &[Ray; N],
+        t_min: f32,
+        t_max: [f32; N],
+    ) -> [Option<Hit>; N] {
         let lanes = Lanes::new(rays);
-        let (mut best_t, mut best_tri) = (t_max, [u32::MAX; 4]);
+        let (mut best_t, mut best_tri) = (t_max, [u32::MAX; N]);
         let mut sp = 0usize;
         let mut at = 0u32;
-        let mut active = 0b1111u32;
+        let mut active = (1u32 << N) - 1;
         loop {
             if at & LEAF == 0 {
                 let node = &self.nodes[at as usize];
-                // Per child one slab test of the four rays (a ray in each lane: the values of
+                // Per child one slab test of the rays (a ray in each lane: the values of
                 // `BoxRay::enter`, lane for lane), masked to the active rays.
-                let mut near = [[0.0f32; 4]; 4];
+                let mut near = [[0.0f32; N]; 4];
                 let mut child_rays = [0u32; 4];
                 for (c, (t, rays)) in near.iter_mut().zip(&mut child_rays).enumerate() {
                     let (n, mask) = lanes.enter::<OCT>(node, c, best_t);
@@ -217,7 +254,7 @@ impl Bvh4 {
                 }
                 sp -= 1;
                 let e = stack[sp];
-                let rays = bits(e.t, best_t, |t, best| t <= best) & e.rays;
+                let rays = mask(e.t, best_t, |t, best| t <= best) & e.rays;
                 if rays != 0 {
                     (at, active) = (e.at, rays);
                     break;
