@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """k(2MF) / k(X) at equal error, for k/error curves printed one point a line.
 
-Reads lines `METHOD k K error E ...` (what `oracle_ceiling` prints, precompute/src/patches/
+Reads lines `METHOD k K error E ...` (what `oracle_refinement` prints, precompute/src/patches/
 coherence/oracle.rs) and, for every method but 2mf, prints the median (min-max) over 9
 log-spaced errors of the range both curves reach, interpolated linearly in log k / log error
 on each curve's running minimum: the method of `lrr accuracy`'s report
@@ -33,6 +33,8 @@ def k_at_error(curve, error):
 
 
 def k_ratio(mf, other, count=9):
+    if not mf or not other:
+        return None
     lo = max(min(e for _, e in mf), min(e for _, e in other))
     hi = min(mf[0][1], other[0][1])
     if not (0 < lo < hi):
@@ -57,7 +59,10 @@ def main():
     for line in open(args[0]) if args else sys.stdin:
         words = line.split()
         if len(words) >= 5 and words[1] == "k" and words[3] == "error":
-            curves.setdefault(words[0], {})[int(words[2])] = float(words[4])
+            # A repeated k keeps its smaller error, as the sweep's curves do.
+            curve = curves.setdefault(words[0], {})
+            k, e = int(words[2]), float(words[4])
+            curve[k] = min(curve.get(k, math.inf), e)
     if "2mf" not in curves:
         sys.exit("no 2mf curve in the input (lines `2mf k K error E`)")
     curve = lambda m: sorted(curves[m].items())

@@ -1,9 +1,11 @@
-//! The ceiling of any split rule over 2MSC's hierarchy (issue #14; docs/MESHING.md, "The
-//! ceiling"): an *oracle* that knows the exact fine-mesh form factors `F` (n×n) and radiosity
+//! A reference for 2MSC's split rule (issue #14; docs/MESHING.md, "An oracle that knows the
+//! answer"): an *oracle* that knows the exact fine-mesh form factors `F` (n×n) and radiosity
 //! `B` refines the same hierarchy as [`two_msc`](super::two_msc) (the same roots and children),
-//! best first: it always splits the patch whose error is largest. 2MSC cannot do better than
-//! a rule that measures each node's error exactly, so where the oracle's curve stays above
-//! 0.6× 2MF's `k`, no better estimate in [`Ctx::error`] can reach that goal.
+//! best first: it always splits the patch whose exact error (below) is largest. It shows what
+//! an exact estimate in [`Ctx::error`] would give under a greedy rule. It is not a proof of
+//! the best partition: the per-node error is first order (one gather, no solve) and neither
+//! additive over patches nor monotone from parent to child, so another order or measure can
+//! beat it (one variant of 2MSC beats its coherence form on the Cornell box: docs).
 //!
 //! A patch `P` kept whole makes the receiver `i` gather `F(i → P) B̄_P` instead of
 //! `Σ_{e∈P} F_ie B_e`. The oracle's node error is `Σ_i Σ_c (ρ_ic (F(i → P) B̄_Pc − Σ_e F_ie B_ec))²`,
@@ -12,19 +14,21 @@
 //! (`total`, the default: coherence and the sampling of a large patch's visibility together).
 //! Every partition it reaches, and 2MF's and 2MSC's, is then solved through the low-rank
 //! operator and compared with the exact solve, as `lrr accuracy` does (relative L2 over the
-//! elements and channels), with the bake's element-to-patch factors (`LRR_ORACLE_FACTORS=real`,
-//! the default) or the sums of the exact ones (`ideal`).
+//! elements and channels; the rows of enclosed elements rescaled to sum to one, as a bake
+//! does), with the bake's element-to-patch factors (`LRR_ORACLE_FACTORS=real`, the default) or
+//! the sums of the exact ones (`ideal`).
 //!
 //! ```text
 //! LRR_ORACLE_SCENE=scene.toml LRR_ORACLE_DIV=10 cargo test --release -p lrr-precompute --lib \
-//!     oracle_ceiling -- --ignored --nocapture 2> curves.txt
+//!     oracle_refinement -- --ignored --nocapture 2> curves.txt
 //! python3 scripts/k-ratio.py curves.txt
 //! ```
 //!
 //! `LRR_ORACLE_DIV=D` sets the element size to the scene's diagonal over `D` (10: `lrr
 //! accuracy --quick`'s mesh), `LRR_ORACLE_H` to a length; neither: the bake's default.
-//! Memory `16 n²` bytes; the Cornell box's default mesh (n = 2 116) takes about two minutes on
-//! two cores.
+//! Memory about `32 n²` bytes at the peak (the exact factors, the LU's copies, and 2MF's
+//! k = n partition); the Cornell box's default mesh (n = 2 116) takes about two minutes on two
+//! cores.
 
 use super::*;
 use crate::formfactor::FormFactors;
@@ -48,8 +52,11 @@ struct Truth<'a> {
     /// The exact solve.
     b: &'a [[f64; 3]],
     polygons: &'a [Polygon],
-    /// The bake's element-to-patch factors.
+    /// The bake's element-to-patch factors (enclosed rows rescaled to sum to one).
     ff: &'a FormFactors<'a>,
+    /// The same factors one column at a time, for the oracle's `total` error: not rescaled
+    /// (a rescale needs the whole row), so the columns are the bake's up to that factor.
+    column: FormFactors<'a>,
     real_factors: bool,
     total_error: bool,
 }
@@ -68,7 +75,7 @@ impl Truth<'_> {
             let all: Vec<u32> = (0..self.n as u32).collect();
             let mut column = vec![0.0; self.n];
             let shape = std::slice::from_ref(shape);
-            self.ff
+            self.column
                 .matrix(self.polygons, &all, shape, &mut column, &|_| {});
             column
         } else {
@@ -170,6 +177,13 @@ struct Exact {
     b: Vec<[f64; 3]>,
 }
 
+/// Per element id: whether its rows are rescaled to sum to one (the bake's enclosure test).
+fn closed(scene: &crate::scene::Scene, sizes: MeshSizes, occ: &ObvhsOccluder) -> Vec<bool> {
+    let base = Mesh::two_fixed(scene, sizes).unwrap();
+    let polygons: Vec<Polygon> = base.elements.iter().map(|e| e.polygon).collect();
+    crate::formfactor::enclosure::Enclosure::probe(occ, &polygons).closed
+}
+
 impl Exact {
     fn new(scene: &crate::scene::Scene, sizes: MeshSizes, ff: &FormFactors) -> Self {
         let base = Mesh::two_fixed(scene, sizes).unwrap();
@@ -194,7 +208,13 @@ impl Exact {
         }
     }
 
-    fn truth<'a>(&'a self, ff: &'a FormFactors<'a>, real: bool, total: bool) -> Truth<'a> {
+    fn truth<'a>(
+        &'a self,
+        ff: &'a FormFactors<'a>,
+        occ: &'a ObvhsOccluder,
+        real: bool,
+        total: bool,
+    ) -> Truth<'a> {
         Truth {
             n: self.polygons.len(),
             f: &self.f,
@@ -204,6 +224,7 @@ impl Exact {
             b: &self.b,
             polygons: &self.polygons,
             ff,
+            column: FormFactors::new(16, Some(occ)),
             real_factors: real,
             total_error: total,
         }
@@ -212,15 +233,17 @@ impl Exact {
 
 #[test]
 #[ignore = "experiment (minutes): prints the k/error curves of 2MF, 2MSC and the oracle"]
-fn oracle_ceiling() {
+fn oracle_refinement() {
     let (path, scene, sizes) = scene_and_sizes();
     let h = sizes.element_size;
     let occ = ObvhsOccluder::build(&scene);
-    let ff = FormFactors::new(16, Some(&occ));
+    let closed = closed(&scene, sizes, &occ);
+    let ff = FormFactors::new(16, Some(&occ)).with_enclosure(Some(&closed));
     let exact = Exact::new(&scene, sizes, &ff);
     let n = exact.polygons.len();
     let truth = exact.truth(
         &ff,
+        &occ,
         env("LRR_ORACLE_FACTORS").as_deref() != Some("ideal"),
         env("LRR_ORACLE_ERROR").as_deref() != Some("coherence"),
     );
@@ -310,11 +333,15 @@ fn estimate_against_oracle() {
     let (_, scene, sizes) = scene_and_sizes();
     let h = sizes.element_size;
     let occ = ObvhsOccluder::build(&scene);
-    let ff = FormFactors::new(16, Some(&occ));
+    let closed = closed(&scene, sizes, &occ);
+    let ff = FormFactors::new(16, Some(&occ)).with_enclosure(Some(&closed));
     let exact = Exact::new(&scene, sizes, &ff);
     let (n, polygons) = (exact.polygons.len(), &exact.polygons);
+    // The coherence error by default (what 2MSC's covariance estimates); LRR_ORACLE_ERROR=total
+    // for the oracle's default. The receivers printed below always use the exact factors.
     let truth = exact.truth(
         &ff,
+        &occ,
         true,
         env("LRR_ORACLE_ERROR").as_deref() == Some("total"),
     );

@@ -7,8 +7,8 @@
 //!
 //! - The traversal (`closest_packet`) is generic over the number of lanes, 4 here and 8 in
 //!   `packet8.rs`; the lane operations are loops over a constant count, which the compiler
-//!   unrolls (hand-unrolled per count, as before, measured the same: docs/PERFORMANCE.md).
-//! - The rays are the lanes: per child one slab test of the four rays gives the child's mask
+//!   unrolls (measured the same as the former hand-unrolled copy per count: docs/PERFORMANCE.md).
+//! - The rays are the lanes: per child one slab test of the N rays gives the child's mask
 //!   of rays and their entry distances directly (a first version with one ray's four children
 //!   in the lanes, as `bvh4.rs`, then the masks transposed per child, gained nothing).
 //! - Children are visited in the order of the entry distances of the first ray in each, the
@@ -35,7 +35,7 @@ use super::super::bvh::{Hit, Ray};
 use super::{Bvh4, F4, INLINE_STACK, LAST, LEAF, Node, octant, triangles};
 
 /// `N` rays (4 or 8) as the slab tests read them, one ray per lane.
-pub(super) struct Lanes<const N: usize> {
+struct Lanes<const N: usize> {
     origin: [[f32; N]; 3],
     inv: [[f32; N]; 3],
 }
@@ -61,7 +61,7 @@ fn mask<const N: usize>(a: [f32; N], b: [f32; N], f: impl Fn(f32, f32) -> bool) 
 }
 
 impl<const N: usize> Lanes<N> {
-    pub(super) fn new(rays: &[Ray; N]) -> Self {
+    fn new(rays: &[Ray; N]) -> Self {
         Lanes {
             origin: std::array::from_fn(|a| std::array::from_fn(|r| rays[r].origin[a])),
             inv: std::array::from_fn(|a| std::array::from_fn(|r| rays[r].inv[a])),
