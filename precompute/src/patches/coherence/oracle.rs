@@ -53,7 +53,7 @@ struct Truth<'a> {
     b: &'a [[f64; 3]],
     polygons: &'a [Polygon],
     /// The bake's element-to-patch factors (enclosed rows rescaled to sum to one).
-    ff: &'a FormFactors<'a>,
+    ff: FormFactors<'a>,
     /// The same factors one column at a time, for the oracle's `total` error: not rescaled
     /// (a rescale needs the whole row), so the columns are the bake's up to that factor.
     column: FormFactors<'a>,
@@ -168,28 +168,28 @@ fn scene_and_sizes() -> (PathBuf, crate::scene::Scene, MeshSizes) {
     (path, scene, sizes)
 }
 
+/// Samples per pair of the exact factors and of the bake's, as in `lrr accuracy`'s sweep.
+const SAMPLES: u32 = 16;
+
 /// The exact fine-mesh factors and solve, on the 2MF mesh's elements (original ids).
 struct Exact {
     polygons: Vec<Polygon>,
+    /// Per element id: whether its rows are rescaled to sum to one (the bake's enclosure test).
+    closed: Vec<bool>,
     f: Vec<f64>,
     rho: Vec<[f64; 3]>,
     emission: Vec<[f64; 3]>,
     b: Vec<[f64; 3]>,
 }
 
-/// Per element id: whether its rows are rescaled to sum to one (the bake's enclosure test).
-fn closed(scene: &crate::scene::Scene, sizes: MeshSizes, occ: &ObvhsOccluder) -> Vec<bool> {
-    let base = Mesh::two_fixed(scene, sizes).unwrap();
-    let polygons: Vec<Polygon> = base.elements.iter().map(|e| e.polygon).collect();
-    crate::formfactor::enclosure::Enclosure::probe(occ, &polygons).closed
-}
-
 impl Exact {
-    fn new(scene: &crate::scene::Scene, sizes: MeshSizes, ff: &FormFactors) -> Self {
+    fn new(scene: &crate::scene::Scene, sizes: MeshSizes, occ: &ObvhsOccluder) -> Self {
         let base = Mesh::two_fixed(scene, sizes).unwrap();
         let n = base.n();
         let (rho, emission) = base.element_materials(scene);
         let polygons: Vec<Polygon> = base.elements.iter().map(|e| e.polygon).collect();
+        let closed = crate::formfactor::enclosure::Enclosure::probe(occ, &polygons).closed;
+        let ff = Self::factors(&closed, occ);
         let ids: Vec<u32> = (0..n as u32).collect();
         let singles: Vec<Region> = polygons.iter().map(|&p| Region::single(p)).collect();
         let mut f = vec![0.0; n * n];
@@ -201,6 +201,7 @@ impl Exact {
         let b = solve_dense(&f, &data).unwrap();
         Self {
             polygons,
+            closed,
             f,
             rho,
             emission,
@@ -208,13 +209,12 @@ impl Exact {
         }
     }
 
-    fn truth<'a>(
-        &'a self,
-        ff: &'a FormFactors<'a>,
-        occ: &'a ObvhsOccluder,
-        real: bool,
-        total: bool,
-    ) -> Truth<'a> {
+    /// The bake's factors: [`SAMPLES`] per pair, the rows of `closed` elements rescaled.
+    fn factors<'a>(closed: &'a [bool], occ: &'a ObvhsOccluder) -> FormFactors<'a> {
+        FormFactors::new(SAMPLES, Some(occ)).with_enclosure(Some(closed))
+    }
+
+    fn truth<'a>(&'a self, occ: &'a ObvhsOccluder, real: bool, total: bool) -> Truth<'a> {
         Truth {
             n: self.polygons.len(),
             f: &self.f,
@@ -223,8 +223,8 @@ impl Exact {
             emission: &self.emission,
             b: &self.b,
             polygons: &self.polygons,
-            ff,
-            column: FormFactors::new(16, Some(occ)),
+            ff: Self::factors(&self.closed, occ),
+            column: FormFactors::new(SAMPLES, Some(occ)),
             real_factors: real,
             total_error: total,
         }
@@ -237,12 +237,9 @@ fn oracle_refinement() {
     let (path, scene, sizes) = scene_and_sizes();
     let h = sizes.element_size;
     let occ = ObvhsOccluder::build(&scene);
-    let closed = closed(&scene, sizes, &occ);
-    let ff = FormFactors::new(16, Some(&occ)).with_enclosure(Some(&closed));
-    let exact = Exact::new(&scene, sizes, &ff);
+    let exact = Exact::new(&scene, sizes, &occ);
     let n = exact.polygons.len();
     let truth = exact.truth(
-        &ff,
         &occ,
         env("LRR_ORACLE_FACTORS").as_deref() != Some("ideal"),
         env("LRR_ORACLE_ERROR").as_deref() != Some("coherence"),
@@ -333,14 +330,11 @@ fn estimate_against_oracle() {
     let (_, scene, sizes) = scene_and_sizes();
     let h = sizes.element_size;
     let occ = ObvhsOccluder::build(&scene);
-    let closed = closed(&scene, sizes, &occ);
-    let ff = FormFactors::new(16, Some(&occ)).with_enclosure(Some(&closed));
-    let exact = Exact::new(&scene, sizes, &ff);
+    let exact = Exact::new(&scene, sizes, &occ);
     let (n, polygons) = (exact.polygons.len(), &exact.polygons);
     // The coherence error by default (what 2MSC's covariance estimates); LRR_ORACLE_ERROR=total
     // for the oracle's default. The receivers printed below always use the exact factors.
     let truth = exact.truth(
-        &ff,
         &occ,
         true,
         env("LRR_ORACLE_ERROR").as_deref() == Some("total"),
