@@ -186,10 +186,11 @@ impl<'s> Prepared<'s> {
         if let PatchMethod::SpatialCoherence {
             threshold,
             min_patch_area,
+            rule,
         } = method
         {
             // Refuse bad parameters before the BVH is built.
-            crate::patches::refinement(sizes, threshold, min_patch_area)?;
+            crate::patches::refinement(sizes, threshold, min_patch_area, rule)?;
         }
         let stage = progress.stage("visibility", 0);
         let occluder = if nothing_occludes(scene) {

@@ -79,7 +79,8 @@ impl Skeleton {
             PatchMethod::SpatialCoherence {
                 threshold,
                 min_patch_area,
-            } => crate::patches::refinement(i.sizes, threshold, min_patch_area)
+                rule,
+            } => crate::patches::refinement(i.sizes, threshold, min_patch_area, rule)
                 .ok()
                 .map(|r| [r.threshold, r.min_patch_area]),
         };

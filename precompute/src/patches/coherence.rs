@@ -96,7 +96,9 @@ pub(crate) const PROBE_RAYS: u32 = 8;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Refinement {
     pub threshold: f64,
+    /// Split rule only (0 for the merge rule).
     pub min_patch_area: f64,
+    pub rule: crate::patches::CoherenceRule,
 }
 
 /// A node of the hierarchy: part of one piece's subdivision, or a cluster of small pieces.
@@ -124,6 +126,8 @@ pub(crate) struct Probes<'a> {
     pub mean_radiosity: f64,
     /// Total area of the probes (the scene's surface area).
     pub total_area: f64,
+    /// Elements in each probe (the merge rule's weights; `patches::msc_inputs` counts them).
+    pub elements: Vec<f64>,
     pub occluder: Option<&'a dyn Occluder>,
 }
 
@@ -143,6 +147,7 @@ impl<'a> Probes<'a> {
             radiosity: Vec::new(),
             mean_radiosity: 0.0,
             total_area: 0.0,
+            elements: vec![0.0; q],
             occluder,
         };
         let mut f = vec![0.0; q * q];
@@ -462,6 +467,7 @@ pub(crate) fn view(probes: &Probes, x: DVec3, normal: DVec3, out: &mut [f64]) {
     }
 }
 
+pub mod merge;
 #[cfg(test)]
 mod oracle;
 
@@ -485,6 +491,7 @@ mod tests {
         let method = PatchMethod::SpatialCoherence {
             threshold,
             min_patch_area,
+            rule: crate::patches::CoherenceRule::Split,
         };
         Mesh::build(scene, sizes, method, Some(&occ)).unwrap()
     }

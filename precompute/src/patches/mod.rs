@@ -13,11 +13,11 @@
 //! position → original element id) and the index vector `index` (k+1 offsets into file
 //! positions), with weights `w = A_e / A_p`.
 
-mod cluster;
+pub(crate) mod cluster;
 pub mod coherence;
 mod patch;
 
-pub use patch::{Patch, PatchMethod};
+pub use patch::{CoherenceRule, Patch, PatchMethod};
 
 use crate::error::{Error, Result};
 use crate::geometry::{Polygon, Region};
@@ -47,20 +47,39 @@ pub struct Mesh {
     pub(crate) siblings: Vec<u8>,
 }
 
-/// Checks the 2MSC parameters and fills in the default `A_min`: `(2h)²` (about 2×2 elements)
-/// at thresholds of 1e-4 and above, shrinking in proportion below,
+/// Checks the 2MSC parameters and fills in the default `A_min` of the split rule: `(2h)²`
+/// (about 2×2 elements) at thresholds of 1e-4 and above, shrinking in proportion below,
 /// `(2h)² · threshold / FULL_MIN_AREA_THRESHOLD`, so that a smaller threshold keeps splitting down
-/// to single elements (and `k → n`, the exact solve) instead of stopping at the cap.
+/// to single elements (and `k → n`, the exact solve) instead of stopping at the cap. The merge
+/// rule has no `A_min` (0 is recorded) and refuses one.
 pub(crate) fn refinement(
     sizes: MeshSizes,
     threshold: f64,
     min_patch_area: Option<f64>,
+    rule: CoherenceRule,
 ) -> Result<coherence::Refinement> {
     if !(threshold.is_finite() && threshold > 0.0) {
+        let what = match rule {
+            CoherenceRule::Merge => "the estimated relative error of the patches, e.g. 1e-3",
+            CoherenceRule::Split => "the largest share of reflected power a patch may get wrong, e.g. 3e-5",
+        };
         return Err(Error::Settings(format!(
-            "--threshold must be a positive number (the largest relative spread of a patch's \
-             view vectors, e.g. 0.1), got {threshold}"
+            "--threshold must be a positive number ({what}), got {threshold}"
         )));
+    }
+    if rule == CoherenceRule::Merge {
+        if let Some(a) = min_patch_area {
+            return Err(Error::Settings(format!(
+                "--min-patch-area {a} applies to --method 2msc-split only: 2msc merges \
+                 elements while the estimated error stays under --threshold (drop the flag, \
+                 or raise --threshold for larger patches)"
+            )));
+        }
+        return Ok(coherence::Refinement {
+            threshold,
+            min_patch_area: 0.0,
+            rule,
+        });
     }
     let scale = (threshold / coherence::FULL_MIN_AREA_THRESHOLD).min(1.0);
     let min_patch_area =
@@ -73,6 +92,7 @@ pub(crate) fn refinement(
     Ok(coherence::Refinement {
         threshold,
         min_patch_area,
+        rule,
     })
 }
 
@@ -87,25 +107,31 @@ pub(crate) fn msc_inputs<'a>(
 ) -> Result<(coherence::Probes<'a>, Vec<coherence::Material>)> {
     // Probes at half the patch size were tried: 4× the probing cost for the same k at
     // equal error on the Cornell box.
-    let probe_patches = two_fixed_patches(pieces, sizes, &mut elements.to_vec());
-    let material = |face: u32| {
-        let m = &scene.materials[scene.faces[face as usize].material];
-        coherence::Material {
-            reflectance: m.reflectance.iter().sum::<f64>() / 3.0,
-            emission: m.emission.iter().sum::<f64>() / 3.0,
-        }
-    };
+    let mut probed = elements.to_vec();
+    let probe_patches = two_fixed_patches(pieces, sizes, &mut probed);
     let (reflectance, emission) = probe_patches
         .iter()
         .map(|p| {
-            let m = material(p.face);
+            let m = material(scene, p.face);
             (m.reflectance, m.emission)
         })
         .unzip();
     let targets = probe_patches.into_iter().map(|p| p.shape).collect();
-    let probes = coherence::Probes::new(targets, reflectance, emission, occluder)?;
-    let materials = pieces.iter().map(|p| material(p.face)).collect();
+    let mut probes = coherence::Probes::new(targets, reflectance, emission, occluder)?;
+    for e in &probed {
+        probes.elements[e.patch as usize] += 1.0;
+    }
+    let materials = pieces.iter().map(|p| material(scene, p.face)).collect();
     Ok((probes, materials))
+}
+
+/// A face's material, as 2MSC sees it: reflectance and emission averaged over the channels.
+fn material(scene: &Scene, face: u32) -> coherence::Material {
+    let m = &scene.materials[scene.faces[face as usize].material];
+    coherence::Material {
+        reflectance: m.reflectance.iter().sum::<f64>() / 3.0,
+        emission: m.emission.iter().sum::<f64>() / 3.0,
+    }
 }
 
 /// The 2MF patches: the uniform cut of each large piece, clusters of the small pieces of each
@@ -182,8 +208,9 @@ impl Mesh {
             PatchMethod::SpatialCoherence {
                 threshold,
                 min_patch_area,
+                rule,
             } => {
-                let refinement = refinement(sizes, threshold, min_patch_area)?;
+                let refinement = refinement(sizes, threshold, min_patch_area, rule)?;
                 Self::two_msc(scene, sizes, refinement, occluder)
             }
         }
@@ -210,14 +237,21 @@ impl Mesh {
     ) -> Result<Self> {
         let (mut elements, pieces, meshing) = fine_mesh(scene, sizes)?;
         let (probes, materials) = msc_inputs(scene, sizes, &pieces, &elements, occluder)?;
-        let patches = coherence::two_msc(
-            &pieces,
-            &materials,
-            &mut elements,
-            sizes,
-            refinement,
-            &probes,
-        );
+        let patches = match refinement.rule {
+            CoherenceRule::Split => coherence::two_msc(
+                &pieces,
+                &materials,
+                &mut elements,
+                sizes,
+                refinement,
+                &probes,
+            ),
+            CoherenceRule::Merge => {
+                let materials: Vec<coherence::Material> =
+                    elements.iter().map(|e| material(scene, e.face)).collect();
+                coherence::merge::merge(&mut elements, &materials, refinement.threshold, &probes)
+            }
+        };
         Ok(Self {
             meshing,
             ..Self::from_parts(elements, patches)

@@ -340,7 +340,16 @@ fn settings_text(sizes: MeshSizes, s: &BakeSettings, visibility: &str) -> String
         PatchMethod::SpatialCoherence {
             threshold,
             min_patch_area,
-        } => format!("2msc threshold {threshold:?} min-patch-area {min_patch_area:?}"),
+            rule,
+        } => format!(
+            "{} threshold {threshold:?} min-patch-area {min_patch_area:?}{}",
+            s.method.name(),
+            match rule {
+                crate::patches::CoherenceRule::Split => String::new(),
+                crate::patches::CoherenceRule::Merge =>
+                    format!(" revision {}", crate::patches::coherence::merge::REVISION),
+            }
+        ),
     };
     // Refinement where light changes: the budget and the rules' revision (absent when the
     // mesh is not refined, so unrefined plans and parts keep their text).

@@ -97,6 +97,11 @@ impl Truth<'_> {
     /// `k` and the relative L2 error against the exact solve of the low-rank solution for a
     /// partition: the patch of every element (original ids) and the patches' shapes.
     fn measure(&self, patch_of: &[u32], shapes: &[Region]) -> (usize, f64) {
+        (shapes.len(), relative_l2(&self.solve(patch_of, shapes), self.b))
+    }
+
+    /// The low-rank solution for a partition (see [`Truth::measure`]).
+    fn solve(&self, patch_of: &[u32], shapes: &[Region]) -> Vec<[f64; 3]> {
         let (n, k) = (self.n, shapes.len());
         let mut fnk = vec![0.0; n * k];
         if self.real_factors {
@@ -133,7 +138,7 @@ impl Truth<'_> {
                 out[c] = self.emission[i][c] + self.rho[i][c] * gathered;
             }
         }
-        (k, relative_l2(&out, self.b))
+        out
     }
 }
 
@@ -271,6 +276,7 @@ fn oracle_refinement() {
         let method = PatchMethod::SpatialCoherence {
             threshold,
             min_patch_area: None,
+            rule: crate::patches::CoherenceRule::Split,
         };
         let (k, error) = of_mesh(&Mesh::build(&scene, sizes, method, Some(&occ)).unwrap());
         eprintln!("2msc k {k} error {error:.4e} threshold {threshold:e}");
@@ -458,5 +464,325 @@ fn estimate_against_oracle() {
             "# receiver {i} at {x:?}, B {b:.4}: error {d:.3e}, F to the elements {}",
             f.join(" ")
         );
+    }
+}
+
+/// Whether two element polygons touch (a shared vertex, or a vertex on the other's edge).
+fn touch(a: &Polygon, b: &Polygon, eps: f64) -> bool {
+    let on = |p: DVec3, q: &Polygon| {
+        let v = q.vertices();
+        (0..v.len()).any(|i| {
+            let (s, t) = (v[i], v[(i + 1) % v.len()]);
+            let d = t - s;
+            let u = ((p - s).dot(d) / d.length_squared()).clamp(0.0, 1.0);
+            (s + d * u - p).length() <= eps
+        })
+    };
+    a.vertices().iter().any(|&p| on(p, b)) || b.vertices().iter().any(|&p| on(p, a))
+}
+
+#[test]
+#[ignore = "experiment (minutes): bottom-up merges with exact errors, against 2MF and 2MSC"]
+fn merge_oracle() {
+    let (path, scene, sizes) = scene_and_sizes();
+    let h = sizes.element_size;
+    let occ = ObvhsOccluder::build(&scene);
+    let exact = Exact::new(&scene, sizes, &occ);
+    let n = exact.polygons.len();
+    let truth = exact.truth(
+        &occ,
+        env("LRR_ORACLE_FACTORS").as_deref() != Some("ideal"),
+        false,
+    );
+    let cone: f64 = env("LRR_ORACLE_CONE").map_or(45.0, |s| s.parse().unwrap());
+    let cos_cone = cone.to_radians().cos();
+    eprintln!(
+        "# {}: n = {n}, h = {h}, factors {}, merge oracle, cone {cone}",
+        path.display(),
+        if truth.real_factors { "real" } else { "ideal" },
+    );
+    let of_mesh = |mesh: &Mesh| {
+        let patch_of: Vec<u32> = mesh.elements.iter().map(|e| e.patch).collect();
+        let shapes: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
+        truth.measure(&patch_of, &shapes)
+    };
+    if env("LRR_ORACLE_SKIP").is_none() {
+        for m in [1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0] {
+            let s = MeshSizes {
+                element_size: h,
+                patch_size: m * h,
+            };
+            let (k, error) = of_mesh(&Mesh::two_fixed(&scene, s).unwrap());
+            eprintln!("2mf k {k} error {error:.4e} multiple {m}");
+        }
+        for threshold in [3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6] {
+            let method = PatchMethod::SpatialCoherence {
+                threshold,
+                min_patch_area: None,
+                rule: crate::patches::CoherenceRule::Split,
+            };
+            let (k, error) = of_mesh(&Mesh::build(&scene, sizes, method, Some(&occ)).unwrap());
+            eprintln!("2msc k {k} error {error:.4e} threshold {threshold:e}");
+        }
+    }
+    let thresholds = env("LRR_MERGE_THRESHOLDS").unwrap_or("1e-2,5e-3,3e-3,2e-3,1.5e-3,1e-3,7e-4,5e-4,3e-4".into());
+    for threshold in thresholds.split(',').map(|t| t.parse::<f64>().unwrap()) {
+        let method = PatchMethod::SpatialCoherence {
+            threshold,
+            min_patch_area: None,
+            rule: crate::patches::CoherenceRule::Merge,
+        };
+        let t = std::time::Instant::now();
+        let mesh = Mesh::build(&scene, sizes, method, Some(&occ)).unwrap();
+        let seconds = t.elapsed().as_secs_f64();
+        let (k, error) = of_mesh(&mesh);
+        eprintln!("rule k {k} error {error:.4e} threshold {threshold:e} mesh {seconds:.2} s");
+    }
+    if env("LRR_MERGE_ONLY_RULE").is_some() {
+        return;
+    }
+    let polygons = &exact.polygons;
+    let eps = 1e-6 * scene.extent();
+    // Neighbours: touching elements.
+    let neighbours: Vec<Vec<usize>> = (0..n)
+        .into_par_iter()
+        .map(|a| {
+            (0..n)
+                .filter(|&b| b != a && touch(&polygons[a], &polygons[b], eps))
+                .collect()
+        })
+        .collect();
+    // Per patch: members, area, Σ A_e B_e, s_i = Σ_e F_ie, t_ic = Σ_e F_ie B_ec, error.
+    struct Agg {
+        members: Vec<usize>,
+        area: f64,
+        ab: [f64; 3],
+        normal: DVec3,
+        s: Vec<f64>,
+        t: Vec<[f64; 3]>,
+        error: f64,
+    }
+    // Receivers: every element (exact) or the probes (2MF patches at the patch size), each
+    // with the area-weighted mean of its elements' exact factors, weighted by its elements.
+    let base = Mesh::two_fixed(&scene, sizes).unwrap();
+    let probes = env("LRR_MERGE_RECEIVERS").as_deref() == Some("probes");
+    let (receiver_of, r): (Vec<usize>, usize) = if probes {
+        (base.elements.iter().map(|e| e.patch as usize).collect(), base.patches.len())
+    } else {
+        ((0..n).collect(), n)
+    };
+    let mut r_area = vec![0.0; r];
+    let mut r_count = vec![0.0; r];
+    let mut r_rho = vec![[0.0; 3]; r];
+    for i in 0..n {
+        let j = receiver_of[i];
+        r_area[j] += truth.area[i];
+        r_count[j] += 1.0;
+        for c in 0..3 {
+            r_rho[j][c] += truth.area[i] * truth.rho[i][c];
+        }
+    }
+    for j in 0..r {
+        r_rho[j] = r_rho[j].map(|x| x / r_area[j]);
+    }
+    // The radiosity the merges see: exact, or 2MF's low-rank solution at the patch size.
+    let coarse: Vec<[f64; 3]>;
+    let mut estimated: Vec<[f64; 3]> = Vec::new();
+    let b: &[[f64; 3]] = if env("LRR_MERGE_B").as_deref() == Some("coarse") {
+        let patch_of: Vec<u32> = base.elements.iter().map(|e| e.patch).collect();
+        let shapes: Vec<Region> = base.patches.iter().map(|p| p.shape.clone()).collect();
+        coarse = truth.solve(&patch_of, &shapes);
+        eprintln!("# coarse B: error {:.3e}", relative_l2(&coarse, truth.b));
+        &coarse
+    } else {
+        truth.b
+    };
+    eprintln!("# receivers {r}");
+    // What a bake can know: each element's point-to-probe factors from its centroid (rays as
+    // 2MSC casts them) and its radiosity gathered from the probes' coarse solve (grey).
+    let estimate = env("LRR_MERGE_ESTIMATE").is_some();
+    let views: Vec<Vec<f64>> = if estimate {
+        assert!(probes, "the estimate needs LRR_MERGE_RECEIVERS=probes");
+        let (elements, pieces, _) = crate::mesh::fine_mesh(&scene, sizes).unwrap();
+        let (pr, _) =
+            crate::patches::msc_inputs(&scene, sizes, &pieces, &elements, Some(&occ)).unwrap();
+        assert_eq!(pr.targets.len(), r);
+        let views: Vec<Vec<f64>> = (0..n)
+            .into_par_iter()
+            .map(|e| {
+                let mut f = vec![0.0; r];
+                view(&pr, polygons[e].centroid(), polygons[e].normal, &mut f);
+                f
+            })
+            .collect();
+        estimated = (0..n)
+            .map(|e| {
+                let grey = |v: [f64; 3]| v.iter().sum::<f64>() / 3.0;
+                let g: f64 = views[e].iter().zip(&pr.radiosity).map(|(f, b)| f * b).sum();
+                [grey(truth.emission[e]) + grey(truth.rho[e]) * g; 3]
+            })
+            .collect();
+        eprintln!("# estimated B: error {:.3e}", relative_l2(&estimated, truth.b));
+        views
+    } else {
+        Vec::new()
+    };
+    let b: &[[f64; 3]] = if estimate { &estimated } else { b };
+    let column = |e: usize| -> (Vec<f64>, Vec<[f64; 3]>) {
+        let mut s = vec![0.0; r];
+        if estimate {
+            for j in 0..r {
+                s[j] = truth.area[e] * views[e][j] / r_area[j];
+            }
+        } else {
+            for i in 0..n {
+                let j = receiver_of[i];
+                s[j] += truth.area[i] * truth.f[i * n + e] / r_area[j];
+            }
+        }
+        let t = s.iter().map(|&x| b[e].map(|bc| x * bc)).collect();
+        (s, t)
+    };
+    let error_of = |a: &Agg| -> f64 {
+        let mean = a.ab.map(|x| x / a.area);
+        let mut total = 0.0;
+        for j in 0..r {
+            for c in 0..3 {
+                total += r_count[j] * (r_rho[j][c] * (a.s[j] * mean[c] - a.t[j][c])).powi(2);
+            }
+        }
+        total
+    };
+    let union = |a: &Agg, b: &Agg| -> Option<Agg> {
+        let normal = a.normal + b.normal;
+        let axis = normal.normalize();
+        let members: Vec<usize> = a.members.iter().chain(&b.members).copied().collect();
+        if members.iter().any(|&e| polygons[e].normal.dot(axis) < cos_cone) {
+            return None;
+        }
+        let mut u = Agg {
+            members,
+            area: a.area + b.area,
+            ab: std::array::from_fn(|c| a.ab[c] + b.ab[c]),
+            normal,
+            s: a.s.iter().zip(&b.s).map(|(x, y)| x + y).collect(),
+            t: a
+                .t
+                .iter()
+                .zip(&b.t)
+                .map(|(x, y)| std::array::from_fn(|c| x[c] + y[c]))
+                .collect(),
+            error: 0.0,
+        };
+        u.error = error_of(&u);
+        Some(u)
+    };
+    let mut patches: Vec<Option<Agg>> = (0..n)
+        .into_par_iter()
+        .map(|e| {
+            let area = truth.area[e];
+            let (s, t) = column(e);
+            Some(Agg {
+                members: vec![e],
+                area,
+                ab: std::array::from_fn(|c| area * b[e][c]),
+                normal: polygons[e].normal * area,
+                s,
+                t,
+                error: 0.0,
+            })
+        })
+        .collect();
+    let mut patch_of: Vec<usize> = (0..n).collect();
+    let mut version = vec![0u32; n];
+    // Candidate merges (cost, a, b, version a, version b), smallest cost first.
+    #[derive(PartialEq)]
+    struct Cand(f64, usize, usize, u32, u32);
+    impl Eq for Cand {}
+    impl PartialOrd for Cand {
+        fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+            Some(self.cmp(o))
+        }
+    }
+    impl Ord for Cand {
+        fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+            o.0.total_cmp(&self.0)
+        }
+    }
+    let cost = |a: &Agg, b: &Agg| union(a, b).map(|u| u.error - a.error - b.error);
+    let mut heap = std::collections::BinaryHeap::new();
+    let pairs: Vec<(usize, usize)> = (0..n)
+        .flat_map(|a| neighbours[a].iter().filter(move |&&b| b > a).map(move |&b| (a, b)))
+        .collect();
+    let costs: Vec<Option<f64>> = pairs
+        .par_iter()
+        .map(|&(a, b)| cost(patches[a].as_ref().unwrap(), patches[b].as_ref().unwrap()))
+        .collect();
+    for (&(a, b), c) in pairs.iter().zip(costs) {
+        if let Some(c) = c {
+            heap.push(Cand(c, a, b, 0, 0));
+        }
+    }
+    let mut live = n;
+    let budgets = [700, 500, 350, 250, 150, 100, 60, 40];
+    for budget in budgets {
+        while live > budget {
+            let Some(Cand(_, a, b, va, vb)) = heap.pop() else {
+                break;
+            };
+            if version[a] != va || version[b] != vb || patches[a].is_none() || patches[b].is_none()
+            {
+                continue;
+            }
+            let u = union(patches[a].as_ref().unwrap(), patches[b].as_ref().unwrap()).unwrap();
+            for &e in &patches[b].as_ref().unwrap().members {
+                patch_of[e] = a;
+            }
+            patches[b] = None;
+            patches[a] = Some(u);
+            version[a] += 1;
+            live -= 1;
+            // New candidates with every patch touching the union.
+            let mut near: Vec<usize> = patches[a]
+                .as_ref()
+                .unwrap()
+                .members
+                .iter()
+                .flat_map(|&e| neighbours[e].iter().map(|&x| patch_of[x]))
+                .filter(|&p| p != a)
+                .collect();
+            near.sort_unstable();
+            near.dedup();
+            let pa = patches[a].as_ref().unwrap();
+            let new: Vec<(usize, Option<f64>)> = near
+                .par_iter()
+                .map(|&p| (p, cost(pa, patches[p].as_ref().unwrap())))
+                .collect();
+            for (p, c) in new {
+                if let Some(c) = c {
+                    let (x, y) = (a.min(p), a.max(p));
+                    heap.push(Cand(c, x, y, version[x], version[y]));
+                }
+            }
+        }
+        if live > budget {
+            eprintln!("# no more merges at k {live}");
+            break;
+        }
+        let ids: Vec<usize> = (0..n).filter(|&p| patches[p].is_some()).collect();
+        let mut index = vec![0u32; n];
+        for (j, &p) in ids.iter().enumerate() {
+            index[p] = j as u32;
+        }
+        let of: Vec<u32> = (0..n).map(|e| index[patch_of[e]]).collect();
+        let shapes: Vec<Region> = ids
+            .iter()
+            .map(|&p| {
+                let m = &patches[p].as_ref().unwrap().members;
+                Region::new(m.iter().map(|&e| polygons[e]).collect())
+            })
+            .collect();
+        let (k, error) = truth.measure(&of, &shapes);
+        eprintln!("merge k {k} error {error:.4e}");
     }
 }

@@ -1,0 +1,467 @@
+//! 2MSC by merging (the default rule, issue #14): patches grown bottom-up from single elements.
+//!
+//! The split rule ([`super::two_msc`]) cuts the subdivision hierarchy top-down and can only
+//! stop at its nodes: a patch is a quadtree cell of one piece. Merging starts from every
+//! element as its own patch (`k = n`, the exact solve) and repeatedly joins the two touching
+//! patches whose union adds the least estimated error, until the next join would take the
+//! estimated error of the whole coarse mesh past the threshold. A patch is then any connected
+//! set of elements of one surface within the 2MF normal cone: across pieces and subdivision
+//! cells, shaped by where light changes (docs/MESHING.md, "2MSC by merging").
+//!
+//! **The estimate.** Keeping `P` whole makes a receiver `j` gather `F(j → P) B̄_P` instead of
+//! `Σ_{e∈P} F_je B_e`: an error `δ_j = ρ_j (s_j B̄_P − t_j)` with, by reciprocity,
+//!
+//! ```text
+//! s_j = Σ_{e∈P} A_e F(x_e → j) / A_j        t_j = Σ_{e∈P} A_e F(x_e → j) b_e / A_j
+//! ```
+//!
+//! over the probes `j` (the 2MF patches at the patch size, as the split rule uses), where
+//! `F(x_e → j)` is the closed-form point-to-patch factor from the element's centroid times the
+//! visible fraction of [`PROBE_RAYS`](super::PROBE_RAYS) rays, and `b_e = E_e + ρ_e Σ_j F(x_e → j) B_j` the
+//! element's radiosity gathered from the probes' coarse solve (means over the channels). A
+//! patch's error is `err(P) = Σ_j c_j δ_j²` with `c_j` the elements in probe `j` (so that it
+//! stands for the squared error summed over the elements, which the relative L2 error of
+//! `lrr accuracy` measures); the coarse mesh's estimated relative error is
+//! `sqrt(Σ_P err(P) / Σ_e b_e²)`. `s` and `t` add when patches join, so a join costs `O(q)`.
+//! The estimate is first order (one gather, no bounces) and ignores how the errors of
+//! different patches cancel or add; `--threshold` is that estimate, not a guarantee.
+//!
+//! **Cost.** `n · q` point-to-patch factors (`n · q · PROBE_RAYS` rays) and `2 · n · q` f32
+//! of working memory, then about `3 n` candidate joins of `O(q)` each. Deterministic: every
+//! parallel step is a map; joins are taken in order of (cost, smaller id, larger id).
+
+use std::cmp::Ordering;
+use std::collections::{BinaryHeap, HashMap};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::{Material, Probes, view};
+use crate::geometry::{Polygon, Region};
+use crate::mesh::Element;
+use crate::patches::Patch;
+use crate::patches::cluster::NORMAL_CONE_DEGREES;
+
+/// Revision of the merge rule: part of the checkpoint key (`checkpoint::key`) and of a shard
+/// plan's settings, since a change gives other patches for the same flags.
+pub(crate) const REVISION: u32 = 1;
+
+/// Default `--threshold` of the merge rule: the estimated relative L2 error of the coarse
+/// mesh (module docs).
+pub const DEFAULT_THRESHOLD: f64 = 1e-3;
+
+/// A bounding cone of normals: every normal is within `angle` (radians) of `axis`.
+#[derive(Debug, Clone, Copy)]
+struct Cone {
+    axis: DVec3,
+    angle: f64,
+}
+
+impl Cone {
+    /// The smallest cone around both (exact for cones; conservative for the normals inside).
+    fn union(self, other: Cone) -> Cone {
+        let between = self.axis.dot(other.axis).clamp(-1.0, 1.0).acos();
+        if between + other.angle <= self.angle {
+            return self;
+        }
+        if between + self.angle <= other.angle {
+            return other;
+        }
+        let angle = (between + self.angle + other.angle) / 2.0;
+        if between < 1e-12 {
+            return Cone {
+                axis: self.axis,
+                angle,
+            };
+        }
+        if angle >= std::f64::consts::PI {
+            return Cone {
+                axis: self.axis,
+                angle: std::f64::consts::PI,
+            };
+        }
+        // Rotate `self.axis` towards `other.axis` by `angle − self.angle`.
+        let t = (angle - self.angle) / between;
+        let (s, a, b) = (between.sin(), (1.0 - t) * between, t * between);
+        let axis = (self.axis * a.sin() + other.axis * b.sin()) / s;
+        Cone {
+            axis: axis.normalize(),
+            angle,
+        }
+    }
+}
+
+/// Whether two element polygons touch: a vertex of one within `eps` of an edge of the other.
+fn touch(a: &Polygon, b: &Polygon, eps: f64) -> bool {
+    let on = |p: DVec3, q: &Polygon| {
+        let v = q.vertices();
+        (0..v.len()).any(|i| {
+            let (s, t) = (v[i], v[(i + 1) % v.len()]);
+            let d = t - s;
+            let u = ((p - s).dot(d) / d.length_squared()).clamp(0.0, 1.0);
+            (s + d * u - p).length_squared() <= eps * eps
+        })
+    };
+    a.vertices().iter().any(|&p| on(p, b)) || b.vertices().iter().any(|&p| on(p, a))
+}
+
+/// For every element, the touching elements of the same surface (ascending ids), found
+/// through a uniform grid of cells about the size of the larger elements.
+fn neighbours(elements: &[Element]) -> Vec<Vec<u32>> {
+    let n = elements.len();
+    let boxes: Vec<(DVec3, DVec3)> = elements
+        .iter()
+        .map(|e| {
+            let v = e.polygon.vertices();
+            let lo = v.iter().fold(DVec3::INFINITY, |m, &x| m.min(x));
+            let hi = v.iter().fold(DVec3::NEG_INFINITY, |m, &x| m.max(x));
+            (lo, hi)
+        })
+        .collect();
+    let (lo, hi) = boxes.iter().fold(
+        (DVec3::INFINITY, DVec3::NEG_INFINITY),
+        |(l, h), &(a, b)| (l.min(a), h.max(b)),
+    );
+    let extent = (hi - lo).length().max(f64::MIN_POSITIVE);
+    let eps = 1e-7 * extent;
+    // Cell: the 90th percentile of the elements' largest box side (a few huge elements then
+    // span several cells instead of making every cell huge).
+    let mut sides: Vec<f64> = boxes.iter().map(|(a, b)| (*b - *a).max_element()).collect();
+    sides.sort_by(f64::total_cmp);
+    let cell = sides
+        .get(sides.len() * 9 / 10)
+        .copied()
+        .unwrap_or(1.0)
+        .max(extent * 1e-6);
+    let index = |x: DVec3| ((x - lo) / cell).floor().as_i64vec3();
+    let mut grid: HashMap<glam::I64Vec3, Vec<u32>> = HashMap::new();
+    for (e, &(a, b)) in boxes.iter().enumerate() {
+        let (i0, i1) = (index(a - eps), index(b + eps));
+        for x in i0.x..=i1.x {
+            for y in i0.y..=i1.y {
+                for z in i0.z..=i1.z {
+                    grid.entry(glam::I64Vec3::new(x, y, z))
+                        .or_default()
+                        .push(e as u32);
+                }
+            }
+        }
+    }
+    (0..n)
+        .into_par_iter()
+        .map(|e| {
+            let (a, b) = boxes[e];
+            let (i0, i1) = (index(a - eps), index(b + eps));
+            let mut near = Vec::new();
+            for x in i0.x..=i1.x {
+                for y in i0.y..=i1.y {
+                    for z in i0.z..=i1.z {
+                        if let Some(cell) = grid.get(&glam::I64Vec3::new(x, y, z)) {
+                            near.extend(cell.iter().copied());
+                        }
+                    }
+                }
+            }
+            near.sort_unstable();
+            near.dedup();
+            near.retain(|&o| {
+                let o = o as usize;
+                o != e
+                    && elements[o].surface == elements[e].surface
+                    && boxes[o].0.cmple(b + eps).all()
+                    && boxes[o].1.cmpge(a - eps).all()
+                    && touch(&elements[e].polygon, &elements[o].polygon, eps)
+            });
+            near
+        })
+        .collect()
+}
+
+/// A patch while merging: its elements, area, `Σ A_e b_e`, normal cone, the per-probe sums
+/// `s` and `t` (module docs) and its error.
+struct Group {
+    members: Vec<u32>,
+    area: f64,
+    weighted: f64,
+    cone: Cone,
+    s: Vec<f32>,
+    t: Vec<f32>,
+    error: f64,
+    /// Touching groups (ids, ascending).
+    near: Vec<u32>,
+}
+
+/// A candidate join, smallest cost first (ties: smaller ids first).
+#[derive(Debug, Clone, Copy)]
+struct Join {
+    cost: f64,
+    a: u32,
+    b: u32,
+    version_a: u32,
+    version_b: u32,
+}
+
+impl PartialEq for Join {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+impl Eq for Join {}
+impl PartialOrd for Join {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Join {
+    fn cmp(&self, other: &Self) -> Ordering {
+        // Reversed: `BinaryHeap` is a max-heap.
+        other
+            .cost
+            .total_cmp(&self.cost)
+            .then(other.a.cmp(&self.a))
+            .then(other.b.cmp(&self.b))
+    }
+}
+
+/// What the joins see: per-probe weights `c_j ρ_j²` and the cone limit.
+struct Ctx {
+    weight: Vec<f64>,
+    max_angle: f64,
+}
+
+impl Ctx {
+    fn error(&self, area: f64, weighted: f64, s: &[f32], t: &[f32]) -> f64 {
+        let mean = weighted / area;
+        s.iter()
+            .zip(t)
+            .zip(&self.weight)
+            .map(|((&s, &t), &w)| w * (s as f64 * mean - t as f64).powi(2))
+            .sum()
+    }
+
+    /// The error of `a ∪ b` minus theirs, or `None` when the union leaves the normal cone.
+    fn cost(&self, a: &Group, b: &Group) -> Option<f64> {
+        if a.cone.union(b.cone).angle > self.max_angle {
+            return None;
+        }
+        let (area, weighted) = (a.area + b.area, a.weighted + b.weighted);
+        let mean = weighted / area;
+        let mut union = 0.0;
+        for j in 0..self.weight.len() {
+            let s = a.s[j] as f64 + b.s[j] as f64;
+            let t = a.t[j] as f64 + b.t[j] as f64;
+            union += self.weight[j] * (s * mean - t).powi(2);
+        }
+        Some(union - a.error - b.error)
+    }
+}
+
+/// Merges the elements into patches under `threshold` (the estimated relative L2 error) and
+/// returns them, with `elements[..].patch` set. Patches are numbered by their smallest
+/// element id; a patch's parts are its elements' polygons in id order.
+pub(crate) fn merge(
+    elements: &mut [Element],
+    materials: &[Material],
+    threshold: f64,
+    probes: &Probes,
+) -> Vec<Patch> {
+    let n = elements.len();
+    let q = probes.targets.len();
+    let probe_area: Vec<f64> = probes.targets.iter().map(Region::area).collect();
+    let ctx = Ctx {
+        weight: (0..q)
+            .map(|j| probes.elements[j] * probes.reflectance[j].powi(2))
+            .collect(),
+        max_angle: NORMAL_CONE_DEGREES.to_radians(),
+    };
+    // Each element's view of the probes and its gathered radiosity.
+    let views: Vec<(Vec<f32>, f64)> = elements
+        .par_iter()
+        .zip(materials)
+        .map(|(e, m)| {
+            let mut f = vec![0.0; q];
+            view(probes, e.polygon.centroid(), e.polygon.normal, &mut f);
+            let gathered: f64 = f.iter().zip(&probes.radiosity).map(|(f, b)| f * b).sum();
+            let b = m.emission + m.reflectance * gathered;
+            let a = e.polygon.area();
+            let s = f
+                .iter()
+                .zip(&probe_area)
+                .map(|(f, pa)| (a * f / pa) as f32)
+                .collect();
+            (s, b)
+        })
+        .collect();
+    let norm: f64 = views.iter().map(|(_, b)| b * b).sum();
+    let budget = threshold * threshold * norm;
+    let near = neighbours(elements);
+    let mut groups: Vec<Option<Group>> = views
+        .into_par_iter()
+        .zip(near)
+        .enumerate()
+        .map(|(e, ((s, b), near))| {
+            let polygon = &elements[e].polygon;
+            let area = polygon.area();
+            let t = s.iter().map(|&s| s * b as f32).collect();
+            Some(Group {
+                members: vec![e as u32],
+                area,
+                weighted: area * b,
+                cone: Cone {
+                    axis: polygon.normal,
+                    angle: 0.0,
+                },
+                s,
+                t,
+                error: 0.0,
+                near,
+            })
+        })
+        .collect();
+    // The single elements' errors are 0 up to the f32 rounding of `t`; start from theirs.
+    groups.par_iter_mut().for_each(|g| {
+        let g = g.as_mut().expect("every element is a group");
+        g.error = ctx.error(g.area, g.weighted, &g.s, &g.t);
+    });
+    let mut version = vec![0u32; n];
+    let pairs: Vec<(u32, u32)> = groups
+        .iter()
+        .enumerate()
+        .flat_map(|(a, g)| {
+            let near = &g.as_ref().expect("group").near;
+            near.iter()
+                .filter(move |&&b| b as usize > a)
+                .map(move |&b| (a as u32, b))
+        })
+        .collect();
+    let mut heap: BinaryHeap<Join> = pairs
+        .par_iter()
+        .filter_map(|&(a, b)| {
+            ctx.cost(group(&groups, a), group(&groups, b))
+                .map(|cost| Join {
+                    cost,
+                    a,
+                    b,
+                    version_a: 0,
+                    version_b: 0,
+                })
+        })
+        .collect::<Vec<_>>()
+        .into();
+    let mut total: f64 = groups.iter().flatten().map(|g| g.error).sum();
+    while let Some(join) = heap.pop() {
+        let (a, b) = (join.a as usize, join.b as usize);
+        if version[a] != join.version_a
+            || version[b] != join.version_b
+            || groups[a].is_none()
+            || groups[b].is_none()
+        {
+            continue; // stale
+        }
+        if total + join.cost > budget {
+            break;
+        }
+        total += join.cost;
+        let gb = groups[b].take().expect("live");
+        let ga = groups[a].as_mut().expect("live");
+        ga.members.extend(gb.members);
+        ga.area += gb.area;
+        ga.weighted += gb.weighted;
+        ga.cone = ga.cone.union(gb.cone);
+        for (x, y) in ga.s.iter_mut().zip(&gb.s) {
+            *x += y;
+        }
+        for (x, y) in ga.t.iter_mut().zip(&gb.t) {
+            *x += y;
+        }
+        ga.error = ctx.error(ga.area, ga.weighted, &ga.s, &ga.t);
+        let mut near: Vec<u32> = ga.near.iter().chain(&gb.near).copied().collect();
+        near.sort_unstable();
+        near.dedup();
+        near.retain(|&x| x as usize != a && x as usize != b);
+        ga.near = near.clone();
+        version[a] += 1;
+        version[b] += 1;
+        // `b` is gone: its neighbours now touch `a`.
+        for &x in &near {
+            let g = groups[x as usize].as_mut().expect("live neighbour");
+            g.near.retain(|&y| y as usize != b);
+            if let Err(at) = g.near.binary_search(&(a as u32)) {
+                g.near.insert(at, a as u32);
+            }
+        }
+        let ga = group(&groups, a as u32);
+        let joins: Vec<Join> = near
+            .par_iter()
+            .filter_map(|&x| {
+                ctx.cost(ga, group(&groups, x)).map(|cost| {
+                    let (lo, hi) = (x.min(a as u32), x.max(a as u32));
+                    Join {
+                        cost,
+                        a: lo,
+                        b: hi,
+                        version_a: version[lo as usize],
+                        version_b: version[hi as usize],
+                    }
+                })
+            })
+            .collect();
+        heap.extend(joins);
+    }
+    // Number the patches by their smallest element id (the group's id is its smallest).
+    let mut patches = Vec::new();
+    for g in groups.into_iter().flatten() {
+        let mut members = g.members;
+        members.sort_unstable();
+        let id = patches.len() as u32;
+        let first = &elements[members[0] as usize];
+        let (face, surface) = (first.face, first.surface);
+        let parts = members
+            .iter()
+            .map(|&e| elements[e as usize].polygon)
+            .collect();
+        for &e in &members {
+            elements[e as usize].patch = id;
+        }
+        patches.push(Patch {
+            shape: Region::new(parts),
+            face,
+            surface,
+        });
+    }
+    patches
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cones_bound_their_normals() {
+        let a = Cone {
+            axis: DVec3::Z,
+            angle: 0.0,
+        };
+        let b = Cone {
+            axis: DVec3::X,
+            angle: 0.0,
+        };
+        let u = a.union(b);
+        assert!((u.angle - std::f64::consts::FRAC_PI_4).abs() < 1e-12);
+        assert!((u.axis - DVec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-12);
+        // A cone inside another is absorbed; the union of a cone with itself is itself.
+        assert_eq!(u.union(a).angle, u.angle);
+        let c = u.union(u);
+        assert!((c.angle - u.angle).abs() < 1e-12);
+        let d = u.union(Cone {
+            axis: -DVec3::Z,
+            angle: 0.0,
+        });
+        assert!(d.angle > std::f64::consts::FRAC_PI_2);
+    }
+}
+
+/// A live group.
+fn group(groups: &[Option<Group>], i: u32) -> &Group {
+    groups[i as usize].as_ref().expect("a live group")
+}
