@@ -9,10 +9,15 @@ use clap::Args;
 use crate::load_scene;
 use crate::sweep::{self, FrameTiming, PlanOptions, Truth, plot, report};
 
-/// Default 2MSC thresholds of the full sweep (smaller: more patches).
-pub const FULL_THRESHOLDS: [f64; 7] = [3e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5];
+/// Default 2MSC thresholds of the full sweep (the merge rule's estimated relative error;
+/// smaller: more patches).
+pub const FULL_THRESHOLDS: [f64; 8] = [1e-2, 5e-3, 3e-3, 2e-3, 1e-3, 5e-4, 3e-4, 2e-4];
 /// Default 2MSC thresholds of `--quick`.
-pub const QUICK_THRESHOLDS: [f64; 5] = [3e-3, 1e-3, 5e-4, 2e-4, 1e-4];
+pub const QUICK_THRESHOLDS: [f64; 5] = [1e-2, 3e-3, 1e-3, 5e-4, 3e-4];
+/// Default thresholds of 2MSC by the split rule (`--methods …,2msc-split`), full sweep.
+pub const FULL_SPLIT_THRESHOLDS: [f64; 7] = [3e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5];
+/// Default split-rule thresholds of `--quick`.
+pub const QUICK_SPLIT_THRESHOLDS: [f64; 5] = [3e-3, 1e-3, 5e-4, 2e-4, 1e-4];
 
 #[derive(Debug, Args)]
 pub struct AccuracyArgs {
@@ -33,8 +38,8 @@ pub struct AccuracyArgs {
     /// Worker threads of the bakes and the runtime [default: all cores].
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
-    /// Methods to sweep.
-    #[arg(long, value_delimiter = ',', default_value = "2mf,2msc", value_parser = ["2mf", "2msc"])]
+    /// Methods to sweep (`2msc-split`: 2MSC by the papers' split rule, with --split-thresholds).
+    #[arg(long, value_delimiter = ',', default_value = "2mf,2msc", value_parser = ["2mf", "2msc", "2msc-split"])]
     pub methods: Vec<String>,
     /// Fine element sizes in scene units, the first the main one [default: 1/12 and 1/8 of
     /// the scene's diagonal; --quick: 1/10].
@@ -44,10 +49,15 @@ pub struct AccuracyArgs {
     /// [default: 1,1.5,2,3,4,6,8,12; --quick: 1,1.5,2,3,4,6].
     #[arg(long, value_delimiter = ',', value_name = "M,…")]
     pub patch_multiples: Vec<f64>,
-    /// 2MSC coherence thresholds [default: 3e-3,1e-3,5e-4,2e-4,1e-4,5e-5,2e-5; --quick: 3e-3,1e-3,5e-4,2e-4,1e-4].
+    /// 2MSC thresholds, the estimated relative error of the patches
+    /// [default: 1e-2,5e-3,3e-3,2e-3,1e-3,5e-4,3e-4,2e-4; --quick: 1e-2,3e-3,1e-3,5e-4,3e-4].
     #[arg(long, value_delimiter = ',', value_name = "T,…")]
     pub thresholds: Vec<f64>,
-    /// 2MSC: patches of at most this area are not split [default: chosen by the method].
+    /// 2msc-split's coherence thresholds [default: 3e-3,1e-3,5e-4,2e-4,1e-4,5e-5,2e-5;
+    /// --quick: 3e-3,1e-3,5e-4,2e-4,1e-4].
+    #[arg(long, value_delimiter = ',', value_name = "T,…")]
+    pub split_thresholds: Vec<f64>,
+    /// 2msc-split: patches of at most this area are not split [default: chosen by the method].
     #[arg(long, value_name = "A")]
     pub min_patch_area: Option<f64>,
     /// Samples per pair, the first the main one [default: 16,4,32; --quick: 16].
@@ -101,6 +111,15 @@ impl AccuracyArgs {
         if !self.methods.iter().any(|m| m == "2msc") {
             o.thresholds.clear();
         }
+        if self.methods.iter().any(|m| m == "2msc-split") {
+            o.split_thresholds = if !self.split_thresholds.is_empty() {
+                self.split_thresholds.clone()
+            } else if self.quick {
+                QUICK_SPLIT_THRESHOLDS.to_vec()
+            } else {
+                FULL_SPLIT_THRESHOLDS.to_vec()
+            };
+        }
         if self.no_ref {
             o.ref_samples = None;
         } else if let Some(s) = self.ref_samples {
@@ -120,6 +139,7 @@ impl AccuracyArgs {
             ("--element-sizes", &self.element_sizes),
             ("--patch-multiples", &self.patch_multiples),
             ("--thresholds", &self.thresholds),
+            ("--split-thresholds", &self.split_thresholds),
         ] {
             if !v.is_empty() {
                 c.push_str(&format!(" {flag} {}", list(v)));
@@ -129,8 +149,8 @@ impl AccuracyArgs {
             let s: Vec<String> = self.samples.iter().map(u32::to_string).collect();
             c.push_str(&format!(" --samples {}", s.join(",")));
         }
-        if self.methods.len() == 1 {
-            c.push_str(&format!(" --methods {}", self.methods[0]));
+        if self.methods != ["2mf", "2msc"] {
+            c.push_str(&format!(" --methods {}", self.methods.join(",")));
         }
         if let Some(a) = self.min_patch_area {
             c.push_str(&format!(" --min-patch-area {a}"));

@@ -44,8 +44,10 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
 use lrr_precompute::bake::{BakeSettings, DEFAULT_SAMPLES};
+use lrr_precompute::patches::CoherenceRule;
 use lrr_precompute::patches::PatchMethod;
-use lrr_precompute::patches::coherence::DEFAULT_THRESHOLD as DEFAULT_COHERENCE_THRESHOLD;
+use lrr_precompute::patches::coherence::DEFAULT_THRESHOLD as DEFAULT_SPLIT_THRESHOLD;
+use lrr_precompute::patches::coherence::merge::DEFAULT_THRESHOLD as DEFAULT_MERGE_THRESHOLD;
 use lrr_precompute::scene::BakeDefaults;
 use lrr_precompute::visibility::Backend;
 
@@ -106,16 +108,18 @@ pub struct MeshArgs {
     /// bounding-box diagonal].
     #[arg(long, value_name = "L")]
     pub patch_size: Option<f64>,
-    /// How patches are built: `2mf` (uniform cut at the patch size) or `2msc` (adaptive:
-    /// split while a patch lacks spatial coherence; `k` is an output) [default: the scene
-    /// description's `[bake] method`, else 2msc].
+    /// How patches are built: `2mf` (uniform cut at the patch size), `2msc` (adaptive: touching
+    /// elements merged while the estimated error stays under --threshold; `k` is an output) or
+    /// `2msc-split` (the papers' adaptive rule: the subdivision split while a patch lacks
+    /// spatial coherence) [default: the scene description's `[bake] method`, else 2msc].
     #[arg(long, value_name = "METHOD", value_enum)]
     pub method: Option<MethodArg>,
-    /// 2MSC: largest estimated error share of a patch (docs/MESHING.md); smaller gives more
-    /// patches [default: `[bake] threshold`, else 3e-5].
+    /// 2MSC: the estimated relative error of the patches (2msc; e.g. 1e-3), or the largest
+    /// estimated error share of a patch (2msc-split) (docs/MESHING.md); smaller gives more
+    /// patches [default: `[bake] threshold`, else 1e-3 (2msc) or 3e-5 (2msc-split)].
     #[arg(long, value_name = "T")]
     pub threshold: Option<f64>,
-    /// 2MSC: patches of at most this area (scene units²) are not split further
+    /// 2msc-split: patches of at most this area (scene units²) are not split further
     /// [default: `[bake] min_patch_area`, else chosen by the method].
     #[arg(long, value_name = "A")]
     pub min_patch_area: Option<f64>,
@@ -145,9 +149,12 @@ pub enum MethodArg {
     /// Two fixed meshes: the uniform cut at the patch size.
     #[value(name = "2mf")]
     TwoFixed,
-    /// Two meshes with spatial coherence: adaptive patches, `k` is an output.
+    /// Two meshes with spatial coherence: adaptive patches merged bottom-up, `k` is an output.
     #[value(name = "2msc")]
     SpatialCoherence,
+    /// Two meshes with spatial coherence by the papers' rule: the subdivision split top-down.
+    #[value(name = "2msc-split")]
+    SpatialCoherenceSplit,
 }
 
 /// `--visibility`: which occlusion backend a bake builds.
@@ -206,17 +213,22 @@ impl MeshArgs {
         let method = match (self.method, d.method.as_deref()) {
             (Some(m), _) => m,
             (None, Some("2msc") | None) => MethodArg::SpatialCoherence,
+            (None, Some("2msc-split")) => MethodArg::SpatialCoherenceSplit,
             (None, Some("2mf")) => MethodArg::TwoFixed,
-            (None, Some(other)) => anyhow::bail!("[bake] method '{other}' is not 2mf or 2msc"),
+            (None, Some(other)) => {
+                anyhow::bail!("[bake] method '{other}' is not 2mf, 2msc or 2msc-split")
+            }
+        };
+        let coherence = |rule: CoherenceRule, default: f64| PatchMethod::SpatialCoherence {
+            threshold: self.threshold.or(d.threshold).unwrap_or(default),
+            min_patch_area: self.min_patch_area.or(d.min_patch_area),
+            rule,
         };
         let method = match method {
-            MethodArg::SpatialCoherence => PatchMethod::SpatialCoherence {
-                threshold: self
-                    .threshold
-                    .or(d.threshold)
-                    .unwrap_or(DEFAULT_COHERENCE_THRESHOLD),
-                min_patch_area: self.min_patch_area.or(d.min_patch_area),
-            },
+            MethodArg::SpatialCoherence => coherence(CoherenceRule::Merge, DEFAULT_MERGE_THRESHOLD),
+            MethodArg::SpatialCoherenceSplit => {
+                coherence(CoherenceRule::Split, DEFAULT_SPLIT_THRESHOLD)
+            }
             MethodArg::TwoFixed => PatchMethod::TwoFixed,
         };
         Ok(BakeSettings {

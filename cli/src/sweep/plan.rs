@@ -7,7 +7,7 @@
 
 use lrr_precompute::bake::BakeSettings;
 use lrr_precompute::error::{Error, Result};
-use lrr_precompute::patches::PatchMethod;
+use lrr_precompute::patches::{CoherenceRule, PatchMethod};
 use lrr_precompute::scene::Scene;
 
 /// The axes of a sweep, in absolute units.
@@ -17,8 +17,11 @@ pub struct PlanOptions {
     pub element_sizes: Vec<f64>,
     /// 2MF patch sizes as multiples of the element size (1 gives `k = n`).
     pub patch_multiples: Vec<f64>,
-    /// 2MSC coherence thresholds; empty: no 2MSC points.
+    /// 2MSC thresholds (the merge rule's estimated relative error); empty: no 2MSC points.
     pub thresholds: Vec<f64>,
+    /// Thresholds of 2MSC by the split rule (`2msc-split`); empty (the default): none.
+    pub split_thresholds: Vec<f64>,
+    /// The split rule's `A_min` (`None`: its default).
     pub min_patch_area: Option<f64>,
     /// Samples per pair; the first is the main one.
     pub samples: Vec<u32>,
@@ -44,6 +47,7 @@ impl PlanOptions {
             element_sizes: vec![d / 12.0, d / 8.0],
             patch_multiples: vec![1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0],
             thresholds: thresholds.to_vec(),
+            split_thresholds: Vec::new(),
             min_patch_area: None,
             samples: vec![16, 4, 32],
             ref_samples: Some(32),
@@ -58,6 +62,7 @@ impl PlanOptions {
             element_sizes: vec![d / 10.0],
             patch_multiples: vec![1.0, 1.5, 2.0, 3.0, 4.0, 6.0],
             thresholds: thresholds.to_vec(),
+            split_thresholds: Vec::new(),
             min_patch_area: None,
             samples: vec![16],
             ref_samples: Some(32),
@@ -75,12 +80,17 @@ impl PlanOptions {
                 if ei > 0 && !main_samples {
                     continue;
                 }
-                let (multiples, thresholds) = if main_samples {
-                    (self.patch_multiples.clone(), self.thresholds.clone())
+                let (multiples, thresholds, split) = if main_samples {
+                    (
+                        self.patch_multiples.clone(),
+                        self.thresholds.clone(),
+                        self.split_thresholds.clone(),
+                    )
                 } else {
                     let m = mid(&self.patch_multiples).into_iter().collect();
                     let t = mid(&self.thresholds).into_iter().collect();
-                    (m, t)
+                    let st = mid(&self.split_thresholds).into_iter().collect();
+                    (m, t, st)
                 };
                 for m in multiples {
                     points.push(self.point(e, Some(e * m), PatchMethod::TwoFixed, s));
@@ -88,7 +98,16 @@ impl PlanOptions {
                 for threshold in thresholds {
                     let method = PatchMethod::SpatialCoherence {
                         threshold,
+                        min_patch_area: None,
+                        rule: CoherenceRule::Merge,
+                    };
+                    points.push(self.point(e, None, method, s));
+                }
+                for threshold in split {
+                    let method = PatchMethod::SpatialCoherence {
+                        threshold,
                         min_patch_area: self.min_patch_area,
+                        rule: CoherenceRule::Split,
                     };
                     points.push(self.point(e, None, method, s));
                 }
@@ -118,10 +137,13 @@ impl PlanOptions {
                 "pass --element-sizes and --samples with one value or more",
             );
         }
-        if self.patch_multiples.is_empty() && self.thresholds.is_empty() {
+        if self.patch_multiples.is_empty()
+            && self.thresholds.is_empty()
+            && self.split_thresholds.is_empty()
+        {
             return bad(
                 "the sweep has no 2MF patch size and no 2MSC threshold",
-                "pass --patch-multiples or --thresholds",
+                "pass --patch-multiples, --thresholds or --split-thresholds",
             );
         }
         if let Some(e) = self
@@ -146,15 +168,16 @@ impl PlanOptions {
                 "fix --patch-multiples (1 gives k = n)",
             );
         }
-        if let Some(t) = self
-            .thresholds
-            .iter()
-            .find(|t| !(t.is_finite() && **t > 0.0))
-        {
-            return bad(
-                &format!("2MSC threshold {t} is not positive"),
-                "fix --thresholds",
-            );
+        for (flag, list) in [
+            ("--thresholds", &self.thresholds),
+            ("--split-thresholds", &self.split_thresholds),
+        ] {
+            if let Some(t) = list.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
+                return bad(
+                    &format!("2MSC threshold {t} is not positive"),
+                    &format!("fix {flag}"),
+                );
+            }
         }
         if self.samples.contains(&0) || self.ref_samples == Some(0) {
             return bad(
@@ -175,6 +198,7 @@ mod tests {
             element_sizes: vec![1.0, 2.0],
             patch_multiples: vec![1.0, 2.0, 4.0],
             thresholds: vec![0.2, 0.1],
+            split_thresholds: Vec::new(),
             min_patch_area: None,
             samples: vec![16, 4],
             ref_samples: Some(64),

@@ -34,6 +34,7 @@ const WIDTH: u32 = 1400;
 const HEIGHT: u32 = 560;
 const MF_COLOUR: RGBColor = RGBColor(31, 119, 180);
 const MSC_COLOUR: RGBColor = RGBColor(214, 39, 40);
+const SPLIT_COLOUR: RGBColor = RGBColor(44, 160, 44);
 
 /// Writes `PREFIX.png` and `PREFIX.svg`; returns their paths.
 pub fn write(prefix: &Path, title: &str, rows: &[Row]) -> Result<[PathBuf; 2]> {
@@ -186,7 +187,11 @@ fn panel<DB: DrawingBackend>(
         .draw()
         .map_err(|e| text(&e))?;
     let pos = |r: &Row| (cost(r), user_error(r));
-    for (method, colour, label) in [("2mf", MF_COLOUR, "2MF"), ("2msc", MSC_COLOUR, "2MSC")] {
+    for (method, colour, label) in [
+        ("2mf", MF_COLOUR, "2MF"),
+        ("2msc", MSC_COLOUR, "2MSC"),
+        ("2msc-split", SPLIT_COLOUR, "2MSC (split)"),
+    ] {
         let Some(key) = analysis::main_key(rows, method) else {
             continue;
         };

@@ -86,11 +86,13 @@ pub struct Summary {
     pub full_rank: Option<(usize, f64, Option<f64>)>,
     /// `k(2MF) / k(2MSC)` at equal error on the main curves.
     pub ratio: Option<analysis::KRatio>,
+    /// `k(2MF) / k(2MSC by the split rule)`, when the sweep has that curve.
+    pub split_ratio: Option<analysis::KRatio>,
 }
 
 pub fn summary(rows: &[Row]) -> Summary {
     let mut growth = Vec::new();
-    for method in ["2mf", "2msc"] {
+    for method in ["2mf", "2msc", "2msc-split"] {
         if let Some(key) = analysis::main_key(rows, method) {
             let c = analysis::curve(rows, key, |r| r.rel_error);
             if c.len() >= 2 {
@@ -103,9 +105,9 @@ pub fn summary(rows: &[Row]) -> Summary {
             .find(|r| matches_key(r, key) && r.k == r.n)
             .map(|r| (r.n, r.rel_error, r.rel_error_ref))
     });
-    let ratio = match (
+    let ratio_of = |method: &str| match (
         analysis::main_key(rows, "2mf"),
-        analysis::main_key(rows, "2msc"),
+        analysis::main_key(rows, method),
     ) {
         (Some(a), Some(b)) => {
             let mf = analysis::curve(rows, a, |r| r.rel_error);
@@ -117,7 +119,8 @@ pub fn summary(rows: &[Row]) -> Summary {
     Summary {
         growth,
         full_rank,
-        ratio,
+        ratio: ratio_of("2msc"),
+        split_ratio: ratio_of("2msc-split"),
     }
 }
 
@@ -314,5 +317,13 @@ fn summary_text(s: &mut String, sum: &Summary) {
                 "- No k ratio at equal error: the sweep lacks a 2MF or a 2MSC curve, or their errors do not overlap."
             );
         }
+    }
+    if let Some(r) = &sum.split_ratio {
+        let _ = writeln!(
+            s,
+            "- At equal error, 2MF needs {:.2}× the k of 2MSC by the split rule (2msc-split; \
+             range {:.2}–{:.2}).",
+            r.median, r.min, r.max
+        );
     }
 }

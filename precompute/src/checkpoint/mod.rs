@@ -191,9 +191,11 @@ pub(crate) fn key(bake: &Identity, samples: u32) -> u64 {
         } => [
             match rule {
                 crate::patches::CoherenceRule::Split => b"2msc".to_vec(),
-                crate::patches::CoherenceRule::Merge => {
-                    [b"2msc-merge".as_slice(), &crate::patches::coherence::merge::REVISION.to_le_bytes()].concat()
-                }
+                crate::patches::CoherenceRule::Merge => [
+                    b"2msc-merge".as_slice(),
+                    &crate::patches::coherence::merge::REVISION.to_le_bytes(),
+                ]
+                .concat(),
             },
             threshold.to_le_bytes().to_vec(),
             min_patch_area.unwrap_or(-1.0).to_le_bytes().to_vec(),

@@ -50,6 +50,27 @@ pub(super) fn point_to_polygon(x: DVec3, n: DVec3, p: &Polygon) -> f64 {
     (sum.abs() / (2.0 * std::f64::consts::PI)).min(1.0)
 }
 
+/// The form factor from `x` (unit normal `n`) to a planar region of several parts, by the
+/// contour integral over its outline (the edges the parts do not share; module docs). Valid
+/// where no part needs clipping: `x` in front of the region's plane and every outline vertex
+/// on or above `x`'s tangent plane (`multi_part` checks both). Equal to the sum of
+/// [`point_to_polygon`] over the parts up to rounding: a shared edge contributes to its two
+/// parts with opposite signs.
+pub(super) fn point_to_outline(x: DVec3, n: DVec3, edges: &[(DVec3, DVec3)]) -> f64 {
+    let mut sum = 0.0;
+    for &(a, b) in edges {
+        let (a, b) = (a - x, b - x);
+        let c = a.cross(b);
+        let c_len = c.length();
+        if c_len <= 0.0 {
+            continue;
+        }
+        let gamma = c_len.atan2(a.dot(b));
+        sum += gamma * n.dot(c) / c_len;
+    }
+    sum.abs() / (2.0 * std::f64::consts::PI)
+}
+
 /// Clips the polygon to the half-space `(v - x)·n >= 0`, writing vertices relative to `x`.
 /// Returns the number of vertices written.
 fn clip_to_hemisphere(

@@ -18,8 +18,9 @@
 
 use crate::geometry::Region;
 
-use super::contour::point_to_polygon;
+use super::contour::{point_to_outline, point_to_polygon};
 use super::visible::{Shape, faces_away, visible_fraction};
+use crate::geometry::Outline;
 use crate::geometry::Polygon;
 use crate::geometry::sampling::Sample;
 use crate::visibility::Occluder;
@@ -36,7 +37,21 @@ pub(super) fn multi_part(
 ) -> Option<(f64, u64, f64)> {
     let mut unoccluded = 0.0;
     let mut any = false;
-    for part in target.parts() {
+    let outline = target.outline().filter(|o| outline_applies(e, o));
+    if let Some(outline) = outline {
+        // Every part faces `e` unclipped: the outline's contour integral is their sum.
+        any = true;
+        unoccluded = points
+            .iter()
+            .map(|s| s.weight * point_to_outline(s.point, e.normal, &outline.edges))
+            .sum::<f64>();
+    }
+    let parts = if outline.is_some() {
+        &[][..]
+    } else {
+        target.parts()
+    };
+    for part in parts {
         if faces_away(e, part) {
             continue;
         }
@@ -62,6 +77,58 @@ pub(super) fn multi_part(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A planar region of a 4×4 grid of quads with one cell missing (not convex, with a hole
+    /// on its edge): the outline's contour integral equals the sum over the parts, from points
+    /// in front of it at many places and tilts, and its outline is the boundary alone.
+    #[test]
+    fn outline_equals_the_sum_over_parts() {
+        use glam::DVec3;
+        let mut parts = Vec::new();
+        for i in 0..4 {
+            for j in 0..4 {
+                if (i, j) == (3, 1) {
+                    continue;
+                }
+                let (x, y) = (i as f64 * 0.25, j as f64 * 0.25);
+                parts.push(crate::geometry::rectangle(
+                    x,
+                    x + 0.25,
+                    y,
+                    y + 0.25,
+                    0.0,
+                    false,
+                ));
+            }
+        }
+        let region = Region::new(parts.clone());
+        let outline = region.outline().expect("coplanar parts");
+        // The square's 16 outer edges less the missing cell's outer one, plus its 3 inner ones.
+        assert_eq!(outline.edges.len(), 16 - 1 + 3);
+        let mut checked = 0;
+        for k in 0..200 {
+            let t = k as f64 * 0.37;
+            let x = DVec3::new(
+                0.5 + 0.6 * t.sin(),
+                0.5 + 0.6 * (1.3 * t).cos(),
+                0.3 + (k % 7) as f64 * 0.3,
+            );
+            let n = DVec3::new(0.2 * (2.1 * t).sin(), 0.2 * (0.7 * t).cos(), -1.0).normalize();
+            let lowest = parts
+                .iter()
+                .flat_map(|p| p.vertices())
+                .map(|v| (*v - x).dot(n))
+                .fold(f64::INFINITY, f64::min);
+            if lowest < 0.0 {
+                continue; // clipped: the outline does not apply
+            }
+            let sum: f64 = parts.iter().map(|p| point_to_polygon(x, n, p)).sum();
+            let o = point_to_outline(x, n, &outline.edges);
+            assert!((o - sum).abs() <= 1e-13, "{x:?} {n:?}: {o} vs {sum}");
+            checked += 1;
+        }
+        assert!(checked > 50, "{checked}");
+    }
     use crate::formfactor::FormFactors;
     use crate::geometry::rectangle as square;
 
@@ -84,4 +151,14 @@ mod tests {
         assert!((out[0] - 0.199825).abs() < 1e-4, "{}", out[0]);
         assert!((out[1] - out[0]).abs() < 1e-12, "{} vs {}", out[1], out[0]);
     }
+}
+
+/// Whether the outline's contour integral equals the sum over the parts for every point of
+/// `e`: `e` lies strictly in front of the region's plane (no part faces away from it, and
+/// none has `e`'s points in its plane) and every outline vertex is on or above `e`'s plane
+/// (the region is planar, so its lowest point is an outline vertex: nothing is clipped).
+fn outline_applies(e: &Polygon, o: &Outline) -> bool {
+    let eps = 1e-9 * o.scale;
+    e.vertices().iter().all(|&v| o.height(v) > eps)
+        && o.edges.iter().all(|&(a, _)| e.height(a) >= 0.0)
 }

@@ -12,4 +12,4 @@ pub mod sampling;
 #[cfg(test)]
 pub(crate) use polygon::rectangle;
 pub use polygon::{Polygon, area_vector};
-pub use region::Region;
+pub use region::{Outline, Region};

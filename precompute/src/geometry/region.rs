@@ -12,6 +12,83 @@ pub struct Region {
     parts: Vec<Polygon>,
     /// Running sums of the parts' areas (`parts.len() + 1` values from 0).
     cumulative: Vec<f64>,
+    /// For several parts in one plane: the edges left when the edges two parts share (the
+    /// same two vertices, opposite directions) cancel.
+    outline: Option<Outline>,
+}
+
+/// The outline of a planar region of several parts ([`Region::outline`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Outline {
+    /// The plane's unit normal (the parts' front).
+    pub normal: DVec3,
+    /// A point on the plane.
+    pub origin: DVec3,
+    /// The largest part's size (tolerances are relative to it).
+    pub scale: f64,
+    /// Directed edges `(a, b)`, as the parts run them (counter-clockwise about `normal`).
+    pub edges: Vec<(DVec3, DVec3)>,
+}
+
+impl Outline {
+    /// Height of `x` above the plane.
+    pub fn height(&self, x: DVec3) -> f64 {
+        (x - self.origin).dot(self.normal)
+    }
+
+    /// The outline of `parts` when there are several and they share one plane (normals equal
+    /// to 1e-12, every vertex within 1e-9 of the largest part's size from the first part's
+    /// plane); else `None`.
+    fn of(parts: &[Polygon]) -> Option<Outline> {
+        let first = parts.first()?;
+        if parts.len() < 2 {
+            return None;
+        }
+        let scale = parts.iter().map(|p| p.scale).fold(0.0, f64::max);
+        let coplanar = parts.iter().all(|p| {
+            (p.normal - first.normal).length() <= 1e-12
+                && p.vertices()
+                    .iter()
+                    .all(|&v| first.height(v).abs() <= 1e-9 * scale)
+        });
+        if !coplanar {
+            return None;
+        }
+        let key = |v: DVec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+        let mut count: std::collections::HashMap<([u64; 3], [u64; 3]), i64> =
+            std::collections::HashMap::new();
+        let mut edges = Vec::new();
+        for p in parts {
+            let v = p.vertices();
+            for i in 0..v.len() {
+                let (a, b) = (v[i], v[(i + 1) % v.len()]);
+                edges.push((a, b));
+                *count.entry((key(a), key(b))).or_default() += 1;
+            }
+        }
+        // An edge cancels against one run the other way; kept in the parts' order.
+        let mut cancelled: std::collections::HashMap<([u64; 3], [u64; 3]), i64> =
+            std::collections::HashMap::new();
+        let edges = edges
+            .into_iter()
+            .filter(|&(a, b)| {
+                let back = count.get(&(key(b), key(a))).copied().unwrap_or(0);
+                let used = cancelled.entry((key(a), key(b))).or_default();
+                if *used < back {
+                    *used += 1;
+                    false
+                } else {
+                    true
+                }
+            })
+            .collect();
+        Some(Outline {
+            normal: first.normal,
+            origin: first.vertices[0],
+            scale,
+            edges,
+        })
+    }
 }
 
 impl Region {
@@ -25,7 +102,19 @@ impl Region {
             sum += p.area();
             cumulative.push(sum);
         }
-        Self { parts, cumulative }
+        let outline = Outline::of(&parts);
+        Self {
+            parts,
+            cumulative,
+            outline,
+        }
+    }
+
+    /// The outline of a region of several parts in one plane (`None` for one part, or parts
+    /// in several planes): the closed-form factor to the region is the contour integral over
+    /// these edges alone, where no part needs clipping.
+    pub fn outline(&self) -> Option<&Outline> {
+        self.outline.as_ref()
     }
 
     /// A region of one polygon.

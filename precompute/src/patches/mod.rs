@@ -61,7 +61,9 @@ pub(crate) fn refinement(
     if !(threshold.is_finite() && threshold > 0.0) {
         let what = match rule {
             CoherenceRule::Merge => "the estimated relative error of the patches, e.g. 1e-3",
-            CoherenceRule::Split => "the largest share of reflected power a patch may get wrong, e.g. 3e-5",
+            CoherenceRule::Split => {
+                "the largest share of reflected power a patch may get wrong, e.g. 3e-5"
+            }
         };
         return Err(Error::Settings(format!(
             "--threshold must be a positive number ({what}), got {threshold}"

@@ -52,7 +52,7 @@
 //! output = "model.lrr"              # relative to this file (then `-o` may be left out)
 //! element_size = 0.1                # or in [mesh], not both
 //! patch_size = 0.25
-//! method = "2msc"                   # "2mf" (default) or "2msc"; threshold, min_patch_area
+//! method = "2msc"                   # "2mf", "2msc" (default) or "2msc-split"; threshold; min_patch_area (2msc-split)
 //! samples = 16
 //! precision = "f16"                 # "f32" (default) or "f16"; layout = "factored" | "plain"
 //! ```
@@ -752,7 +752,7 @@ impl SceneDescription {
                 _ => Ok(()),
             }
         };
-        one_of("method", &b.method, &["2mf", "2msc"])?;
+        one_of("method", &b.method, &["2mf", "2msc", "2msc-split"])?;
         one_of("precision", &b.precision, &["f32", "f16"])?;
         one_of("layout", &b.layout, &["factored", "plain"])?;
         if let Some(t) = b

@@ -118,10 +118,11 @@ fn neighbours(elements: &[Element]) -> Vec<Vec<u32>> {
             (lo, hi)
         })
         .collect();
-    let (lo, hi) = boxes.iter().fold(
-        (DVec3::INFINITY, DVec3::NEG_INFINITY),
-        |(l, h), &(a, b)| (l.min(a), h.max(b)),
-    );
+    let (lo, hi) = boxes
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), &(a, b)| {
+            (l.min(a), h.max(b))
+        });
     let extent = (hi - lo).length().max(f64::MIN_POSITIVE);
     let eps = 1e-7 * extent;
     // Cell: the 90th percentile of the elements' largest box side (a few huge elements then

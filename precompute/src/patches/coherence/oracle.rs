@@ -97,7 +97,10 @@ impl Truth<'_> {
     /// `k` and the relative L2 error against the exact solve of the low-rank solution for a
     /// partition: the patch of every element (original ids) and the patches' shapes.
     fn measure(&self, patch_of: &[u32], shapes: &[Region]) -> (usize, f64) {
-        (shapes.len(), relative_l2(&self.solve(patch_of, shapes), self.b))
+        (
+            shapes.len(),
+            relative_l2(&self.solve(patch_of, shapes), self.b),
+        )
     }
 
     /// The low-rank solution for a partition (see [`Truth::measure`]).
@@ -525,7 +528,8 @@ fn merge_oracle() {
             eprintln!("2msc k {k} error {error:.4e} threshold {threshold:e}");
         }
     }
-    let thresholds = env("LRR_MERGE_THRESHOLDS").unwrap_or("1e-2,5e-3,3e-3,2e-3,1.5e-3,1e-3,7e-4,5e-4,3e-4".into());
+    let thresholds = env("LRR_MERGE_THRESHOLDS")
+        .unwrap_or("1e-2,5e-3,3e-3,2e-3,1.5e-3,1e-3,7e-4,5e-4,3e-4".into());
     for threshold in thresholds.split(',').map(|t| t.parse::<f64>().unwrap()) {
         let method = PatchMethod::SpatialCoherence {
             threshold,
@@ -567,7 +571,10 @@ fn merge_oracle() {
     let base = Mesh::two_fixed(&scene, sizes).unwrap();
     let probes = env("LRR_MERGE_RECEIVERS").as_deref() == Some("probes");
     let (receiver_of, r): (Vec<usize>, usize) = if probes {
-        (base.elements.iter().map(|e| e.patch as usize).collect(), base.patches.len())
+        (
+            base.elements.iter().map(|e| e.patch as usize).collect(),
+            base.patches.len(),
+        )
     } else {
         ((0..n).collect(), n)
     };
@@ -622,7 +629,10 @@ fn merge_oracle() {
                 [grey(truth.emission[e]) + grey(truth.rho[e]) * g; 3]
             })
             .collect();
-        eprintln!("# estimated B: error {:.3e}", relative_l2(&estimated, truth.b));
+        eprintln!(
+            "# estimated B: error {:.3e}",
+            relative_l2(&estimated, truth.b)
+        );
         views
     } else {
         Vec::new()
@@ -657,7 +667,10 @@ fn merge_oracle() {
         let normal = a.normal + b.normal;
         let axis = normal.normalize();
         let members: Vec<usize> = a.members.iter().chain(&b.members).copied().collect();
-        if members.iter().any(|&e| polygons[e].normal.dot(axis) < cos_cone) {
+        if members
+            .iter()
+            .any(|&e| polygons[e].normal.dot(axis) < cos_cone)
+        {
             return None;
         }
         let mut u = Agg {
@@ -666,8 +679,7 @@ fn merge_oracle() {
             ab: std::array::from_fn(|c| a.ab[c] + b.ab[c]),
             normal,
             s: a.s.iter().zip(&b.s).map(|(x, y)| x + y).collect(),
-            t: a
-                .t
+            t: a.t
                 .iter()
                 .zip(&b.t)
                 .map(|(x, y)| std::array::from_fn(|c| x[c] + y[c]))
@@ -712,7 +724,12 @@ fn merge_oracle() {
     let cost = |a: &Agg, b: &Agg| union(a, b).map(|u| u.error - a.error - b.error);
     let mut heap = std::collections::BinaryHeap::new();
     let pairs: Vec<(usize, usize)> = (0..n)
-        .flat_map(|a| neighbours[a].iter().filter(move |&&b| b > a).map(move |&b| (a, b)))
+        .flat_map(|a| {
+            neighbours[a]
+                .iter()
+                .filter(move |&&b| b > a)
+                .map(move |&b| (a, b))
+        })
         .collect();
     let costs: Vec<Option<f64>> = pairs
         .par_iter()
