@@ -82,6 +82,29 @@ pub(super) fn multi_part(
     Some((unoccluded * visible, rays, visible))
 }
 
+/// Most rounds of rays a pair with a target of several parts casts ([`rounds`]).
+pub(crate) const MAX_UNION_ROUNDS: u32 = 8;
+
+/// Rounds of `--samples` rays for a target of `m` parts: `√m` rounded, 1 to
+/// [`MAX_UNION_ROUNDS`]. A patch of `m` elements stands for `m` element pairs, each of which
+/// the exact solve samples with `--samples` rays: with one round its visible fraction is the
+/// noisiest factor of the bake (measured on the dense sphere's merged patches: the relative
+/// error against the exact solve stalled at 1.07e-3 with k = 181, 6.7e-4 with √m rounds,
+/// 5.3e-4 with exact visibility; docs/MESHING.md).
+fn rounds(target: &Region) -> u32 {
+    ((target.parts().len() as f64).sqrt().round() as u32).clamp(1, MAX_UNION_ROUNDS)
+}
+
+/// Whether the outline's contour integral equals the sum over the parts for every point of
+/// `e`: `e` lies strictly in front of the region's plane (no part faces away from it, and
+/// none has `e`'s points in its plane) and every outline vertex is on or above `e`'s plane
+/// (the region is planar, so its lowest point is an outline vertex: nothing is clipped).
+fn outline_applies(e: &Polygon, o: &Outline) -> bool {
+    let eps = 1e-9 * o.scale;
+    e.vertices().iter().all(|&v| o.height(v) > eps)
+        && o.edges.iter().all(|&(a, _)| e.height(a) >= 0.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -159,27 +182,4 @@ mod tests {
         assert!((out[0] - 0.199825).abs() < 1e-4, "{}", out[0]);
         assert!((out[1] - out[0]).abs() < 1e-12, "{} vs {}", out[1], out[0]);
     }
-}
-
-/// Most rounds of rays a pair with a target of several parts casts ([`rounds`]).
-pub(crate) const MAX_UNION_ROUNDS: u32 = 8;
-
-/// Rounds of `--samples` rays for a target of `m` parts: `√m` rounded, 1 to
-/// [`MAX_UNION_ROUNDS`]. A patch of `m` elements stands for `m` element pairs, each of which
-/// the exact solve samples with `--samples` rays: with one round its visible fraction is the
-/// noisiest factor of the bake (measured on the dense sphere's merged patches: the relative
-/// error against the exact solve stalled at 1.07e-3 with k = 181, 6.7e-4 with √m rounds,
-/// 5.3e-4 with exact visibility; docs/MESHING.md).
-fn rounds(target: &Region) -> u32 {
-    ((target.parts().len() as f64).sqrt().round() as u32).clamp(1, MAX_UNION_ROUNDS)
-}
-
-/// Whether the outline's contour integral equals the sum over the parts for every point of
-/// `e`: `e` lies strictly in front of the region's plane (no part faces away from it, and
-/// none has `e`'s points in its plane) and every outline vertex is on or above `e`'s plane
-/// (the region is planar, so its lowest point is an outline vertex: nothing is clipped).
-fn outline_applies(e: &Polygon, o: &Outline) -> bool {
-    let eps = 1e-9 * o.scale;
-    e.vertices().iter().all(|&v| o.height(v) > eps)
-        && o.edges.iter().all(|&(a, _)| e.height(a) >= 0.0)
 }

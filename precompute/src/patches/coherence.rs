@@ -72,12 +72,11 @@ use crate::mesh::subdivide::{self, Piece};
 use crate::mesh::{Element, MeshSizes};
 use crate::visibility::Occluder;
 
-/// Default threshold (`lrr --threshold`; 2MSC is `lrr bake`'s default method): the largest
-/// estimated share of the scene's reflected power a patch may get wrong. On the Cornell box
-/// it gives k = 333 at a relative L2 error of 0.00093 against the exact solve, where 2MF's
-/// former default gave k = 242 at 0.0018 and 1e-4 (the default before) k = 154 at 0.0015
-/// (docs/MESHING.md); with the refinement where light changes it meets issue #14's accuracy
-/// goal (docs/ACCURACY.md).
+/// Default threshold of the split rule (`lrr --method 2msc-split --threshold`; the default
+/// rule is [`merge`]'s): the largest estimated share of the scene's reflected power a patch
+/// may get wrong. On the Cornell box it gives k = 333 at a relative L2 error of 0.00093
+/// against the exact solve, where 2MF's former default gave k = 242 at 0.0018 and 1e-4 (the
+/// default before) k = 154 at 0.0015 (docs/MESHING.md).
 pub const DEFAULT_THRESHOLD: f64 = 3e-5;
 
 /// The threshold at and above which the default `--min-patch-area` is `(2h)²` (about 2×2

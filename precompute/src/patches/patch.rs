@@ -51,17 +51,6 @@ pub enum CoherenceRule {
 }
 
 impl PatchMethod {
-    /// 2MSC with the default rule (merging) and the default threshold.
-    pub fn two_msc() -> Self {
-        PatchMethod::SpatialCoherence {
-            threshold: super::coherence::merge::DEFAULT_THRESHOLD,
-            min_patch_area: None,
-            rule: CoherenceRule::Merge,
-        }
-    }
-}
-
-impl PatchMethod {
     /// The name files and tables use: `2mf`, `2msc` or `2msc-split`.
     pub fn name(&self) -> &'static str {
         match self {

@@ -24,12 +24,21 @@
 //! python3 scripts/k-ratio.py curves.txt
 //! ```
 //!
+//! [`merge_oracle`] does the same for the merge rule ([`super::merge`]): every element a patch,
+//! touching patches of one surface joined cheapest first by the exact error of the join (the
+//! same node error, summed over every element as receiver), against 2MF, the split rule and
+//! the merge rule itself (`rule` lines, `LRR_MERGE_THRESHOLDS`). `LRR_MERGE_RECEIVERS=probes`
+//! takes the probes as receivers, `LRR_MERGE_B=coarse` the radiosity of a 2MF low-rank solve,
+//! `LRR_MERGE_ESTIMATE=1` (with probes) the bake's own estimate: centroid factors with rays and
+//! the gathered radiosity; `LRR_MERGE_ONLY_RULE=1` stops after the rule's curve.
+//!
 //! `LRR_ORACLE_DIV=D` sets the element size to the scene's diagonal over `D` (10: `lrr
 //! accuracy --quick`'s mesh), `LRR_ORACLE_H` to a length; neither: the bake's default.
 //! Memory about `32 n²` bytes at the peak (the exact factors, the LU's copies, and 2MF's
 //! k = n partition); the Cornell box's default mesh (n = 2 116) takes about two minutes on two
 //! cores.
 
+use super::merge::touch;
 use super::*;
 use crate::formfactor::FormFactors;
 use crate::geometry::Polygon;
@@ -468,20 +477,6 @@ fn estimate_against_oracle() {
             f.join(" ")
         );
     }
-}
-
-/// Whether two element polygons touch (a shared vertex, or a vertex on the other's edge).
-fn touch(a: &Polygon, b: &Polygon, eps: f64) -> bool {
-    let on = |p: DVec3, q: &Polygon| {
-        let v = q.vertices();
-        (0..v.len()).any(|i| {
-            let (s, t) = (v[i], v[(i + 1) % v.len()]);
-            let d = t - s;
-            let u = ((p - s).dot(d) / d.length_squared()).clamp(0.0, 1.0);
-            (s + d * u - p).length() <= eps
-        })
-    };
-    a.vertices().iter().any(|&p| on(p, b)) || b.vertices().iter().any(|&p| on(p, a))
 }
 
 #[test]
