@@ -46,10 +46,10 @@ pub(super) fn multi_part(
             .map(|s| s.weight * point_to_outline(s.point, e.normal, &outline.edges))
             .sum::<f64>();
     }
-    let parts = if outline.is_some() {
+let parts = if outline.is_some() {
         &[][..]
     } else {
-        target.parts()
+        target.kernel_parts()
     };
     for part in parts {
         if faces_away(e, part) {
@@ -77,7 +77,11 @@ pub(super) fn multi_part(
         points,
         seed,
         adaptive,
-        rounds(target),
+        if target.outline().is_some() {
+            1
+        } else {
+            rounds(e, target)
+        },
     );
     Some((unoccluded * visible, rays, visible))
 }
@@ -85,14 +89,16 @@ pub(super) fn multi_part(
 /// Most rounds of rays a pair with a target of several parts casts ([`rounds`]).
 pub(crate) const MAX_UNION_ROUNDS: u32 = 8;
 
-/// Rounds of `--samples` rays for a target of `m` parts: `√m` rounded, 1 to
-/// [`MAX_UNION_ROUNDS`]. A patch of `m` elements stands for `m` element pairs, each of which
-/// the exact solve samples with `--samples` rays: with one round its visible fraction is the
-/// noisiest factor of the bake (measured on the dense sphere's merged patches: the relative
-/// error against the exact solve stalled at 1.07e-3 with k = 181, 6.7e-4 with √m rounds,
-/// 5.3e-4 with exact visibility; docs/MESHING.md).
-fn rounds(target: &Region) -> u32 {
-    ((target.parts().len() as f64).sqrt().round() as u32).clamp(1, MAX_UNION_ROUNDS)
+/// Rounds of `--samples` rays for a target `m` times the element's area: `√m` rounded, 1 to
+/// [`MAX_UNION_ROUNDS`]. A merged patch of `m` elements stands for `m` element pairs, each of
+/// which the exact solve samples with `--samples` rays: with one round its visible fraction
+/// is the noisiest factor of the bake (measured on the dense sphere's merged patches: the
+/// relative error against the exact solve stalled at 1.07e-3 with k = 181, 7.0e-4 with √m
+/// rounds, 5.3e-4 with exact visibility; docs/MESHING.md). By area, not by parts: a merged
+/// patch's parts are coarsened (`patches::coherence::merge::coarsen`).
+fn rounds(e: &Polygon, target: &Region) -> u32 {
+    let m = target.area() / e.area();
+    (m.sqrt().round().clamp(1.0, f64::from(MAX_UNION_ROUNDS))) as u32
 }
 
 /// Whether the outline's contour integral equals the sum over the parts for every point of
@@ -134,8 +140,10 @@ mod tests {
         }
         let region = Region::new(parts.clone());
         let outline = region.outline().expect("coplanar parts");
-        // The square's 16 outer edges less the missing cell's outer one, plus its 3 inner ones.
-        assert_eq!(outline.edges.len(), 16 - 1 + 3);
+        // The square's 16 outer edges less the missing cell's outer one, plus its 3 inner
+        // ones, with straight runs joined: 4 sides of the square, the right side in two, and
+        // the notch's 3: 8 edges.
+        assert_eq!(outline.edges.len(), 8, "{:?}", outline.edges);
         let mut checked = 0;
         for k in 0..200 {
             let t = k as f64 * 0.37;

@@ -15,6 +15,9 @@ pub struct Region {
     /// For several parts in one plane: the edges left when the edges two parts share (the
     /// same two vertices, opposite directions) cancel.
     outline: Option<Outline>,
+    /// The same area in fewer polygons, for the closed-form factor alone
+    /// ([`Region::with_kernel_parts`]); empty: `parts`.
+    kernel: Vec<Polygon>,
 }
 
 /// The outline of a planar region of several parts ([`Region::outline`]).
@@ -86,8 +89,59 @@ impl Outline {
             normal: first.normal,
             origin: first.vertices[0],
             scale,
-            edges,
+            edges: join_collinear(edges),
         })
+    }
+}
+
+/// Joins outline edges `(a, b)`, `(b, c)` into `(a, c)` where `b` starts and ends exactly
+/// one edge each and `c` lies straight ahead (relative tolerance 1e-12): the contour integral
+/// over a straight run is the sum over its pieces, so a long side made of element edges
+/// costs one term.
+fn join_collinear(mut edges: Vec<(DVec3, DVec3)>) -> Vec<(DVec3, DVec3)> {
+    type Key = [u64; 3];
+    let key = |v: DVec3| -> Key { [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()] };
+    loop {
+        let mut starts: std::collections::HashMap<Key, Vec<usize>> =
+            std::collections::HashMap::new();
+        let mut ends: std::collections::HashMap<Key, usize> = std::collections::HashMap::new();
+        for (i, &(a, b)) in edges.iter().enumerate() {
+            starts.entry(key(a)).or_default().push(i);
+            *ends.entry(key(b)).or_default() += 1;
+        }
+        let mut gone = vec![false; edges.len()];
+        let mut joined = false;
+        for i in 0..edges.len() {
+            if gone[i] {
+                continue;
+            }
+            let (a, b) = edges[i];
+            let next = match starts.get(&key(b)) {
+                Some(v) if v.len() == 1 && ends.get(&key(b)) == Some(&1) => v[0],
+                _ => continue,
+            };
+            if next == i || gone[next] {
+                continue;
+            }
+            let c = edges[next].1;
+            let (d1, d2) = (b - a, c - b);
+            let straight = d1.cross(d2).length() <= 1e-12 * d1.length() * d2.length()
+                && d1.dot(d2) > 0.0;
+            if straight {
+                edges[i] = (a, c);
+                gone[next] = true;
+                joined = true;
+            }
+        }
+        if !joined {
+            return edges;
+        }
+        edges = edges
+            .into_iter()
+            .zip(gone)
+            .filter(|(_, g)| !g)
+            .map(|(e, _)| e)
+            .collect();
     }
 }
 
@@ -107,6 +161,29 @@ impl Region {
             parts,
             cumulative,
             outline,
+            kernel: Vec::new(),
+        }
+    }
+
+    /// The region with `kernel` as the polygons its closed-form factor sums over where the
+    /// outline does not apply: the same area as the parts, in fewer polygons (the caller
+    /// guarantees it, e.g. a merge of the parts); rays still sample the parts.
+    pub fn with_kernel_parts(mut self, kernel: Vec<Polygon>) -> Self {
+        debug_assert!(
+            (kernel.iter().map(Polygon::area).sum::<f64>() - self.area()).abs()
+                <= 1e-9 * self.area()
+        );
+        self.kernel = kernel;
+        self
+    }
+
+    /// The polygons the closed-form factor sums over (the parts, unless
+    /// [`Region::with_kernel_parts`] gave fewer).
+    pub fn kernel_parts(&self) -> &[Polygon] {
+        if self.kernel.is_empty() {
+            &self.parts
+        } else {
+            &self.kernel
         }
     }
 
@@ -174,7 +251,7 @@ impl Region {
             .partition_point(|&c| c <= a)
             .min(self.parts.len() - 1);
         let part = &self.parts[j];
-        let (lo, area) = (self.cumulative[j], part.area());
+        let (lo, area) = (self.cumulative[j], self.cumulative[j + 1] - self.cumulative[j]);
         let u = ((a - lo) / area).clamp(0.0, 1.0);
         let mut s = map_unit_square(part.vertices(), u, w);
         if part.count == 4 {
