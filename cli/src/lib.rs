@@ -114,9 +114,9 @@ pub struct MeshArgs {
     /// spatial coherence) [default: the scene description's `[bake] method`, else 2msc].
     #[arg(long, value_name = "METHOD", value_enum)]
     pub method: Option<MethodArg>,
-    /// 2MSC: the estimated relative error of the patches (2msc; e.g. 5e-5), or the largest
+    /// 2MSC: the estimated relative error of the patches (2msc; e.g. 7e-5), or the largest
     /// estimated error share of a patch (2msc-split) (docs/MESHING.md); smaller gives more
-    /// patches [default: `[bake] threshold`, else 5e-5 (2msc) or 3e-5 (2msc-split)].
+    /// patches [default: `[bake] threshold`, else 7e-5 (2msc) or 3e-5 (2msc-split)].
     #[arg(long, value_name = "T")]
     pub threshold: Option<f64>,
     /// 2msc-split: patches of at most this area (scene units²) are not split further

@@ -125,8 +125,8 @@ fn join_collinear(mut edges: Vec<(DVec3, DVec3)>) -> Vec<(DVec3, DVec3)> {
             }
             let c = edges[next].1;
             let (d1, d2) = (b - a, c - b);
-            let straight = d1.cross(d2).length() <= 1e-12 * d1.length() * d2.length()
-                && d1.dot(d2) > 0.0;
+            let straight =
+                d1.cross(d2).length() <= 1e-12 * d1.length() * d2.length() && d1.dot(d2) > 0.0;
             if straight {
                 edges[i] = (a, c);
                 gone[next] = true;
@@ -251,7 +251,10 @@ impl Region {
             .partition_point(|&c| c <= a)
             .min(self.parts.len() - 1);
         let part = &self.parts[j];
-        let (lo, area) = (self.cumulative[j], self.cumulative[j + 1] - self.cumulative[j]);
+        let (lo, area) = (
+            self.cumulative[j],
+            self.cumulative[j + 1] - self.cumulative[j],
+        );
         let u = ((a - lo) / area).clamp(0.0, 1.0);
         let mut s = map_unit_square(part.vertices(), u, w);
         if part.count == 4 {

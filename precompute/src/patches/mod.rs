@@ -60,7 +60,7 @@ pub(crate) fn refinement(
 ) -> Result<coherence::Refinement> {
     if !(threshold.is_finite() && threshold > 0.0) {
         let what = match rule {
-            CoherenceRule::Merge => "the estimated relative error of the patches, e.g. 5e-5",
+            CoherenceRule::Merge => "the estimated relative error of the patches, e.g. 7e-5",
             CoherenceRule::Split => {
                 "the largest share of reflected power a patch may get wrong, e.g. 3e-5"
             }

@@ -48,10 +48,12 @@ pub(crate) const REVISION: u32 = 1;
 
 /// Default `--threshold` of the merge rule: the estimated (first-order) relative L2 error of
 /// the coarse mesh (module docs). On the Cornell box's default mesh (n = 2 116) it gives
-/// k = 195 at a measured relative error of 8.6e-4 against the exact solve, where the split
+/// k = 162 at a measured relative error of 1.2e-3 against the exact solve, where the split
 /// rule's default gave k = 333 at 9.3e-4; against the path tracer the default bake's smooth
-/// median and p90 are 1.32% and 4.23% (the split rule's: 1.34%, 4.65%; docs/MESHING.md,
-/// docs/ACCURACY.md).
+/// median and p90 are 1.33% and 4.35% (the split rule's: 1.34%, 4.65%), its bake 1.9× the
+/// CPU time of the former default (2MF, unrefined; the split rule's 1.6×; docs/MESHING.md,
+/// docs/ACCURACY.md). A smaller threshold buys accuracy against the exact solve with bake
+/// time: 5e-5 gives k = 195 at 8.8e-4 in 2.0× the former default's time.
 pub const DEFAULT_THRESHOLD: f64 = 7e-5;
 
 /// A bounding cone of normals: every normal is within `angle` (radians) of `axis`.
@@ -638,7 +640,9 @@ mod tests {
             let (x, y) = (f64::from(i), f64::from(j));
             crate::geometry::rectangle(x, x + 1.0, y, y + 1.0, 0.0, false)
         };
-        let block: Vec<Polygon> = (0..4).flat_map(|i| (0..3).map(move |j| cell(i, j))).collect();
+        let block: Vec<Polygon> = (0..4)
+            .flat_map(|i| (0..3).map(move |j| cell(i, j)))
+            .collect();
         let out = coarsen(block);
         assert_eq!(out.len(), 1, "{out:?}");
         assert!((out[0].area() - 12.0).abs() < 1e-12);
