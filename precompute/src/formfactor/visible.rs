@@ -34,12 +34,26 @@ pub(crate) fn visible_fraction(
     seed: u64,
     adaptive: u32,
 ) -> (f64, u64) {
+    visible_fraction_rounds(occ, e, t, points, seed, adaptive, 1)
+}
+
+/// [`visible_fraction`] with `rounds` times the rays of the adaptive refinement.
+pub(crate) fn visible_fraction_rounds(
+    occ: &dyn Occluder,
+    e: &Polygon,
+    t: Shape<'_>,
+    points: &[Sample],
+    seed: u64,
+    adaptive: u32,
+    rounds: u32,
+) -> (f64, u64) {
     let mut acc = Visibility::default();
-    let first = points.len() as u32;
+    let first = points.len() as u32 * rounds;
     acc.cast(occ, e, t, points, seed, 0..first);
-    if adaptive > 1 && acc.visible > 0.0 && acc.visible < acc.total {
+    let adaptive_end = points.len() as u32 * adaptive;
+    if adaptive_end > first && acc.visible > 0.0 && acc.visible < acc.total {
         // A shadow boundary crosses the pair: binary visibility is noisy here, so refine.
-        acc.cast(occ, e, t, points, seed, first..first * adaptive);
+        acc.cast(occ, e, t, points, seed, first..adaptive_end);
     }
     if acc.total <= 0.0 {
         // Every sampled segment was grazing: fall back to one ray between the element's
