@@ -209,7 +209,7 @@ impl<'a> FormFactors<'a> {
                 Some(occ) => {
                     let seed = (u64::from(e_id) << 32) | t_id as u64;
                     let (v, r) =
-                        visible_fraction(occ, e, Shape::One(t), points, seed, self.adaptive);
+                        visible_fraction(occ, e, Shape::One(t), points, seed, self.adaptive, 1);
                     rays += r;
                     v
                 }

@@ -36,6 +36,38 @@ pub(crate) fn point_to_region(
     f * visible
 }
 
+/// `F(x → region)` estimated from `rays` area-proportional points on the region instead of
+/// the closed form, visibility included: `A · mean(V cos θx cos θy / (π r²))`. Its cost does
+/// not grow with the region's parts, which makes it the far-field estimate of the merge rule's
+/// views of clustered probes (a dense mesh's cluster has as many parts as faces; the closed
+/// form over every part from every element would cost `n ×` the faces).
+pub(crate) fn point_to_region_sampled(
+    x: DVec3,
+    normal: DVec3,
+    region: &Region,
+    occluder: Option<&dyn Occluder>,
+    rays: u32,
+    seed: u64,
+) -> f64 {
+    let mut sum = 0.0;
+    for i in 0..rays {
+        let (j, s) = region.pair_point(i, seed);
+        let part_normal = region.parts()[j].normal;
+        let d = s.point - x;
+        let (cos_x, cos_y) = (d.dot(normal), -d.dot(part_normal));
+        if cos_x <= 0.0 || cos_y <= 0.0 {
+            continue;
+        }
+        let r2 = d.length_squared();
+        let k = s.weight * cos_x * cos_y / (std::f64::consts::PI * r2 * r2);
+        if !k.is_finite() || occluder.is_some_and(|o| o.occluded(x, normal, s.point, part_normal)) {
+            continue;
+        }
+        sum += k;
+    }
+    region.area() * sum / f64::from(rays.max(1))
+}
+
 /// Kernel-weighted fraction of `rays` unblocked segments from `x` to pair points on `probe`
 /// (seeded by `seed`); one centroid-to-centroid ray decides when every segment grazed.
 fn visible_fraction(

@@ -19,7 +19,7 @@
 use crate::geometry::Region;
 
 use super::contour::{point_to_outline, point_to_polygon};
-use super::visible::{Shape, faces_away, visible_fraction_rounds};
+use super::visible::{Shape, faces_away, visible_fraction};
 use crate::geometry::Outline;
 use crate::geometry::Polygon;
 use crate::geometry::sampling::Sample;
@@ -70,7 +70,7 @@ pub(super) fn multi_part(
     let Some(occ) = occluder else {
         return Some((unoccluded, 0, 1.0));
     };
-    let (visible, rays) = visible_fraction_rounds(
+    let (visible, rays) = visible_fraction(
         occ,
         e,
         Shape::Union(target),

@@ -26,19 +26,10 @@ pub(crate) fn faces_away(e: &Polygon, t: &Polygon) -> bool {
 /// converges to `∫∫ K V / ∫∫ K`, the visibility that multiplies the exact unoccluded factor.
 /// An unweighted fraction (tried first) converges to the *area*-weighted visibility instead:
 /// biased by ~1% on Cornell-box surface pairs at any sample count, which broke reciprocity.
+///
+/// `rounds` (1 but for curved targets of several parts, `union::rounds`) multiplies the
+/// first rays; the adaptive refinement still ends at `adaptive` times `points.len()`.
 pub(crate) fn visible_fraction(
-    occ: &dyn Occluder,
-    e: &Polygon,
-    t: Shape<'_>,
-    points: &[Sample],
-    seed: u64,
-    adaptive: u32,
-) -> (f64, u64) {
-    visible_fraction_rounds(occ, e, t, points, seed, adaptive, 1)
-}
-
-/// [`visible_fraction`] with `rounds` times the rays of the adaptive refinement.
-pub(crate) fn visible_fraction_rounds(
     occ: &dyn Occluder,
     e: &Polygon,
     t: Shape<'_>,

@@ -1,6 +1,8 @@
 //! Regions of a surface: one convex polygon, or the union of several (a patch built by
 //! clustering the small faces of a dense mesh), with area-proportional sample points.
 
+use std::collections::HashMap;
+
 use glam::DVec3;
 
 use super::Polygon;
@@ -16,7 +18,7 @@ pub struct Region {
     /// same two vertices, opposite directions) cancel.
     outline: Option<Outline>,
     /// The same area in fewer polygons, for the closed-form factor alone
-    /// ([`Region::with_kernel_parts`]); empty: `parts`.
+    /// ([`Region::kernel_parts`]); empty: `parts`.
     kernel: Vec<Polygon>,
 }
 
@@ -94,6 +96,103 @@ impl Outline {
     }
 }
 
+/// Fewer, larger parts for a patch of coplanar elements: two parts that share an edge (the
+/// same two vertices, opposite directions) become one where their union, its collinear
+/// vertices dropped, is a convex polygon of at most 4 vertices (two grid cells of a piece
+/// make a rectangle, two rows of cells of equal span a larger one). The union covers exactly
+/// the same area, so the closed-form factor to it is the same (summed over fewer parts where
+/// the outline cannot be used: [`Region::kernel_parts`]). The visibility rays still sample
+/// the parts: sampled over the coarsened ones, the Cornell box's merged patches' error
+/// against the exact solve rose from 8.8e-4 to 1.0e-3 at k = 195.
+fn coarsen(mut parts: Vec<Polygon>) -> Vec<Polygon> {
+    type Key = [u64; 3];
+    let key = |v: DVec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+    loop {
+        let mut by_edge: HashMap<(Key, Key), usize> = HashMap::new();
+        for (i, p) in parts.iter().enumerate() {
+            let v = p.vertices();
+            for a in 0..v.len() {
+                by_edge.insert((key(v[a]), key(v[(a + 1) % v.len()])), i);
+            }
+        }
+        let mut gone = vec![false; parts.len()];
+        let mut merged = false;
+        for i in 0..parts.len() {
+            if gone[i] {
+                continue;
+            }
+            let v = parts[i].vertices().to_vec();
+            for a in 0..v.len() {
+                let (p, q) = (v[a], v[(a + 1) % v.len()]);
+                let Some(&j) = by_edge.get(&(key(q), key(p))) else {
+                    continue;
+                };
+                if j == i || gone[j] {
+                    continue;
+                }
+                if let Some(u) = join(&parts[i], &parts[j], a, q) {
+                    parts[i] = u;
+                    gone[j] = true;
+                    merged = true;
+                    break; // the edges of `i` changed: its other joins wait for the next pass
+                }
+            }
+        }
+        if !merged {
+            return parts;
+        }
+        parts = parts
+            .into_iter()
+            .zip(gone)
+            .filter(|(_, g)| !g)
+            .map(|(p, _)| p)
+            .collect();
+    }
+}
+
+/// The union of `a` and `b`, which share `a`'s edge `a_edge` (run the other way by `b`, from
+/// `q`), when it is convex with at most 4 vertices once collinear ones are dropped.
+fn join(a: &Polygon, b: &Polygon, a_edge: usize, q: DVec3) -> Option<Polygon> {
+    if (a.normal - b.normal).length() > 1e-12 {
+        return None;
+    }
+    let (va, vb) = (a.vertices(), b.vertices());
+    let (na, nb) = (va.len(), vb.len());
+    // `a` from the shared edge's end `q` round to its start, then `b` from there round to `q`.
+    let start_b = vb.iter().position(|&x| x == q)?;
+    let mut loop_ = Vec::with_capacity(na + nb - 2);
+    for i in 0..na {
+        loop_.push(va[(a_edge + 1 + i) % na]);
+    }
+    for i in 0..nb - 2 {
+        loop_.push(vb[(start_b + 2 + i) % nb]);
+    }
+    // Drop collinear vertices (relative tolerance), then require a convex turn everywhere.
+    let n = a.normal;
+    let turn = |p: DVec3, x: DVec3, r: DVec3| {
+        let (d1, d2) = (x - p, r - x);
+        n.dot(d1.cross(d2)) / (d1.length() * d2.length())
+    };
+    let mut kept: Vec<DVec3> = Vec::with_capacity(loop_.len());
+    let m = loop_.len();
+    for i in 0..m {
+        let (p, x, r) = (loop_[(i + m - 1) % m], loop_[i], loop_[(i + 1) % m]);
+        if turn(p, x, r).abs() > 1e-12 {
+            kept.push(x);
+        }
+    }
+    if !(3..=4).contains(&kept.len()) {
+        return None;
+    }
+    let k = kept.len();
+    if (0..k).any(|i| turn(kept[(i + k - 1) % k], kept[i], kept[(i + 1) % k]) <= 1e-12) {
+        return None;
+    }
+    let u = Polygon::new(&kept)?;
+    let (area, parts) = (u.area(), a.area() + b.area());
+    ((area - parts).abs() <= 1e-12 * parts && (u.normal - n).length() <= 1e-9).then_some(u)
+}
+
 /// Joins outline edges `(a, b)`, `(b, c)` into `(a, c)` where `b` starts and ends exactly
 /// one edge each and `c` lies straight ahead (relative tolerance 1e-12): the contour integral
 /// over a straight run is the sum over its pieces, so a long side made of element edges
@@ -157,28 +256,24 @@ impl Region {
             cumulative.push(sum);
         }
         let outline = Outline::of(&parts);
+        // Planar regions (2MSC's merged patches): the same area in fewer polygons. Made here,
+        // from the parts alone, so a region read back (a shard plan) is the region written.
+        let kernel = if outline.is_some() {
+            coarsen(parts.clone())
+        } else {
+            Vec::new()
+        };
         Self {
             parts,
             cumulative,
             outline,
-            kernel: Vec::new(),
+            kernel,
         }
     }
 
-    /// The region with `kernel` as the polygons its closed-form factor sums over where the
-    /// outline does not apply: the same area as the parts, in fewer polygons (the caller
-    /// guarantees it, e.g. a merge of the parts); rays still sample the parts.
-    pub fn with_kernel_parts(mut self, kernel: Vec<Polygon>) -> Self {
-        debug_assert!(
-            (kernel.iter().map(Polygon::area).sum::<f64>() - self.area()).abs()
-                <= 1e-9 * self.area()
-        );
-        self.kernel = kernel;
-        self
-    }
-
-    /// The polygons the closed-form factor sums over (the parts, unless
-    /// [`Region::with_kernel_parts`] gave fewer).
+    /// The polygons the closed-form factor sums over where the outline does not apply: for a
+    /// planar region, its parts coarsened into fewer convex ones of the same area; else the
+    /// parts.
     pub fn kernel_parts(&self) -> &[Polygon] {
         if self.kernel.is_empty() {
             &self.parts
@@ -267,6 +362,48 @@ impl Region {
 #[cfg(test)]
 mod tests {
     use super::*;
+    /// Grid cells coarsen into rectangles covering the same area (a 4×3 block of cells into
+    /// one quad; an L of three cells into two), and a notched block keeps its notch.
+    #[test]
+    fn coplanar_cells_coarsen_into_rectangles() {
+        let cell = |i: i32, j: i32| {
+            let (x, y) = (f64::from(i), f64::from(j));
+            square(x, x + 1.0, y, y + 1.0, 0.0, false)
+        };
+        let block: Vec<Polygon> = (0..4)
+            .flat_map(|i| (0..3).map(move |j| cell(i, j)))
+            .collect();
+        let out = coarsen(block);
+        assert_eq!(out.len(), 1, "{out:?}");
+        assert!((out[0].area() - 12.0).abs() < 1e-12);
+        let l = coarsen(vec![cell(0, 0), cell(1, 0), cell(0, 1)]);
+        assert_eq!(l.len(), 2);
+        assert!((l.iter().map(Polygon::area).sum::<f64>() - 3.0).abs() < 1e-12);
+        // Two triangles of a square (sharing its diagonal) make the square.
+        let v = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+        let t1 = Polygon::new(&[v(0.0, 0.0), v(1.0, 0.0), v(1.0, 1.0)]).unwrap();
+        let t2 = Polygon::new(&[v(0.0, 0.0), v(1.0, 1.0), v(0.0, 1.0)]).unwrap();
+        let square = coarsen(vec![t1, t2]);
+        assert_eq!(square.len(), 1);
+        assert_eq!(square[0].count, 4);
+        assert!((square[0].area() - 1.0).abs() < 1e-12);
+        let notched: Vec<Polygon> = (0..4)
+            .flat_map(|i| (0..4).map(move |j| (i, j)))
+            .filter(|&c| c != (3, 1))
+            .map(|(i, j)| cell(i, j))
+            .collect();
+        let out = coarsen(notched);
+        assert!(out.len() < 6, "{} parts", out.len());
+        assert!((out.iter().map(Polygon::area).sum::<f64>() - 15.0).abs() < 1e-12);
+        // The notch stays uncovered: its centre lies in no part.
+        let centre = DVec3::new(3.5, 1.5, 0.0);
+        let inside = |p: &Polygon| {
+            let v = p.vertices();
+            (0..v.len()).all(|i| (v[(i + 1) % v.len()] - v[i]).cross(centre - v[i]).z >= 0.0)
+        };
+        assert!(!out.iter().any(inside));
+    }
+
     use crate::geometry::rectangle as square;
 
     #[test]

@@ -451,9 +451,14 @@ impl Ctx<'_> {
     }
 }
 
+/// The seed of a point's probe rays (from its coordinates: the same point, the same rays).
+pub(crate) fn view_seed(x: DVec3) -> u64 {
+    mix(x.x.to_bits() ^ mix(x.y.to_bits() ^ mix(x.z.to_bits())))
+}
+
 /// The view vector of a surface point: `F(x → probe j)` with visibility.
 pub(crate) fn view(probes: &Probes, x: DVec3, normal: DVec3, out: &mut [f64]) {
-    let seed = mix(x.x.to_bits() ^ mix(x.y.to_bits() ^ mix(x.z.to_bits())));
+    let seed = view_seed(x);
     for (j, (probe, out)) in probes.targets.iter().zip(out.iter_mut()).enumerate() {
         *out = point_to_region(
             x,
@@ -478,7 +483,8 @@ mod tests {
     use crate::visibility::obvhs::ObvhsOccluder;
     use std::path::Path;
 
-    fn cornell() -> Scene {
+    /// The shipped Cornell box (shared with `merge`'s tests).
+    pub(super) fn cornell() -> Scene {
         let path =
             Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/cornell-box.toml");
         crate::scene::load(&path).unwrap()

@@ -236,6 +236,7 @@ fn equal_error_k_ratio_on_the_dense_sphere() {
         "median ratio {} moved from the measured {measured}: {ratio:?}",
         ratio.median
     );
+    assert!(ratio.median >= 1.0 / 0.6, "{ratio:?}");
 }
 
 #[test]

@@ -17,7 +17,8 @@
 //!
 //! over the probes `j` (the 2MF patches at the patch size, as the split rule uses), where
 //! `F(x_e → j)` is the closed-form point-to-patch factor from the element's centroid times the
-//! visible fraction of [`PROBE_RAYS`](super::PROBE_RAYS) rays, and `b_e = E_e + ρ_e Σ_j F(x_e → j) B_j` the
+//! visible fraction of [`PROBE_RAYS`] rays (sampled instead for clustered probes far from the
+//! element: `FarField`), and `b_e = E_e + ρ_e Σ_j F(x_e → j) B_j` the
 //! element's radiosity gathered from the probes' coarse solve (means over the channels). A
 //! patch's error is `err(P) = Σ_j c_j δ_j²` with `c_j` the elements in probe `j` (so that it
 //! stands for the squared error summed over the elements, which the relative L2 error of
@@ -36,7 +37,8 @@ use std::collections::{BinaryHeap, HashMap};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{Material, Probes, view};
+use super::{Material, PROBE_RAYS, Probes, view_seed};
+use crate::formfactor::point::{point_to_region, point_to_region_sampled};
 use crate::geometry::{Polygon, Region};
 use crate::mesh::Element;
 use crate::patches::Patch;
@@ -284,12 +286,13 @@ pub(crate) fn merge(
         max_angle: NORMAL_CONE_DEGREES.to_radians(),
     };
     // Each element's view of the probes and its gathered radiosity.
+    let far = FarField::of(probes);
     let views: Vec<(Vec<f32>, f64)> = elements
         .par_iter()
         .zip(materials)
         .map(|(e, m)| {
             let mut f = vec![0.0; q];
-            view(probes, e.polygon.centroid(), e.polygon.normal, &mut f);
+            far.view(probes, e.polygon.centroid(), e.polygon.normal, &mut f);
             let gathered: f64 = f.iter().zip(&probes.radiosity).map(|(f, b)| f * b).sum();
             let b = m.emission + m.reflectance * gathered;
             let a = e.polygon.area();
@@ -429,12 +432,11 @@ pub(crate) fn merge(
             .iter()
             .map(|&e| elements[e as usize].polygon)
             .collect();
-        let kernel = coarsen(parts.clone());
         for &e in &members {
             elements[e as usize].patch = id;
         }
         patches.push(Patch {
-            shape: Region::new(parts).with_kernel_parts(kernel),
+            shape: Region::new(parts),
             face,
             surface,
         });
@@ -442,101 +444,53 @@ pub(crate) fn merge(
     patches
 }
 
-/// Fewer, larger parts for a patch of coplanar elements: two parts that share an edge (the
-/// same two vertices, opposite directions) become one where their union, its collinear
-/// vertices dropped, is a convex polygon of at most 4 vertices (two grid cells of a piece
-/// make a rectangle, two rows of cells of equal span a larger one). The union covers exactly
-/// the same area, so the closed-form factor to it is the same (summed over fewer parts where
-/// the outline cannot be used: [`Region::with_kernel_parts`]). The visibility rays still
-/// sample the elements: sampled over the coarsened parts, the Cornell box's error against
-/// the exact solve rose from 8.8e-4 to 1.0e-3 at k = 195.
-pub(crate) fn coarsen(mut parts: Vec<Polygon>) -> Vec<Polygon> {
-    type Key = [u64; 3];
-    let key = |v: DVec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
-    loop {
-        let mut by_edge: HashMap<(Key, Key), usize> = HashMap::new();
-        for (i, p) in parts.iter().enumerate() {
-            let v = p.vertices();
-            for a in 0..v.len() {
-                by_edge.insert((key(v[a]), key(v[(a + 1) % v.len()])), i);
-            }
-        }
-        let mut gone = vec![false; parts.len()];
-        let mut merged = false;
-        for i in 0..parts.len() {
-            if gone[i] {
-                continue;
-            }
-            let v = parts[i].vertices().to_vec();
-            for a in 0..v.len() {
-                let (p, q) = (v[a], v[(a + 1) % v.len()]);
-                let Some(&j) = by_edge.get(&(key(q), key(p))) else {
-                    continue;
-                };
-                if j == i || gone[j] {
-                    continue;
-                }
-                if let Some(u) = join(&parts[i], &parts[j], a, q) {
-                    parts[i] = u;
-                    gone[j] = true;
-                    merged = true;
-                    break; // the edges of `i` changed: its other joins wait for the next pass
-                }
-            }
-        }
-        if !merged {
-            return parts;
-        }
-        parts = parts
-            .into_iter()
-            .zip(gone)
-            .filter(|(_, g)| !g)
-            .map(|(p, _)| p)
-            .collect();
-    }
-}
+/// How far a point must be from a clustered probe, in the probe's radii, for its view of it to
+/// be sampled instead of integrated in closed form.
+const FAR_RADII: f64 = 3.0;
 
-/// The union of `a` and `b`, which share `a`'s edge `a_edge` (run the other way by `b`, from
-/// `q`), when it is convex with at most 4 vertices once collinear ones are dropped.
-fn join(a: &Polygon, b: &Polygon, a_edge: usize, q: DVec3) -> Option<Polygon> {
-    if (a.normal - b.normal).length() > 1e-12 {
-        return None;
+/// The probes of several parts (clusters of a dense mesh), by centroid and radius: an
+/// element's view of one is the closed form over every part near it and a sampled estimate
+/// (`point_to_region_sampled`, as many points as rays) beyond [`FAR_RADII`] radii. The closed
+/// form from every element to every part would cost `n ×` the dense mesh's faces (10¹⁰ for
+/// `lrr scene dense`); single-polygon probes keep it (the Cornell box's views are exact).
+struct FarField(Vec<Option<(DVec3, f64)>>);
+
+impl FarField {
+    fn of(probes: &Probes) -> Self {
+        Self(
+            probes
+                .targets
+                .iter()
+                .map(|t| {
+                    (t.parts().len() > 1).then(|| {
+                        let c = t.centroid();
+                        let r = t
+                            .parts()
+                            .iter()
+                            .flat_map(|p| p.vertices())
+                            .map(|v| v.distance(c))
+                            .fold(0.0, f64::max);
+                        (c, r)
+                    })
+                })
+                .collect(),
+        )
     }
-    let (va, vb) = (a.vertices(), b.vertices());
-    let (na, nb) = (va.len(), vb.len());
-    // `a` from the shared edge's end `q` round to its start, then `b` from there round to `q`.
-    let start_b = vb.iter().position(|&x| x == q)?;
-    let mut loop_ = Vec::with_capacity(na + nb - 2);
-    for i in 0..na {
-        loop_.push(va[(a_edge + 1 + i) % na]);
-    }
-    for i in 0..nb - 2 {
-        loop_.push(vb[(start_b + 2 + i) % nb]);
-    }
-    // Drop collinear vertices (relative tolerance), then require a convex turn everywhere.
-    let n = a.normal;
-    let turn = |p: DVec3, x: DVec3, r: DVec3| {
-        let (d1, d2) = (x - p, r - x);
-        n.dot(d1.cross(d2)) / (d1.length() * d2.length())
-    };
-    let mut kept: Vec<DVec3> = Vec::with_capacity(loop_.len());
-    let m = loop_.len();
-    for i in 0..m {
-        let (p, x, r) = (loop_[(i + m - 1) % m], loop_[i], loop_[(i + 1) % m]);
-        if turn(p, x, r).abs() > 1e-12 {
-            kept.push(x);
+
+    /// The view of every probe from `x` (as `coherence::view`, the same rays).
+    fn view(&self, probes: &Probes, x: DVec3, normal: DVec3, out: &mut [f64]) {
+        let seed = view_seed(x);
+        for (j, (target, out)) in probes.targets.iter().zip(out.iter_mut()).enumerate() {
+            let seed = seed ^ j as u64;
+            let occ = probes.occluder;
+            *out = match self.0[j] {
+                Some((c, r)) if x.distance(c) > FAR_RADII * r => {
+                    point_to_region_sampled(x, normal, target, occ, PROBE_RAYS, seed)
+                }
+                _ => point_to_region(x, normal, target, occ, PROBE_RAYS, seed),
+            };
         }
     }
-    if !(3..=4).contains(&kept.len()) {
-        return None;
-    }
-    let k = kept.len();
-    if (0..k).any(|i| turn(kept[(i + k - 1) % k], kept[i], kept[(i + 1) % k]) <= 1e-12) {
-        return None;
-    }
-    let u = Polygon::new(&kept)?;
-    let (area, parts) = (u.area(), a.area() + b.area());
-    ((area - parts).abs() <= 1e-12 * parts && (u.normal - n).length() <= 1e-9).then_some(u)
 }
 
 /// A live group.
@@ -553,11 +507,7 @@ mod tests {
     use crate::visibility::obvhs::ObvhsOccluder;
     use std::path::Path;
 
-    fn cornell() -> Scene {
-        let path =
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/cornell-box.toml");
-        crate::scene::load(&path).unwrap()
-    }
+    use super::super::tests::cornell;
 
     fn merged(scene: &Scene, sizes: MeshSizes, threshold: f64) -> Mesh {
         let occ = ObvhsOccluder::build(scene);
@@ -630,48 +580,6 @@ mod tests {
             "k = {}",
             mesh.k()
         );
-    }
-
-    /// Grid cells coarsen into rectangles covering the same area (a 4×3 block of cells into
-    /// one quad; an L of three cells into two), and a notched block keeps its notch.
-    #[test]
-    fn coplanar_cells_coarsen_into_rectangles() {
-        let cell = |i: i32, j: i32| {
-            let (x, y) = (f64::from(i), f64::from(j));
-            crate::geometry::rectangle(x, x + 1.0, y, y + 1.0, 0.0, false)
-        };
-        let block: Vec<Polygon> = (0..4)
-            .flat_map(|i| (0..3).map(move |j| cell(i, j)))
-            .collect();
-        let out = coarsen(block);
-        assert_eq!(out.len(), 1, "{out:?}");
-        assert!((out[0].area() - 12.0).abs() < 1e-12);
-        let l = coarsen(vec![cell(0, 0), cell(1, 0), cell(0, 1)]);
-        assert_eq!(l.len(), 2);
-        assert!((l.iter().map(Polygon::area).sum::<f64>() - 3.0).abs() < 1e-12);
-        // Two triangles of a square (sharing its diagonal) make the square.
-        let v = |x: f64, y: f64| DVec3::new(x, y, 0.0);
-        let t1 = Polygon::new(&[v(0.0, 0.0), v(1.0, 0.0), v(1.0, 1.0)]).unwrap();
-        let t2 = Polygon::new(&[v(0.0, 0.0), v(1.0, 1.0), v(0.0, 1.0)]).unwrap();
-        let square = coarsen(vec![t1, t2]);
-        assert_eq!(square.len(), 1);
-        assert_eq!(square[0].count, 4);
-        assert!((square[0].area() - 1.0).abs() < 1e-12);
-        let notched: Vec<Polygon> = (0..4)
-            .flat_map(|i| (0..4).map(move |j| (i, j)))
-            .filter(|&c| c != (3, 1))
-            .map(|(i, j)| cell(i, j))
-            .collect();
-        let out = coarsen(notched);
-        assert!(out.len() < 6, "{} parts", out.len());
-        assert!((out.iter().map(Polygon::area).sum::<f64>() - 15.0).abs() < 1e-12);
-        // The notch stays uncovered: its centre lies in no part.
-        let centre = DVec3::new(3.5, 1.5, 0.0);
-        let inside = |p: &Polygon| {
-            let v = p.vertices();
-            (0..v.len()).all(|i| (v[(i + 1) % v.len()] - v[i]).cross(centre - v[i]).z >= 0.0)
-        };
-        assert!(!out.iter().any(inside));
     }
 
     /// The neighbours found through the grid are exactly the touching pairs of one surface

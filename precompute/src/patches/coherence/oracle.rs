@@ -248,6 +248,34 @@ impl Exact {
     }
 }
 
+/// Prints the curves the oracles are compared with: 2MF at patch multiples 1–8 and the split
+/// rule at thresholds 3e-3 … 3e-6 (`k`, error as `of_mesh` measures them).
+fn baselines(
+    scene: &crate::scene::Scene,
+    sizes: MeshSizes,
+    occ: &ObvhsOccluder,
+    of_mesh: &dyn Fn(&Mesh) -> (usize, f64),
+) {
+    let h = sizes.element_size;
+    for m in [1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0] {
+        let s = MeshSizes {
+            element_size: h,
+            patch_size: m * h,
+        };
+        let (k, error) = of_mesh(&Mesh::two_fixed(scene, s).unwrap());
+        eprintln!("2mf k {k} error {error:.4e} multiple {m}");
+    }
+    for threshold in [3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6] {
+        let method = PatchMethod::SpatialCoherence {
+            threshold,
+            min_patch_area: None,
+            rule: crate::patches::CoherenceRule::Split,
+        };
+        let (k, error) = of_mesh(&Mesh::build(scene, sizes, method, Some(occ)).unwrap());
+        eprintln!("2msc k {k} error {error:.4e} threshold {threshold:e}");
+    }
+}
+
 #[test]
 #[ignore = "experiment (minutes): prints the k/error curves of 2MF, 2MSC and the oracle"]
 fn oracle_refinement() {
@@ -276,23 +304,7 @@ fn oracle_refinement() {
         let shapes: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();
         truth.measure(&patch_of, &shapes)
     };
-    for m in [1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0] {
-        let s = MeshSizes {
-            element_size: h,
-            patch_size: m * h,
-        };
-        let (k, error) = of_mesh(&Mesh::two_fixed(&scene, s).unwrap());
-        eprintln!("2mf k {k} error {error:.4e} multiple {m}");
-    }
-    for threshold in [3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6] {
-        let method = PatchMethod::SpatialCoherence {
-            threshold,
-            min_patch_area: None,
-            rule: crate::patches::CoherenceRule::Split,
-        };
-        let (k, error) = of_mesh(&Mesh::build(&scene, sizes, method, Some(&occ)).unwrap());
-        eprintln!("2msc k {k} error {error:.4e} threshold {threshold:e}");
-    }
+    baselines(&scene, sizes, &occ, &of_mesh);
 
     if env("LRR_ORACLE_SKIP").is_some() {
         return; // 2MF and 2MSC only
@@ -505,23 +517,7 @@ fn merge_oracle() {
         truth.measure(&patch_of, &shapes)
     };
     if env("LRR_ORACLE_SKIP").is_none() {
-        for m in [1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0] {
-            let s = MeshSizes {
-                element_size: h,
-                patch_size: m * h,
-            };
-            let (k, error) = of_mesh(&Mesh::two_fixed(&scene, s).unwrap());
-            eprintln!("2mf k {k} error {error:.4e} multiple {m}");
-        }
-        for threshold in [3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6] {
-            let method = PatchMethod::SpatialCoherence {
-                threshold,
-                min_patch_area: None,
-                rule: crate::patches::CoherenceRule::Split,
-            };
-            let (k, error) = of_mesh(&Mesh::build(&scene, sizes, method, Some(&occ)).unwrap());
-            eprintln!("2msc k {k} error {error:.4e} threshold {threshold:e}");
-        }
+        baselines(&scene, sizes, &occ, &of_mesh);
     }
     let thresholds = env("LRR_MERGE_THRESHOLDS")
         .unwrap_or("1e-2,5e-3,3e-3,2e-3,1.5e-3,1e-3,7e-4,5e-4,3e-4".into());
