@@ -49,23 +49,13 @@ pub(crate) fn point_to_region_sampled(
     rays: u32,
     seed: u64,
 ) -> f64 {
-    let mut sum = 0.0;
-    for i in 0..rays {
-        let (j, s) = region.pair_point(i, seed);
-        let part_normal = region.parts()[j].normal;
-        let d = s.point - x;
-        let (cos_x, cos_y) = (d.dot(normal), -d.dot(part_normal));
-        if cos_x <= 0.0 || cos_y <= 0.0 {
-            continue;
-        }
-        let r2 = d.length_squared();
-        let k = s.weight * cos_x * cos_y / (std::f64::consts::PI * r2 * r2);
-        if !k.is_finite() || occluder.is_some_and(|o| o.occluded(x, normal, s.point, part_normal)) {
-            continue;
-        }
-        sum += k;
-    }
-    region.area() * sum / f64::from(rays.max(1))
+    let sum: f64 = kernel_points(x, normal, region, rays, seed)
+        .filter(|&(_, to, to_normal)| {
+            !occluder.is_some_and(|o| o.occluded(x, normal, to, to_normal))
+        })
+        .map(|(w, _, _)| w)
+        .sum();
+    region.area() * sum / (std::f64::consts::PI * f64::from(rays.max(1)))
 }
 
 /// Kernel-weighted fraction of `rays` unblocked segments from `x` to pair points on `probe`
@@ -79,21 +69,9 @@ fn visible_fraction(
     seed: u64,
 ) -> f64 {
     let (mut total, mut visible) = (0.0, 0.0);
-    for i in 0..rays {
-        let (j, s) = probe.pair_point(i, seed);
-        let part_normal = probe.parts()[j].normal;
-        let d = s.point - x;
-        let (cos_x, cos_y) = (d.dot(normal), -d.dot(part_normal));
-        if cos_x <= 0.0 || cos_y <= 0.0 {
-            continue;
-        }
-        let r2 = d.length_squared();
-        let w = s.weight * cos_x * cos_y / (r2 * r2);
-        if !w.is_finite() {
-            continue;
-        }
+    for (w, to, to_normal) in kernel_points(x, normal, probe, rays, seed) {
         total += w;
-        if !occ.occluded(x, normal, s.point, part_normal) {
+        if !occ.occluded(x, normal, to, to_normal) {
             visible += w;
         }
     }
@@ -106,4 +84,28 @@ fn visible_fraction(
     } else {
         1.0
     }
+}
+
+/// The `rays` pair points on `region` that exchange light with `x` (normal `normal`), each
+/// with its weight `cos θx cos θy / r²` times the sample's area weight, its point and its
+/// part's normal; grazing and non-finite ones are skipped.
+fn kernel_points<'a>(
+    x: DVec3,
+    normal: DVec3,
+    region: &'a Region,
+    rays: u32,
+    seed: u64,
+) -> impl Iterator<Item = (f64, DVec3, DVec3)> + 'a {
+    (0..rays).filter_map(move |i| {
+        let (j, s) = region.pair_point(i, seed);
+        let part_normal = region.parts()[j].normal;
+        let d = s.point - x;
+        let (cos_x, cos_y) = (d.dot(normal), -d.dot(part_normal));
+        if cos_x <= 0.0 || cos_y <= 0.0 {
+            return None;
+        }
+        let r2 = d.length_squared();
+        let w = s.weight * cos_x * cos_y / (r2 * r2);
+        w.is_finite().then_some((w, s.point, part_normal))
+    })
 }
