@@ -10,7 +10,7 @@ use clap::Args;
 use lrr_precompute::refine::DEFAULT_BUDGET;
 use serde::Serialize;
 
-use crate::{MeshArgs, load_scene, summary};
+use crate::{MeshArgs, load_scene_with, summary};
 use lrr_precompute::bake::bake;
 use lrr_precompute::checkpoint;
 use lrr_precompute::checkpoint::CheckpointSettings;
@@ -139,6 +139,8 @@ struct Report<'a> {
     file_bytes: u64,
     stages: BTreeMap<String, f64>,
     meshing: summary::MeshingSummary,
+    /// Every import warning, in order.
+    warnings: &'a [String],
     /// With `--resume`: rows of `F_k` and of `--refine`'s first pass taken from the
     /// checkpoints instead of integrated again.
     resumed_rows: u64,
@@ -166,7 +168,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     let start = Instant::now();
     let progress = a.mesh.progress();
     let stage = progress.stage("import", 0);
-    let scene = load_scene(&a.scene)?;
+    let scene = load_scene_with(&a.scene, a.mesh.verbose)?;
     stage.finish();
     let output = output_path(a, &scene.bake)?;
     let mut settings = a.mesh.settings_for(&scene)?;
@@ -240,6 +242,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
         file_bytes,
         stages,
         meshing: summary::MeshingSummary::new(&scene.repairs, &baked.mesh.meshing),
+        warnings: &scene.warnings,
         resumed_rows,
         resumed_first_pass_rows,
         total_seconds: start.elapsed().as_secs_f64(),

@@ -141,6 +141,9 @@ pub struct MeshArgs {
     /// No progress bars.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Print every import warning (by default: the first few of each kind and a count).
+    #[arg(long)]
+    pub verbose: bool,
 }
 
 /// `--method`: how patches are built.
@@ -244,9 +247,17 @@ impl MeshArgs {
         })
     }
 
+    /// Bars on a terminal, plain lines when stderr is a file or a pipe, nothing with `-q`.
     pub fn progress(&self) -> lrr_precompute::progress::Progress {
+        use lrr_precompute::progress::{Mode, Progress};
         use std::io::IsTerminal;
-        lrr_precompute::progress::Progress::new(!self.quiet && std::io::stderr().is_terminal())
+        Progress::with_mode(if self.quiet {
+            Mode::Hidden
+        } else if std::io::stderr().is_terminal() {
+            Mode::Bars
+        } else {
+            Mode::Lines
+        })
     }
 }
 
@@ -286,11 +297,86 @@ where
     }
 }
 
-/// Loads a scene, printing its import warnings to stderr.
+/// Loads a scene, printing a summary of its import warnings to stderr ([`warning_lines`]).
 pub fn load_scene(path: &std::path::Path) -> Result<lrr_precompute::scene::Scene> {
+    load_scene_with(path, false)
+}
+
+/// Loads a scene, printing its import warnings to stderr: every one with `verbose`, else a
+/// summary per kind ([`warning_lines`]).
+pub fn load_scene_with(
+    path: &std::path::Path,
+    verbose: bool,
+) -> Result<lrr_precompute::scene::Scene> {
     let scene = lrr_precompute::scene::load(path)?;
-    for w in &scene.warnings {
-        eprintln!("lrr: warning: {w}");
+    for line in warning_lines(&scene.warnings, verbose) {
+        eprintln!("lrr: warning: {line}");
     }
     Ok(scene)
+}
+
+/// Warnings of one kind printed before the rest are counted.
+pub const WARNINGS_PER_KIND: usize = 3;
+
+/// The warning lines to print: all of them with `verbose`; else, per kind of warning (the text
+/// with its numbers and quoted names left out: "a degenerate face dropped" at any location is
+/// one kind), the first [`WARNINGS_PER_KIND`] and a line counting the rest. Kinds in order of
+/// their first warning.
+pub fn warning_lines(warnings: &[String], verbose: bool) -> Vec<String> {
+    if verbose {
+        return warnings.to_vec();
+    }
+    let mut kinds: Vec<(String, Vec<&String>)> = Vec::new();
+    for w in warnings {
+        let kind = warning_kind(w);
+        match kinds.iter_mut().find(|(k, _)| *k == kind) {
+            Some((_, list)) => list.push(w),
+            None => kinds.push((kind, vec![w])),
+        }
+    }
+    let mut out = Vec::new();
+    for (_, list) in kinds {
+        out.extend(list.iter().take(WARNINGS_PER_KIND).map(|w| w.to_string()));
+        if list.len() > WARNINGS_PER_KIND {
+            let first = list[0];
+            let short: String = first.chars().take(100).collect();
+            let ellipsis = if short.len() < first.len() { "…" } else { "" };
+            out.push(format!(
+                "{} more like \"{short}{ellipsis}\" ({} in all; --verbose or --report lists \
+                 every one)",
+                list.len() - WARNINGS_PER_KIND,
+                list.len()
+            ));
+        }
+    }
+    out
+}
+
+/// A warning's kind: its text with runs of digits and quoted names ('…', "…") replaced.
+fn warning_kind(w: &str) -> String {
+    let mut out = String::with_capacity(w.len());
+    let mut quote: Option<char> = None;
+    let mut last_digit = false;
+    for c in w.chars() {
+        if let Some(q) = quote {
+            if c == q {
+                quote = None;
+            }
+            continue;
+        }
+        if c == '\'' || c == '"' {
+            quote = Some(c);
+            out.push_str("'…'");
+            last_digit = false;
+        } else if c.is_ascii_digit() {
+            if !last_digit {
+                out.push('#');
+            }
+            last_digit = true;
+        } else {
+            out.push(c);
+            last_digit = false;
+        }
+    }
+    out
 }

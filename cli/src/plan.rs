@@ -10,7 +10,7 @@ use anyhow::Result;
 use clap::Args;
 use lrr_precompute::refine::DEFAULT_BUDGET;
 
-use crate::{MeshArgs, load_scene};
+use crate::{MeshArgs, load_scene_with};
 use lrr_precompute::shard::write_plan;
 
 #[derive(Debug, Args)]
@@ -33,7 +33,7 @@ pub struct PlanArgs {
 pub fn run(a: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let start = Instant::now();
     let progress = a.mesh.progress();
-    let scene = load_scene(&a.scene)?;
+    let scene = load_scene_with(&a.scene, a.mesh.verbose)?;
     let mut settings = a.mesh.settings_for(&scene)?;
     settings.refine = Some(a.refine);
     let (n, k) = write_plan(&scene, &settings, &a.output, &progress)?;

@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::Args;
 use serde::Serialize;
 
-use crate::{MeshArgs, load_scene};
+use crate::{MeshArgs, load_scene_with};
 use lrr_precompute::bake::{Prepared, bake};
 use lrr_precompute::exact::solve_exact;
 use lrr_precompute::mesh::MeshSizes;
@@ -130,7 +130,7 @@ pub fn solve(scene: &Scene, a: &MeshArgs, exact: bool) -> Result<Solution> {
 }
 
 pub fn run(a: &SolveArgs, out: &mut dyn Write) -> Result<()> {
-    let scene = load_scene(&a.scene)?;
+    let scene = load_scene_with(&a.scene, a.mesh.verbose)?;
     let sol = solve(&scene, &a.mesh, a.exact)?;
     if a.json {
         writeln!(out, "{}", serde_json::to_string(&sol)?)?;

@@ -1,20 +1,44 @@
-//! Progress bars (indicatif) for the stages of a bake, and stage timings for the report.
+//! Progress of the stages of a bake on stderr, and stage timings for the report: bars
+//! (indicatif) on a terminal; plain lines where stderr is a file or a pipe (a log, CI, a batch
+//! job), a line when a stage starts and ends and one every [`LINE_INTERVAL`] seconds in
+//! between with the elapsed time and an estimate of what is left, so a slow bake can be told
+//! from a hung one.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-/// Shows progress on stderr when enabled (and stderr is a terminal); always records timings.
+/// Seconds between two progress lines of a stage (plain-line mode).
+pub const LINE_INTERVAL: f64 = 5.0;
+
+/// How progress shows on stderr.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// Nothing shown.
+    Hidden,
+    /// indicatif bars (a terminal).
+    Bars,
+    /// Plain lines (a log file or a pipe).
+    Lines,
+}
+
+/// Shows progress on stderr as its [`Mode`] says; always records timings.
 pub struct Progress {
-    enabled: bool,
+    mode: Mode,
     stages: std::sync::Mutex<Vec<(String, f64)>>,
 }
 
 impl Progress {
     /// Progress bars on stderr when `enabled`; timings are recorded either way.
     pub fn new(enabled: bool) -> Self {
+        Self::with_mode(if enabled { Mode::Bars } else { Mode::Hidden })
+    }
+
+    /// Progress shown as `mode` says; timings are recorded either way.
+    pub fn with_mode(mode: Mode) -> Self {
         Self {
-            enabled,
+            mode,
             stages: std::sync::Mutex::new(Vec::new()),
         }
     }
@@ -26,7 +50,10 @@ impl Progress {
 
     /// Starts a stage with `total` work items (0: a spinner).
     pub fn stage(&self, name: &str, total: u64) -> Stage<'_> {
-        let bar = if self.enabled {
+        if self.mode == Mode::Lines {
+            eprintln!("lrr: {name}: started");
+        }
+        let bar = if self.mode == Mode::Bars {
             let bar =
                 ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr_with_hz(5));
             let style = if total > 0 {
@@ -44,11 +71,30 @@ impl Progress {
         } else {
             None
         };
+        // A stage without counted work says every LINE_INTERVAL that it still runs.
+        let ticker = (self.mode == Mode::Lines && total == 0).then(|| {
+            let (stop, wait) = std::sync::mpsc::channel::<()>();
+            let (name, start) = (name.to_string(), Instant::now());
+            let interval = std::time::Duration::from_secs_f64(LINE_INTERVAL);
+            let thread = std::thread::spawn(move || {
+                while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+                    wait.recv_timeout(interval)
+                {
+                    let t = start.elapsed().as_secs_f64();
+                    eprintln!("lrr: {name}: still running, {t:.0} s elapsed");
+                }
+            });
+            (stop, thread)
+        });
         Stage {
             progress: self,
             name: name.to_string(),
             start: Instant::now(),
             bar,
+            ticker,
+            total,
+            done: AtomicU64::new(0),
+            printed_ms: AtomicU64::new(0),
         }
     }
 
@@ -75,6 +121,15 @@ pub struct Stage<'a> {
     name: String,
     start: Instant,
     bar: Option<ProgressBar>,
+    /// Plain-line mode, no total: the thread that prints "still running" (stopped by
+    /// dropping the sender).
+    ticker: Option<(std::sync::mpsc::Sender<()>, std::thread::JoinHandle<()>)>,
+    /// Work items in all (0: unknown).
+    total: u64,
+    /// Work items done (plain-line mode).
+    done: AtomicU64,
+    /// Milliseconds after the start of the last line printed.
+    printed_ms: AtomicU64,
 }
 
 impl Stage<'_> {
@@ -82,6 +137,26 @@ impl Stage<'_> {
     pub fn inc(&self, n: u64) {
         if let Some(bar) = &self.bar {
             bar.inc(n);
+        }
+        if self.progress.mode != Mode::Lines {
+            return;
+        }
+        let done = self.done.fetch_add(n, Ordering::Relaxed) + n;
+        let now = self.start.elapsed().as_millis() as u64;
+        let last = self.printed_ms.load(Ordering::Relaxed);
+        if now.saturating_sub(last) < (LINE_INTERVAL * 1000.0) as u64 {
+            return;
+        }
+        // One thread prints each line.
+        if self
+            .printed_ms
+            .compare_exchange(last, now, Ordering::Relaxed, Ordering::Relaxed)
+            .is_ok()
+        {
+            eprintln!(
+                "lrr: {}",
+                progress_line(&self.name, done, self.total, now as f64 / 1e3)
+            );
         }
     }
 
@@ -91,7 +166,53 @@ impl Stage<'_> {
         if let Some(bar) = &self.bar {
             bar.finish_and_clear();
         }
+        if let Some((stop, thread)) = self.ticker {
+            drop(stop);
+            let _ = thread.join();
+        }
+        if self.progress.mode == Mode::Lines {
+            eprintln!("lrr: {}: done in {seconds:.1} s", self.name);
+        }
         self.progress.record(&self.name, seconds);
         seconds
+    }
+}
+
+/// A progress line: `stage: done/total (p%), t s elapsed, about r s left` (the rest at the
+/// rate so far); without a total, the items done and the time.
+pub fn progress_line(name: &str, done: u64, total: u64, elapsed: f64) -> String {
+    if total == 0 {
+        return format!("{name}: {done} done, {elapsed:.0} s elapsed");
+    }
+    let fraction = (done as f64 / total as f64).min(1.0);
+    let left = if fraction > 0.0 {
+        format!("about {:.0} s left", elapsed * (1.0 - fraction) / fraction)
+    } else {
+        "time left unknown".to_string()
+    };
+    format!(
+        "{name}: {done}/{total} ({:.0}%), {elapsed:.0} s elapsed, {left}",
+        100.0 * fraction
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lines_say_what_is_done_and_what_is_left() {
+        assert_eq!(
+            progress_line("form factors", 250, 1000, 10.0),
+            "form factors: 250/1000 (25%), 10 s elapsed, about 30 s left"
+        );
+        assert_eq!(
+            progress_line("probes", 0, 10, 6.0),
+            "probes: 0/10 (0%), 6 s elapsed, time left unknown"
+        );
+        assert_eq!(
+            progress_line("mesh", 3, 0, 7.2),
+            "mesh: 3 done, 7 s elapsed"
+        );
     }
 }

@@ -93,7 +93,8 @@ pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
                 continue; // only T-junction neighbours: no corner takes this value
             }
             let vertex = out.offsets.len() as u32 - 1;
-            let total: f64 = group.iter().map(|&i| around[i].weight).sum();
+            let angles: Vec<f64> = group.iter().map(|&i| around[i].weight).collect();
+            let total: f64 = angles.iter().filter(|a| a.is_finite()).sum();
             let closed = total >= 2.0 * std::f64::consts::PI - BOUNDARY_DEFICIT;
             boundary.push((!closed).then_some(x));
             for &i in &group {
@@ -102,14 +103,40 @@ pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
                     out.corners[a.element * 4 + c] = vertex;
                 }
                 out.positions.push(a.element as u32);
-                let w = (a.weight / total) as f32;
-                out.weights
-                    .push(if w > 0.0 { w } else { f32::MIN_POSITIVE });
             }
+            out.weights.extend(mean_weights(&angles));
             out.offsets.push(out.positions.len() as u32);
         }
     }
     extrapolate(&out, elements, &boundary)
+}
+
+/// Smallest weight a member of a mean takes, relative to the mean's total: a needle's corner
+/// (an angle of 1e-9 rad) or a degenerate one (no angle at all) still counts, so that every
+/// stored weight is non-zero and the weights sum to one in `f32` whatever the input.
+const MIN_MEAN_WEIGHT: f64 = 1e-6;
+
+/// Weights proportional to `angles` (radians), summing to one: a non-finite or negative angle
+/// (two corners of one element within the position tolerance) counts as zero, every weight is
+/// at least [`MIN_MEAN_WEIGHT`] before the weights are normalised, and a group whose angles
+/// are all (nearly) zero (the corners of needles and of coincident vertices) takes the plain
+/// mean.
+fn mean_weights(angles: &[f64]) -> Vec<f32> {
+    let clean: Vec<f64> = angles
+        .iter()
+        .map(|&a| if a.is_finite() && a > 0.0 { a } else { 0.0 })
+        .collect();
+    let total: f64 = clean.iter().sum();
+    let raw: Vec<f64> = if total > 1e-12 {
+        clean
+            .iter()
+            .map(|a| (a / total).max(MIN_MEAN_WEIGHT))
+            .collect()
+    } else {
+        vec![1.0; clean.len()]
+    };
+    let sum: f64 = raw.iter().sum();
+    raw.iter().map(|w| (w / sum) as f32).collect()
 }
 
 /// `s` with each boundary vertex (`boundary[v]` its position) extrapolated: the value at the
@@ -203,7 +230,10 @@ fn plane_weights(
     let bounded = fit
         .iter()
         .all(|(_, l)| l.is_finite() && f64::from(l.abs()) <= MAX_EXTRAPOLATION_WEIGHT);
-    bounded.then_some(fit)
+    // The weights of a least-squares plane's value sum to one exactly; an ill-conditioned fit
+    // (nearly collinear centroids that passed the determinant test) can lose that in rounding.
+    let sum: f64 = fit.iter().map(|(_, l)| f64::from(*l)).sum();
+    (bounded && !fit.is_empty() && (sum - 1.0).abs() <= 1e-6).then_some(fit)
 }
 
 /// The distinct corner positions (within `tol`) in order of first appearance, and each
@@ -467,7 +497,9 @@ mod tests {
             let r = s.offsets[v] as usize..s.offsets[v + 1] as usize;
             let w = &s.weights[r.clone()];
             assert!(!w.is_empty() && w.iter().all(|&x| x != 0.0 && x.abs() <= 8.0));
-            assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+            // summed in f64, as the file's check sums them
+            let sum: f64 = w.iter().map(|&x| f64::from(x)).sum();
+            assert!((sum - 1.0).abs() < 1e-5, "vertex {v}: sum {sum}");
         }
         let m = members(s);
         for (e, el) in elements.iter().enumerate() {
@@ -679,5 +711,140 @@ mod tests {
         let (_, a) = mesh_and_weights(&scene, scene.extent() / 20.0);
         let (_, b) = mesh_and_weights(&scene, scene.extent() / 20.0);
         assert_eq!(a, b);
+    }
+
+    /// A scene of the given triangles, one surface and one material each triangle list.
+    fn triangles(tris: &[[DVec3; 3]]) -> Scene {
+        use crate::geometry::Polygon;
+        use crate::scene::{Face, Material};
+        let mut s = Scene::default();
+        s.name = "t".into();
+        s.materials.push(Material {
+            name: "m".into(),
+            reflectance: [0.5; 3],
+            emission: [0.0; 3],
+            optics: Default::default(),
+            texture: None,
+        });
+        s.surfaces.push("s".into());
+        for t in tris {
+            if let Some(polygon) = Polygon::new(t) {
+                s.faces.push(Face {
+                    polygon,
+                    material: 0,
+                    surface: 0,
+                    uv: [None, None],
+                });
+            }
+        }
+        s
+    }
+
+    /// The weights of `scene` meshed at `h` are well formed, and the file's own check (the
+    /// one that refused McGuire's CornellBox-Sphere) accepts them.
+    fn weights_hold(scene: &Scene, h: f64) -> (Vec<Element>, Smooth) {
+        let (elements, s) = mesh_and_weights(scene, h);
+        assert!(!elements.is_empty());
+        assert_well_formed(&elements, &s);
+        (elements, s)
+    }
+
+    /// A needle (base 200, height 0.01: area 1) at h = 0.1, and slivers of rising aspect.
+    #[test]
+    fn needles_and_slivers_get_weights_that_sum_to_one() {
+        let needle = [
+            DVec3::ZERO,
+            DVec3::new(200.0, 0.0, 0.0),
+            DVec3::new(100.0, 0.01, 0.0),
+        ];
+        weights_hold(&triangles(&[needle]), 0.1);
+        for aspect in [1e2, 1e4, 1e6] {
+            // two slivers meeting along their long edge, folded by 10° (one smooth surface)
+            let (a, b) = (DVec3::ZERO, DVec3::new(1.0, 0.0, 0.0));
+            let up = DVec3::new(0.5, 1.0 / aspect, 0.0);
+            let fold = 10f64.to_radians();
+            let down = DVec3::new(0.5, -fold.cos() / aspect, fold.sin() / aspect);
+            weights_hold(&triangles(&[[a, b, up], [b, a, down]]), 0.05);
+        }
+    }
+
+    /// A cone of 10⁴ needle triangles round its apex (one smooth surface; the rim's height
+    /// alternates by 1e-5 so that no two neighbours are coplanar and each triangle stays a
+    /// face of its own): the apex joins all of them with weights that sum to one.
+    #[test]
+    fn a_fan_of_ten_thousand_triangles_round_a_vertex() {
+        let m = 10_000;
+        let apex = DVec3::new(0.0, 0.0, 0.2);
+        let rim = |i: usize| {
+            let t = std::f64::consts::TAU * i as f64 / m as f64;
+            DVec3::new(t.cos(), t.sin(), if i % 2 == 0 { 0.0 } else { 1e-5 })
+        };
+        let tris: Vec<[DVec3; 3]> = (0..m).map(|i| [apex, rim(i), rim(i + 1)]).collect();
+        let scene = triangles(&tris);
+        assert_eq!(scene.faces.len(), m);
+        let (elements, s) = weights_hold(&scene, 2.0);
+        let largest = members(&s).iter().map(Vec::len).max().unwrap();
+        assert!(
+            largest >= m,
+            "{largest} members at the apex, {} elements",
+            elements.len()
+        );
+    }
+
+    /// Coincident and duplicated vertices: a quad written twice (duplicate faces), a triangle
+    /// whose vertices nearly coincide within the position tolerance, and a zero-area sliver
+    /// dropped on import beside them.
+    #[test]
+    fn coincident_vertices_and_duplicate_faces() {
+        let (a, b, c, d) = (
+            DVec3::ZERO,
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+        );
+        let eps = 1e-9;
+        let tris = [
+            [a, b, c],
+            [a, c, d],
+            [a, b, c],
+            [a, c, d],
+            [
+                c,
+                b + DVec3::new(eps, 0.0, 1.0),
+                c + DVec3::new(0.0, eps, 0.5),
+            ],
+            [a, b, a + DVec3::new(0.5 * eps, 0.0, 0.0)],
+        ];
+        weights_hold(&triangles(&tris), 0.25);
+    }
+
+    /// Tessellated spheres, coarse to fine, meshed at an element size above and below their
+    /// triangles' size.
+    #[test]
+    fn tessellated_spheres_of_any_density() {
+        for level in [1, 3, 4] {
+            let scene = procedural::dense_sphere(level)
+                .build("t", Path::new("."))
+                .unwrap();
+            for h in [scene.extent() / 20.0, scene.extent() / 200.0] {
+                weights_hold(&scene, h);
+            }
+        }
+    }
+
+    #[test]
+    fn mean_weights_are_non_zero_and_sum_to_one() {
+        for angles in [
+            vec![0.0, 0.0, 0.0],
+            vec![f64::NAN, 1.0],
+            vec![1e-300, 1.0, 2.0],
+            vec![-1.0, f64::INFINITY],
+            vec![1e-20; 7],
+        ] {
+            let w = mean_weights(&angles);
+            let sum: f64 = w.iter().map(|&x| f64::from(x)).sum();
+            assert!(w.iter().all(|&x| x > 0.0), "{angles:?}: {w:?}");
+            assert!((sum - 1.0).abs() < 1e-6, "{angles:?}: {sum}");
+        }
     }
 }

@@ -122,6 +122,92 @@ pub(super) fn by_size(units: &[Unit], set: Vec<usize>, size: f64) -> Vec<Vec<usi
     out
 }
 
+/// The sets of `sets` split until there are `budget` of them (or no set has two units left):
+/// each step splits the set whose normals leave the cone of [`NORMAL_CONE_DEGREES`] by its
+/// normals, else the set of the widest vertex bounding box by position ([`bisect`]); ties go
+/// to the smaller first index. Deterministic; sets sorted, in the order of their smallest index.
+pub(super) fn to_budget(units: &[Unit], sets: Vec<Vec<usize>>, budget: usize) -> Vec<Vec<usize>> {
+    use std::cmp::Reverse;
+    use std::collections::BinaryHeap;
+    // (normals outside the cone, box diagonal's bits, first index): f64 bits of a
+    // non-negative number order as the number does.
+    let key = |set: &[usize]| {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        let mut mean = DVec3::ZERO;
+        for &u in set {
+            lo = lo.min(units[u].lo);
+            hi = hi.max(units[u].hi);
+            mean += units[u].area * units[u].normal;
+        }
+        let cos = NORMAL_CONE_DEGREES.to_radians().cos();
+        let spread = match mean.try_normalize() {
+            Some(m) => set.iter().any(|&u| units[u].normal.dot(m) < cos),
+            None => true,
+        };
+        let diagonal = (hi - lo).length();
+        let diagonal = if diagonal.is_finite() { diagonal } else { 0.0 };
+        (spread && set.len() > 1, diagonal.to_bits(), Reverse(set[0]))
+    };
+    let mut heap: BinaryHeap<_> = sets
+        .into_iter()
+        .filter(|s| !s.is_empty())
+        .map(|s| (key(&s), s))
+        .collect();
+    let mut done = Vec::new();
+    while heap.len() + done.len() < budget {
+        let Some(((spread, _, _), set)) = heap.pop() else {
+            break;
+        };
+        if set.len() < 2 {
+            done.push(set);
+            continue;
+        }
+        let halves = if spread {
+            bisect_normals(units, &set)
+        } else {
+            bisect(units, &set)
+        };
+        for h in halves {
+            heap.push((key(&h), h));
+        }
+    }
+    let mut out: Vec<Vec<usize>> = done
+        .into_iter()
+        .chain(heap.into_iter().map(|(_, s)| s))
+        .collect();
+    out.sort_by_key(|c| c[0]);
+    out
+}
+
+/// Splits `set` (at least two) at the median of its normals along the axis they spread most.
+fn bisect_normals(units: &[Unit], set: &[usize]) -> [Vec<usize>; 2] {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for &u in set {
+        lo = lo.min(units[u].normal);
+        hi = hi.max(units[u].normal);
+    }
+    let e = hi - lo;
+    let axis = if e.x >= e.y && e.x >= e.z {
+        0
+    } else if e.y >= e.z {
+        1
+    } else {
+        2
+    };
+    let mut sorted = set.to_vec();
+    sorted.sort_by(|&a, &b| {
+        units[a].normal[axis]
+            .total_cmp(&units[b].normal[axis])
+            .then(a.cmp(&b))
+    });
+    let mut second = sorted.split_off(sorted.len() / 2);
+    sorted.sort_unstable();
+    second.sort_unstable();
+    [sorted, second]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -188,5 +274,35 @@ mod tests {
         let [a, b] = bisect(&units, &set);
         assert_eq!((a.len(), b.len()), (12, 13));
         assert_eq!(bisect(&units, &set), [a, b]);
+    }
+
+    /// Two opposite sheets of 16 × 16 squares (a thin wall's sides) cut to 8 sets: never both
+    /// sides in one set, every unit once, and the same sets again.
+    #[test]
+    fn a_budget_keeps_opposite_sides_apart() {
+        let mut units = grid(16, 0.1);
+        let back: Vec<Unit> = units
+            .iter()
+            .map(|u| Unit {
+                normal: -u.normal,
+                ..*u
+            })
+            .collect();
+        units.extend(back);
+        let all: Vec<usize> = (0..units.len()).collect();
+        let sets = to_budget(&units, vec![all.clone()], 8);
+        assert_eq!(sets.len(), 8);
+        let mut seen = vec![0; units.len()];
+        for s in &sets {
+            let up = units[s[0]].normal.z > 0.0;
+            assert!(s.iter().all(|&u| (units[u].normal.z > 0.0) == up), "{s:?}");
+            for &u in s {
+                seen[u] += 1;
+            }
+        }
+        assert!(seen.iter().all(|&c| c == 1));
+        assert_eq!(to_budget(&units, vec![all], 8), sets);
+        // a budget above the count leaves every unit alone
+        assert_eq!(to_budget(&units, vec![(0..4).collect()], 100).len(), 4);
     }
 }

@@ -19,6 +19,8 @@ mod patch;
 
 pub use patch::{CoherenceRule, Patch, PatchMethod};
 
+use glam::DVec3;
+
 use crate::error::{Error, Result};
 use crate::geometry::{Polygon, Region};
 use crate::mesh::subdivide;
@@ -111,20 +113,95 @@ pub(crate) fn msc_inputs<'a>(
     // equal error on the Cornell box.
     let mut probed = elements.to_vec();
     let probe_patches = two_fixed_patches(pieces, sizes, &mut probed);
-    let (reflectance, emission) = probe_patches
-        .iter()
-        .map(|p| {
+    let budget = probe_budget(elements.len());
+    let (targets, reflectance, emission) = if probe_patches.len() > budget {
+        grouped_probes(scene, probe_patches, &mut probed, budget)
+    } else {
+        let mut out = (Vec::new(), Vec::new(), Vec::new());
+        for p in probe_patches {
             let m = material(scene, p.face);
-            (m.reflectance, m.emission)
-        })
-        .unzip();
-    let targets = probe_patches.into_iter().map(|p| p.shape).collect();
+            out.0.push(p.shape);
+            out.1.push(m.reflectance);
+            out.2.push(m.emission);
+        }
+        out
+    };
     let mut probes = coherence::Probes::new(targets, reflectance, emission, occluder)?;
     for e in &probed {
         probes.elements[e.patch as usize] += 1.0;
     }
     let materials = pieces.iter().map(|p| material(scene, p.face)).collect();
     Ok((probes, materials))
+}
+
+/// Most probes 2MSC measures against: their coarse solve holds `q²` factors (128 MiB here).
+pub(crate) const MAX_PROBES: usize = 4096;
+/// Most element-to-probe pairs (`n · q`) 2MSC evaluates: `PROBE_RAYS` rays each, and 8 bytes of
+/// the merge rule's working memory each (400 MB here).
+pub(crate) const MAX_PROBE_PAIRS: usize = 50_000_000;
+/// Fewest probes, whatever the element count.
+const MIN_PROBES: usize = 64;
+
+/// How many probes a mesh of `n` elements may have: the 2MF patches at the patch size unless
+/// they are more than this (a game level of 60 k faces gives as many probes), then grouped
+/// down to it (`grouped_probes`). The scenes of the tests and docs stay under it (the Cornell
+/// box has 128 probes, the building about 1 400).
+pub(crate) fn probe_budget(n: usize) -> usize {
+    (MAX_PROBE_PAIRS / n.max(1)).clamp(MIN_PROBES, MAX_PROBES)
+}
+
+/// The 2MF patches grouped into `budget` probes by position and normal (`cluster::to_budget`;
+/// emitting and non-emitting patches never share a probe); a probe's reflectance and emission
+/// are its patches' area-weighted means, and `probed[..].patch` is renumbered to the probes.
+fn grouped_probes(
+    scene: &Scene,
+    patches: Vec<Patch>,
+    probed: &mut [Element],
+    budget: usize,
+) -> (Vec<Region>, Vec<f64>, Vec<f64>) {
+    let units: Vec<cluster::Unit> = patches
+        .iter()
+        .map(|p| {
+            let parts = p.shape.parts();
+            let mut u = cluster::Unit::of(&parts[0]);
+            let mut normal = DVec3::ZERO;
+            for q in parts {
+                let v = cluster::Unit::of(q);
+                u.lo = u.lo.min(v.lo);
+                u.hi = u.hi.max(v.hi);
+                normal += v.area * v.normal;
+            }
+            u.centroid = p.shape.centroid();
+            u.area = p.shape.area();
+            u.normal = normal.try_normalize().unwrap_or(parts[0].normal);
+            u
+        })
+        .collect();
+    let materials: Vec<coherence::Material> =
+        patches.iter().map(|p| material(scene, p.face)).collect();
+    let (lit, unlit): (Vec<usize>, Vec<usize>) =
+        (0..patches.len()).partition(|&i| materials[i].emission > 0.0);
+    let sets = cluster::to_budget(&units, vec![lit, unlit], budget);
+    let mut probe_of = vec![0u32; patches.len()];
+    let mut out = (Vec::new(), Vec::new(), Vec::new());
+    for (g, set) in sets.iter().enumerate() {
+        let mut parts = Vec::new();
+        let (mut area, mut rho, mut emission) = (0.0, 0.0, 0.0);
+        for &i in set {
+            probe_of[i] = g as u32;
+            parts.extend_from_slice(patches[i].shape.parts());
+            area += units[i].area;
+            rho += units[i].area * materials[i].reflectance;
+            emission += units[i].area * materials[i].emission;
+        }
+        out.0.push(Region::new(parts));
+        out.1.push(rho / area);
+        out.2.push(emission / area);
+    }
+    for e in probed {
+        e.patch = probe_of[e.patch as usize];
+    }
+    out
 }
 
 /// A face's material, as 2MSC sees it: reflectance and emission averaged over the channels.
