@@ -104,3 +104,12 @@ def test_ctrl_c_cancels_the_bake_cleanly(tmp_path):
         os.waitpid(-1, os.WNOHANG)  # no child left, running or unreaped
     time.sleep(0.5)
     assert not out.exists()
+
+
+def test_default_cornell_bake_equals_lrr_bake_bytes(tmp_path, lrr_bin):
+    """The bundled Cornell box at its default settings (about 9 s a bake on 2 cores)."""
+    op = lrr.bake(CORNELL, tmp_path / "py.lrr", progress=False)
+    r = run_lrr(lrr_bin, "bake", CORNELL, "-o", tmp_path / "cli.lrr", "-q")
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "py.lrr").read_bytes() == (tmp_path / "cli.lrr").read_bytes()
+    assert op.n > 2000 and op.light_groups == ["light"]
