@@ -6,7 +6,8 @@ radiosity along the back wall.
 
 Every frame is one O(nk) evaluation of the baked operator (no re-bake): the light's intensity
 through its light group, its colour through a per-element emission. Values are radiosity
-(exitance, W/m² for the scene's emission in W/m²) sampled with the smooth reconstruction on a
+(exitance, in the units of the scene's emission: the Cornell box's light emits π · (17, 12, 4)
+per unit area) sampled with the smooth reconstruction on a
 horizontal line across the back wall at mid-height.
 """
 
@@ -86,13 +87,13 @@ def main() -> None:
         left.plot(x, v.mean(axis=1), label=f"light × {i}")
     left.set_title("light intensity (mean of R, G, B)")
     left.set_xlabel("x along the back wall (mm); green wall at 0, red at 556")
-    left.set_ylabel("radiosity (W/m²)")
+    left.set_ylabel("radiosity (emission's units)")
     left.legend()
     styles = {"as baked": "-", "white": "--", "sky blue": ":"}
     for name, v in by_colour.items():
         for c, colour in enumerate(("tab:red", "tab:green", "tab:blue")):
-            right.plot(x, v[:, c], styles[name], color=colour,
-                       label=name if c == 0 else None)
+            right.plot(x, v[:, c], styles[name], color=colour)
+        right.plot([], [], styles[name], color="black", label=f"light {name}")
     right.set_title("light colour (R, G, B channels)")
     right.set_xlabel("x along the back wall (mm)")
     right.legend()

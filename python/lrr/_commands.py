@@ -102,7 +102,6 @@ class _Progress:
             self.bar.refresh()
         elif done:
             self.close()
-            print(f"lrr: {done['stage']}: {done['seconds']} s", file=sys.stderr)
 
     def close(self) -> None:
         if self.bar is not None:
