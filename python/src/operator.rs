@@ -167,11 +167,14 @@ fn points(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<[f32; 3]>> {
     Ok(out)
 }
 
+/// Points (or normals) of a query.
+type Points = Vec<[f32; 3]>;
+
 /// Points and normals of one query, same length.
 fn query(
     points_obj: &Bound<'_, PyAny>,
     normals_obj: &Bound<'_, PyAny>,
-) -> PyResult<(Vec<[f32; 3]>, Vec<[f32; 3]>)> {
+) -> PyResult<(Points, Points)> {
     let (p, nrm) = (
         points(points_obj, "points")?,
         points(normals_obj, "normals")?,
@@ -435,7 +438,7 @@ impl PyOperator {
             })
             .or_raise(py)?;
         let flat: Vec<f32> = values.into_iter().flatten().collect();
-        Ok(numpy::PyArray1::from_vec(py, flat).reshape([p.len(), 3])?)
+        numpy::PyArray1::from_vec(py, flat).reshape([p.len(), 3])
     }
 
     /// Ray traces a frame (the runtime's CPU tracer, all cores by default): ``(height, width,
