@@ -250,7 +250,7 @@ pub(crate) fn refine_mesh(
     memory::check_with(
         (n0 as u128) * (k as u128) * 8,
         max_memory,
-        "the first pass of --refine",
+        &format!("the first pass of --refine (n = {n0} elements × k = {k} patches)"),
         "use --refine 0, or a larger --element-size or --patch-size",
     )?;
     let mut ff =

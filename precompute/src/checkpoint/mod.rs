@@ -66,7 +66,7 @@ pub(crate) fn element_patch_matrix(
     memory::check_with(
         bytes,
         max_memory,
-        "the element-to-patch matrix",
+        &format!("the element-to-patch matrix (n = {n} elements × k = {k} patches)"),
         "use a larger --element-size or --patch-size",
     )?;
     let polygons: Vec<Polygon> = rows.clone().map(|s| mesh.element_at(s).polygon).collect();

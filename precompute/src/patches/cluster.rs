@@ -114,12 +114,30 @@ pub(super) fn by_size(units: &[Unit], set: Vec<usize>, size: f64) -> Vec<Vec<usi
             }
             continue;
         }
-        let [a, b] = bisect(units, &s);
+        // A set within the size whose normals leave the cone (the sides of a pillar, a step)
+        // is split by its normals: halving it by position may never part opposite faces, and
+        // a game level's details would end one piece per patch.
+        let [a, b] = if box_fits(units, &s, size) {
+            bisect_normals(units, &s)
+        } else {
+            bisect(units, &s)
+        };
         stack.push(a);
         stack.push(b);
     }
     out.sort_by_key(|c| c[0]);
     out
+}
+
+/// True when the set's vertex bounding box has no side longer than `size`.
+fn box_fits(units: &[Unit], set: &[usize], size: f64) -> bool {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for &u in set {
+        lo = lo.min(units[u].lo);
+        hi = hi.max(units[u].hi);
+    }
+    (hi - lo).max_element() <= size
 }
 
 /// The sets of `sets` split until there are `budget` of them (or no set has two units left):
@@ -304,5 +322,45 @@ mod tests {
         assert_eq!(to_budget(&units, vec![all], 8), sets);
         // a budget above the count leaves every unit alone
         assert_eq!(to_budget(&units, vec![(0..4).collect()], 100).len(), 4);
+    }
+
+    /// A small box (well within the patch size) whose six sides are each a 4 × 4 grid of
+    /// squares: clusters part it by normal, six of them, never one square each.
+    #[test]
+    fn a_small_detail_is_clustered_by_its_normals() {
+        let mut units = Vec::new();
+        for axis in 0..3 {
+            for side in [0.0, 1.0] {
+                for j in 0..4 {
+                    for i in 0..4 {
+                        let (a, b) = (i as f64 * 0.25, j as f64 * 0.25);
+                        let corner = |da: f64, db: f64| {
+                            let mut v = [0.0; 3];
+                            v[axis] = side;
+                            v[(axis + 1) % 3] = a + da;
+                            v[(axis + 2) % 3] = b + db;
+                            DVec3::from_array(v)
+                        };
+                        let mut quad = [
+                            corner(0.0, 0.0),
+                            corner(0.25, 0.0),
+                            corner(0.25, 0.25),
+                            corner(0.0, 0.25),
+                        ];
+                        if side == 0.0 {
+                            quad.reverse();
+                        }
+                        units.push(Unit::of(&Polygon::new(&quad).unwrap()));
+                    }
+                }
+            }
+        }
+        let clusters = by_size(&units, (0..units.len()).collect(), 10.0);
+        assert_eq!(clusters.len(), 6, "{clusters:?}");
+        assert!(
+            clusters
+                .iter()
+                .all(|c| c.len() == 16 && fits(&units, c, 10.0))
+        );
     }
 }

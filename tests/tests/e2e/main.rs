@@ -14,6 +14,7 @@ mod gltf;
 mod gltf_textures;
 mod import;
 mod meshing;
+mod real_scenes;
 mod reference;
 mod refine;
 mod render_reference;

@@ -13,7 +13,7 @@ use std::path::Path;
 use crate::util::{bake, cornell, lrr, root, temp_dir};
 
 /// Rows of RGB pixels of the first RGB(A) layer of an EXR file.
-fn read_rgb(path: &Path) -> (usize, usize, Vec<[f64; 3]>) {
+pub(crate) fn read_rgb(path: &Path) -> (usize, usize, Vec<[f64; 3]>) {
     use exr::prelude::{ReadChannels, ReadLayers, read};
     let image = read()
         .no_deep_data()
