@@ -96,6 +96,10 @@ pub enum SceneKind {
         /// per quad.
         #[arg(long)]
         fans: bool,
+        /// Each polygon cut into an N × N grid of triangle pairs (N² times the triangles of
+        /// the same surface: the tessellation benchmark, scripts/bench-tessellation).
+        #[arg(long, value_name = "N", conflicts_with = "fans")]
+        grid: Option<u32>,
     },
 }
 
@@ -133,12 +137,17 @@ pub fn run(a: &SceneArgs, out: &mut dyn Write) -> Result<()> {
         SceneKind::BoxSphere { triangles } => showcase::box_sphere(*triangles)?,
         SceneKind::Uneven => showcase::uneven(),
         SceneKind::Dense => showcase::dense(),
-        SceneKind::Triangulate { input, fans } => {
+        SceneKind::Triangulate { input, fans, grid } => {
             let origin = input.display().to_string();
             let text = std::fs::read_to_string(input)
                 .with_context(|| format!("reading the scene description {origin}"))?;
             let d = lrr_precompute::scene::description::SceneDescription::parse(&text, &origin)?;
-            let how = if *fans {
+            let how = if let Some(g) = grid {
+                if !(1..=64).contains(g) {
+                    anyhow::bail!("--grid {g}: use 1 to 64 cells per side");
+                }
+                procedural::Triangulation::Grid(*g)
+            } else if *fans {
                 procedural::Triangulation::Fans
             } else {
                 procedural::Triangulation::Pairs

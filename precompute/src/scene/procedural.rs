@@ -415,6 +415,10 @@ pub enum Triangulation {
     /// A fan from the first vertex over rim points added on every edge not at the hub, at 0.1%,
     /// 50% and 99.9% of its length: slivers of aspect about 1000 at each corner.
     Fans,
+    /// Each polygon cut into an `N × N` grid of cells (bilinear over a quad, barycentric over a
+    /// triangle), each cell two triangles (one at a triangle's diagonal): `2 N²` triangles per
+    /// quad, `N²` per triangle; the same surface at `N²` times the triangles.
+    Grid(u32),
 }
 
 /// The same scene with every polygon (and every box face, as surfaces named like the box's)
@@ -426,13 +430,17 @@ pub fn triangulated(d: &SceneDescription, how: Triangulation) -> SceneDescriptio
         "{} as triangles ({})",
         d.name.as_deref().unwrap_or("scene"),
         match how {
-            Triangulation::Pairs => "pairs",
-            Triangulation::Fans => "fans with slivers",
+            Triangulation::Pairs => "pairs".to_string(),
+            Triangulation::Fans => "fans with slivers".to_string(),
+            Triangulation::Grid(g) => format!("{g} x {g} grids"),
         }
     ));
     let split = |polygon: &[[f64; 3]]| -> Vec<Vec<[f64; 3]>> {
         let v: Vec<DVec3> = polygon.iter().map(|p| DVec3::from_array(*p)).collect();
         let n = v.len();
+        if let Triangulation::Grid(g) = how {
+            return grid_triangles(&v, g.max(1));
+        }
         let mut rim = vec![v[1]];
         for i in 1..n - 1 {
             if how == Triangulation::Fans {
@@ -458,6 +466,49 @@ pub fn triangulated(d: &SceneDescription, how: Triangulation) -> SceneDescriptio
                 material: b.material.clone(),
                 polygons: split(&quad),
             });
+        }
+    }
+    out
+}
+
+/// `v` (a triangle or a quad; other polygons as a fan of triangles) cut into a `g × g` grid,
+/// as triangles counter-clockwise like `v`.
+fn grid_triangles(v: &[glam::DVec3], g: u32) -> Vec<Vec<[f64; 3]>> {
+    let g = g as usize;
+    let t = |i: usize| i as f64 / g as f64;
+    let mut out = Vec::new();
+    match v.len() {
+        4 => {
+            let at = |i: usize, j: usize| {
+                let (a, b) = (v[0].lerp(v[1], t(i)), v[3].lerp(v[2], t(i)));
+                a.lerp(b, t(j)).to_array()
+            };
+            for j in 0..g {
+                for i in 0..g {
+                    let (p, q, r, s) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                    out.push(vec![p, q, r]);
+                    out.push(vec![p, r, s]);
+                }
+            }
+        }
+        3 => {
+            // Row j from v[0]: points v0 + (i (v1 - v0) + j (v2 - v0)) / g with i + j <= g.
+            let at = |i: usize, j: usize| {
+                (v[0] + (v[1] - v[0]) * t(i) + (v[2] - v[0]) * t(j)).to_array()
+            };
+            for j in 0..g {
+                for i in 0..g - j {
+                    out.push(vec![at(i, j), at(i + 1, j), at(i, j + 1)]);
+                    if i + j + 1 < g {
+                        out.push(vec![at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+                    }
+                }
+            }
+        }
+        _ => {
+            for w in 1..v.len() - 1 {
+                out.extend(grid_triangles(&[v[0], v[w], v[w + 1]], g as u32));
+            }
         }
     }
     out
@@ -661,4 +712,39 @@ pub fn messy() -> SceneDescription {
         patch_size: Some(0.8),
     };
     d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A grid triangulation keeps the area and the side of every polygon, with `2 g²`
+    /// triangles per quad and `g²` per triangle.
+    #[test]
+    fn grid_triangulation_keeps_area_and_side() {
+        use crate::geometry::area_vector;
+        use glam::DVec3;
+        let quad = [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(2.5, 1.0, 0.0),
+            DVec3::new(0.0, 1.5, 0.0),
+        ];
+        let tri = [quad[0], quad[1], quad[2]];
+        for g in [1usize, 3, 16] {
+            for (v, count) in [(&quad[..], 2 * g * g), (&tri[..], g * g)] {
+                let ts = grid_triangles(v, g as u32);
+                assert_eq!(ts.len(), count);
+                let whole = area_vector(v);
+                let mut sum = DVec3::ZERO;
+                for t in &ts {
+                    let p: Vec<DVec3> = t.iter().map(|x| DVec3::from_array(*x)).collect();
+                    let a = area_vector(&p);
+                    assert!(a.dot(whole) > 0.0);
+                    sum += a;
+                }
+                assert!((sum - whole).length() < 1e-12 * whole.length(), "{g}");
+            }
+        }
+    }
 }
