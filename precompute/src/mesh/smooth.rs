@@ -777,7 +777,11 @@ mod tests {
         let apex = DVec3::new(0.0, 0.0, 0.2);
         let rim = |i: usize| {
             let t = std::f64::consts::TAU * i as f64 / m as f64;
-            DVec3::new(t.cos(), t.sin(), if i.is_multiple_of(2) { 0.0 } else { 1e-5 })
+            DVec3::new(
+                t.cos(),
+                t.sin(),
+                if i.is_multiple_of(2) { 0.0 } else { 1e-5 },
+            )
         };
         let tris: Vec<[DVec3; 3]> = (0..m).map(|i| [apex, rim(i), rim(i + 1)]).collect();
         let scene = triangles(&tris);
