@@ -236,5 +236,3 @@ def export(op, output: str | os.PathLike, *, groups=None, emission=None, **flags
         for key, value in flags.items():
             argv += flag(key, value)
         return command(*argv)
-
-

@@ -101,10 +101,14 @@ impl PyOperator {
     }
 
     /// The radiosity a query shows: `radiosity` given (n values), else the baked frame's.
-    fn radiosity(&self, radiosity: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<[f32; 3]>> {
+    fn radiosity(
+        &self,
+        py: Python<'_>,
+        radiosity: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Vec<[f32; 3]>> {
         let n = self.op.n();
         let Some(r) = radiosity else {
-            return Ok(self.op.evaluate_baked());
+            return Ok(py.detach(|| self.op.evaluate_baked()));
         };
         let (array, o) = arrays::rgb_input(r, n, "radiosity")?;
         let mut scratch = vec![0.0f32; 3 * n];
@@ -165,6 +169,13 @@ fn points(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<[f32; 3]>> {
         ));
     }
     Ok(out)
+}
+
+/// `(n, 3)` float32 rows as a new, writable array.
+fn rows<'py>(py: Python<'py>, values: Vec<[f32; 3]>) -> PyResult<Bound<'py, PyAny>> {
+    let n = values.len();
+    let flat: Vec<f32> = values.into_iter().flatten().collect();
+    Ok(PyArray1::from_vec(py, flat).reshape([n, 3])?.into_any())
 }
 
 /// Points (or normals) of a query.
@@ -351,21 +362,17 @@ impl PyOperator {
         })
     }
 
-    /// The emission the scene was baked with: ``(n, 3)`` float32 exitance (W/m² in the scene's
-    /// units), element ids.
+    /// The emission the scene was baked with: ``(n, 3)`` float32 exitance per unit area (the
+    /// scene's units), element ids; a new array.
     #[getter]
-    fn baked_emission<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
-        let e = self.op.baked_emission();
-        PyArray2::from_vec2(py, &e.iter().map(|v| v.to_vec()).collect::<Vec<_>>())
-            .expect("rows of 3")
+    fn baked_emission<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        rows(py, self.op.baked_emission())
     }
 
-    /// Reflectance per element, ``(n, 3)`` float32 in [0, 1), element ids.
+    /// Reflectance per element, ``(n, 3)`` float32 in [0, 1), element ids; a new array.
     #[getter]
-    fn reflectance<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
-        let e = self.op.reflectance();
-        PyArray2::from_vec2(py, &e.iter().map(|v| v.to_vec()).collect::<Vec<_>>())
-            .expect("rows of 3")
+    fn reflectance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        rows(py, self.op.reflectance())
     }
 
     /// A persistent evaluator with ``threads`` threads in all (0: one per core). Its buffers
@@ -409,7 +416,7 @@ impl PyOperator {
     ) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let (p, nrm) = query(points, normals)?;
         let smooth = self.smooth(py, reconstruct)?;
-        let b = self.radiosity(radiosity)?;
+        let b = self.radiosity(py, radiosity)?;
         let values: Vec<[f32; 3]> = py
             .detach(|| -> Result<_, lrr_runtime::RuntimeError> {
                 let rec = if smooth {
@@ -474,7 +481,7 @@ impl PyOperator {
             None => vec![1.0; self.op.light_groups().len()],
         };
         let b = match (radiosity, groups) {
-            (Some(r), _) => self.radiosity(Some(r))?,
+            (Some(r), _) => self.radiosity(py, Some(r))?,
             (None, Some(_)) => {
                 let mut out = vec![[0.0f32; 3]; self.op.n()];
                 py.detach(|| {
@@ -484,7 +491,7 @@ impl PyOperator {
                 .or_raise(py)?;
                 out
             }
-            (None, None) => self.radiosity(None)?,
+            (None, None) => self.radiosity(py, None)?,
         };
         let args = trace::RenderArgs {
             width,

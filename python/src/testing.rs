@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use lrr_runtime::testkit::synthetic;
 use lrr_runtime::{Layout, Precision, Rgb, RgbMut};
-use numpy::PyArray2;
+use numpy::{PyArray2, PyArrayMethods};
 use pyo3::prelude::*;
 
 use crate::arrays;
@@ -81,6 +81,27 @@ fn rust_frame_seconds(
     .or_raise(py)
 }
 
+/// The radiosity of the bench emission evaluated from Rust (Rust-owned buffers), copied out:
+/// what ``evaluate`` from Python must equal.
+#[pyfunction]
+fn rust_bench_frame<'py>(
+    py: Python<'py>,
+    evaluator: &PyEvaluator,
+) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    let n = evaluator.n();
+    let emission = bench_emission(n);
+    let mut out = vec![[0.0f32; 3]; n];
+    py.detach(|| {
+        evaluator
+            .lock()
+            .eval
+            .evaluate(Rgb::triples(&emission), RgbMut::triples(&mut out))
+    })
+    .or_raise(py)?;
+    let flat: Vec<f32> = out.into_iter().flatten().collect();
+    numpy::PyArray1::from_vec(py, flat).reshape([n, 3])
+}
+
 /// ``evaluator.evaluate(emission, out)`` without releasing the GIL (float32 ``(n, 3)`` only):
 /// the control that shows the concurrency test can fail.
 #[pyfunction]
@@ -111,6 +132,7 @@ fn most_frames_at_once() -> usize {
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(synthetic_operator, m)?)?;
     m.add_function(wrap_pyfunction!(rust_frame_seconds, m)?)?;
+    m.add_function(wrap_pyfunction!(rust_bench_frame, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate_holding_gil, m)?)?;
     m.add_function(wrap_pyfunction!(most_frames_at_once, m)?)?;
     Ok(())

@@ -56,15 +56,18 @@ def test_evaluate_equals_lrr_probe_at_element_centroids(cornell, lrr_bin, tmp_pa
     assert not np.allclose(smooth_cli, values, rtol=1e-3), "smooth differs from flat"
 
 
-def test_evaluate_equals_the_rust_evaluator(cornell):
-    """`rust_frame_seconds` evaluates the bench emission in Rust; the same through Python."""
-    n = cornell.n
-    e = np.zeros((n, 3), np.float32)
+@pytest.mark.parametrize("threads", [1, 2])
+def test_evaluate_equals_the_rust_evaluator(cornell, threads):
+    """`rust_bench_frame` evaluates the bench emission from Rust on Rust-owned buffers; the
+    same emission through Python, in every buffer form, gives the same bits."""
+    ev = cornell.evaluator(threads)
+    e = np.zeros((cornell.n, 3), np.float32)
     e[::97] = [1.0, 0.8, 0.6]
-    one, many = cornell.evaluator(1), cornell.evaluator(2)
-    b1, b2 = one.evaluate(e), many.evaluate(e)
-    np.testing.assert_array_equal(b1, b2)  # rows are independent of the chunking
-    assert (b1 >= e).all() and (b1 > e).any()
+    rust = testing.rust_bench_frame(ev)
+    np.testing.assert_array_equal(ev.evaluate(e), rust)
+    np.testing.assert_array_equal(ev.evaluate(e.astype(np.float64)), rust)
+    np.testing.assert_array_equal(cornell.evaluator(3 - threads).evaluate(e), rust)
+    assert (rust >= e).all() and (rust > e).any()
 
 
 def test_linearity(cornell):
