@@ -126,7 +126,12 @@ pub(crate) fn msc_inputs<'a>(
         }
         out
     };
-    let mut probes = coherence::Probes::new(targets, reflectance, emission, occluder)?;
+    let (origin, _) = scene.bounds();
+    let frame = coherence::SeedFrame {
+        origin,
+        extent: scene.extent(),
+    };
+    let mut probes = coherence::Probes::new(targets, reflectance, emission, occluder, frame)?;
     for e in &probed {
         probes.elements[e.patch as usize] += 1.0;
     }

@@ -46,7 +46,7 @@ use crate::patches::cluster::NORMAL_CONE_DEGREES;
 
 /// Revision of the merge rule: part of the checkpoint key (`checkpoint::key`) and of a shard
 /// plan's settings, since a change gives other patches for the same flags.
-pub(crate) const REVISION: u32 = 1;
+pub(crate) const REVISION: u32 = 2;
 
 /// Default `--threshold` of the merge rule: the estimated (first-order) relative L2 error of
 /// the coarse mesh (module docs). On the Cornell box's default mesh (n = 2 116) it gives
@@ -479,7 +479,7 @@ impl FarField {
 
     /// The view of every probe from `x` (as `coherence::view`, the same rays).
     fn view(&self, probes: &Probes, x: DVec3, normal: DVec3, out: &mut [f64]) {
-        let seed = view_seed(x);
+        let seed = view_seed(&probes.frame, x);
         for (j, (target, out)) in probes.targets.iter().zip(out.iter_mut()).enumerate() {
             let seed = seed ^ j as u64;
             let occ = probes.occluder;
