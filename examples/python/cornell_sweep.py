@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -37,7 +38,7 @@ def main() -> None:
     p.add_argument("--quick", action="store_true", help="a coarser bake (a few seconds)")
     p.add_argument("-o", "--output", default="cornell-sweep.png")
     a = p.parse_args()
-    settings = {"element_size": 50, "samples": 4} if a.quick else {}
+    settings: dict[str, Any] = {"element_size": 50, "samples": 4} if a.quick else {}
     start = time.perf_counter()
     op = lrr.bake(SCENE, "cornell.lrr", **settings)
     print(f"baked n = {op.n}, k = {op.k} in {time.perf_counter() - start:.1f} s: {op.light_groups}")
@@ -91,8 +92,8 @@ def main() -> None:
     left.legend()
     styles = {"as baked": "-", "white": "--", "sky blue": ":"}
     for name, v in by_colour.items():
-        for c, colour in enumerate(("tab:red", "tab:green", "tab:blue")):
-            right.plot(x, v[:, c], styles[name], color=colour)
+        for ch, colour in enumerate(("tab:red", "tab:green", "tab:blue")):
+            right.plot(x, v[:, ch], styles[name], color=colour)
         right.plot([], [], styles[name], color="black", label=f"light {name}")
     right.set_title("light colour (R, G, B channels)")
     right.set_xlabel("x along the back wall (mm)")

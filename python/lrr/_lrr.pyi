@@ -4,18 +4,21 @@ from __future__ import annotations
 
 import os
 import pathlib
-from typing import Literal, Mapping, Optional, Sequence, Tuple, Union
+import types
+from typing import Literal, Mapping, Optional, Sequence, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
+_testing: types.ModuleType  # synthetic operators and timing, for the tests and the benchmark
 
 _Floats = Union[npt.NDArray[np.float32], npt.NDArray[np.float64], Sequence[Sequence[float]]]
 _Out = Optional[npt.NDArray[np.float32]]
 _Intensities = Union[Mapping[str, float], Sequence[float]]
 _Vec3 = Tuple[float, float, float]
 
+@final
 class Operator:
     """A baked operator file, loaded and validated; immutable (albedo edits live in
     evaluators). Element arrays are indexed by original element id."""
@@ -116,6 +119,7 @@ class Operator:
         """``lrr export`` of this operator (``.exr`` lightmap atlas, ``.glb``/``.gltf``);
         other keyword arguments are its flags; returns what it printed."""
 
+@final
 class Evaluator:
     """Frames of one operator on a persistent thread pool; nothing allocated per frame."""
 
