@@ -255,3 +255,33 @@ def test_two_evaluators_in_two_threads_run_at_once():
     assert at_once == 2, "frames of two threads never ran at the same time"
     if os.environ.get("LRR_ASSERT_SPEEDUP") == "1" and (os.cpu_count() or 1) >= 2:
         assert two > 1.3 * one and two > 1.3 * two_held
+
+
+def test_frames_allocate_no_arrays():
+    """With `out=`, frames allocate nothing numpy or Python would trace: a frame's output is
+    1.2 MB here, the limit a tenth of that (float64 and planar inputs included: they are
+    converted into the evaluator's own buffer)."""
+    import tracemalloc
+
+    op = testing.synthetic_operator(100_000, 20)
+    ev = op.evaluator(2)
+    e = np.zeros((op.n, 3), np.float32)
+    e[::97] = 1.0
+    e64, planes = e.astype(np.float64), np.ascontiguousarray(e.T)
+    out = np.empty((op.n, 3), np.float32)
+    intensities = {name: 1.0 for name in op.light_groups}
+    ev.evaluate(e, out=out)
+    tracemalloc.start()
+    try:
+        for _ in range(20):
+            ev.evaluate(e, out=out)
+            ev.evaluate(e64, out=out)
+            ev.evaluate(planes, out=out)
+            ev.evaluate_groups(intensities, out=out)
+        _, peak = tracemalloc.get_traced_memory()
+        ev.evaluate(e)  # the control: without out=, one new array
+        _, peak_control = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < out.nbytes // 10, peak
+    assert peak_control >= out.nbytes, "the measure sees a new array"
