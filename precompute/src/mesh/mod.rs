@@ -29,6 +29,7 @@ pub use element::{
     DEFAULT_ELEMENT_FRACTION, DEFAULT_PATCH_FRACTION, Element, MAX_ELEMENTS, MeshSizes,
 };
 pub use region::PlanCounts;
+pub(crate) use region::occluder_faces;
 pub use subdivide::{MeshReport, estimate_elements};
 
 /// The fine mesh (independent of the patch method), refused when it would be too large, and

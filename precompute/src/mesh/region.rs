@@ -137,6 +137,31 @@ pub(crate) fn plan(
     (roots, counts)
 }
 
+/// The faces occlusion rays are tested against: each planar group whose union is one convex
+/// polygon (a quad written as a grid of triangles, a fan) as that polygon, every other face as
+/// it is. The same surfaces, in fewer faces: a Cornell box whose quads are cut into 512
+/// triangles each traces against its quads (`None`: nothing merged, use the scene's faces).
+pub(crate) fn occluder_faces(scene: &Scene) -> Option<Vec<Face>> {
+    let tolerance = PLANE_TOLERANCE * scene.extent().max(f64::MIN_POSITIVE);
+    let mut out = Vec::with_capacity(scene.faces.len());
+    let mut merged_any = false;
+    for group in plane_groups(&scene.faces, tolerance) {
+        if group.len() > 1 {
+            let polygons: Vec<Polygon> = group.iter().map(|&f| scene.faces[f].polygon).collect();
+            if let Some(polygon) = merge_convex(&polygons, tolerance) {
+                out.push(Face {
+                    polygon,
+                    ..scene.faces[group[0]].clone()
+                });
+                merged_any = true;
+                continue;
+            }
+        }
+        out.extend(group.iter().map(|&f| scene.faces[f].clone()));
+    }
+    merged_any.then_some(out)
+}
+
 /// Faces grouped by (surface, material, plane), groups in order of their first face.
 fn plane_groups(faces: &[Face], tolerance: f64) -> Vec<Vec<usize>> {
     type Key = (usize, usize, [i64; 4]);

@@ -198,7 +198,9 @@ pub(super) fn to_budget(units: &[Unit], sets: Vec<Vec<usize>>, budget: usize) ->
     out
 }
 
-/// Splits `set` (at least two) at the median of its normals along the axis they spread most.
+/// Splits `set` (at least two) by its normals along the axis they spread most, at the middle
+/// of their range (a box's six sides part cleanly: a median would cut through one side's
+/// normals); at the median when all fall on one side of the middle.
 fn bisect_normals(units: &[Unit], set: &[usize]) -> [Vec<usize>; 2] {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
@@ -214,6 +216,12 @@ fn bisect_normals(units: &[Unit], set: &[usize]) -> [Vec<usize>; 2] {
     } else {
         2
     };
+    let middle = 0.5 * (lo[axis] + hi[axis]);
+    let (below, above): (Vec<usize>, Vec<usize>) =
+        set.iter().partition(|&&u| units[u].normal[axis] < middle);
+    if !below.is_empty() && !above.is_empty() {
+        return [below, above];
+    }
     let mut sorted = set.to_vec();
     sorted.sort_by(|&a, &b| {
         units[a].normal[axis]

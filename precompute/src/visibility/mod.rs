@@ -50,8 +50,17 @@ impl Backend {
         }
     }
 
-    /// Builds the backend's acceleration structure over the scene's faces.
+    /// Builds the backend's acceleration structure over the scene's surfaces: its faces, with
+    /// each planar group whose union is one convex polygon taken whole
+    /// (`mesh::occluder_faces`), so that a finer tessellation of the same surfaces does not
+    /// deepen every ray's traversal.
     pub fn build(self, scene: &Scene) -> Result<Box<dyn Occluder>> {
+        let merged = crate::mesh::occluder_faces(scene).map(|faces| {
+            let mut s = Scene::default();
+            s.faces = faces;
+            s
+        });
+        let scene = merged.as_ref().unwrap_or(scene);
         match self {
             Backend::Obvhs => Ok(Box::new(obvhs::ObvhsOccluder::build(scene))),
             #[cfg(feature = "embree")]
