@@ -113,3 +113,24 @@ def test_default_cornell_bake_equals_lrr_bake_bytes(tmp_path, lrr_bin):
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "py.lrr").read_bytes() == (tmp_path / "cli.lrr").read_bytes()
     assert op.n > 2000 and op.light_groups == ["light"]
+
+
+def test_the_wheel_builds_the_bake_with_the_binarys_crates():
+    """python/Cargo.lock pins the crates the bake computes with to the root Cargo.lock's
+    versions (it was seeded from it), so the wheel's bake is the binary's bake."""
+    import re
+    from collections import defaultdict
+
+    from conftest import REPO
+
+    def versions(path):
+        found = defaultdict(set)
+        for m in re.finditer(r'name = "([^"]+)"\nversion = "([^"]+)"', path.read_text()):
+            found[m.group(1)].add(m.group(2))
+        return found
+
+    root, python = versions(REPO / "Cargo.lock"), versions(REPO / "python" / "Cargo.lock")
+    bake_crates = ["faer", "obvhs", "rayon", "glam", "tobj", "gltf", "image", "toml",
+                   "serde_json", "indicatif", "clap", "exr", "png"]
+    for crate in bake_crates:
+        assert python[crate] == root[crate], (crate, python[crate], root[crate])
