@@ -50,7 +50,8 @@ pub(crate) const REVISION: u32 = 2;
 
 /// Default `--threshold` of the merge rule: the estimated (first-order) relative L2 error of
 /// the coarse mesh (module docs). On the Cornell box's default mesh (n = 2 116) it gives
-/// k = 162 at a measured relative error of 1.2e-3 against the exact solve, where the split
+/// k = 167 at a measured relative error of 1.1e-3 against the exact solve (k = 162 at 1.2e-3
+/// with the seeds before issue #31), where the split
 /// rule's default gave k = 333 at 9.3e-4; against the path tracer the default bake's smooth
 /// median and p90 are 1.33% and 4.35% (the split rule's: 1.34%, 4.65%), its bake 1.9× the
 /// CPU time of the former default (2MF, unrefined; the split rule's 1.6×; docs/MESHING.md,
