@@ -251,7 +251,7 @@ pub(crate) fn refine_mesh(
         (n0 as u128) * (k as u128) * 8,
         max_memory,
         &format!("the first pass of --refine (n = {n0} elements × k = {k} patches)"),
-        "use --refine 0, or a larger --element-size or --patch-size",
+        &format!("use --refine 0, or: {}", checkpoint::size_advice(&mesh)),
     )?;
     let mut ff =
         FormFactors::new(first.first_pass_samples(), first.occluder).with_enclosure(first.closed);

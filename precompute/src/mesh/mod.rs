@@ -202,4 +202,205 @@ mod tests {
             "{e}"
         );
     }
+
+    /// Hostile geometry, generated (a fixed seed, 48 scenes): needles, slivers, fans of up to
+    /// 1 000 triangles round a vertex, coincident and duplicated faces, zero-area faces, and
+    /// whole scenes scaled by 1e-6 to 1e6, with an emitter. Each one is imported (repairs
+    /// counted), meshed at its default sizes and given patches by 2MF and by 2MSC's merge
+    /// rule, or refused with an error: no panic, every mesh valid, every smooth weight set
+    /// summing to one as the file's check wants.
+    #[test]
+    fn hostile_geometry_meshes_or_is_refused() {
+        use crate::patches::{CoherenceRule, Mesh, PatchMethod};
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for case in 0..48 {
+            let scale = 10f64.powi((case % 13) - 6);
+            let mut scene = Scene::new("hostile");
+            let grey = Material {
+                name: "grey".into(),
+                reflectance: [0.7; 3],
+                emission: [0.0; 3],
+                optics: Default::default(),
+                texture: None,
+            };
+            let lamp = Material {
+                name: "lamp".into(),
+                reflectance: [0.0; 3],
+                emission: [5.0; 3],
+                ..grey.clone()
+            };
+            let g = scene.add_material(grey, "t").unwrap();
+            let l = scene.add_material(lamp, "t").unwrap();
+            let (sg, sl) = (scene.surface("things"), scene.surface("lamp"));
+            let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z) * scale;
+            // a floor and a lamp above it, facing each other
+            scene
+                .add_polygon(
+                    &[p(0., 0., 0.), p(1., 0., 0.), p(1., 1., 0.), p(0., 1., 0.)],
+                    g,
+                    sg,
+                    "t",
+                )
+                .unwrap();
+            scene
+                .add_polygon(
+                    &[
+                        p(0.4, 0.4, 1.),
+                        p(0.4, 0.6, 1.),
+                        p(0.6, 0.6, 1.),
+                        p(0.6, 0.4, 1.),
+                    ],
+                    l,
+                    sl,
+                    "t",
+                )
+                .unwrap();
+            let kinds = 1 + (next() * 6.0) as usize;
+            for _ in 0..kinds {
+                let c = [next(), next(), 0.05 + 0.9 * next()];
+                match (next() * 5.0) as usize {
+                    0 => {
+                        // a needle of aspect up to 1e6
+                        let len = 0.01 + next();
+                        let thin = len * 10f64.powf(-1.0 - 5.0 * next());
+                        scene
+                            .add_polygon(
+                                &[
+                                    p(c[0], c[1], c[2]),
+                                    p(c[0] + len, c[1], c[2]),
+                                    p(c[0] + 0.5 * len, c[1] + thin, c[2] + thin),
+                                ],
+                                g,
+                                sg,
+                                "t",
+                            )
+                            .unwrap();
+                    }
+                    1 => {
+                        // a fan round a vertex, slightly non-planar
+                        let m = 3 + (next() * 1000.0) as usize;
+                        let r = 0.05 + 0.2 * next();
+                        for i in 0..m {
+                            let a = std::f64::consts::TAU * i as f64 / m as f64;
+                            let b = std::f64::consts::TAU * (i + 1) as f64 / m as f64;
+                            let h = |i: usize| if i.is_multiple_of(2) { 0.0 } else { 1e-4 * r };
+                            scene
+                                .add_polygon(
+                                    &[
+                                        p(c[0], c[1], c[2] + 0.2 * r),
+                                        p(c[0] + r * a.cos(), c[1] + r * a.sin(), c[2] + h(i)),
+                                        p(c[0] + r * b.cos(), c[1] + r * b.sin(), c[2] + h(i + 1)),
+                                    ],
+                                    g,
+                                    sg,
+                                    "t",
+                                )
+                                .unwrap();
+                        }
+                    }
+                    2 => {
+                        // the same quad three times, and once reversed
+                        let q = [
+                            p(c[0], c[1], c[2]),
+                            p(c[0] + 0.1, c[1], c[2]),
+                            p(c[0] + 0.1, c[1] + 0.1, c[2]),
+                            p(c[0], c[1] + 0.1, c[2]),
+                        ];
+                        for _ in 0..3 {
+                            scene.add_polygon(&q, g, sg, "t").unwrap();
+                        }
+                        let r: Vec<DVec3> = q.iter().rev().copied().collect();
+                        scene.add_polygon(&r, g, sg, "t").unwrap();
+                    }
+                    3 => {
+                        // zero-area and nearly coincident vertices
+                        scene
+                            .add_polygon(
+                                &[
+                                    p(c[0], c[1], c[2]),
+                                    p(c[0], c[1], c[2]),
+                                    p(c[0] + 0.1, c[1], c[2]),
+                                ],
+                                g,
+                                sg,
+                                "t",
+                            )
+                            .unwrap();
+                        let e = 1e-12;
+                        scene
+                            .add_polygon(
+                                &[
+                                    p(c[0], c[1], c[2]),
+                                    p(c[0] + e, c[1], c[2]),
+                                    p(c[0], c[1] + 0.2, c[2] + 0.1),
+                                ],
+                                g,
+                                sg,
+                                "t",
+                            )
+                            .unwrap();
+                    }
+                    _ => {
+                        // a dense patch of random small triangles
+                        for _ in 0..200 {
+                            let d = [next(), next(), next()].map(|x| 0.02 * x);
+                            let o = [c[0] + 0.2 * next(), c[1] + 0.2 * next(), c[2]];
+                            scene
+                                .add_polygon(
+                                    &[
+                                        p(o[0], o[1], o[2]),
+                                        p(o[0] + d[0], o[1], o[2] + d[2]),
+                                        p(o[0], o[1] + d[1], o[2]),
+                                    ],
+                                    g,
+                                    sg,
+                                    "t",
+                                )
+                                .unwrap();
+                        }
+                    }
+                }
+            }
+            let sizes = MeshSizes::resolve(&scene, None, None).unwrap();
+            for method in [
+                PatchMethod::TwoFixed,
+                PatchMethod::SpatialCoherence {
+                    threshold: 7e-5,
+                    min_patch_area: None,
+                    rule: CoherenceRule::Merge,
+                },
+            ] {
+                let mesh = match Mesh::build(&scene, sizes, method, None) {
+                    Ok(m) => m,
+                    Err(e) => {
+                        let text = e.to_string();
+                        assert!(!text.contains('\n'), "case {case}: {text}");
+                        continue;
+                    }
+                };
+                mesh.validate()
+                    .unwrap_or_else(|e| panic!("case {case}: {e}"));
+                let refs: Vec<&Element> = (0..mesh.n()).map(|i| mesh.element_at(i)).collect();
+                let w = smooth::weights(&scene, &refs);
+                for v in 0..w.vertex_count() {
+                    let r = w.offsets[v] as usize..w.offsets[v + 1] as usize;
+                    let sum: f64 = w.weights[r.clone()].iter().map(|&x| f64::from(x)).sum();
+                    assert!(
+                        (sum - 1.0).abs() < 1e-5,
+                        "case {case} (scale {scale:e}): vertex {v} sums to {sum}"
+                    );
+                    assert!(
+                        w.weights[r].iter().all(|&x| x != 0.0 && x.abs() <= 8.0),
+                        "case {case}"
+                    );
+                }
+            }
+        }
+    }
 }

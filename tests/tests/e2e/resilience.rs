@@ -275,6 +275,38 @@ fn bakes_are_identical_across_runs_and_thread_counts() {
     );
 }
 
+/// A mesh at its floor of one element per input face (the dense sphere of 5 120 triangles,
+/// each smaller than the element size): the refusal says a larger element size will not help
+/// and names what will; following it (2MF with a larger patch size) the bake fits the same
+/// memory.
+#[test]
+fn a_refusal_at_the_element_floor_gives_advice_that_works() {
+    let dir = temp_dir("memory-floor");
+    let scene =
+        crate::util::generated_scene(&dir, "sphere", &["dense-sphere", "--subdivisions", "4"]);
+    let out = dir.join("sphere.lrr");
+    let err = bake(&scene, &out, &["--max-memory", "4M"]).unwrap_err();
+    assert!(
+        err.contains("will not lower it")
+            && err.contains("--method 2mf with a larger --patch-size"),
+        "{err}"
+    );
+    bake(
+        &scene,
+        &out,
+        &[
+            "--max-memory",
+            "4M",
+            "--method",
+            "2mf",
+            "--patch-size",
+            "1.0",
+        ],
+    )
+    .unwrap_or_else(|e| panic!("the advice did not make the bake fit: {e}"));
+    assert!(out.exists());
+}
+
 #[test]
 fn a_bake_larger_than_memory_is_refused_before_allocating() {
     let dir = temp_dir("memory");
