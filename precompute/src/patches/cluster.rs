@@ -55,24 +55,40 @@ impl Unit {
 /// of the centroids along the longest axis of their bounding box; each half sorted by index.
 pub(super) fn bisect(units: &[Unit], set: &[usize]) -> [Vec<usize>; 2] {
     debug_assert!(set.len() >= 2);
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for &u in set {
-        lo = lo.min(units[u].centroid);
-        hi = hi.max(units[u].centroid);
-    }
-    let extent = hi - lo;
-    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+    let (lo, hi) = span(set.iter().map(|&u| units[u].centroid));
+    median_split(units, set, widest_axis(hi - lo), |u| u.centroid)
+}
+
+/// The componentwise minimum and maximum of `points`.
+fn span(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
+    points.fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(p), hi.max(p)),
+    )
+}
+
+/// The axis (0, 1, 2) of the largest component of `extent` (the first on ties).
+fn widest_axis(extent: DVec3) -> usize {
+    if extent.x >= extent.y && extent.x >= extent.z {
         0
     } else if extent.y >= extent.z {
         1
     } else {
         2
-    };
+    }
+}
+
+/// `set` halved at the median of `value(unit)[axis]` (ties by index), each half sorted.
+fn median_split(
+    units: &[Unit],
+    set: &[usize],
+    axis: usize,
+    value: impl Fn(&Unit) -> DVec3,
+) -> [Vec<usize>; 2] {
     let mut sorted = set.to_vec();
     sorted.sort_by(|&a, &b| {
-        units[a].centroid[axis]
-            .total_cmp(&units[b].centroid[axis])
+        value(&units[a])[axis]
+            .total_cmp(&value(&units[b])[axis])
             .then(a.cmp(&b))
     });
     let mut second = sorted.split_off(sorted.len() / 2);
@@ -81,25 +97,24 @@ pub(super) fn bisect(units: &[Unit], set: &[usize]) -> [Vec<usize>; 2] {
     [sorted, second]
 }
 
+/// A set's vertex bounding box and whether its normals lie within the cone of
+/// [`NORMAL_CONE_DEGREES`] around their area-weighted mean.
+fn summary(units: &[Unit], set: &[usize]) -> (DVec3, DVec3, bool) {
+    let lo = span(set.iter().map(|&u| units[u].lo)).0;
+    let hi = span(set.iter().map(|&u| units[u].hi)).1;
+    let mean: DVec3 = set.iter().map(|&u| units[u].area * units[u].normal).sum();
+    let cos = NORMAL_CONE_DEGREES.to_radians().cos();
+    let within = mean
+        .try_normalize()
+        .is_some_and(|m| set.iter().all(|&u| units[u].normal.dot(m) >= cos));
+    (lo, hi, within)
+}
+
 /// True when the set's vertex bounding box has no side longer than `size` and its normals lie
 /// within the cone of [`NORMAL_CONE_DEGREES`] around their area-weighted mean.
 pub(super) fn fits(units: &[Unit], set: &[usize], size: f64) -> bool {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    let mut mean = DVec3::ZERO;
-    for &u in set {
-        lo = lo.min(units[u].lo);
-        hi = hi.max(units[u].hi);
-        mean += units[u].area * units[u].normal;
-    }
-    if (hi - lo).max_element() > size {
-        return false;
-    }
-    let Some(mean) = mean.try_normalize() else {
-        return false;
-    };
-    let cos = NORMAL_CONE_DEGREES.to_radians().cos();
-    set.iter().all(|&u| units[u].normal.dot(mean) >= cos)
+    let (lo, hi, within) = summary(units, set);
+    (hi - lo).max_element() <= size && within
 }
 
 /// The 2MF clusters of `set`: bisected until each [`fits`] the patch size. Each cluster is
@@ -131,12 +146,7 @@ pub(super) fn by_size(units: &[Unit], set: Vec<usize>, size: f64) -> Vec<Vec<usi
 
 /// True when the set's vertex bounding box has no side longer than `size`.
 fn box_fits(units: &[Unit], set: &[usize], size: f64) -> bool {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for &u in set {
-        lo = lo.min(units[u].lo);
-        hi = hi.max(units[u].hi);
-    }
+    let (lo, hi, _) = summary(units, set);
     (hi - lo).max_element() <= size
 }
 
@@ -150,22 +160,14 @@ pub(super) fn to_budget(units: &[Unit], sets: Vec<Vec<usize>>, budget: usize) ->
     // (normals outside the cone, box diagonal's bits, first index): f64 bits of a
     // non-negative number order as the number does.
     let key = |set: &[usize]| {
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        let mut mean = DVec3::ZERO;
-        for &u in set {
-            lo = lo.min(units[u].lo);
-            hi = hi.max(units[u].hi);
-            mean += units[u].area * units[u].normal;
-        }
-        let cos = NORMAL_CONE_DEGREES.to_radians().cos();
-        let spread = match mean.try_normalize() {
-            Some(m) => set.iter().any(|&u| units[u].normal.dot(m) < cos),
-            None => true,
-        };
+        let (lo, hi, within) = summary(units, set);
         let diagonal = (hi - lo).length();
         let diagonal = if diagonal.is_finite() { diagonal } else { 0.0 };
-        (spread && set.len() > 1, diagonal.to_bits(), Reverse(set[0]))
+        (
+            !within && set.len() > 1,
+            diagonal.to_bits(),
+            Reverse(set[0]),
+        )
     };
     let mut heap: BinaryHeap<_> = sets
         .into_iter()
@@ -202,36 +204,15 @@ pub(super) fn to_budget(units: &[Unit], sets: Vec<Vec<usize>>, budget: usize) ->
 /// of their range (a box's six sides part cleanly: a median would cut through one side's
 /// normals); at the median when all fall on one side of the middle.
 fn bisect_normals(units: &[Unit], set: &[usize]) -> [Vec<usize>; 2] {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for &u in set {
-        lo = lo.min(units[u].normal);
-        hi = hi.max(units[u].normal);
-    }
-    let e = hi - lo;
-    let axis = if e.x >= e.y && e.x >= e.z {
-        0
-    } else if e.y >= e.z {
-        1
-    } else {
-        2
-    };
+    let (lo, hi) = span(set.iter().map(|&u| units[u].normal));
+    let axis = widest_axis(hi - lo);
     let middle = 0.5 * (lo[axis] + hi[axis]);
     let (below, above): (Vec<usize>, Vec<usize>) =
         set.iter().partition(|&&u| units[u].normal[axis] < middle);
     if !below.is_empty() && !above.is_empty() {
         return [below, above];
     }
-    let mut sorted = set.to_vec();
-    sorted.sort_by(|&a, &b| {
-        units[a].normal[axis]
-            .total_cmp(&units[b].normal[axis])
-            .then(a.cmp(&b))
-    });
-    let mut second = sorted.split_off(sorted.len() / 2);
-    sorted.sort_unstable();
-    second.sort_unstable();
-    [sorted, second]
+    median_split(units, set, axis, |u| u.normal)
 }
 
 #[cfg(test)]
