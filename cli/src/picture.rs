@@ -8,7 +8,7 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lrr_formats::Camera;
-use lrr_runtime::trace::{Image, Tracer};
+use lrr_runtime::trace::{CameraChoiceError, CameraFields, Image, Tracer};
 
 use crate::exr_image::{self, ExrSamples, RgbLayer};
 
@@ -36,36 +36,22 @@ pub struct CameraArgs {
 impl CameraArgs {
     /// The camera the flags and the cameras of `tracer`'s file (`file`, for errors) make.
     pub fn camera(&self, tracer: &Tracer, file: &Path) -> Result<Camera> {
-        let cameras = tracer.cameras();
-        let base = match &self.camera {
-            Some(name) => Some(cameras.iter().find(|c| &c.name == name).with_context(|| {
-                let names: Vec<String> = cameras.iter().map(|c| format!("'{}'", c.name)).collect();
-                format!(
-                    "--camera {name}: the file has no such camera (it has: {})",
-                    if names.is_empty() {
-                        "none".into()
-                    } else {
-                        names.join(", ")
-                    }
-                )
-            })?),
-            None => cameras.first(),
+        let fields = CameraFields {
+            name: self.camera.clone(),
+            eye: self.eye,
+            target: self.target,
+            up: self.up,
+            fov_y_deg: self.fov_y,
         };
-        let eye = self.eye.or(base.map(|c| c.eye));
-        let target = self.target.or(base.map(|c| c.target));
-        let (Some(eye), Some(target)) = (eye, target) else {
-            bail!(
+        fields.choose(tracer.cameras()).map_err(|e| match e {
+            CameraChoiceError::NoSuchCamera { name, available } => anyhow::anyhow!(
+                "--camera {name}: the file has no such camera (it has: {available})"
+            ),
+            CameraChoiceError::NoCamera => anyhow::anyhow!(
                 "{}: the file has no camera; give one with --eye X,Y,Z --target X,Y,Z \
                  (and --up, --fov-y)",
                 file.display()
-            );
-        };
-        Ok(Camera {
-            name: base.map_or(String::new(), |c| c.name.clone()),
-            eye,
-            target,
-            up: self.up.or(base.map(|c| c.up)).unwrap_or([0.0, 1.0, 0.0]),
-            fov_y_deg: self.fov_y.or(base.map(|c| c.fov_y_deg)).unwrap_or(60.0),
+            ),
         })
     }
 }

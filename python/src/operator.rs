@@ -496,12 +496,12 @@ impl PyOperator {
         let args = trace::RenderArgs {
             width,
             height,
-            camera: trace::CameraArgs {
+            camera: lrr_runtime::trace::CameraFields {
                 name: camera,
                 eye,
                 target,
                 up,
-                fov_y,
+                fov_y_deg: fov_y,
             },
             smooth,
             max_depth,

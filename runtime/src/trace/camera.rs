@@ -6,6 +6,70 @@ use lrr_formats::Camera;
 use super::math::{V3, cross, dot, length, mad, normalize, scale, sub};
 use crate::error::{RuntimeError, input};
 
+/// The fields of a camera to trace through, any of them given (`lrr render`'s flags, Python's
+/// keyword arguments); [`CameraFields::choose`] fills the rest from a file's cameras.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CameraFields {
+    /// The file's camera of this name (default: its first).
+    pub name: Option<String>,
+    /// Eye position (default: the camera's).
+    pub eye: Option<[f32; 3]>,
+    /// Point looked at (default: the camera's).
+    pub target: Option<[f32; 3]>,
+    /// Up direction (default: the camera's, else +y).
+    pub up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees (default: the camera's, else 60).
+    pub fov_y_deg: Option<f32>,
+}
+
+/// Why [`CameraFields::choose`] made no camera; each caller words it for its own arguments.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CameraChoiceError {
+    /// The file has no camera of this name; `available` lists its names quoted, or "none".
+    NoSuchCamera {
+        /// The name asked for.
+        name: String,
+        /// The file's camera names, quoted, or "none".
+        available: String,
+    },
+    /// The file has no camera, and the eye or the target was not given.
+    NoCamera,
+}
+
+impl CameraFields {
+    /// The camera of `cameras` named `name` (default: the first), each field replaced where
+    /// given; without a camera in the file, `eye` and `target` are needed, `up` defaults to
+    /// +y and the field of view to 60°.
+    pub fn choose(&self, cameras: &[Camera]) -> Result<Camera, CameraChoiceError> {
+        let base = match &self.name {
+            Some(name) => Some(cameras.iter().find(|c| &c.name == name).ok_or_else(|| {
+                let names: Vec<String> = cameras.iter().map(|c| format!("'{}'", c.name)).collect();
+                CameraChoiceError::NoSuchCamera {
+                    name: name.clone(),
+                    available: if names.is_empty() {
+                        "none".into()
+                    } else {
+                        names.join(", ")
+                    },
+                }
+            })?),
+            None => cameras.first(),
+        };
+        let eye = self.eye.or(base.map(|c| c.eye));
+        let target = self.target.or(base.map(|c| c.target));
+        let (Some(eye), Some(target)) = (eye, target) else {
+            return Err(CameraChoiceError::NoCamera);
+        };
+        Ok(Camera {
+            name: base.map_or(String::new(), |c| c.name.clone()),
+            eye,
+            target,
+            up: self.up.or(base.map(|c| c.up)).unwrap_or([0.0, 1.0, 0.0]),
+            fov_y_deg: self.fov_y_deg.or(base.map(|c| c.fov_y_deg)).unwrap_or(60.0),
+        })
+    }
+}
+
 /// A checked camera with its frame: `forward`, and `right` and `up` scaled by the half extents
 /// of the image plane at distance 1.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -138,7 +202,7 @@ impl View {
 mod tests {
     use lrr_formats::Camera;
 
-    use super::View;
+    use super::{CameraChoiceError, CameraFields, View};
     use crate::trace::math::{mad, scale, sub};
 
     /// A triangle a camera ray through a pixel centre hits is never called unseen, at fields
@@ -215,5 +279,55 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Fields given replace the named camera's; a missing name lists the file's; no camera
+    /// at all needs an eye and a target, and then up and the field of view default.
+    #[test]
+    fn fields_choose_a_camera_from_the_file() {
+        let cam = |name: &str, x: f32| Camera {
+            name: name.into(),
+            eye: [x, 0.0, 0.0],
+            target: [0.0; 3],
+            up: [0.0, 0.0, 1.0],
+            fov_y_deg: 40.0,
+        };
+        let cameras = [cam("a", 1.0), cam("b", 2.0)];
+        let fields = CameraFields {
+            name: Some("b".into()),
+            fov_y_deg: Some(30.0),
+            ..CameraFields::default()
+        };
+        let chosen = fields.choose(&cameras).unwrap();
+        assert_eq!(
+            (chosen.eye[0], chosen.fov_y_deg, chosen.up),
+            (2.0, 30.0, [0.0, 0.0, 1.0])
+        );
+        assert_eq!(CameraFields::default().choose(&cameras).unwrap().name, "a");
+        let missing = CameraFields {
+            name: Some("c".into()),
+            ..CameraFields::default()
+        };
+        assert_eq!(
+            missing.choose(&cameras),
+            Err(CameraChoiceError::NoSuchCamera {
+                name: "c".into(),
+                available: "'a', 'b'".into()
+            })
+        );
+        assert_eq!(
+            CameraFields::default().choose(&[]),
+            Err(CameraChoiceError::NoCamera)
+        );
+        let given = CameraFields {
+            eye: Some([0.0, 0.0, 5.0]),
+            target: Some([0.0; 3]),
+            ..CameraFields::default()
+        };
+        let c = given.choose(&[]).unwrap();
+        assert_eq!(
+            (c.up, c.fov_y_deg, c.name.as_str()),
+            ([0.0, 1.0, 0.0], 60.0, "")
+        );
     }
 }

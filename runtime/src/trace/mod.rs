@@ -65,7 +65,7 @@ mod shade;
 mod tracer;
 
 pub use batch::{RayBatch, TraceHit};
-pub use camera::View;
+pub use camera::{CameraChoiceError, CameraFields, View};
 pub use effects::{DEFAULT_MAX_DEPTH, Decision, Effects, MAX_DEPTH_LIMIT};
 pub use shade::RayCounts;
 pub use tracer::{Image, Lighting, RenderReport, TILE_ROWS, Tracer};
