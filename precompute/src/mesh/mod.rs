@@ -102,11 +102,12 @@ mod tests {
     use crate::scene::{Face, Material};
     use glam::DVec3;
 
-    /// A scene of one triangle (base `b` along x, apex above its middle, area 1) in a room-less
-    /// void: what a new user tries first.
-    fn needle(b: f64) -> Scene {
+    /// A scene named `name` of one surface of that name and one grey material, made of the
+    /// triangles (those with no area left out), as the tests of meshing and of the smooth
+    /// weights build them.
+    pub(crate) fn one_surface(name: &str, triangles: &[[DVec3; 3]]) -> Scene {
         let mut s = Scene::default();
-        s.name = "needle".into();
+        s.name = name.into();
         s.materials.push(Material {
             name: "m".into(),
             reflectance: [0.5; 3],
@@ -114,19 +115,29 @@ mod tests {
             optics: Default::default(),
             texture: None,
         });
-        s.surfaces.push("needle".into());
+        s.surfaces.push(name.into());
+        for t in triangles {
+            if let Some(polygon) = Polygon::new(t) {
+                s.faces.push(Face {
+                    polygon,
+                    material: 0,
+                    surface: 0,
+                    uv: [None, None],
+                });
+            }
+        }
+        s
+    }
+
+    /// A scene of one triangle (base `b` along x, apex above its middle, area 1) in a room-less
+    /// void: what a new user tries first.
+    fn needle(b: f64) -> Scene {
         let v = [
             DVec3::new(0.0, 0.0, 0.0),
             DVec3::new(b, 0.0, 0.0),
             DVec3::new(0.5 * b, 2.0 / b, 0.0),
         ];
-        s.faces.push(Face {
-            polygon: Polygon::new(&v).unwrap(),
-            material: 0,
-            surface: 0,
-            uv: [None, None],
-        });
-        s
+        one_surface("needle", &[v])
     }
 
     /// Needles of area 1, aspect (base / height) 1 to 10⁶ at h = 0.1: `A / h² ≤ n ≤

@@ -713,31 +713,9 @@ mod tests {
         assert_eq!(a, b);
     }
 
-    /// A scene of the given triangles, one surface and one material each triangle list.
+    /// A scene of the given triangles, one surface and one material.
     fn triangles(tris: &[[DVec3; 3]]) -> Scene {
-        use crate::geometry::Polygon;
-        use crate::scene::{Face, Material};
-        let mut s = Scene::default();
-        s.name = "t".into();
-        s.materials.push(Material {
-            name: "m".into(),
-            reflectance: [0.5; 3],
-            emission: [0.0; 3],
-            optics: Default::default(),
-            texture: None,
-        });
-        s.surfaces.push("s".into());
-        for t in tris {
-            if let Some(polygon) = Polygon::new(t) {
-                s.faces.push(Face {
-                    polygon,
-                    material: 0,
-                    surface: 0,
-                    uv: [None, None],
-                });
-            }
-        }
-        s
+        crate::mesh::tests::one_surface("s", tris)
     }
 
     /// The weights of `scene` meshed at `h` are well formed, and the file's own check (the

@@ -17,7 +17,7 @@
 
 use glam::DVec3;
 
-use crate::geometry::Polygon;
+use crate::geometry::{Polygon, Region};
 
 /// Largest angle between a piece's normal and its 2MF cluster's mean normal.
 pub(super) const NORMAL_CONE_DEGREES: f64 = 45.0;
@@ -48,6 +48,24 @@ impl Unit {
             lo,
             hi,
         }
+    }
+
+    /// A region as one unit: its parts' bounding box, area and centroid, and their
+    /// area-weighted mean normal (the first part's where they cancel).
+    pub(super) fn of_region(r: &Region) -> Self {
+        let parts = r.parts();
+        let mut u = Self::of(&parts[0]);
+        let mut normal = DVec3::ZERO;
+        for q in parts {
+            let v = Self::of(q);
+            u.lo = u.lo.min(v.lo);
+            u.hi = u.hi.max(v.hi);
+            normal += v.area * v.normal;
+        }
+        u.centroid = r.centroid();
+        u.area = r.area();
+        u.normal = normal.try_normalize().unwrap_or(parts[0].normal);
+        u
     }
 }
 

@@ -19,8 +19,6 @@ mod patch;
 
 pub use patch::{CoherenceRule, Patch, PatchMethod};
 
-use glam::DVec3;
-
 use crate::error::{Error, Result};
 use crate::geometry::{Polygon, Region};
 use crate::mesh::subdivide;
@@ -166,21 +164,7 @@ fn grouped_probes(
 ) -> (Vec<Region>, Vec<f64>, Vec<f64>) {
     let units: Vec<cluster::Unit> = patches
         .iter()
-        .map(|p| {
-            let parts = p.shape.parts();
-            let mut u = cluster::Unit::of(&parts[0]);
-            let mut normal = DVec3::ZERO;
-            for q in parts {
-                let v = cluster::Unit::of(q);
-                u.lo = u.lo.min(v.lo);
-                u.hi = u.hi.max(v.hi);
-                normal += v.area * v.normal;
-            }
-            u.centroid = p.shape.centroid();
-            u.area = p.shape.area();
-            u.normal = normal.try_normalize().unwrap_or(parts[0].normal);
-            u
-        })
+        .map(|p| cluster::Unit::of_region(&p.shape))
         .collect();
     let materials: Vec<coherence::Material> =
         patches.iter().map(|p| material(scene, p.face)).collect();
@@ -452,25 +436,11 @@ impl Mesh {
                 let e = &self.element_at(s).polygon;
                 let off = parts
                     .iter()
-                    .map(|part| {
-                        let v = part.vertices();
-                        e.vertices()
-                            .iter()
-                            .map(|&x| {
-                                let edge = (0..v.len())
-                                    .map(|i| {
-                                        let (a, b) = (v[i], v[(i + 1) % v.len()]);
-                                        -(b - a).cross(x - a).dot(part.normal) / (b - a).length()
-                                    })
-                                    .fold(part.height(x).abs(), f64::max);
-                                edge / part.scale
-                            })
-                            .fold(0.0, f64::max)
-                    })
+                    .map(|part| outside_by(e, part) / part.max_edge())
                     .fold(f64::INFINITY, f64::min);
                 return Err(format!(
-                    "element {} lies outside patch {p} (inclusion): {off:.1e} of the part's \
-                     size off its nearest part",
+                    "element {} lies outside patch {p} (inclusion): {off:.1e} of its nearest \
+                     part's longest edge off it",
                     self.order[s]
                 ));
             }
@@ -491,15 +461,24 @@ fn inside(e: &Polygon, part: &Polygon) -> bool {
         .iter()
         .map(|v| v.abs().max_element())
         .fold(0.0, f64::max);
-    let tol = 1e-8 * part.max_edge() + 1e-13 * magnitude;
+    outside_by(e, part) <= 1e-8 * part.max_edge() + 1e-13 * magnitude
+}
+
+/// How far the vertices of `e` lie outside the convex polygon `part` at most (scene units):
+/// off its plane, or beyond one of its edges.
+fn outside_by(e: &Polygon, part: &Polygon) -> f64 {
     let v = part.vertices();
-    e.vertices().iter().all(|&x| {
-        part.height(x).abs() <= tol
-            && (0..v.len()).all(|i| {
-                let (a, b) = (v[i], v[(i + 1) % v.len()]);
-                (b - a).cross(x - a).dot(part.normal) >= -tol * (b - a).length()
-            })
-    })
+    e.vertices()
+        .iter()
+        .map(|&x| {
+            (0..v.len())
+                .map(|i| {
+                    let (a, b) = (v[i], v[(i + 1) % v.len()]);
+                    -(b - a).cross(x - a).dot(part.normal) / (b - a).length()
+                })
+                .fold(part.height(x).abs(), f64::max)
+        })
+        .fold(0.0, f64::max)
 }
 
 impl Mesh {
