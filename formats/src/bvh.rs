@@ -73,13 +73,21 @@ pub(crate) fn decode(payload: &[u8]) -> Result<Bvh, FormatError> {
 
 /// The invariants of [`Bvh`] against the file's display triangles: a tree whose children come
 /// after their parents, leaves that share out the triangle list, every triangle exactly once,
-/// and boxes that hold their triangles and children. Geometry has been checked before.
+/// and boxes that hold their triangles and children. The display faces (GEOMETRY, or FACES)
+/// have been checked before.
 pub(crate) fn check(f: &OperatorFile, bvh: &Bvh) -> Result<(), FormatError> {
     let fail = |m: String| Err(FormatError::invalid(format!("section BVH: {m}")));
-    let count = f.geometry.triangle_count();
+    let faces = f.faces();
+    let g = faces.geometry;
+    let count = faces.triangle_count();
     if bvh.triangles.len() != count {
+        let source = if faces.is_separate() {
+            "FACES"
+        } else {
+            "GEOMETRY"
+        };
         return fail(format!(
-            "{} triangle ids, but GEOMETRY has {count} display triangles",
+            "{} triangle ids, but {source} has {count} display triangles",
             bvh.triangles.len()
         ));
     }
@@ -98,20 +106,16 @@ pub(crate) fn check(f: &OperatorFile, bvh: &Bvh) -> Result<(), FormatError> {
     // Per triangle slot: which leaf holds it; per node: its parent.
     let mut slot_leaf = vec![u32::MAX; count];
     let mut parent = vec![u32::MAX; nodes];
-    let scale = f
-        .geometry
-        .vertices
-        .iter()
-        .fold(0.0f32, |m, v| m.max(v.abs()));
+    let scale = g.vertices.iter().fold(0.0f32, |m, v| m.max(v.abs()));
     let slack = BOX_TOLERANCE * scale;
-    // Per triangle id: element `e` and fan index `i` as `e << 2 | i` (8 bytes, not the 36 of
-    // its vertices: the decoder's memory stays within a small multiple of the input).
-    let fan: Vec<u64> = (f.geometry.vertex_count.iter().enumerate())
+    // Per triangle id: face `e` and fan index `i` as `e << 2 | i` (8 bytes, not the 36 of its
+    // vertices: the decoder's memory stays within a small multiple of the input).
+    let fan: Vec<u64> = (g.vertex_count.iter().enumerate())
         .flat_map(|(e, &c)| {
             (1..usize::from(c).saturating_sub(1)).map(move |i| (e as u64) << 2 | i as u64)
         })
         .collect();
-    let vertex = |e: usize, j: usize| vec3(&f.geometry.vertices[e * 12 + j * 3..]);
+    let vertex = |e: usize, j: usize| vec3(&g.vertices[e * 12 + j * 3..]);
     // Boxes first: a parent compares its children's boxes with its own.
     for (i, node) in bvh.nodes.iter().enumerate() {
         if let Some(j) = (0..3).find(|&j| {

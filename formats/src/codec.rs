@@ -15,11 +15,12 @@ use crate::bytes::{self, checked_product};
 use crate::container::{Container, VERSION_MAJOR};
 use crate::display::Display;
 use crate::error::{ErrorKind, FormatError};
-use crate::file::{Geometry, Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
+use crate::file::{Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
+use crate::geometry::Geometry;
 use crate::kind;
 use crate::validate::{Sizes, check_dims, check_fk};
 use crate::writer::{ContainerWriter, Streamed};
-use crate::{bvh, cameras, lightmap, lights, materials, point_lights, smooth};
+use crate::{bvh, cameras, faces, lightmap, lights, materials, point_lights, smooth};
 
 /// Bytes in the DIMS payload: n, k, channels, precision, layout, 3 reserved, all u32.
 pub(crate) const DIMS_LEN: usize = 32;
@@ -63,8 +64,11 @@ impl OperatorFile {
 /// The minor version stamped on files without display sections: the version that describes
 /// them completely, so that they keep the bytes a 1.1 writer gave them.
 pub(crate) const MINOR_WITHOUT_DISPLAY: u16 = 1;
-/// The minor version of files with display sections but no LIGHTMAP (what a 1.2 writer gave).
+/// The minor version of files with display sections but no LIGHTMAP or FACES (what a 1.2 writer
+/// gave).
 pub(crate) const MINOR_WITHOUT_LIGHTMAP: u16 = 2;
+/// The minor version of files with LIGHTMAP but no FACES (what a 1.3 writer gave).
+pub(crate) const MINOR_WITHOUT_FACES: u16 = 3;
 
 /// Sections before FK in a factored file: METADATA, DIMS, ORDER, INDEX, WEIGHTS.
 const SECTIONS_BEFORE_FK: usize = 5;
@@ -168,16 +172,20 @@ fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter {
         w.add(kind::LIGHTS, false, lights::encode(&file.lights));
     }
     add_display(&mut w, &file.display);
-    if file.display == Display::default() {
+    let d = &file.display;
+    if *d == Display::default() {
         w.set_version(VERSION_MAJOR, MINOR_WITHOUT_DISPLAY);
-    } else if file.display.lightmap.is_none() {
+    } else if d.faces.is_none() && d.lightmap.is_none() {
         w.set_version(VERSION_MAJOR, MINOR_WITHOUT_LIGHTMAP);
+    } else if d.faces.is_none() {
+        w.set_version(VERSION_MAJOR, MINOR_WITHOUT_FACES);
     }
     w
 }
 
-/// The display sections of `d` (format 1.2), all optional: a reader that only evaluates skips
-/// them.
+/// The display sections of `d` (format 1.2), all optional (a reader that only evaluates skips
+/// them) but FACES (1.4), which is required: SMOOTH, LIGHTMAP and the BVH are defined on the
+/// faces when it is present, and a reader that does not know it would misread them.
 fn add_display(w: &mut ContainerWriter, d: &Display) {
     if let Some(s) = &d.smooth {
         w.add(kind::SMOOTH, false, smooth::encode(s));
@@ -201,14 +209,20 @@ fn add_display(w: &mut ContainerWriter, d: &Display) {
     if let Some(l) = &d.lightmap {
         w.add(kind::LIGHTMAP, false, lightmap::encode(l));
     }
+    if let Some(f) = &d.faces {
+        w.add(kind::FACES, true, faces::encode(f));
+    }
 }
 
-/// The display sections of `c` for `n` elements; lengths are checked, values are not.
+/// The display sections of `c` for `n` elements; lengths are checked, values are not. FACES
+/// first: SMOOTH and LIGHTMAP hold 4 corners per display face (`F` of FACES, else `n`).
 fn decode_display(c: &Container<'_>, n: usize) -> Result<Display, FormatError> {
+    let faces = c.section(kind::FACES).map(faces::decode).transpose()?;
+    let face_count = faces.as_ref().map_or(n, |f| f.element.len());
     Ok(Display {
         smooth: c
             .section(kind::SMOOTH)
-            .map(|p| smooth::decode(p, n))
+            .map(|p| smooth::decode(p, face_count))
             .transpose()?,
         materials: c
             .section(kind::MATERIALS)
@@ -225,8 +239,9 @@ fn decode_display(c: &Container<'_>, n: usize) -> Result<Display, FormatError> {
         bvh: c.section(kind::BVH).map(bvh::decode).transpose()?,
         lightmap: c
             .section(kind::LIGHTMAP)
-            .map(|p| lightmap::decode(p, n))
+            .map(|p| lightmap::decode(p, face_count))
             .transpose()?,
+        faces,
     })
 }
 
@@ -451,7 +466,7 @@ fn unknown_code(field: &str, code: u32) -> FormatError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testdata::{display_sample, sample};
+    use crate::testdata::{display_sample, faces_sample, sample};
 
     #[test]
     fn round_trip_is_exact() {
@@ -459,6 +474,7 @@ mod tests {
             sample(Precision::F32, 3),
             sample(Precision::F16, 1),
             display_sample(),
+            faces_sample(),
         ] {
             let bytes = encode(&file);
             let back = decode(&Container::parse(&bytes).unwrap()).unwrap();
@@ -488,21 +504,42 @@ mod tests {
         one.display.cameras = display_sample().display.cameras;
         let c_bytes = encode(&one);
         assert_eq!(Container::parse(&c_bytes).unwrap().version(), (1, 2));
-        // LIGHTMAP makes a 1.3 file (the newest), written last.
+        // LIGHTMAP makes a 1.3 file, written last of the optional sections.
         let mut lit = display_sample();
         lit.display.lightmap = Some(crate::LightmapUv { uv: lit_uv(&lit) });
         let bytes = encode(&lit);
         let c = Container::parse(&bytes).unwrap();
-        assert_eq!(c.version(), (1, crate::VERSION_MINOR));
+        assert_eq!(c.version(), (1, 3));
         assert_eq!(c.kinds().last(), Some(kind::LIGHTMAP));
         assert_eq!(OperatorFile::from_bytes(&bytes).unwrap(), lit);
+        // FACES makes a 1.4 file (the newest), with or without LIGHTMAP; written last, and
+        // required (a 1.3 reader would mis-size SMOOTH, LIGHTMAP and the BVH without it).
+        let mut faced = faces_sample();
+        for lightmap in [None, Some(crate::LightmapUv { uv: lit_uv(&faced) })] {
+            faced.display.lightmap = lightmap;
+            let bytes = encode(&faced);
+            let c = Container::parse(&bytes).unwrap();
+            assert_eq!(c.version(), (1, 4));
+            assert_eq!(crate::VERSION_MINOR, 4);
+            assert_eq!(c.kinds().last(), Some(kind::FACES));
+            let last = c.sections().last().unwrap();
+            assert!(last.required());
+            assert!(
+                c.sections()[11..c.sections().len() - 1]
+                    .iter()
+                    .all(|s| !s.required())
+            );
+            assert_eq!(OperatorFile::from_bytes(&bytes).unwrap(), faced);
+        }
     }
 
-    /// Lightmap coordinates for every used corner of `f` (a triangle's fourth left zero).
+    /// Lightmap coordinates for every used corner of `f`'s display faces (a triangle's fourth
+    /// left zero).
     fn lit_uv(f: &OperatorFile) -> Vec<f32> {
-        let mut uv = vec![0.0; 8 * f.n as usize];
-        for e in 0..f.n as usize {
-            for c in 0..usize::from(f.geometry.vertex_count[e]) {
+        let faces = f.faces();
+        let mut uv = vec![0.0; 8 * faces.len()];
+        for e in 0..faces.len() {
+            for c in 0..usize::from(faces.geometry.vertex_count[e]) {
                 uv[8 * e + 2 * c] = e as f32 / 8.0;
                 uv[8 * e + 2 * c + 1] = c as f32 / 4.0;
             }
@@ -544,6 +581,12 @@ mod tests {
 
     #[test]
     fn display_container_round_trips() {
+        let d = faces_sample().display;
+        let bytes = d.to_container_bytes();
+        assert_eq!(Display::from_container_bytes(&bytes, 6).unwrap(), d);
+        for len in 0..bytes.len() {
+            assert!(Display::from_container_bytes(&bytes[..len], 6).is_err());
+        }
         let d = display_sample().display;
         let bytes = d.to_container_bytes();
         assert_eq!(Display::from_container_bytes(&bytes, 6).unwrap(), d);

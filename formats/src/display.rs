@@ -1,15 +1,27 @@
-//! What the file holds for display (format 1.2, LIGHTMAP 1.3, every section optional): the smooth
-//! reconstruction weights, the materials a ray tracer shades with, point lights, cameras and a
-//! flattened BVH over the display triangles. This module holds the types alone (plain data, like
-//! `file.rs`); the sections' bytes and invariants live beside the other sections'.
+//! What the file holds for display (format 1.2, LIGHTMAP 1.3, FACES 1.4, every section
+//! optional): the smooth reconstruction weights, the materials a ray tracer shades with, point
+//! lights, cameras, a flattened BVH over the display triangles, the scene's lightmap coordinates
+//! and the display faces. This module holds the types alone (plain data, like `file.rs`); the
+//! sections' bytes and invariants live beside the other sections'.
+//!
+//! # Display faces
+//!
+//! What is drawn are the *display faces*
+//! ([`OperatorFile::faces`](crate::OperatorFile::faces)): the polygons of section FACES
+//! ([`Faces`](crate::Faces), format 1.4) when the file has it, each showing the element at file
+//! position [`Faces::element`](crate::Faces::element)`[f]` (an element of a dense mesh is drawn
+//! as the many small input faces it groups, while GEOMETRY holds the planar polygon its form
+//! factors were computed on); without FACES, GEOMETRY's polygons, face `f` showing element `f`
+//! (`F = n`). Every display section is defined on the faces: SMOOTH's corners and LIGHTMAP's
+//! coordinates are those of the faces' corners, the BVH's triangles those of the faces.
 //!
 //! # Display triangles
 //!
-//! The display triangles are not stored: they are the fan triangulation of [`Geometry`]
-//! (`crate::Geometry`), element by element in file order. Element `e` with `c` vertices
-//! `v_0 … v_{c-1}` gives the triangles `(v_0, v_i, v_{i+1})` for `i = 1 … c - 2`, numbered on from
-//! those of element `e - 1`: a triangle's number is its id in [`Bvh::triangles`], and
-//! [`Geometry::triangles`](crate::Geometry::triangles) enumerates them.
+//! The display triangles are not stored: they are the fan triangulation of the display faces,
+//! face by face in order. Face `f` with `c` vertices `v_0 … v_{c-1}` gives the triangles
+//! `(v_0, v_i, v_{i+1})` for `i = 1 … c - 2`, numbered on from those of face `f - 1`: a
+//! triangle's number is its id in [`Bvh::triangles`], and
+//! [`FacesRef::triangles`](crate::FacesRef::triangles) enumerates them with their face.
 //!
 //! # Smooth reconstruction
 //!
@@ -17,16 +29,18 @@
 //! material, no crease and no contact line between them). Its value is the weighted sum of the
 //! radiosity of the elements that share it ([`Smooth::offsets`], [`Smooth::positions`],
 //! [`Smooth::weights`]; on a surface's boundary, a linear extrapolation from the elements around
-//! it, clamped at zero); inside an element the value is interpolated from its corners' values by
+//! it, clamped at zero); inside a face the value is interpolated from its corners' values by
 //! mean value coordinates (for a triangle: barycentric coordinates; exact for linear fields,
-//! linear along each edge). Corners are those of [`Geometry`](crate::Geometry), in the same
-//! order.
+//! linear along each edge). Corners are those of the display faces, in the same order.
+
+use crate::geometry::Faces;
 
 /// Reconstruction weights: radiosity at any surface point from the element values.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Smooth {
-    /// `n * 4`: the smooth vertex of each element corner, file order; the unused fourth corner
-    /// of a triangle is [`Smooth::NONE`]. Every used corner names a vertex `< offsets.len() - 1`.
+    /// `F * 4`: the smooth vertex of each corner of each display face (`n * 4`, element corners
+    /// in file order, without FACES); the unused fourth corner of a triangle is
+    /// [`Smooth::NONE`]. Every used corner names a vertex `< offsets.len() - 1`.
     pub corners: Vec<u32>,
     /// `V + 1` offsets, `offsets[0] = 0`, increasing (at least one position per vertex), last =
     /// `positions.len()`: smooth vertex `v` sums `positions[offsets[v]..offsets[v + 1]]`.
@@ -150,7 +164,8 @@ pub struct BvhNode {
 pub struct Bvh {
     /// The nodes; the root first. Empty only when there are no triangles.
     pub nodes: Vec<BvhNode>,
-    /// Triangle ids (see the module docs) in leaf order: a permutation of all display triangles.
+    /// Triangle ids (the fan triangles of the display faces, see the module docs) in leaf
+    /// order: a permutation of all display triangles.
     pub triangles: Vec<u32>,
 }
 
@@ -169,14 +184,19 @@ pub struct Display {
     pub bvh: Option<Bvh>,
     /// The scene's own lightmap coordinates (section LIGHTMAP, format 1.3).
     pub lightmap: Option<LightmapUv>,
+    /// The display faces (section FACES, format 1.4; written only when `Some`, and then
+    /// required, see the crate docs): what is drawn when it is not GEOMETRY. SMOOTH, LIGHTMAP
+    /// and the BVH are defined on the faces.
+    pub faces: Option<Faces>,
 }
 
-/// Lightmap texture coordinates from the scene (glTF `TEXCOORD_1`): where each element corner
-/// lies in the user's lightmap atlas, `[0, 1]²` the atlas (values outside wrap or clamp as the
+/// Lightmap texture coordinates from the scene (glTF `TEXCOORD_1`): where each display face's
+/// corner lies in the user's lightmap atlas, `[0, 1]²` the atlas (values outside wrap or clamp as the
 /// user's sampler does; exports keep what falls inside).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct LightmapUv {
-    /// `n * 4 * 2`: `u, v` of each element corner in file order, corners as GEOMETRY stores
-    /// them; finite; a triangle's unused fourth corner is zeros.
+    /// `F * 4 * 2`: `u, v` of each corner of each display face (`n * 4 * 2`, element corners in
+    /// file order as GEOMETRY stores them, without FACES); finite; a triangle's unused fourth
+    /// corner is zeros.
     pub uv: Vec<f32>,
 }

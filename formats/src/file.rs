@@ -3,9 +3,11 @@
 //! [`OperatorFile`] owns every section; the invariants documented on its fields are checked by
 //! [`validate`](OperatorFile::validate) (`validate.rs`), the bytes are read and written by
 //! `codec.rs` ([`OperatorFile::from_bytes`], [`OperatorFile::to_bytes`]). This module holds the
-//! types alone and imports nothing of the crate but the binary16 conversions.
+//! types alone and imports nothing of the crate but the binary16 conversions, the polygons and
+//! the display types.
 
 use crate::display::Display;
+use crate::geometry::{FacesRef, Geometry};
 use crate::half::{f16_to_f32, f32_to_f16};
 
 /// The largest 1-norm condition number `‖A‖₁ ‖A⁻¹‖₁` of a system `A = I - Vᵀ diag(ρ_c) F_k`
@@ -192,47 +194,6 @@ pub struct LightGroup {
     pub x: Vec<f64>,
 }
 
-/// The fine mesh for display, one polygon per element, in file order.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Geometry {
-    /// `n` entries, each 3 (triangle) or 4 (quad).
-    pub vertex_count: Vec<u8>,
-    /// `n * 4 * 3`: x, y, z of up to 4 vertices; the unused 4th vertex of a triangle is zeros.
-    pub vertices: Vec<f32>,
-    /// `n * 3`, unit length (within 1e-3).
-    pub normals: Vec<f32>,
-}
-
-impl Geometry {
-    /// Number of display triangles: `sum(vertex_count[e] - 2)` (see `display.rs`).
-    pub fn triangle_count(&self) -> usize {
-        self.vertex_count
-            .iter()
-            .map(|&c| usize::from(c).saturating_sub(2))
-            .sum()
-    }
-
-    /// The display triangles in id order: `(file position, [v0, v1, v2])`, the fan of each
-    /// element (`(v_0, v_i, v_{i+1})`), elements in file order.
-    pub fn triangles(&self) -> impl Iterator<Item = (u32, [[f32; 3]; 3])> + '_ {
-        self.vertex_count
-            .iter()
-            .enumerate()
-            .flat_map(move |(e, &c)| {
-                let corner = move |i: usize| {
-                    let at = e * 12 + i * 3;
-                    [
-                        self.vertices[at],
-                        self.vertices[at + 1],
-                        self.vertices[at + 2],
-                    ]
-                };
-                (1..usize::from(c).saturating_sub(1))
-                    .map(move |i| (e as u32, [corner(0), corner(i), corner(i + 1)]))
-            })
-    }
-}
-
 /// The whole operator file, decoded. Elements are stored in *file order* (sorted by patch).
 #[derive(Debug, Clone, PartialEq)]
 pub struct OperatorFile {
@@ -260,12 +221,14 @@ pub struct OperatorFile {
     pub reflectance: Vec<f32>,
     /// `n * 3` RGB emitted exitance per element (file order), finite, >= 0.
     pub emission: Vec<f32>,
-    /// Display geometry.
+    /// One planar polygon per element, in file order: what its form factors were computed on
+    /// (its area, normal and centroid), and what is drawn unless `display.faces` is present.
     pub geometry: Geometry,
     /// Light groups, possibly none (then no LIGHTS section is written).
     pub lights: Vec<LightGroup>,
     /// For display (format 1.2, all optional): smooth weights, materials, point lights, cameras,
-    /// BVH. `Display::default()` writes none of them.
+    /// BVH, lightmap coordinates (1.3), display faces (1.4). `Display::default()` writes none
+    /// of them.
     pub display: Display,
 }
 
@@ -273,5 +236,12 @@ impl OperatorFile {
     /// The layout of [`operator`](Self::operator).
     pub fn layout(&self) -> Layout {
         self.operator.layout()
+    }
+
+    /// The display faces: section FACES when present, else GEOMETRY's polygons (face `f` shows
+    /// element `f`). What every reader draws, traces, smooths and exports; SMOOTH's corners,
+    /// LIGHTMAP and the BVH's triangle ids are defined on them.
+    pub fn faces(&self) -> FacesRef<'_> {
+        FacesRef::new(&self.geometry, self.display.faces.as_ref())
     }
 }

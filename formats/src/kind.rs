@@ -2,9 +2,11 @@
 //!
 //! Every kind listed here is known to this reader. The writer marks all of them *required* except
 //! [`LIGHTS`] (optional, so that readers of format 1.0 skip it) and the display sections of format
-//! 1.2 and 1.3, [`SMOOTH`] to [`LIGHTMAP`] (optional: a reader that only evaluates skips them); a reader that meets a required
-//! kind it does not know refuses the file, and skips unknown optional ones. New kinds take new
-//! codes; a code is never reused for another meaning.
+//! 1.2 and 1.3, [`SMOOTH`] to [`LIGHTMAP`] (optional: a reader that only evaluates skips them);
+//! [`FACES`] (1.4) is required although it is for display: it changes what SMOOTH, LIGHTMAP and
+//! the BVH are defined on, so an older reader must refuse the file rather than misread them. A
+//! reader that meets a required kind it does not know refuses the file, and skips unknown
+//! optional ones. New kinds take new codes; a code is never reused for another meaning.
 
 /// UTF-8 JSON text from the precompute (scene name, bake parameters, timings, error estimates).
 pub const METADATA: u32 = 1;
@@ -42,13 +44,16 @@ pub const POINT_LIGHTS: u32 = 15;
 pub const CAMERAS: u32 = 16;
 /// The flattened binary BVH over the display triangles (format 1.2, optional).
 pub const BVH: u32 = 17;
-/// Lightmap texture coordinates of every element corner (format 1.3, optional).
+/// Lightmap texture coordinates of every display face corner (format 1.3, optional).
 pub const LIGHTMAP: u32 = 18;
+/// The display faces: per face its element, vertex counts, vertices, normals (format 1.4,
+/// written as required when present).
+pub const FACES: u32 = 19;
 
 /// Every kind this reader knows, by code. The writer stores them in this order, leaving out the
 /// operator sections of the other layout (FK and CORES, or YK), an empty LIGHTS and the display
 /// sections the file lacks.
-pub const KNOWN: [u32; 18] = [
+pub const KNOWN: [u32; 19] = [
     METADATA,
     DIMS,
     ORDER,
@@ -67,6 +72,7 @@ pub const KNOWN: [u32; 18] = [
     CAMERAS,
     BVH,
     LIGHTMAP,
+    FACES,
 ];
 
 /// The name of a known kind (`"FK"`), `None` for unknown codes.
@@ -90,6 +96,7 @@ pub fn name(kind: u32) -> Option<&'static str> {
         CAMERAS => "CAMERAS",
         BVH => "BVH",
         LIGHTMAP => "LIGHTMAP",
+        FACES => "FACES",
         _ => return None,
     })
 }
@@ -123,6 +130,7 @@ mod tests {
         assert_eq!(describe(CORES), "CORES (kind 7)");
         assert_eq!(describe(BVH), "BVH (kind 17)");
         assert_eq!(describe(LIGHTMAP), "LIGHTMAP (kind 18)");
-        assert_eq!(KNOWN.last(), Some(&LIGHTMAP));
+        assert_eq!(describe(FACES), "FACES (kind 19)");
+        assert_eq!(KNOWN.last(), Some(&FACES));
     }
 }

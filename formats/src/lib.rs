@@ -10,7 +10,7 @@
 //! - [`OperatorFile`]: the decoded, validated operator (see DESIGN.md §2 for the maths:
 //!   `B~_c = E_c + rho_c ⊙ F_k M_c (Vᵀ E_c)`, or `B~_c = E_c - Y_c (Vᵀ E_c)` in the plain layout).
 //!
-//! # Layout, version 1.2
+//! # Layout, version 1.4
 //!
 //! All integers little-endian. The header (64 bytes):
 //!
@@ -44,7 +44,8 @@
 //! certain), not tampering: anyone can recompute them.
 //!
 //! The sections of an operator file, all written as required except LIGHTS and the display
-//! sections (13 to 18), which are optional:
+//! sections 13 to 18, which are optional (FACES, 19, is for display too but written as required
+//! when present, see [Compatibility](#compatibility)):
 //!
 //! | kind | name | payload |
 //! |-----:|------|---------|
@@ -57,15 +58,16 @@
 //! | 7 | [`CORES`](kind::CORES) | factored layout only: `channels * k * k` × f64, row-major |
 //! | 8 | [`REFLECTANCE`](kind::REFLECTANCE) | `n * 3` × f32 |
 //! | 9 | [`EMISSION`](kind::EMISSION) | `n * 3` × f32 |
-//! | 10 | [`GEOMETRY`](kind::GEOMETRY) | `n` × u8 vertex counts, zero-padded to 4 bytes; `n * 12` × f32 vertices; `n * 3` × f32 normals |
+//! | 10 | [`GEOMETRY`](kind::GEOMETRY) | `n` × u8 vertex counts, zero-padded to 4 bytes; `n * 12` × f32 vertices; `n * 3` × f32 normals: one polygon per element, the one its form factors were computed on ([`Geometry`]) |
 //! | 11 | [`YK`](kind::YK) | plain layout only (1.1): `channels * n * k` × f32 or u16 (binary16): channel-major, each channel `n x k` row-major, rows in file order |
 //! | 12 | [`LIGHTS`](kind::LIGHTS) | optional (1.1), absent when there are no groups: the light groups, see below |
-//! | 13 | [`SMOOTH`](kind::SMOOTH) | optional (1.2): smooth reconstruction weights ([`Smooth`]), see below |
+//! | 13 | [`SMOOTH`](kind::SMOOTH) | optional (1.2): smooth reconstruction weights ([`Smooth`]), 4 corners per display face, see below |
 //! | 14 | [`MATERIALS`](kind::MATERIALS) | optional (1.2): materials for display and each element's ([`Materials`]) |
 //! | 15 | [`POINT_LIGHTS`](kind::POINT_LIGHTS) | optional (1.2), absent when there are none: [`PointLight`]s |
 //! | 16 | [`CAMERAS`](kind::CAMERAS) | optional (1.2), absent when there are none: [`Camera`]s |
 //! | 17 | [`BVH`](kind::BVH) | optional (1.2): the flattened BVH over the display triangles ([`Bvh`]) |
-//! | 18 | [`LIGHTMAP`](kind::LIGHTMAP) | optional (1.3): `n * 4 * 2` × f32, lightmap `u, v` of each element corner as GEOMETRY stores them, a triangle's 4th zero ([`LightmapUv`]) |
+//! | 18 | [`LIGHTMAP`](kind::LIGHTMAP) | optional (1.3): `F * 4 * 2` × f32, lightmap `u, v` of each display face corner, a triangle's 4th zero ([`LightmapUv`]) |
+//! | 19 | [`FACES`](kind::FACES) | 1.4, absent when elements are drawn as their GEOMETRY, **required** when present: the display faces ([`Faces`]), see below |
 //!
 //! The factored layout stores FK and CORES and no YK; the plain layout stores YK and neither FK
 //! nor CORES. A file holding a section of the other layout is refused.
@@ -96,10 +98,26 @@
 //!
 //! ## The display sections (1.2)
 //!
-//! What a renderer needs beyond the radiosity (see [`Display`] for their meaning, the fan
-//! triangulation of GEOMETRY that numbers the display triangles, and every invariant). Every
-//! field is naturally aligned: each payload is a head of two u32, fixed-size records of 4-byte
-//! fields, and (last) names as UTF-8 bytes. A reader skips a reserved word.
+//! What a renderer needs beyond the radiosity (see [`Display`] for their meaning, the display
+//! faces, the fan triangulation of the faces that numbers the display triangles, and every
+//! invariant). Every field is naturally aligned: each payload is a head of two u32, fixed-size
+//! records of 4-byte fields, and (last) names as UTF-8 bytes. A reader skips a reserved word.
+//!
+//! The *display faces* are the polygons of FACES when the file has it (`F` of them, face `f`
+//! showing the element at file position `element[f]`), else GEOMETRY's (`F = n`, face `f` showing
+//! element `f`); [`OperatorFile::faces`] gives them either way. SMOOTH's corners, LIGHTMAP's
+//! coordinates and the BVH's triangles are those of the display faces.
+//!
+//! FACES (1.4), with `F` faces (at least one; every file position shown by at least one face):
+//!
+//! | offset | size | field |
+//! |-------:|-----:|-------|
+//! | 0 | 4 | `F` |
+//! | 4 | 4 | reserved (0) |
+//! | 8 | `4 F` | element: `F` × u32, the file position (`< n`) each face shows |
+//! | then | `F` rounded up to 4 | vertex counts: `F` × u8 (3 or 4), zero-padded |
+//! | then | `48 F` | vertices: `F * 12` × f32, as GEOMETRY's (a triangle's 4th zero) |
+//! | then | `12 F` | normals: `F * 3` × f32, unit |
 //!
 //! SMOOTH, with `V` smooth vertices and `P` (element, weight) pairs:
 //!
@@ -107,7 +125,7 @@
 //! |-------:|-----:|-------|
 //! | 0 | 4 | `V` |
 //! | 4 | 4 | `P` |
-//! | 8 | `16 n` | corners: `n * 4` × u32, the smooth vertex of each element corner ([`Smooth::NONE`] for a triangle's 4th) |
+//! | 8 | `16 F` | corners: `F * 4` × u32, the smooth vertex of each display face corner ([`Smooth::NONE`] for a triangle's 4th) |
 //! | then | `4 (V + 1)` | offsets: u32, vertex `v` sums pairs `offsets[v]..offsets[v + 1]` |
 //! | then | `4 P` | positions: u32, file positions |
 //! | then | `4 P` | weights: f32 |
@@ -128,7 +146,7 @@
 //! | offset | size | field |
 //! |-------:|-----:|-------|
 //! | 0 | 4 | `N` |
-//! | 4 | 4 | `T` (the triangle count of GEOMETRY) |
+//! | 4 | 4 | `T` (the fan triangle count of the display faces) |
 //! | 8 | `32 N` | nodes: min (f32 × 3), first (u32), max (f32 × 3), count (u32); node 0 the root |
 //! | then | `4 T` | triangle ids (u32) in leaf order |
 //!
@@ -142,8 +160,15 @@
 //! reader reads 1.0 files unchanged. Version 1.2 added the display sections SMOOTH, MATERIALS,
 //! POINT_LIGHTS, CAMERAS and BVH, all optional: a 1.1 reader evaluates a 1.2 file as if they
 //! were not there. Version 1.3 added LIGHTMAP (optional), the scene's own lightmap coordinates.
-//! A file is stamped with the lowest minor version that describes it: 1.1 without display
-//! sections (the bytes a 1.1 writer gave), 1.2 with any but LIGHTMAP, 1.3 with LIGHTMAP.
+//! Version 1.4 added FACES, the display faces of elements drawn as other polygons than their
+//! GEOMETRY entry (a dense mesh's elements, each a cluster of many small input faces whose form
+//! factors were computed on a planar proxy polygon). With FACES, SMOOTH and LIGHTMAP hold 4
+//! corners per face and the BVH's `T` counts the faces' triangles, so a 1.3 reader that skipped
+//! FACES would mis-size them (and draw the proxies): FACES is therefore written as *required*,
+//! and an older reader refuses the file with its "unknown required section" error
+//! ([`ErrorKind::UnsupportedVersion`]) instead of misreading it. A file is stamped with the
+//! lowest minor version that describes it: 1.1 without display sections (the bytes a 1.1 writer
+//! gave), 1.2 with any but LIGHTMAP and FACES, 1.3 with LIGHTMAP but no FACES, 1.4 with FACES.
 //!
 //! A reader also refuses ([`ErrorKind`] says which kind of fault): a wrong magic; a table or
 //! payload past the end of the file; a payload offset that is misaligned or inside the table;
@@ -222,7 +247,9 @@ mod container;
 mod convert;
 mod display;
 mod error;
+mod faces;
 mod file;
+mod geometry;
 mod half;
 pub mod kind;
 mod lightmap;
@@ -247,8 +274,8 @@ pub use display::{
 };
 pub use error::{ErrorKind, FormatError};
 pub use file::{
-    Geometry, Layout, LightGroup, MAX_CONDITION, OperatorData, OperatorFile, Precision,
-    StoredMatrix,
+    Layout, LightGroup, MAX_CONDITION, OperatorData, OperatorFile, Precision, StoredMatrix,
 };
+pub use geometry::{Faces, FacesRef, Geometry};
 pub use half::{f16_to_f32, f32_to_f16};
 pub use writer::ContainerWriter;

@@ -32,7 +32,8 @@ fn corrupt(message: String) -> FormatError {
     FormatError::corrupt(format!("section SMOOTH (kind 13): {message}"))
 }
 
-/// Decodes the payload of a file of `n` elements; lengths are checked, values are not.
+/// Decodes the payload of a file of `n` display faces (its elements, or the faces of FACES);
+/// lengths are checked, values are not.
 pub(crate) fn decode(payload: &[u8], n: usize) -> Result<Smooth, FormatError> {
     let (v, p) = match (u32_at(payload, 0), u32_at(payload, 4)) {
         (Some(v), Some(p)) => (u64::from(v), u64::from(p)),
@@ -47,13 +48,13 @@ pub(crate) fn decode(payload: &[u8], n: usize) -> Result<Smooth, FormatError> {
     let expected = 8 + 16 * n as u128 + 4 * (u128::from(v) + 1) + 8 * u128::from(p);
     if expected != payload.len() as u128 {
         return Err(corrupt(format!(
-            "expected {expected} bytes (8 + n * 4 corners of 4 bytes for n = {n}, {} offsets and \
-             {p} positions and weights), found {}",
+            "expected {expected} bytes (8 + 4 corners of 4 bytes for each of {n} display faces, \
+             {} offsets and {p} positions and weights), found {}",
             v + 1,
             payload.len()
         )));
     }
-    let corners_end = checked_product("section SMOOTH (n * 16)", &[n as u64, 16])? + 8;
+    let corners_end = checked_product("section SMOOTH (F * 16)", &[n as u64, 16])? + 8;
     let offsets_end = corners_end + 4 * (v as usize + 1);
     let positions_end = offsets_end + 4 * p as usize;
     Ok(Smooth {
@@ -69,10 +70,15 @@ pub(crate) fn decode(payload: &[u8], n: usize) -> Result<Smooth, FormatError> {
 pub(crate) fn check(f: &OperatorFile, s: &Smooth) -> Result<(), FormatError> {
     let fail = |m: String| Err(FormatError::invalid(format!("section SMOOTH: {m}")));
     let n = f.n as usize;
-    if s.corners.len() as u64 != 4 * n as u64 {
+    let faces = f.faces();
+    let (count, item) = match faces.is_separate() {
+        true => ("F", "face"),
+        false => ("n", "element"),
+    };
+    if s.corners.len() as u64 != 4 * faces.len() as u64 {
         return fail(format!(
-            "expected n * 4 = {} corners, found {}",
-            4 * n as u64,
+            "expected {count} * 4 = {} corners, found {}",
+            4 * faces.len() as u64,
             s.corners.len()
         ));
     }
@@ -110,7 +116,7 @@ pub(crate) fn check(f: &OperatorFile, s: &Smooth) -> Result<(), FormatError> {
     for (e, (corners, &count)) in s
         .corners
         .chunks_exact(4)
-        .zip(&f.geometry.vertex_count)
+        .zip(&faces.geometry.vertex_count)
         .enumerate()
     {
         for (j, &v) in corners.iter().enumerate() {
@@ -121,11 +127,11 @@ pub(crate) fn check(f: &OperatorFile, s: &Smooth) -> Result<(), FormatError> {
                     } else {
                         format!("{v}, not below the {vertices} smooth vertices")
                     };
-                    return fail(format!("element {e} corner {j}: smooth vertex {what}"));
+                    return fail(format!("{item} {e} corner {j}: smooth vertex {what}"));
                 }
             } else if v != Smooth::NONE {
                 return fail(format!(
-                    "element {e} corner {j}: a triangle's unused 4th corner must be NONE \
+                    "{item} {e} corner {j}: a triangle's unused 4th corner must be NONE \
                      ({}), found {v}",
                     Smooth::NONE
                 ));

@@ -2,7 +2,8 @@
 //! public API).
 
 use crate::display::{Bvh, BvhNode, Camera, Display, Material, Materials, PointLight, Smooth};
-use crate::file::{Geometry, OperatorData, OperatorFile, Precision, StoredMatrix};
+use crate::file::{OperatorData, OperatorFile, Precision, StoredMatrix};
+use crate::geometry::{Faces, Geometry};
 use crate::half::f32_to_f16;
 
 /// n = 6 elements in k = 2 patches of 3; elements 1, 3 are triangles, the others quads.
@@ -68,34 +69,7 @@ pub(crate) fn display_sample() -> OperatorFile {
     let mut f = sample(Precision::F32, 3);
     let lamp = f.light_group("lamp", vec![0], vec![5.0; 3]).unwrap();
     f.lights.push(lamp);
-    // Corner (x, 0) is smooth vertex x, corner (x, 1) is 7 + x.
-    let mut members: Vec<Vec<u32>> = vec![Vec::new(); 14];
-    let mut corners = Vec::new();
-    for (e, &count) in f.geometry.vertex_count.iter().enumerate() {
-        for j in 0..4 {
-            if j >= usize::from(count) {
-                corners.push(Smooth::NONE);
-                continue;
-            }
-            let at = e * 12 + j * 3;
-            let (x, y) = (f.geometry.vertices[at], f.geometry.vertices[at + 1]);
-            let v = x as u32 + 7 * y as u32;
-            members[v as usize].push(e as u32);
-            corners.push(v);
-        }
-    }
-    let mut smooth = Smooth {
-        corners,
-        offsets: vec![0],
-        ..Smooth::default()
-    };
-    for m in &members {
-        smooth.positions.extend(m);
-        smooth
-            .weights
-            .extend(m.iter().map(|_| 1.0 / m.len() as f32));
-        smooth.offsets.push(smooth.positions.len() as u32);
-    }
+    let smooth = smooth_by_position(&f.geometry, |e| e as u32);
     let glass = Material {
         specular: [0.5; 3],
         shininess: 20.0,
@@ -158,6 +132,72 @@ pub(crate) fn display_sample() -> OperatorFile {
             triangles: vec![4, 3, 2, 1, 0, 5, 6, 7, 8],
         }),
         lightmap: None,
+        faces: None,
     };
+    f
+}
+
+/// Smooth weights over the polygons of `g` (the elements' or the faces' of a strip along x in
+/// z = 0 with corners at integer points): corner `(x, y)` is smooth vertex `x + 7 y`, the mean of
+/// the elements (`element(polygon)`, each once) that have a corner there.
+fn smooth_by_position(g: &Geometry, element: impl Fn(usize) -> u32) -> Smooth {
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); 14];
+    let mut corners = Vec::new();
+    for (p, &count) in g.vertex_count.iter().enumerate() {
+        for j in 0..4 {
+            if j >= usize::from(count) {
+                corners.push(Smooth::NONE);
+                continue;
+            }
+            let [x, y, _] = g.vertex(p, j);
+            let v = x as u32 + 7 * y as u32;
+            if !members[v as usize].contains(&element(p)) {
+                members[v as usize].push(element(p));
+            }
+            corners.push(v);
+        }
+    }
+    let mut smooth = Smooth {
+        corners,
+        offsets: vec![0],
+        ..Smooth::default()
+    };
+    for m in &members {
+        smooth.positions.extend(m);
+        smooth
+            .weights
+            .extend(m.iter().map(|_| 1.0 / m.len() as f32));
+        smooth.offsets.push(smooth.positions.len() as u32);
+    }
+    smooth
+}
+
+/// [`display_sample`] drawn through display faces (section FACES, format 1.4): each quad
+/// element as two triangles cut along its other diagonal (`v1 v2 v3`, `v3 v0 v1`), each
+/// triangle as itself: 9 faces whose 9 fan triangles the same BVH holds (faces in element
+/// order), SMOOTH on the faces' corners.
+pub(crate) fn faces_sample() -> OperatorFile {
+    let mut f = display_sample();
+    let g = &f.geometry;
+    let mut faces = Faces::default();
+    for e in 0..g.len() {
+        let polygons: &[[usize; 3]] = if g.vertex_count[e] == 4 {
+            &[[1, 2, 3], [3, 0, 1]]
+        } else {
+            &[[0, 1, 2]]
+        };
+        for corners in polygons {
+            faces.element.push(e as u32);
+            faces.geometry.vertex_count.push(3);
+            for &c in corners {
+                faces.geometry.vertices.extend(g.vertex(e, c));
+            }
+            faces.geometry.vertices.extend([0.0; 3]);
+            faces.geometry.normals.extend(g.normal(e));
+        }
+    }
+    let element = faces.element.clone();
+    f.display.smooth = Some(smooth_by_position(&faces.geometry, |p| element[p]));
+    f.display.faces = Some(faces);
     f
 }

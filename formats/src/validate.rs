@@ -8,10 +8,7 @@ use crate::bytes::checked_product;
 use crate::error::FormatError;
 use crate::file::{OperatorData, OperatorFile, StoredMatrix};
 use crate::half::f16_to_f32;
-use crate::{bvh, cameras, lightmap, lights, materials, point_lights, smooth};
-
-/// How far a stored normal's length may be from 1.
-const NORMAL_TOLERANCE: f64 = 1e-3;
+use crate::{bvh, cameras, faces, lightmap, lights, materials, point_lights, smooth};
 
 const RGB: [&str; 3] = ["r", "g", "b"];
 
@@ -110,9 +107,13 @@ impl OperatorFile {
     }
 }
 
-/// The display sections (format 1.2), each against the file's elements and light groups.
+/// The display sections (format 1.2), each against the file's elements and light groups; the
+/// display faces (FACES, 1.4) first: SMOOTH, LIGHTMAP and the BVH are defined on them.
 fn check_display(f: &OperatorFile) -> Result<(), FormatError> {
     let d = &f.display;
+    if let Some(faces) = &d.faces {
+        faces::check(f, faces)?;
+    }
     if let Some(s) = &d.smooth {
         smooth::check(f, s)?;
     }
@@ -307,39 +308,7 @@ fn check_rgb(
 }
 
 fn check_geometry(f: &OperatorFile) -> Result<(), FormatError> {
-    let g = &f.geometry;
-    let polygons = g.vertices.chunks_exact(12).zip(g.normals.chunks_exact(3));
-    for (e, (&count, (vertices, normal))) in g.vertex_count.iter().zip(polygons).enumerate() {
-        let fail = |problem: String| {
-            Err(FormatError::invalid(format!(
-                "section GEOMETRY: element {e}: {problem}"
-            )))
-        };
-        if count != 3 && count != 4 {
-            return fail(format!("{count} vertices, must be 3 or 4"));
-        }
-        if let Some(i) = vertices.iter().position(|v| !v.is_finite()) {
-            let value = vertices[i];
-            return fail(format!(
-                "vertex {}: coordinate {value} is not finite",
-                i / 3
-            ));
-        }
-        if count == 3 && vertices[9..].iter().any(|&v| v != 0.0) {
-            return fail("a triangle whose unused 4th vertex is not (0, 0, 0)".into());
-        }
-        let length = normal
-            .iter()
-            .map(|&v| f64::from(v) * f64::from(v))
-            .sum::<f64>()
-            .sqrt();
-        if length.is_nan() || (length - 1.0).abs() > NORMAL_TOLERANCE {
-            return fail(format!(
-                "normal {normal:?} has length {length}, must be unit (within {NORMAL_TOLERANCE})"
-            ));
-        }
-    }
-    Ok(())
+    faces::check_polygons("GEOMETRY", "element", &f.geometry)
 }
 
 #[cfg(test)]

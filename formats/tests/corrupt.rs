@@ -26,6 +26,8 @@ fn round_trip_is_byte_exact() {
         // are optional.
         let c = Container::parse(&bytes).unwrap();
         assert!(c.sections().iter().all(|s| s.offset % 64 == 0));
+        // FACES is for display too, but required: without it SMOOTH, LIGHTMAP and the BVH would
+        // be misread.
         let optional = |k| k == kind::LIGHTS || k == kind::LIGHTMAP || DISPLAY_KINDS.contains(&k);
         assert!(
             c.sections()
@@ -42,10 +44,16 @@ fn round_trip_is_byte_exact() {
             .filter(|&k| k != kind::LIGHTS || !file.lights.is_empty())
             .filter(|&k| !DISPLAY_KINDS.contains(&k) || display)
             .filter(|&k| k != kind::LIGHTMAP || file.display.lightmap.is_some())
+            .filter(|&k| k != kind::FACES || file.display.faces.is_some())
             .collect();
         assert_eq!(c.kinds().collect::<Vec<_>>(), expected);
         // A file is stamped with the lowest minor version that describes it.
-        assert_eq!(c.version(), (1, if display { 2 } else { 1 }));
+        let minor = match (display, file.display.faces.is_some()) {
+            (_, true) => 4,
+            (true, false) => 2,
+            (false, false) => 1,
+        };
+        assert_eq!(c.version(), (1, minor));
     }
 }
 
@@ -385,6 +393,112 @@ fn invalid_values_with_valid_checksums() {
     assert!(err(&bad).message.contains("METADATA: not valid UTF-8"));
     let grey_ok = OperatorFile::from_bytes(&grey).unwrap();
     assert_eq!(grey_ok.precision, Precision::F16);
+}
+
+/// Display faces (FACES, format 1.4): damaged with valid checksums, missing, or met by a reader
+/// that does not know them.
+#[test]
+fn damaged_or_unknown_faces_are_refused() {
+    let faced = samples()[5].clone();
+    assert!(faced.display.faces.is_some());
+    let bytes = faced.to_bytes().unwrap();
+    // FACES: F (word 0), reserved (1), 9 elements (words 2-10), 9 vertex counts padded to 12
+    // bytes (words 11-13), then the vertices (word 14 on).
+    let cases: [(u32, usize, u32, ErrorKind, &str); 6] = [
+        (
+            kind::FACES,
+            0,
+            10,
+            ErrorKind::Corrupt,
+            "section FACES (kind 19): expected",
+        ),
+        (
+            kind::FACES,
+            0,
+            u32::MAX,
+            ErrorKind::Corrupt,
+            "section FACES (kind 19): expected",
+        ),
+        (
+            kind::FACES,
+            2,
+            6,
+            ErrorKind::Invalid,
+            "section FACES: face 0: element 6 is not below n = 6",
+        ),
+        (
+            kind::FACES,
+            4,
+            0,
+            ErrorKind::Invalid,
+            "section FACES: element 1 (file position) has no face",
+        ),
+        (
+            kind::FACES,
+            11,
+            0x0303_0305,
+            ErrorKind::Invalid,
+            "section FACES: face 0: 5 vertices",
+        ),
+        (
+            kind::FACES,
+            14,
+            f32::NAN.to_bits(),
+            ErrorKind::Invalid,
+            "section FACES: face 0: vertex 0: coordinate NaN",
+        ),
+    ];
+    for (k, word, value, kind_, expected) in cases {
+        let e = err(&with_word(&bytes, k, word, value));
+        assert_eq!(e.kind, kind_, "{e}");
+        assert!(
+            e.message.starts_with(expected),
+            "{e} (expected {expected:?})"
+        );
+    }
+    // The reserved word is skipped.
+    let reserved = with_word(&bytes, kind::FACES, 1, 7);
+    assert_eq!(OperatorFile::from_bytes(&reserved).unwrap(), faced);
+    // Without FACES the other display sections no longer fit the elements.
+    let c = Container::parse(&bytes).unwrap();
+    let mut w = ContainerWriter::new();
+    for s in c.sections().iter().filter(|s| s.kind != kind::FACES) {
+        w.add(s.kind, s.required(), c.section(s.kind).unwrap().to_vec());
+    }
+    let e = err(&w.to_bytes());
+    assert_eq!(e.kind, ErrorKind::Corrupt, "{e}");
+    assert!(
+        e.message.starts_with("section SMOOTH (kind 13): expected"),
+        "{e}"
+    );
+    // A reader that does not know FACES (1.3 and older: here, the same payload under a kind
+    // unknown to this reader) refuses the file, because the section is marked required...
+    let renamed = |required: bool| {
+        let mut w = ContainerWriter::new();
+        w.set_version(1, 4);
+        for s in c.sections() {
+            let (k, r) = match s.kind {
+                kind::FACES => (0x4000 + kind::FACES, required),
+                k => (k, s.required()),
+            };
+            w.add(k, r, c.section(s.kind).unwrap().to_vec());
+        }
+        w.to_bytes()
+    };
+    assert!(
+        c.sections()
+            .iter()
+            .find(|s| s.kind == kind::FACES)
+            .unwrap()
+            .required()
+    );
+    let e = err(&renamed(true));
+    assert_eq!(e.kind, ErrorKind::UnsupportedVersion, "{e}");
+    assert!(e.message.contains("marked required but is unknown"), "{e}");
+    assert!(e.message.contains("format version 1.4"), "{e}");
+    // ...where, had it been optional, it would have misread SMOOTH (here caught by its size).
+    let e = err(&renamed(false));
+    assert_eq!(e.kind, ErrorKind::Corrupt, "{e}");
 }
 
 #[test]

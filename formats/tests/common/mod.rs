@@ -5,7 +5,7 @@
 #![allow(dead_code)] // each test binary uses a different part
 
 use lrr_formats::{
-    ALIGN, Bvh, BvhNode, Camera, Container, ContainerWriter, Display, Geometry,
+    ALIGN, Bvh, BvhNode, Camera, Container, ContainerWriter, Display, Faces, Geometry,
     HEADER_CHECKSUM_OFFSET, HEADER_LEN, Material, Materials, OperatorData, OperatorFile,
     PointLight, Precision, SECTION_ENTRY_LEN, Smooth, StoredMatrix, checksum,
 };
@@ -74,34 +74,7 @@ pub fn with_lights(mut file: OperatorFile) -> OperatorFile {
 /// `with_lights`): smooth vertices at shared corners, two materials, a point light following
 /// group 1 and a fixed one, one camera and a BVH of three nodes over the 9 display triangles.
 pub fn with_display(mut file: OperatorFile) -> OperatorFile {
-    // Corner (x, y) of the strip of unit elements along x is smooth vertex x + 7 y.
-    let mut members: Vec<Vec<u32>> = vec![Vec::new(); 14];
-    let mut corners = Vec::new();
-    for (e, &count) in file.geometry.vertex_count.iter().enumerate() {
-        for j in 0..4 {
-            let at = e * 12 + j * 3;
-            let (x, y) = (file.geometry.vertices[at], file.geometry.vertices[at + 1]);
-            let v = x as u32 + 7 * y as u32;
-            if j < usize::from(count) {
-                members[v as usize].push(e as u32);
-                corners.push(v);
-            } else {
-                corners.push(Smooth::NONE);
-            }
-        }
-    }
-    let mut smooth = Smooth {
-        corners,
-        offsets: vec![0],
-        ..Smooth::default()
-    };
-    for m in &members {
-        smooth.positions.extend(m);
-        smooth
-            .weights
-            .extend(m.iter().map(|_| 1.0 / m.len() as f32));
-        smooth.offsets.push(smooth.positions.len() as u32);
-    }
+    let smooth = smooth_by_position(&file.geometry, |e| e as u32);
     let mirror = Material {
         mirror: [0.8, 0.85, 0.9],
         specular: [0.2; 3],
@@ -150,19 +123,90 @@ pub fn with_display(mut file: OperatorFile) -> OperatorFile {
             triangles: vec![0, 1, 2, 3, 4, 8, 7, 6, 5],
         }),
         lightmap: None,
+        faces: None,
     };
     file
 }
 
+/// Smooth weights over the polygons of `g` (a strip of unit elements along x, or their faces):
+/// corner `(x, y)` is smooth vertex `x + 7 y`, the mean of the elements (`element(polygon)`, each
+/// once) with a corner there.
+pub fn smooth_by_position(g: &Geometry, element: impl Fn(usize) -> u32) -> Smooth {
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); 14];
+    let mut corners = Vec::new();
+    for (p, &count) in g.vertex_count.iter().enumerate() {
+        for j in 0..4 {
+            let at = p * 12 + j * 3;
+            let (x, y) = (g.vertices[at], g.vertices[at + 1]);
+            let v = x as u32 + 7 * y as u32;
+            if j < usize::from(count) {
+                if !members[v as usize].contains(&element(p)) {
+                    members[v as usize].push(element(p));
+                }
+                corners.push(v);
+            } else {
+                corners.push(Smooth::NONE);
+            }
+        }
+    }
+    let mut smooth = Smooth {
+        corners,
+        offsets: vec![0],
+        ..Smooth::default()
+    };
+    for m in &members {
+        smooth.positions.extend(m);
+        smooth
+            .weights
+            .extend(m.iter().map(|_| 1.0 / m.len() as f32));
+        smooth.offsets.push(smooth.positions.len() as u32);
+    }
+    smooth
+}
+
+/// `file` (with the display sections of `with_display`) drawn through display faces (section
+/// FACES, format 1.4): each quad element as two triangles cut along its other diagonal, each
+/// triangle element as itself (9 faces, in element order, so the same BVH holds their 9 fan
+/// triangles), SMOOTH on the faces' corners.
+pub fn with_faces(mut file: OperatorFile) -> OperatorFile {
+    let g = &file.geometry;
+    let mut faces = Faces::default();
+    for e in 0..g.vertex_count.len() {
+        let polygons: &[[usize; 3]] = if g.vertex_count[e] == 4 {
+            &[[1, 2, 3], [3, 0, 1]]
+        } else {
+            &[[0, 1, 2]]
+        };
+        for corners in polygons {
+            faces.element.push(e as u32);
+            faces.geometry.vertex_count.push(3);
+            for &c in corners {
+                faces
+                    .geometry
+                    .vertices
+                    .extend(&g.vertices[e * 12 + c * 3..e * 12 + c * 3 + 3]);
+            }
+            faces.geometry.vertices.extend([0.0; 3]);
+            faces.geometry.normals.extend(&g.normals[e * 3..e * 3 + 3]);
+        }
+    }
+    let element = faces.element.clone();
+    file.display.smooth = Some(smooth_by_position(&faces.geometry, |p| element[p]));
+    file.display.faces = Some(faces);
+    file
+}
+
 /// Every kind of file: f32 RGB factored with light groups, f16 grey factored, f16 RGB plain with
-/// light groups, f32 grey plain, and f32 RGB factored with light groups and every display section.
-pub fn samples() -> [OperatorFile; 5] {
+/// light groups, f32 grey plain, f32 RGB factored with light groups and every display section of
+/// format 1.2, and the same drawn through display faces (format 1.4).
+pub fn samples() -> [OperatorFile; 6] {
     [
         with_lights(sample(Precision::F32, 3)),
         sample(Precision::F16, 1),
         with_lights(plain_sample(Precision::F16, 3)),
         plain_sample(Precision::F32, 1),
         with_display(with_lights(sample(Precision::F32, 3))),
+        with_faces(with_display(with_lights(sample(Precision::F32, 3)))),
     ]
 }
 
