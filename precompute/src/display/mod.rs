@@ -37,6 +37,7 @@ pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display>
         cameras,
         bvh: Some(bvh),
         lightmap: lightmap(scene, mesh),
+        faces: None,
     })
 }
 
