@@ -1,38 +1,34 @@
-//! Finding the element under a surface point (for probes).
+//! Finding the element under a surface point (for probes): the nearest display face
+//! ([`OperatorFile::faces`](lrr_formats::OperatorFile::faces): what is drawn, section FACES or
+//! GEOMETRY's elements), and its element.
 
 use crate::operator::Operator;
 
 impl Operator {
-    /// The original id of the element whose surface holds `point`: the closest element among
-    /// those whose normal agrees with `normal` (dot > 0), or among all when none agrees.
-    /// Linear in n (a probe is not a per-frame operation).
+    /// The original id of the element whose surface holds `point`: the element of the display
+    /// face [`locate_face`](Self::locate_face) finds.
     pub fn locate(&self, point: [f32; 3], normal: [f32; 3]) -> Option<u32> {
         self.locate_position(point, normal)
             .map(|s| self.file().order[s])
     }
 
-    /// The file position of the element [`locate`](Self::locate) finds (what
-    /// [`Reconstruction::at`](crate::Reconstruction::at) takes).
+    /// The file position of the element [`locate`](Self::locate) finds.
     pub fn locate_position(&self, point: [f32; 3], normal: [f32; 3]) -> Option<usize> {
-        let g = &self.file().geometry;
+        self.locate_face(point, normal)
+            .map(|f| self.file().faces().element(f))
+    }
+
+    /// The display face holding `point` (what [`Reconstruction::at`](crate::Reconstruction::at)
+    /// takes; the file position of its element when the file has no section FACES): the
+    /// closest face among those whose normal agrees with `normal` (dot > 0), or among all when
+    /// none agrees. Linear in the number of faces (a probe is not a per-frame operation).
+    pub fn locate_face(&self, point: [f32; 3], normal: [f32; 3]) -> Option<usize> {
+        let g = self.file().faces().geometry;
         let mut best: Option<(bool, f64, usize)> = None;
-        for s in 0..self.n() {
+        for s in 0..g.len() {
             let count = usize::from(g.vertex_count[s]);
-            let verts: Vec<[f64; 3]> = (0..count)
-                .map(|i| {
-                    let b = 12 * s + 3 * i;
-                    [
-                        f64::from(g.vertices[b]),
-                        f64::from(g.vertices[b + 1]),
-                        f64::from(g.vertices[b + 2]),
-                    ]
-                })
-                .collect();
-            let nrm = [
-                f64::from(g.normals[3 * s]),
-                f64::from(g.normals[3 * s + 1]),
-                f64::from(g.normals[3 * s + 2]),
-            ];
+            let verts: Vec<[f64; 3]> = (0..count).map(|i| g.vertex(s, i).map(f64::from)).collect();
+            let nrm = g.normal(s).map(f64::from);
             let agrees = dot(nrm, normal.map(f64::from)) > 0.0;
             let d = distance_to_polygon(point.map(f64::from), &verts, nrm);
             let better = match best {
@@ -105,5 +101,28 @@ mod tests {
         let n = [0.0, 0.0, 1.0];
         assert!((distance_to_polygon([0.5, 0.5, 0.25], &sq, n) - 0.25).abs() < 1e-12);
         assert!((distance_to_polygon([2.0, 0.5, 0.0], &sq, n) - 1.0).abs() < 1e-12);
+    }
+
+    /// With display faces, a point is located on the face that holds it, and its element is
+    /// that face's (not the GEOMETRY proxy's under the point).
+    #[test]
+    fn points_are_located_on_the_display_faces() {
+        use crate::testkit::faces::{ORDER, element_at, face_at, interleaved};
+        let op = Operator::from_file(interleaved()).unwrap();
+        let up = [0.0, 0.0, 1.0];
+        for (x, y) in [
+            (0.2f32, 0.4f32),
+            (0.9, 0.2),
+            (1.3, 0.8),
+            (1.8, 0.1),
+            (0.5, 0.9),
+        ] {
+            let p = [x, y, 0.0];
+            assert_eq!(op.locate_face(p, up), Some(face_at(x, y)), "({x}, {y})");
+            assert_eq!(op.locate_position(p, up), Some(element_at(x, y)));
+            assert_eq!(op.locate(p, up), Some(ORDER[element_at(x, y)]));
+        }
+        // (0.2, 0.4) lies on the proxy of element 0 but is drawn by element 1.
+        assert_eq!(op.locate_position([0.2, 0.4, 0.0], up), Some(1));
     }
 }

@@ -5,13 +5,16 @@
 //! 1. once per frame, [`Reconstruction::vertex_values`]: each smooth vertex's value, the
 //!    weighted sum of its elements' `B` (O(size of SMOOTH)), clamped at zero (a vertex on a
 //!    surface's boundary extrapolates, with negative weights);
-//! 2. per point, [`Reconstruction::at`]: the element's corner values interpolated by mean value
-//!    coordinates (Floater 2003; on a triangle these are the barycentric coordinates), O(corners)
-//!    with no allocation. Mean value coordinates reproduce linear fields exactly and reduce to
-//!    linear interpolation along each edge, so the value is continuous across every edge two
-//!    elements share. A point off its element (a probe a little outside) takes the value at the
-//!    nearest point of the element's boundary.
+//! 2. per point, [`Reconstruction::at`]: the corner values of the display face holding the
+//!    point interpolated by mean value coordinates (Floater 2003; on a triangle these are the
+//!    barycentric coordinates), O(corners) with no allocation. Mean value coordinates reproduce
+//!    linear fields exactly and reduce to linear interpolation along each edge, so the value is
+//!    continuous across every edge two faces share. A point off its face (a probe a little
+//!    outside) takes the value at the nearest point of the face's boundary.
 //!
+//! SMOOTH is defined on the file's display faces
+//! ([`OperatorFile::faces`](lrr_formats::OperatorFile::faces): section FACES, or GEOMETRY's
+//! elements when the file has none, a face then being its element's file position).
 //! [`Reconstruction::corner_value`] gives per-corner values for exports (vertex colours).
 //!
 //! ```
@@ -21,7 +24,7 @@
 //! let b = op.evaluate_baked(); // per element, original ids
 //! let mut vertices = vec![[0.0f32; 3]; smooth.vertex_count()];
 //! smooth.vertex_values(&b, &mut vertices)?; // once per frame
-//! let value = smooth.at(&vertices, 0, [0.1, 0.2, 0.3]); // per point: file position, point
+//! let value = smooth.at(&vertices, 0, [0.1, 0.2, 0.3]); // per point: display face, point
 //! # Ok(()) }
 //! ```
 
@@ -33,6 +36,7 @@ use crate::error::{RuntimeError, input};
 /// shape once, so that no call below can index out of bounds).
 #[derive(Debug, Clone, Copy)]
 pub struct Reconstruction<'f> {
+    /// The display faces' polygons (SMOOTH's corners are theirs).
     geometry: &'f Geometry,
     smooth: &'f Smooth,
     order: &'f [u32],
@@ -48,11 +52,11 @@ impl<'f> Reconstruction<'f> {
                  format 1.2): re-bake it with this lrr, or use the flat reconstruction",
             )
         })?;
-        Self::from_parts(&file.geometry, smooth, &file.order)
+        Self::from_parts(file.faces().geometry, smooth, &file.order)
     }
 
-    /// The reconstruction over a file's parts (a copy of them, e.g. the ray tracer's), checked
-    /// as [`new`](Self::new) checks them.
+    /// The reconstruction over a file's parts (a copy of them, e.g. the ray tracer's: the
+    /// display faces' polygons, SMOOTH, the order), checked as [`new`](Self::new) checks them.
     pub(crate) fn from_parts(
         geometry: &'f Geometry,
         smooth: &'f Smooth,
@@ -100,30 +104,37 @@ impl<'f> Reconstruction<'f> {
         Ok(())
     }
 
-    /// The value at corner `corner` of the element at file position `position`, from
-    /// [`vertex_values`](Self::vertex_values)' output. Panics when `position` or `corner` is
-    /// out of range (a caller's bug).
-    pub fn corner_value(&self, vertices: &[[f32; 3]], position: usize, corner: usize) -> [f32; 3] {
-        assert!(corner < usize::from(self.geometry.vertex_count[position]));
-        vertices[self.smooth.corners[4 * position + corner] as usize]
+    /// Number of display faces (what [`at`](Self::at) and
+    /// [`corner_value`](Self::corner_value) take).
+    pub fn face_count(&self) -> usize {
+        self.geometry.len()
     }
 
-    /// The value at `point` on the element at file position `position` (e.g. a ray's hit on one
-    /// of its display triangles), from [`vertex_values`](Self::vertex_values)' output.
-    /// Panics when `position` is out of range (a caller's bug).
-    pub fn at(&self, vertices: &[[f32; 3]], position: usize, point: [f32; 3]) -> [f32; 3] {
-        let count = usize::from(self.geometry.vertex_count[position]);
+    /// The value at corner `corner` of display face `face` (the file position of its element
+    /// when the file has no section FACES), from [`vertex_values`](Self::vertex_values)'
+    /// output. Panics when `face` or `corner` is out of range (a caller's bug).
+    pub fn corner_value(&self, vertices: &[[f32; 3]], face: usize, corner: usize) -> [f32; 3] {
+        assert!(corner < usize::from(self.geometry.vertex_count[face]));
+        vertices[self.smooth.corners[4 * face + corner] as usize]
+    }
+
+    /// The value at `point` on display face `face` (e.g. a ray's hit on one of its triangles;
+    /// the file position of its element when the file has no section FACES), from
+    /// [`vertex_values`](Self::vertex_values)' output. Panics when `face` is out of range (a
+    /// caller's bug).
+    pub fn at(&self, vertices: &[[f32; 3]], face: usize, point: [f32; 3]) -> [f32; 3] {
+        let count = usize::from(self.geometry.vertex_count[face]);
         let g = &self.geometry;
         let mut v = [[0.0f64; 3]; 4];
         for (i, vi) in v.iter_mut().enumerate().take(count) {
-            let at = 12 * position + 3 * i;
+            let at = 12 * face + 3 * i;
             *vi = [0, 1, 2].map(|c| f64::from(g.vertices[at + c]));
         }
-        let normal = [0, 1, 2].map(|c| f64::from(g.normals[3 * position + c]));
+        let normal = [0, 1, 2].map(|c| f64::from(g.normals[3 * face + c]));
         let w = mean_value_weights(&v[..count], normal, point.map(f64::from));
         let mut sum = [0.0f64; 3];
         for (i, &wi) in w.iter().enumerate().take(count) {
-            let value = vertices[self.smooth.corners[4 * position + i] as usize];
+            let value = vertices[self.smooth.corners[4 * face + i] as usize];
             for c in 0..3 {
                 sum[c] += wi * f64::from(value[c]);
             }
@@ -132,8 +143,9 @@ impl<'f> Reconstruction<'f> {
     }
 }
 
-/// SMOOTH's shape against the file: what [`Reconstruction`] indexes (the format's validation
-/// checks the rest: weights finite and summing to one).
+/// SMOOTH's shape against the file (`n` elements, the display faces' vertex `counts`): what
+/// [`Reconstruction`] indexes (the format's validation checks the rest: weights finite and
+/// summing to one).
 fn check(s: &Smooth, n: usize, counts: &[u8]) -> Result<(), RuntimeError> {
     let vertices = s.vertex_count();
     let bad = |what: &str| {
@@ -141,14 +153,14 @@ fn check(s: &Smooth, n: usize, counts: &[u8]) -> Result<(), RuntimeError> {
             "the operator file's SMOOTH section is damaged: {what}; re-bake the file"
         )))
     };
-    if s.corners.len() != 4 * n || counts.len() != n {
-        return bad("its corners do not match the elements");
+    if s.corners.len() != 4 * counts.len() {
+        return bad("its corners do not match the display faces");
     }
     for (k, &c) in s.corners.iter().enumerate() {
         let used = k % 4 < usize::from(counts[k / 4]);
         if used && c as usize >= vertices {
             return bad(&format!(
-                "corner {} of element {} names no vertex",
+                "corner {} of face {} names no vertex",
                 k % 4,
                 k / 4
             ));
@@ -512,6 +524,54 @@ mod tests {
         assert_eq!(r.at(&v, 0, [0.0, 0.0, 0.0]), v[0]);
     }
 
+    /// A file drawn through display faces (section FACES): SMOOTH's corners are the faces',
+    /// `at` takes a face, and the values come from the faces' elements (original ids through
+    /// the order).
+    #[test]
+    fn the_reconstruction_follows_the_display_faces() {
+        use crate::testkit::faces::{EMISSION, ORDER, face_at, interleaved};
+        let f = interleaved();
+        let r = Reconstruction::new(&f).unwrap();
+        assert_eq!((r.face_count(), r.vertex_count()), (4, 6));
+        let mut b = vec![[0.0f32; 3]; 2];
+        for p in 0..2 {
+            b[ORDER[p] as usize] = EMISSION[p];
+        }
+        let mut v = vec![[0.0; 3]; r.vertex_count()];
+        r.vertex_values(&b, &mut v).unwrap();
+        let [e0, e1] = EMISSION.map(|e| e.map(f64::from));
+        let mix = |a: f64, c: f64| [0, 1, 2].map(|i| a * e0[i] + c * e1[i]);
+        // (2, 0) is a corner of face 2 only (element 0); (0, 1) of face 1 only (element 1).
+        assert_eq!(r.corner_value(&v, 2, 1), EMISSION[0]);
+        assert_eq!(r.corner_value(&v, 1, 2), EMISSION[1]);
+        // Face centroids: two shared corners (the mean of both elements) and one of its own.
+        for (x, y, want) in [
+            (5.0 / 3.0, 1.0 / 3.0, mix(2.0 / 3.0, 1.0 / 3.0)),
+            (1.0 / 3.0, 2.0 / 3.0, mix(1.0 / 3.0, 2.0 / 3.0)),
+        ] {
+            let face = face_at(x as f32, y as f32);
+            let got = r.at(&v, face, [x as f32, y as f32, 0.0]);
+            for c in 0..3 {
+                assert!(
+                    (f64::from(got[c]) - want[c]).abs() < 1e-6,
+                    "{got:?} {want:?}"
+                );
+            }
+        }
+        // Continuous across the diagonal faces 2 and 3 share.
+        for t in [0.1f32, 0.5, 0.9] {
+            let p = [1.0 + t, t, 0.0];
+            let (a, c) = (r.at(&v, 2, p), r.at(&v, 3, p));
+            assert!((0..3).all(|i| (a[i] - c[i]).abs() < 1e-6), "{a:?} {c:?}");
+        }
+        // SMOOTH of the elements' corners (n * 4) does not fit the faces.
+        let mut bad = f.clone();
+        let s = bad.display.smooth.as_mut().unwrap();
+        s.corners.truncate(8);
+        let e = Reconstruction::new(&bad).unwrap_err().to_string();
+        assert!(e.contains("do not match the display faces"), "{e}");
+    }
+
     #[test]
     fn files_without_smooth_or_with_a_damaged_one_are_errors() {
         let (g, s) = grid(2, 2, false);
@@ -523,7 +583,7 @@ mod tests {
         s.corners[5] = 99;
         let f = file(g, s);
         let e = Reconstruction::new(&f).unwrap_err().to_string();
-        assert!(e.contains("corner 1 of element 1"), "{e}");
+        assert!(e.contains("corner 1 of face 1"), "{e}");
         let (g, s) = grid(2, 2, false);
         let f = file(g, s);
         let r = Reconstruction::new(&f).unwrap();

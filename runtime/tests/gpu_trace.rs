@@ -512,6 +512,52 @@ fn smooth_shading_matches_the_cpu_twin_per_pixel() {
     assert!(differing(&cpu, &flat_cpu) > 97 * 61 / 2);
 }
 
+/// A file drawn through display faces (section FACES, format 1.4; `testkit::faces`): the GPU's
+/// per-face tables (triangle -> face, face -> element id, normal and material, smooth corners)
+/// give the CPU twin's image, flat and smooth, with one element shiny under a point light so
+/// that the face -> material table matters.
+#[test]
+fn display_faces_match_the_cpu_twin_per_pixel() {
+    let mut file = testkit::faces::interleaved();
+    let shiny = Material {
+        name: "shiny".into(),
+        specular: [0.6; 3],
+        shininess: 8.0,
+        ..Material::diffuse("shiny", [0.5; 3])
+    };
+    let materials = file.display.materials.as_mut().unwrap();
+    materials.materials.push(shiny);
+    materials.element_material = vec![0, 1];
+    file.display.point_lights = vec![PointLight {
+        name: "lamp".into(),
+        position: [1.2, 0.4, 0.8],
+        intensity: [2.0; 3],
+        group: PointLight::FIXED,
+    }];
+    file.validate().unwrap();
+    let cam = file.display.cameras[0].clone();
+    let (report, smooth_gpu, _) = compare_images("display faces", &file, &cam, (80, 60), &[], None);
+    let e = report.decision.effects;
+    assert!(e.smooth && e.highlights, "{e:?}");
+    let mut tracer = Tracer::new(&file).unwrap();
+    tracer.set_smooth(false).unwrap();
+    let b = radiosity(file.n as usize);
+    let lighting = Lighting {
+        radiosity: &b,
+        group_intensities: &[],
+    };
+    let view = View::new(&cam, 80, 60).unwrap();
+    let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
+    let (flat_gpu, _) = gt.render_lighting(&view, &lighting, 80, 60).unwrap();
+    let (flat_cpu, _) = tracer.render(&view, &lighting, 80, 60, 2).unwrap();
+    let a = agreement(&flat_gpu, &flat_cpu);
+    assert!(a.off as f64 <= MAX_OFF_FRACTION * (80 * 60) as f64);
+    if gpu().is_cpu() {
+        assert!(a.off == 0 && a.worst_within <= FLAT_CPU_ADAPTER_REL);
+    }
+    assert!(differing(&smooth_gpu, &flat_gpu) > 80 * 60 / 4);
+}
+
 /// Smooth shading inside the ray tree (mirror, glass, highlights behind shadow rays): every
 /// diffuse term of every ray, reconstructed, equals the CPU twin's.
 #[test]

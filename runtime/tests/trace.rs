@@ -307,6 +307,75 @@ fn a_smooth_scene_renders_the_reconstruction_at_the_hit_point_over_pi() {
     assert!(err.contains("SMOOTH") && err.contains("re-bake"), "{err}");
 }
 
+/// A file drawn through display faces (section FACES, format 1.4; `testkit::faces`): each pixel
+/// shows the element of the face it hits (flat: `B/π` of `element(face)`, through the order;
+/// smooth: the reconstruction on that face), not the element whose GEOMETRY proxy lies there.
+#[test]
+fn a_file_with_display_faces_shows_the_element_of_the_hit_face() {
+    use testkit::faces::{EMISSION, ORDER, element_at, face_at, interleaved};
+    let file = interleaved();
+    let mut b = vec![[0.0f32; 3]; 2];
+    for p in 0..2 {
+        b[ORDER[p] as usize] = EMISSION[p];
+    }
+    let cam = file.display.cameras[0].clone();
+    let (w, h) = (81u32, 61u32);
+    let (smooth, report) = render(&file, &cam, w, h, &b, &[]);
+    assert!(report.decision.effects.smooth);
+    let mut tracer = Tracer::new(&file).unwrap();
+    assert_eq!(tracer.triangle_count(), 4);
+    tracer.set_smooth(false).unwrap();
+    let view = View::new(&cam, w, h).unwrap();
+    let lighting = Lighting {
+        radiosity: &b,
+        group_intensities: &[],
+    };
+    let (flat, _) = tracer.render(&view, &lighting, w, h, 2).unwrap();
+    let reconstruction = Reconstruction::new(&file).unwrap();
+    let mut vertices = vec![[0.0f32; 3]; reconstruction.vertex_count()];
+    reconstruction.vertex_values(&b, &mut vertices).unwrap();
+    // The camera at (1, 0.5, 2) looks down -z, up +y, 60° vertically.
+    let half_h = (30.0f64).to_radians().tan();
+    let half_w = half_h * w as f64 / h as f64;
+    let (mut checked, mut off_proxy) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let u = (2.0 * (x as f64 + 0.5) / w as f64 - 1.0) * half_w;
+            let v = (1.0 - 2.0 * (y as f64 + 0.5) / h as f64) * half_h;
+            let (px, py) = (1.0 + 2.0 * u, 0.5 + 2.0 * v);
+            let outside = px < 0.0 || py < 0.0 || px > 2.0 || py > 1.0;
+            // Away from the edges and the diagonals, where rounding may pick either side.
+            let diagonal = (py - (px - px.floor().clamp(0.0, 1.0))).abs();
+            let edge = [px, py, 2.0 - px, 1.0 - py].map(f64::abs);
+            if edge.iter().any(|&d| d < 1e-3) || px.fract().abs() < 1e-3 || diagonal < 1e-3 {
+                continue;
+            }
+            if outside {
+                assert_eq!(flat.at(x, y), [0.0; 3], "pixel ({x}, {y}) sees nothing");
+                continue;
+            }
+            let (fx, fy) = (px as f32, py as f32);
+            let e = element_at(fx, fy);
+            let want = b[ORDER[e] as usize].map(|c| f64::from(c) / PI);
+            assert!(close(flat.at(x, y), want, 2e-7), "pixel ({x}, {y})");
+            let at = reconstruction.at(&vertices, face_at(fx, fy), [fx, fy, 0.0]);
+            let got = smooth.at(x, y);
+            assert!(
+                (0..3).all(|c| (f64::from(got[c]) - f64::from(at[c]) / PI).abs() < 1e-5),
+                "pixel ({x}, {y}): {got:?} vs {at:?} / π"
+            );
+            // GEOMETRY's proxies: element 0 below y = 0.5, element 1 above.
+            off_proxy += usize::from(e != usize::from(py > 0.5));
+            checked += 1;
+        }
+    }
+    // A quarter of the strip is drawn by the other element than its proxy.
+    assert!(
+        checked > 1000 && off_proxy > checked / 5,
+        "{checked} {off_proxy}"
+    );
+}
+
 #[test]
 fn a_mirror_shows_the_reflected_radiance_times_its_reflectance() {
     let mirror = Material {

@@ -40,10 +40,11 @@ pub const SMOOTH_ELEMENT_FIELDS: &[(&str, usize)] = &[
     ("c3", 60),
 ];
 
-/// One element as the tracer's smooth shading reads it (`struct SmoothElement`, binding
-/// `smooth_elements`, one per file position): its `count` (3 or 4) corners, each followed by
-/// its smooth vertex (the index into `vertex_values`); a triangle's fourth corner is zero with
-/// vertex [`NO_CORNER`]. The 16 words to upload, at the offsets of [`SMOOTH_ELEMENT_FIELDS`].
+/// One display face as the tracer's smooth shading reads it (`struct SmoothElement`, binding
+/// `smooth_faces`, one per display face: the file's section FACES, else its elements in file
+/// order): its `count` (3 or 4) corners, each followed by its smooth vertex (the index into
+/// `vertex_values`); a triangle's fourth corner is zero with vertex [`NO_CORNER`]. The 16 words
+/// to upload, at the offsets of [`SMOOTH_ELEMENT_FIELDS`].
 pub fn smooth_element(corners: [[f32; 3]; 4], vertices: [u32; 4], count: u8) -> [u32; 16] {
     let mut words = [0u32; 16];
     for i in 0..usize::from(count.min(4)) {
@@ -63,16 +64,16 @@ pub const TRACE_BINDINGS: &[Binding] = &[
     bind(0, "params", Uniform),
     bind(1, "nodes", Read),
     bind(2, "tris", Read),
-    bind(3, "tri_element", Read),
-    bind(4, "element_id", Read),
+    bind(3, "tri_face", Read),
+    bind(4, "face_id", Read),
     bind(5, "normals", Read),
-    bind(6, "element_material", Read),
+    bind(6, "face_material", Read),
     bind(7, "optics", Read),
     bind(8, "lights", Read),
     bind(9, "radiosity", Read),
     bind(10, "image", ReadWrite),
     bind(11, "counts", ReadWrite),
-    bind(12, "smooth_elements", Read),
+    bind(12, "smooth_faces", Read),
     bind(13, "vertex_values", Read),
 ];
 

@@ -14,14 +14,15 @@
 // - nodes: node 0 exists (the host renders a scene without triangles black, without this pass); an interior node's children first, first + 1 are
 //   after it and in the list; a leaf's first + count <= the triangle count; depth < 64, so the
 //   traversal stacks (at most one entry per level) never overflow;
-// - tris, tri_element: one entry per leaf-order triangle; tri_element < n;
-// - element_id, normals, element_material: n entries; element_id < n (a permutation);
-//   element_material < the material count;
+// - tris, tri_face: one entry per leaf-order triangle; tri_face < F, the number of display
+//   faces (the file's section FACES, else its elements: F = n);
+// - face_id, normals, face_material: F entries; face_id < n (the original id of the face's
+//   element); face_material < the material count;
 // - radiosity: at least 3 n f32; lights: light_count entries (at least one bound);
 // - image: pixel_count <= its length; counts: 3 per tile, tile < their count / 3;
 // - the ray stack: a popped ray pushes at most two, with depth + 1 <= max_depth <= 16, so at
 //   most max_depth + 2 <= RAY_STACK entries are live;
-// - smooth_elements: n entries; an element's used corners (3, or 4 when c3 != NO_CORNER) name
+// - smooth_faces: F entries; a face's used corners (3, or 4 when c3 != NO_CORNER) name
 //   smooth vertices < the vertex count (Reconstruction::from_parts), and vertex_values holds 3
 //   f32 per smooth vertex (written by smooth.wgsl before the tiles). Without SMOOTH both are
 //   bound but unread.
@@ -33,7 +34,7 @@ override HIGHLIGHTS: bool = false;
 // Mirror reflection and refraction rays (the ray tree up to max_depth).
 override SECONDARY: bool = false;
 // Smooth reconstruction of the radiosity at hit points (the CPU twin's Reconstruction::at): the
-// element's smooth-vertex values (smooth.wgsl, once per frame) by mean value coordinates.
+// display face's smooth-vertex values (smooth.wgsl, once per frame) by mean value coordinates.
 override SMOOTH: bool = false;
 // Count rays by kind into `counts` (benchmarks and reports; atomics, off for timed frames).
 override COUNT_RAYS: bool = false;
@@ -106,8 +107,8 @@ struct Light {
     reserved1: f32,
 }
 
-// One element's polygon for smooth shading (lrr_shaders::smooth_element, 64 bytes; a naga test
-// compares offsets): corner i and its smooth vertex ci; a triangle's c3 is NO_CORNER.
+// One display face's polygon for smooth shading (lrr_shaders::smooth_element, 64 bytes; a naga
+// test compares offsets): corner i and its smooth vertex ci; a triangle's c3 is NO_CORNER.
 struct SmoothElement {
     v0: vec3<f32>,
     c0: u32,
@@ -123,13 +124,14 @@ struct SmoothElement {
 @group(0) @binding(1) var<storage, read> nodes: array<Node>;
 // Leaf-order triangles, 9 f32 each: v0, v1, v2.
 @group(0) @binding(2) var<storage, read> tris: array<f32>;
-// Per leaf-order triangle: the file position of its element.
-@group(0) @binding(3) var<storage, read> tri_element: array<u32>;
-// Per file position: the original id (the index into the radiosity).
-@group(0) @binding(4) var<storage, read> element_id: array<u32>;
-// Per file position: unit normal, 3 f32.
+// Per leaf-order triangle: its display face (a triangle of the fan of the file's display faces).
+@group(0) @binding(3) var<storage, read> tri_face: array<u32>;
+// Per display face: the original id of its element (the index into the radiosity).
+@group(0) @binding(4) var<storage, read> face_id: array<u32>;
+// Per display face: unit normal, 3 f32.
 @group(0) @binding(5) var<storage, read> normals: array<f32>;
-@group(0) @binding(6) var<storage, read> element_material: array<u32>;
+// Per display face: its element's material (index into optics).
+@group(0) @binding(6) var<storage, read> face_material: array<u32>;
 @group(0) @binding(7) var<storage, read> optics: array<Optics>;
 @group(0) @binding(8) var<storage, read> lights: array<Light>;
 // The relighting's B: 3 f32 per element, original ids (GpuEvaluator::radiosity_buffer).
@@ -138,8 +140,8 @@ struct SmoothElement {
 @group(0) @binding(10) var<storage, read_write> image: array<vec4<f32>>;
 // Rays by kind (primary, shadow, secondary), 3 per tile.
 @group(0) @binding(11) var<storage, read_write> counts: array<atomic<u32>>;
-// Per file position: the element's corners and smooth vertices (read with SMOOTH only).
-@group(0) @binding(12) var<storage, read> smooth_elements: array<SmoothElement>;
+// Per display face: its corners and smooth vertices (read with SMOOTH only).
+@group(0) @binding(12) var<storage, read> smooth_faces: array<SmoothElement>;
 // This frame's smooth-vertex values, 3 f32 each (smooth.wgsl's output; SMOOTH only).
 @group(0) @binding(13) var<storage, read> vertex_values: array<f32>;
 
@@ -524,12 +526,12 @@ fn vertex_value(c: u32) -> vec3<f32> {
     return vec3<f32>(vertex_values[at], vertex_values[at + 1u], vertex_values[at + 2u]);
 }
 
-// smooth.rs Reconstruction::at: the smooth radiosity at p on the element at file position e,
-// its corners' smooth-vertex values weighted by p's mean value coordinates.
-fn smooth_radiosity(e: u32, p: vec3<f32>) -> vec3<f32> {
-    let s = smooth_elements[e];
+// smooth.rs Reconstruction::at: the smooth radiosity at p on display face f, its corners'
+// smooth-vertex values weighted by p's mean value coordinates.
+fn smooth_radiosity(f: u32, p: vec3<f32>) -> vec3<f32> {
+    let s = smooth_faces[f];
     let quad = s.c3 != NO_CORNER;
-    let n = vec3<f32>(normals[3u * e], normals[3u * e + 1u], normals[3u * e + 2u]);
+    let n = vec3<f32>(normals[3u * f], normals[3u * f + 1u], normals[3u * f + 2u]);
     let w = mean_value_weights(s, quad, n, p);
     var sum = w.x * vertex_value(s.c0) + w.y * vertex_value(s.c1) + w.z * vertex_value(s.c2);
     if quad {
@@ -538,13 +540,13 @@ fn smooth_radiosity(e: u32, p: vec3<f32>) -> vec3<f32> {
     return sum;
 }
 
-// shade.rs `diffuse`: the radiosity of the hit point as a radiance, B / pi: smooth (SMOOTH) or
-// the element's flat value.
-fn diffuse(e: u32, p: vec3<f32>) -> vec3<f32> {
+// shade.rs `diffuse`: the radiosity of the hit point on display face f as a radiance, B / pi:
+// smooth (SMOOTH) or the flat value of the face's element.
+fn diffuse(f: u32, p: vec3<f32>) -> vec3<f32> {
     if SMOOTH {
-        return smooth_radiosity(e, p) * FRAC_1_PI;
+        return smooth_radiosity(f, p) * FRAC_1_PI;
     }
-    let at = 3u * element_id[e];
+    let at = 3u * face_id[f];
     let b = vec3<f32>(radiosity[at], radiosity[at + 1u], radiosity[at + 2u]);
     return b * FRAC_1_PI;
 }
@@ -626,7 +628,7 @@ fn radiance(origin: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
         if hit.tri == NO_HIT {
             return vec3<f32>(0.0);
         }
-        return diffuse(tri_element[hit.tri], mad3(origin, dir, hit.t));
+        return diffuse(tri_face[hit.tri], mad3(origin, dir, hit.t));
     }
     var total = vec3<f32>(0.0);
     var stack: array<Pending, RAY_STACK>;
@@ -644,11 +646,11 @@ fn radiance(origin: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
         if hit.tri == NO_HIT {
             continue;
         }
-        let e = tri_element[hit.tri];
+        let f = tri_face[hit.tri];
         let p = mad3(ray.origin, ray.dir, hit.t);
-        var local = diffuse(e, p);
-        let o = optics[element_material[e]];
-        let n = vec3<f32>(normals[3u * e], normals[3u * e + 1u], normals[3u * e + 2u]);
+        var local = diffuse(f, p);
+        let o = optics[face_material[f]];
+        let n = vec3<f32>(normals[3u * f], normals[3u * f + 1u], normals[3u * f + 2u]);
         let cos_n = dot3(ray.dir, n);
         var n_f = n;
         if !(cos_n < 0.0) {

@@ -5,8 +5,8 @@
 //! and its mirror `lrr_shaders::cpu::smooth_vertices` sum in f32).
 //!
 //! Built by [`GpuTracer`](super::GpuTracer) from its checked scene: SMOOTH's offsets, positions
-//! and weights, the file's order, and per element its corners with their smooth vertices (what
-//! `trace.wgsl` reads at a hit). Every index the pass follows was checked by
+//! and weights, the file's order, and per display face (section FACES, else per element) its
+//! corners with their smooth vertices (what `trace.wgsl` reads at a hit). Every index the pass follows was checked by
 //! `Reconstruction::from_parts` when the tracer's scene was made.
 
 use lrr_formats::{Geometry, Smooth};
@@ -17,7 +17,7 @@ use lrr_shaders::{
 use super::buffers::storage;
 use super::device::Gpu;
 
-/// The pass, its buffers and the per-element data the tracer binds.
+/// The pass, its buffers and the per-face data the tracer binds.
 pub(super) struct SmoothPass {
     vertex_count: u32,
     layout: wgpu::BindGroupLayout,
@@ -27,7 +27,7 @@ pub(super) struct SmoothPass {
     positions: wgpu::Buffer,
     weights: wgpu::Buffer,
     element_id: wgpu::Buffer,
-    /// Per file position: `lrr_shaders::smooth_element` (binding `smooth_elements` of the tracer).
+    /// Per display face: `lrr_shaders::smooth_element` (binding `smooth_faces` of the tracer).
     pub elements: wgpu::Buffer,
     /// This frame's smooth-vertex values, 3 f32 each (binding `vertex_values` of the tracer).
     pub values: wgpu::Buffer,
@@ -37,31 +37,28 @@ impl SmoothPass {
     /// The bytes of each buffer the pass and the tracer bind, by name (checked against one
     /// binding's limit before anything is made).
     pub(super) fn sizes(geometry: &Geometry, smooth: &Smooth) -> [(&'static str, u64); 4] {
-        let n = geometry.vertex_count.len() as u64;
+        let faces = geometry.vertex_count.len() as u64;
         let p = smooth.positions.len() as u64;
         [
             ("smooth vertex values", 12 * smooth.vertex_count() as u64),
             (
-                "smooth elements",
-                lrr_shaders::SMOOTH_ELEMENT_BYTES as u64 * n,
+                "smooth faces",
+                lrr_shaders::SMOOTH_ELEMENT_BYTES as u64 * faces,
             ),
             ("smooth offsets", 4 * smooth.offsets.len() as u64),
             ("smooth weights", 4 * p),
         ]
     }
 
-    /// Uploads the reconstruction of a checked scene: `geometry` and `smooth` as
-    /// `Reconstruction::from_parts` accepted them, `element_id` the file's order.
+    /// Uploads the reconstruction of a checked scene: `geometry` (the display faces' polygons)
+    /// and `smooth` as `Reconstruction::from_parts` accepted them, `element_id` the file's order.
     pub(super) fn new(gpu: &Gpu, geometry: &Geometry, smooth: &Smooth, element_id: &[u32]) -> Self {
         let none = wgpu::BufferUsages::empty();
         let elements: Vec<u32> = (0..geometry.vertex_count.len())
-            .flat_map(|e| {
-                let corners = std::array::from_fn(|i| {
-                    let at = 12 * e + 3 * i;
-                    [0, 1, 2].map(|c| geometry.vertices[at + c])
-                });
-                let vertices = std::array::from_fn(|i| smooth.corners[4 * e + i]);
-                smooth_element(corners, vertices, geometry.vertex_count[e])
+            .flat_map(|f| {
+                let corners = std::array::from_fn(|i| geometry.vertex(f, i));
+                let vertices = std::array::from_fn(|i| smooth.corners[4 * f + i]);
+                smooth_element(corners, vertices, geometry.vertex_count[f])
             })
             .collect();
         let vertex_count = smooth.vertex_count() as u32;
@@ -101,7 +98,7 @@ impl SmoothPass {
             positions: storage(gpu, "smooth positions", &smooth.positions, none),
             weights: storage(gpu, "smooth weights", &smooth.weights, none),
             element_id: storage(gpu, "smooth element ids", element_id, none),
-            elements: storage(gpu, "smooth elements", &elements, none),
+            elements: storage(gpu, "smooth faces", &elements, none),
             values: storage(
                 gpu,
                 "smooth vertex values",

@@ -78,17 +78,19 @@ pub struct GpuTracer {
     params: wgpu::Buffer,
     nodes: wgpu::Buffer,
     tris: wgpu::Buffer,
-    tri_element: wgpu::Buffer,
-    element_id: wgpu::Buffer,
+    /// Per leaf-order triangle: its display face.
+    tri_face: wgpu::Buffer,
+    /// Per display face: the original id of its element; its normal; its element's material.
+    face_id: wgpu::Buffer,
     normals: wgpu::Buffer,
-    element_material: wgpu::Buffer,
+    face_material: wgpu::Buffer,
     optics: wgpu::Buffer,
     lights: wgpu::Buffer,
     /// Radiosity uploaded from the host ([`render_lighting`](Self::render_lighting)).
     host_radiosity: Option<wgpu::Buffer>,
     /// The smooth reconstruction (files with SMOOTH weights).
     smooth: Option<SmoothPass>,
-    /// Bound as `smooth_elements` and `vertex_values` when the file has no SMOOTH (unread).
+    /// Bound as `smooth_faces` and `vertex_values` when the file has no SMOOTH (unread).
     no_smooth: wgpu::Buffer,
     tile_pixels: u32,
 }
@@ -180,10 +182,10 @@ impl GpuTracer {
             }),
             nodes: storage(gpu, "bvh nodes", &nodes, none),
             tris: storage(gpu, "triangles", &tris, none),
-            tri_element: storage(gpu, "triangle elements", &scene.tri_element, none),
-            element_id: storage(gpu, "element ids", &scene.element_id, none),
-            normals: storage(gpu, "normals", &normals, none),
-            element_material: storage(gpu, "element materials", &scene.element_material, none),
+            tri_face: storage(gpu, "triangle faces", &scene.tri_face, none),
+            face_id: storage(gpu, "face element ids", &scene.face_id, none),
+            normals: storage(gpu, "face normals", &normals, none),
+            face_material: storage(gpu, "face materials", &scene.face_material, none),
             optics: storage(gpu, "optics", &optics, none),
             lights: storage(
                 gpu,
@@ -573,10 +575,10 @@ impl GpuTracer {
             &self.params,
             &self.nodes,
             &self.tris,
-            &self.tri_element,
-            &self.element_id,
+            &self.tri_face,
+            &self.face_id,
             &self.normals,
-            &self.element_material,
+            &self.face_material,
             &self.optics,
             &self.lights,
             radiosity,
@@ -627,11 +629,12 @@ fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
     }
     #[allow(unsafe_code)]
     // SAFETY: every index trace.wgsl follows was checked by `TraceScene::new` (the BVH's
-    // children and leaf ranges, its depth against the fixed stacks, element ids, materials,
-    // light groups, the SMOOTH corners through `Reconstruction::from_parts`) and by
-    // `GpuTracer::frame` (the radiosity buffer's size, the tile against the tile buffer, the
-    // counters per tile) and `SmoothPass::new` (3 f32 per smooth vertex, one element record per
-    // file position); the argument is in the header of trace.wgsl.
+    // children and leaf ranges, its depth against the fixed stacks, the display faces' element
+    // ids and materials, light groups, the SMOOTH corners of the display faces through
+    // `Reconstruction::from_parts`) and by `GpuTracer::frame` (the radiosity buffer's size, the
+    // tile against the tile buffer, the counters per tile) and `SmoothPass::new` (3 f32 per
+    // smooth vertex, one face record per display face); the argument is in the header of
+    // trace.wgsl.
     // Its loops end: the traversal visits each node at most once (children after parents) and
     // the ray tree's depth grows by one per push up to a limit of at most 16.
     unsafe {

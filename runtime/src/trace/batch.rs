@@ -145,7 +145,7 @@ fn in_packets<T, const N: usize>(
 fn surface(scene: &TraceScene, batch: &RayBatch, i: usize, hit: &TraceHit) -> (V3, V3) {
     let d = batch.dirs[i];
     let p = mad(batch.origins[i], d, hit.t);
-    let n = scene.normals[scene.tri_element[hit.leaf as usize] as usize];
+    let n = scene.normals[scene.tri_face[hit.leaf as usize] as usize];
     (p, if dot(d, n) < 0.0 { n } else { scale(n, -1.0) })
 }
 

@@ -111,7 +111,7 @@ fn in_view(scene: &TraceScene, view: &View) -> (bool, bool, bool) {
     }
     let none = seen;
     for &t in &scene.special {
-        let o = scene.optics_of(scene.tri_element[t as usize]);
+        let o = scene.optics_of(scene.tri_face[t as usize]);
         let wanted = (o.has_highlight() && !seen.0)
             || (o.reflects() && !seen.1)
             || (o.transmits() && !seen.2);

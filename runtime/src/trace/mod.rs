@@ -2,11 +2,12 @@
 //! frame's radiosity.
 //!
 //! [`Tracer::new`] copies what the file holds for display (format 1.2): the display triangles
-//! (the fan triangulation of the geometry), the flattened binary BVH the bake built (the
-//! runtime builds none: a file without one is an error saying to re-bake), materials, point
-//! lights and cameras. [`Tracer::render`] takes a [`View`] (pinhole camera, vertical field of
-//! view in degrees) and a frame's [`Lighting`] (the evaluator's radiosity, the light groups'
-//! intensities) and returns linear RGB radiance per pixel:
+//! (the fan triangulation of the display faces, `OperatorFile::faces`: section FACES of format
+//! 1.4, else GEOMETRY's elements; a hit on a face shows its element's radiosity), the flattened
+//! binary BVH the bake built (the runtime builds none: a file without one is an error saying to
+//! re-bake), materials, point lights and cameras. [`Tracer::render`] takes a [`View`] (pinhole
+//! camera, vertical field of view in degrees) and a frame's [`Lighting`] (the evaluator's
+//! radiosity, the light groups' intensities) and returns linear RGB radiance per pixel:
 //!
 //! - the radiosity of the hit point as a radiance, `B / π` (the smooth reconstruction of the
 //!   file's SMOOTH weights by default, the element's flat value where a file has none);

@@ -1,7 +1,9 @@
 //! What the tracer reads, copied once from an operator file into flat arrays indexed by `u32`
 //! (the buffers a WGSL twin binds): the BVH nodes as the file stores them, the display
-//! triangles in the BVH's leaf order (so a leaf's triangles are one contiguous run), and per
-//! element its original id, normal and material.
+//! triangles in the BVH's leaf order (so a leaf's triangles are one contiguous run), each with
+//! its display face, and per display face its element's original id, its normal and its
+//! element's material. The display faces are the file's
+//! ([`OperatorFile::faces`]: section FACES, else GEOMETRY's elements, face = file position).
 //!
 //! Everything a traversal indexes is checked here, so that no file (the file's own validation
 //! included or not) can make the tracer read out of bounds or overflow its traversal stack.
@@ -55,16 +57,19 @@ pub(crate) struct TraceScene {
     pub tris: Vec<[f32; 9]>,
     /// The same tree collapsed into 4-wide nodes, what the CPU traverses.
     pub bvh4: Bvh4,
-    /// Per leaf-order triangle: the file position of its element.
-    pub tri_element: Vec<u32>,
+    /// Per leaf-order triangle: its display face.
+    pub tri_face: Vec<u32>,
     /// Per leaf-order triangle: its display triangle id (the file's `Bvh::triangles`).
     pub tri_id: Vec<u32>,
-    /// Per file position: the element's original id (the index into a frame's radiosity).
+    /// Per file position: the element's original id (the index into a frame's radiosity; the
+    /// order the smooth reconstruction reads).
     pub element_id: Vec<u32>,
-    /// Per file position: unit normal.
+    /// Per display face: the original id of its element (the index into a frame's radiosity).
+    pub face_id: Vec<u32>,
+    /// Per display face: unit normal.
     pub normals: Vec<V3>,
-    /// Per file position: index into `optics`.
-    pub element_material: Vec<u32>,
+    /// Per display face: its element's index into `optics`.
+    pub face_material: Vec<u32>,
     /// Leaf-order indices of the triangles whose material is not purely diffuse (a specular
     /// colour, a mirror reflectance or a transmission filter): what the effects decision
     /// tests against the view (`effects::decide`).
@@ -81,8 +86,8 @@ pub(crate) struct TraceScene {
     pub epsilon: f32,
     /// The file has smooth reconstruction weights (section SMOOTH).
     pub has_smooth: bool,
-    /// The file's geometry and SMOOTH weights (checked), what [`Reconstruction`] reads; `None`
-    /// when the file has no SMOOTH section.
+    /// The display faces' polygons and SMOOTH weights (checked), what [`Reconstruction`] reads;
+    /// `None` when the file has no SMOOTH section.
     ///
     /// [`Reconstruction`]: crate::Reconstruction
     pub smooth: Option<(Geometry, Smooth)>,
@@ -106,7 +111,25 @@ impl TraceScene {
                  re-bake the scene with this version of lrr (`lrr bake`), which stores one",
             ));
         };
-        let all: Vec<(u32, [[f32; 3]; 3])> = g.triangles().collect();
+        let faces = file.faces();
+        let fg = faces.geometry;
+        let count = faces.len();
+        let shaped = fg.vertices.len() == 12 * count
+            && fg.normals.len() == 3 * count
+            && fg.vertex_count.iter().all(|&c| c == 3 || c == 4);
+        if !shaped {
+            return Err(bad(
+                "the display faces are not polygons of 3 or 4 vertices with a normal each",
+            ));
+        }
+        let face_element: Vec<u32> = match faces.elements() {
+            Some(e) if e.len() != count || e.iter().any(|&p| p as usize >= n) => {
+                return Err(bad("a display face names no element"));
+            }
+            Some(e) => e.to_vec(),
+            None => (0..n as u32).collect(),
+        };
+        let all: Vec<(u32, [[f32; 3]; 3])> = faces.triangles().collect();
         check_bvh(&bvh.nodes, &bvh.triangles, all.len())?;
         let tris: Vec<[f32; 9]> = bvh
             .triangles
@@ -124,12 +147,16 @@ impl TraceScene {
                 }
             })
         })?;
-        let tri_element: Vec<u32> = bvh.triangles.iter().map(|&t| all[t as usize].0).collect();
+        let tri_face: Vec<u32> = bvh.triangles.iter().map(|&t| all[t as usize].0).collect();
         let (optics, material_names, element_material) = materials(file)?;
+        let face_material: Vec<u32> = face_element
+            .iter()
+            .map(|&e| element_material[e as usize])
+            .collect();
         let special = (0..tris.len() as u32)
             .filter(|&t| {
-                let e: u32 = tri_element[t as usize];
-                let o = &optics[element_material[e as usize] as usize];
+                let f = tri_face[t as usize];
+                let o = &optics[face_material[f as usize] as usize];
                 o.has_highlight() || o.reflects() || o.transmits()
             })
             .collect();
@@ -138,7 +165,7 @@ impl TraceScene {
         let smooth = match &file.display.smooth {
             Some(weights) => {
                 crate::smooth::Reconstruction::new(file)?;
-                Some((g.clone(), weights.clone()))
+                Some((fg.clone(), weights.clone()))
             }
             None => None,
         };
@@ -151,15 +178,19 @@ impl TraceScene {
             nodes: bvh.nodes.clone(),
             tris,
             bvh4,
-            tri_element,
+            tri_face,
             tri_id: bvh.triangles.clone(),
             element_id: file.order.clone(),
-            normals: g
+            face_id: face_element
+                .iter()
+                .map(|&e| file.order[e as usize])
+                .collect(),
+            normals: fg
                 .normals
                 .chunks_exact(3)
                 .map(|c| [c[0], c[1], c[2]])
                 .collect(),
-            element_material,
+            face_material,
             special,
             optics,
             material_names,
@@ -226,10 +257,10 @@ impl TraceScene {
         self.element_id.len()
     }
 
-    /// The optics of the element at file position `e`.
+    /// The optics of display face `f` (its element's).
     #[inline(always)]
-    pub(crate) fn optics_of(&self, e: u32) -> &Optics {
-        &self.optics[self.element_material[e as usize] as usize]
+    pub(crate) fn optics_of(&self, f: u32) -> &Optics {
+        &self.optics[self.face_material[f as usize] as usize]
     }
 }
 

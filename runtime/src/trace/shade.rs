@@ -1,7 +1,7 @@
 //! The radiance along one camera ray: a Whitted ray tree walked with an explicit stack.
 //!
-//! At a hit on element `e` at point `p` (direction `d`, geometric normal `n` turned towards
-//! the ray, `n_f`):
+//! At a hit on a display face of element `e` at point `p` (direction `d`, the face's geometric
+//! normal `n` turned towards the ray, `n_f`):
 //!
 //! ```text
 //! L = B_e / π                                         the radiosity, a Lambertian radiance
@@ -76,15 +76,15 @@ struct Pending {
 /// being pushed.
 const STACK: usize = MAX_DEPTH_LIMIT as usize + 2;
 
-/// The radiosity of the hit point `p` on the element at file position `e` as a radiance,
-/// `B / π`: smooth, [`Reconstruction::at`] from the frame's smooth-vertex values; flat (or
-/// when the frame has no smooth values), the element's value.
+/// The radiosity of the hit point `p` on display face `f` as a radiance, `B / π`: smooth,
+/// [`Reconstruction::at`] from the frame's smooth-vertex values; flat (or when the frame has no
+/// smooth values), the value of the face's element.
 #[inline(always)]
-fn diffuse<const SMOOTH: bool>(scene: &TraceScene, frame: &FrameInput, e: u32, p: V3) -> V3 {
+fn diffuse<const SMOOTH: bool>(scene: &TraceScene, frame: &FrameInput, f: u32, p: V3) -> V3 {
     if SMOOTH && let Some((reconstruction, vertices)) = &frame.smooth {
-        return scale(reconstruction.at(vertices, e as usize, p), FRAC_1_PI);
+        return scale(reconstruction.at(vertices, f as usize, p), FRAC_1_PI);
     }
-    let b = frame.radiosity[scene.element_id[e as usize] as usize];
+    let b = frame.radiosity[scene.face_id[f as usize] as usize];
     scale(b, FRAC_1_PI)
 }
 
@@ -165,8 +165,8 @@ pub(crate) fn radiance<const HIGHLIGHTS: bool, const SECONDARY: bool, const SMOO
         counts.primary += 1;
         return match primary {
             Some(hit) => {
-                let e = scene.tri_element[hit.tri as usize];
-                diffuse::<SMOOTH>(scene, frame, e, mad(origin, dir, hit.t))
+                let f = scene.tri_face[hit.tri as usize];
+                diffuse::<SMOOTH>(scene, frame, f, mad(origin, dir, hit.t))
             }
             None => [0.0; 3],
         };
@@ -195,11 +195,11 @@ pub(crate) fn radiance<const HIGHLIGHTS: bool, const SECONDARY: bool, const SMOO
         let Some(hit) = hit else {
             continue;
         };
-        let e = scene.tri_element[hit.tri as usize];
+        let f = scene.tri_face[hit.tri as usize];
         let p = mad(ray.origin, ray.dir, hit.t);
-        let local = diffuse::<SMOOTH>(scene, frame, e, p);
-        let optics = scene.optics_of(e);
-        let n = scene.normals[e as usize];
+        let local = diffuse::<SMOOTH>(scene, frame, f, p);
+        let optics = scene.optics_of(f);
+        let n = scene.normals[f as usize];
         let cos_n = dot(ray.dir, n);
         let n_f = if cos_n < 0.0 { n } else { scale(n, -1.0) };
         let mut local = local;

@@ -61,7 +61,7 @@ pub struct RenderReport {
     pub rays: RayCounts,
 }
 
-/// A ray tracer over an operator file's display data (fan triangles of the geometry, the
+/// A ray tracer over an operator file's display data (fan triangles of the display faces, the
 /// file's BVH, materials, point lights, cameras). See the [module docs](super).
 #[derive(Debug, Clone)]
 pub struct Tracer {
