@@ -140,6 +140,9 @@ pub(crate) fn select(mesh: &Mesh, indicator: &[f64], budget: f64) -> Vec<bool> {
     let mut added = 0;
     for s in ranked {
         let id = mesh.order[s] as usize;
+        if !mesh.elements[id].parts.is_empty() {
+            continue; // a dense mesh's element stands for its faces: its proxy is not split
+        }
         let extra = children(&mesh.elements[id].polygon) - 1;
         if added + extra > allowed {
             continue; // a 1×2 split may still fit

@@ -9,9 +9,13 @@
 
 mod bvh;
 
-use lrr_formats::{Bvh, Camera, Display, Geometry, LightmapUv, Material, Materials, PointLight};
+use lrr_formats::{
+    Bvh, Camera, Display, Faces, Geometry, LightmapUv, Material, Materials, PointLight,
+};
 
 use crate::error::{Error, Result};
+use crate::geometry::Polygon;
+use crate::mesh::Element;
 use crate::patches::Mesh;
 use crate::progress::Progress;
 use crate::scene::{Optics, Scene};
@@ -23,22 +27,57 @@ pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display>
     let materials = materials(scene, mesh)?;
     let point_lights = point_lights(scene, mesh)?;
     let cameras = cameras(scene)?;
+    let shown = Shown::of(scene, mesh);
     let stage = progress.stage("bvh", 0);
-    let bvh = bvh::build(&geometry(mesh));
+    let bvh = bvh::build(&shown.geometry);
     stage.finish();
     let stage = progress.stage("smooth", 0);
-    let elements: Vec<_> = (0..mesh.n()).map(|s| mesh.element_at(s)).collect();
-    let smooth = crate::mesh::smooth::weights(scene, &elements);
+    let refs: Vec<&Element> = shown.faces.iter().collect();
+    let mut smooth = crate::mesh::smooth::weights(scene, &refs);
+    if shown.grouped {
+        smooth = crate::mesh::smooth::per_element(&smooth, &shown.element);
+    }
     stage.finish();
+    let lightmap = lightmap(scene, &shown.faces);
     Ok(Display {
         smooth: Some(smooth),
         materials: Some(materials),
         point_lights,
         cameras,
         bvh: Some(bvh),
-        lightmap: lightmap(scene, mesh),
-        faces: None,
+        lightmap,
+        faces: shown.grouped.then(|| Faces {
+            element: shown.element,
+            geometry: shown.geometry,
+        }),
     })
+}
+
+/// What is drawn, in file order: each element's own polygon, or the faces of a dense mesh's
+/// element ([`Element::shown`]; then the file holds them as section FACES).
+struct Shown {
+    /// One element per face (`parts` empty), as the smooth weights take them.
+    faces: Vec<Element>,
+    /// The file position each face shows.
+    element: Vec<u32>,
+    /// The faces in f32.
+    geometry: Geometry,
+    /// Whether any element is drawn as other polygons than its own.
+    grouped: bool,
+}
+
+impl Shown {
+    fn of(scene: &Scene, mesh: &Mesh) -> Self {
+        let elements = (0..mesh.n()).map(|s| mesh.element_at(s));
+        let (faces, element, grouped) = crate::mesh::shown_faces(scene, elements);
+        let geometry = polygons(faces.iter().map(|e| &e.polygon), faces.len());
+        Self {
+            faces,
+            element,
+            geometry,
+            grouped,
+        }
+    }
 }
 
 /// The BVH a bake stores over `geometry`'s display triangles (section BVH), built as
@@ -47,13 +86,11 @@ pub fn bvh(geometry: &Geometry) -> Bvh {
     bvh::build(geometry)
 }
 
-/// The scene's lightmap coordinates (`TEXCOORD_1`) at every element corner, in file order
-/// (section LIGHTMAP); None unless every element's face has them (`scene::load` warns when
-/// only some do).
-fn lightmap(scene: &Scene, mesh: &Mesh) -> Option<LightmapUv> {
-    let mut uv = Vec::with_capacity(8 * mesh.n());
-    for s in 0..mesh.n() {
-        let e = mesh.element_at(s);
+/// The scene's lightmap coordinates (`TEXCOORD_1`) at every corner of the display `faces`
+/// (section LIGHTMAP); None unless every face has them (`scene::load` warns when only some do).
+fn lightmap(scene: &Scene, faces: &[Element]) -> Option<LightmapUv> {
+    let mut uv = Vec::with_capacity(8 * faces.len());
+    for e in faces {
         let map = scene.faces[e.face as usize].uv[1].as_ref()?;
         for (i, v) in e.polygon.vertices.iter().enumerate() {
             let [a, b] = if i < e.polygon.count {
@@ -67,16 +104,20 @@ fn lightmap(scene: &Scene, mesh: &Mesh) -> Option<LightmapUv> {
     Some(LightmapUv { uv })
 }
 
-/// The fine mesh for display, in file order and f32 (section GEOMETRY).
+/// The fine mesh's elements in file order and f32 (section GEOMETRY): a dense mesh's element
+/// as its proxy.
 pub(crate) fn geometry(mesh: &Mesh) -> Geometry {
-    let n = mesh.n();
+    polygons((0..mesh.n()).map(|s| &mesh.element_at(s).polygon), mesh.n())
+}
+
+/// `count` polygons in f32, as GEOMETRY and FACES store them.
+fn polygons<'a>(all: impl Iterator<Item = &'a Polygon>, count: usize) -> Geometry {
     let mut geometry = Geometry {
-        vertex_count: Vec::with_capacity(n),
-        vertices: Vec::with_capacity(n * 12),
-        normals: Vec::with_capacity(n * 3),
+        vertex_count: Vec::with_capacity(count),
+        vertices: Vec::with_capacity(count * 12),
+        normals: Vec::with_capacity(count * 3),
     };
-    for s in 0..n {
-        let p = &mesh.element_at(s).polygon;
+    for p in all {
         geometry.vertex_count.push(p.count as u8);
         // Triangles leave their fourth slot zero (Polygon keeps unused slots zeroed).
         for v in &p.vertices {

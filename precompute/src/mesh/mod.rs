@@ -14,6 +14,7 @@
 //! Elements are numbered in generation order (depth-first, region by region in order of their
 //! first face): that is the *original element id* every output reports.
 
+mod dense;
 mod element;
 mod imprint;
 mod region;
@@ -25,6 +26,8 @@ use std::time::Instant;
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 
+pub use dense::Grouped;
+pub(crate) use dense::shown_faces;
 pub use element::{
     DEFAULT_ELEMENT_FRACTION, DEFAULT_PATCH_FRACTION, Element, MAX_ELEMENTS, MeshSizes,
 };
@@ -53,6 +56,10 @@ pub(crate) fn fine_mesh(
         return Err(refusal(scene, sizes.element_size, &per_surface));
     }
     let (elements, pieces) = subdivide::fine(scene, roots, sizes.element_size, &mut report);
+    let t = Instant::now();
+    let (elements, pieces, grouped) = dense::group(scene, elements, pieces, sizes.element_size);
+    report.grouped = grouped;
+    report.stages.push(("group", t.elapsed().as_secs_f64()));
     Ok((elements, pieces, report))
 }
 

@@ -111,6 +111,53 @@ pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
     extrapolate(&out, elements, &boundary)
 }
 
+/// The weights `s` of display faces (its positions index faces) as weights of the elements
+/// they show (`element_of[face]`, a file position): a vertex's weights on faces of one
+/// element add up, and weights that cancel (below [`MIN_MEAN_WEIGHT`] in magnitude) are left
+/// out, the rest scaled to sum to one; a vertex whose weights all cancel takes the plain
+/// mean of its elements. The corners stay the faces'.
+pub fn per_element(s: &Smooth, element_of: &[u32]) -> Smooth {
+    let mut out = Smooth {
+        corners: s.corners.clone(),
+        offsets: vec![0],
+        positions: Vec::new(),
+        weights: Vec::new(),
+    };
+    let mut sums: Vec<(u32, f64)> = Vec::new();
+    for v in 0..s.vertex_count() {
+        let range = s.offsets[v] as usize..s.offsets[v + 1] as usize;
+        sums.clear();
+        for (&p, &w) in s.positions[range.clone()].iter().zip(&s.weights[range]) {
+            let e = element_of[p as usize];
+            match sums.iter_mut().find(|(x, _)| *x == e) {
+                Some((_, total)) => *total += f64::from(w),
+                None => sums.push((e, f64::from(w))),
+            }
+        }
+        sums.sort_by_key(|&(e, _)| e);
+        let kept: Vec<(u32, f64)> = sums
+            .iter()
+            .copied()
+            .filter(|(_, w)| w.abs() >= MIN_MEAN_WEIGHT)
+            .collect();
+        let total: f64 = kept.iter().map(|(_, w)| w).sum();
+        if kept.is_empty() || total.abs() < 0.5 {
+            let share = 1.0 / sums.len() as f64;
+            for &(e, _) in &sums {
+                out.positions.push(e);
+                out.weights.push(share as f32);
+            }
+        } else {
+            for (e, w) in kept {
+                out.positions.push(e);
+                out.weights.push((w / total) as f32);
+            }
+        }
+        out.offsets.push(out.positions.len() as u32);
+    }
+    out
+}
+
 /// Smallest weight a member of a mean takes, relative to the mean's total: a needle's corner
 /// (an angle of 1e-9 rad) or a degenerate one (no angle at all) still counts, so that every
 /// stored weight is non-zero and the weights sum to one in `f32` whatever the input.
@@ -473,10 +520,12 @@ mod tests {
             element_size,
             patch_size: 4.0 * element_size,
         };
+        // What the file draws: a dense mesh's elements as their faces.
         let (elements, _, _) = fine_mesh(scene, sizes).unwrap();
-        let refs: Vec<&Element> = elements.iter().collect();
+        let (faces, _, _) = crate::mesh::shown_faces(scene, elements.iter());
+        let refs: Vec<&Element> = faces.iter().collect();
         let smooth = weights(scene, &refs);
-        (elements, smooth)
+        (faces, smooth)
     }
 
     /// The elements of each smooth vertex.

@@ -125,6 +125,8 @@ pub struct MeshReport {
     pub stages: Vec<(&'static str, f64)>,
     /// Elements split by refinement where light changes (`lrr bake --refine`), 0 without.
     pub refined: usize,
+    /// Small input faces grouped into elements of about the element size (`dense`).
+    pub grouped: super::dense::Grouped,
 }
 
 /// The fine mesh: planar regions planned (`region`), faces cut at their contacts and
@@ -162,6 +164,7 @@ pub(crate) fn fine(
                             face: f as u32,
                             surface,
                             patch: u32::MAX,
+                            parts: Vec::new(),
                         })
                     });
                     pieces.push(Piece {
@@ -218,6 +221,7 @@ pub(crate) fn fine(
                             face: f as u32,
                             surface,
                             patch: u32::MAX,
+                            parts: Vec::new(),
                         });
                     }
                 }

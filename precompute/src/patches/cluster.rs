@@ -24,7 +24,7 @@ pub(super) const NORMAL_CONE_DEGREES: f64 = 45.0;
 
 /// What clustering needs of a piece.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct Unit {
+pub(crate) struct Unit {
     pub centroid: DVec3,
     pub normal: DVec3,
     pub area: f64,
@@ -34,7 +34,7 @@ pub(super) struct Unit {
 }
 
 impl Unit {
-    pub(super) fn of(p: &Polygon) -> Self {
+    pub(crate) fn of(p: &Polygon) -> Self {
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
         for v in p.vertices() {
@@ -118,10 +118,15 @@ fn median_split(
 /// A set's vertex bounding box and whether its normals lie within the cone of
 /// [`NORMAL_CONE_DEGREES`] around their area-weighted mean.
 fn summary(units: &[Unit], set: &[usize]) -> (DVec3, DVec3, bool) {
+    summary_within(units, set, NORMAL_CONE_DEGREES)
+}
+
+/// [`summary`] for a cone of `cone_degrees`.
+fn summary_within(units: &[Unit], set: &[usize], cone_degrees: f64) -> (DVec3, DVec3, bool) {
     let lo = span(set.iter().map(|&u| units[u].lo)).0;
     let hi = span(set.iter().map(|&u| units[u].hi)).1;
     let mean: DVec3 = set.iter().map(|&u| units[u].area * units[u].normal).sum();
-    let cos = NORMAL_CONE_DEGREES.to_radians().cos();
+    let cos = cone_degrees.to_radians().cos();
     let within = mean
         .try_normalize()
         .is_some_and(|m| set.iter().all(|&u| units[u].normal.dot(m) >= cos));
@@ -138,10 +143,25 @@ pub(super) fn fits(units: &[Unit], set: &[usize], size: f64) -> bool {
 /// The 2MF clusters of `set`: bisected until each [`fits`] the patch size. Each cluster is
 /// sorted by index; clusters come in the order of their smallest index.
 pub(super) fn by_size(units: &[Unit], set: Vec<usize>, size: f64) -> Vec<Vec<usize>> {
+    by_size_within(units, set, size, f64::INFINITY, NORMAL_CONE_DEGREES)
+}
+
+/// [`by_size`] for a cone of `cone_degrees`, with sets also bisected by position until their
+/// area is at most `max_area` (the elements of dense meshes, `crate::mesh::dense`).
+pub(crate) fn by_size_within(
+    units: &[Unit],
+    set: Vec<usize>,
+    size: f64,
+    max_area: f64,
+    cone_degrees: f64,
+) -> Vec<Vec<usize>> {
     let mut out = Vec::new();
     let mut stack = vec![set];
     while let Some(s) = stack.pop() {
-        if s.len() <= 1 || fits(units, &s, size) {
+        let (lo, hi, within) = summary_within(units, &s, cone_degrees);
+        let box_fits = (hi - lo).max_element() <= size;
+        let area: f64 = s.iter().map(|&u| units[u].area).sum();
+        if s.len() <= 1 || (box_fits && within && area <= max_area) {
             if !s.is_empty() {
                 out.push(s);
             }
@@ -150,7 +170,7 @@ pub(super) fn by_size(units: &[Unit], set: Vec<usize>, size: f64) -> Vec<Vec<usi
         // A set within the size whose normals leave the cone (the sides of a pillar, a step)
         // is split by its normals: halving it by position may never part opposite faces, and
         // a game level's details would end one piece per patch.
-        let [a, b] = if box_fits(units, &s, size) {
+        let [a, b] = if box_fits && !within {
             bisect_normals(units, &s)
         } else {
             bisect(units, &s)
@@ -160,12 +180,6 @@ pub(super) fn by_size(units: &[Unit], set: Vec<usize>, size: f64) -> Vec<Vec<usi
     }
     out.sort_by_key(|c| c[0]);
     out
-}
-
-/// True when the set's vertex bounding box has no side longer than `size`.
-fn box_fits(units: &[Unit], set: &[usize], size: f64) -> bool {
-    let (lo, hi, _) = summary(units, set);
-    (hi - lo).max_element() <= size
 }
 
 /// The sets of `sets` split until there are `budget` of them (or no set has two units left):

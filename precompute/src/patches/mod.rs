@@ -317,7 +317,13 @@ impl Mesh {
             CoherenceRule::Merge => {
                 let materials: Vec<coherence::Material> =
                     elements.iter().map(|e| material(scene, e.face)).collect();
-                coherence::merge::merge(&mut elements, &materials, refinement.threshold, &probes)
+                coherence::merge::merge(
+                    scene,
+                    &mut elements,
+                    &materials,
+                    refinement.threshold,
+                    &probes,
+                )
             }
         };
         Ok(Self {
@@ -490,8 +496,19 @@ impl Mesh {
             .iter()
             .map(|e| {
                 let m = &scene.materials[scene.faces[e.face as usize].material];
-                let rho = scene.reflectance_over(e.face as usize, &e.polygon, &lut);
-                (rho, m.emission)
+                if e.parts.is_empty() {
+                    let rho = scene.reflectance_over(e.face as usize, &e.polygon, &lut);
+                    return (rho, m.emission);
+                }
+                // A dense mesh's element: the area-weighted mean of its faces' (one material).
+                let mut rho = [0.0; 3];
+                let mut area = 0.0;
+                for (f, p) in e.shown(scene) {
+                    let (a, r) = (p.area(), scene.reflectance_over(f as usize, p, &lut));
+                    (0..3).for_each(|c| rho[c] += a * r[c]);
+                    area += a;
+                }
+                (rho.map(|r| r / area), m.emission)
             })
             .unzip()
     }

@@ -323,7 +323,10 @@ fn display_bytes(d: &Display) -> u128 {
         .bvh
         .as_ref()
         .map_or(0, |b| 32 * b.nodes.len() + 4 * b.triangles.len());
-    (smooth + materials + lights + cameras + bvh) as u128
+    let faces = d.faces.as_ref().map_or(0, |f| {
+        4 * f.element.len() + f.geometry.vertex_count.len() * 61
+    });
+    (smooth + materials + lights + cameras + bvh + faces) as u128
 }
 
 /// Rows per streaming buffer and the bytes planned, refused when even one row does not fit.

@@ -5,7 +5,7 @@
 //! N = 7), but 2MSC builds its patches from probe solves: half a shard's form-factor time at
 //! N = 7, repeated by every shard (docs/DISTRIBUTED.md). The plan stores the mesh exactly
 //! (every f64 by its bits), so a shard that reads it computes the same rows and the merge
-//! writes the same bytes. Layout: magic `LRRPLAN1`, body length, XXH64 of the body, body
+//! writes the same bytes. Layout: magic `LRRPLAN2` (2: elements list the input faces they group), body length, XXH64 of the body, body
 //! (lrr version, scene content hash, settings text, then the mesh).
 
 use std::path::Path;
@@ -19,7 +19,7 @@ use crate::geometry::{Polygon, Region};
 use crate::mesh::Element;
 use crate::patches::{Mesh, Patch};
 
-const MAGIC: &[u8; 8] = b"LRRPLAN1";
+const MAGIC: &[u8; 8] = b"LRRPLAN2";
 
 /// What a plan must match: the shard's lrr version, scene and settings.
 pub(crate) struct PlanIdentity<'a> {
@@ -40,6 +40,7 @@ pub(crate) fn write(path: &Path, id: &PlanIdentity, mesh: &Mesh) -> Result<()> {
         for v in [el.face, el.surface, el.patch] {
             e.u64(u64::from(v));
         }
+        e.u64s(el.parts.iter().map(|&v| u64::from(v)));
     }
     e.u64(mesh.patches.len() as u64);
     for p in &mesh.patches {
@@ -69,7 +70,7 @@ pub(crate) fn read(path: &Path, id: &PlanIdentity) -> Result<Mesh> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     if bytes.len() < 24 || &bytes[..8] != MAGIC {
         return Err(bad(
-            "not a plan (no LRRPLAN1 header): write one with `lrr plan`".into(),
+            "not a plan (no LRRPLAN2 header): write one with `lrr plan`".into(),
         ));
     }
     let word = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().expect("8 bytes"));
@@ -113,11 +114,13 @@ fn mesh(d: &mut Dec) -> Decoded<Mesh> {
     for _ in 0..d.count(8 * 16)? {
         let polygon = read_polygon(d)?;
         let [face, surface, patch] = [d.u32()?, d.u32()?, d.u32()?];
+        let parts = d.u32s()?;
         elements.push(Element {
             polygon,
             face,
             surface,
             patch,
+            parts,
         });
     }
     let mut patches = Vec::new();

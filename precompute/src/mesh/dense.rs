@@ -1,0 +1,376 @@
+//! Elements of dense meshes: input faces smaller than the element size, grouped (issue #31).
+//!
+//! Subdivision makes every input face at least one element, so a finely tessellated surface
+//! (a scanned statue, a sphere at subdivision 7, a game level's trim) would have as many
+//! elements as triangles, and the bake's cost would follow the triangulation instead of the
+//! light. Here the faces that came through meshing whole and smaller than the element size
+//! (each one element, not cut by imprinting, not merged into a planar region) are grouped per
+//! surface and material by the bisection of patch clustering (`patches::cluster`): a group's
+//! area is at most h² (h the element size), its vertex bounding box has no side longer than
+//! 2h and its normals lie within [`ELEMENT_CONE_DEGREES`] of their area-weighted mean. A group of two or more faces becomes
+//! one element (DESIGN.md §10):
+//!
+//! - its light is computed on a planar **proxy**: the rectangle of the group's area, centred
+//!   on its area centroid, oriented by the principal axes of its vertices projected on the
+//!   plane of the mean normal, with the sides in the ratio of their extents, and lifted along
+//!   the normal to the highest vertex, so that no point of it lies behind the surface it
+//!   stands for (rays leaving it are not blocked by the faces themselves);
+//! - its faces are what is drawn ([`Element::parts`]; the file's FACES section), their smooth
+//!   weights and lightmap coordinates those of the input vertices;
+//! - its reflectance is the area-weighted mean of its faces'.
+//!
+//! The grouping is what Enlighten calls lighting a detail mesh through a simplified target:
+//! n ≈ area / h² whatever the tessellation. Occlusion still uses the input faces. A lone small
+//! face keeps its own polygon, so scenes without dense parts mesh exactly as before.
+
+use glam::DVec3;
+
+use super::element::Element;
+use super::subdivide::Piece;
+use crate::geometry::Polygon;
+use crate::patches::cluster::{Unit, by_size_within};
+use crate::scene::Scene;
+
+/// Largest angle between a grouped face's normal and its group's mean normal. Narrower than
+/// patch clustering's 45°: the proxy stands in for the faces' own form factors.
+pub(crate) const ELEMENT_CONE_DEGREES: f64 = 30.0;
+
+/// A group's vertex bounding box may have sides up to this multiple of the element size, and
+/// its area be up to the element size squared: the faces of a tessellation near the element
+/// size pair up as the faces of a much finer one gather, so that both give about area / h²
+/// elements. On a unit icosphere at h = 0.35: 142, 128 and 128 elements at 320, 5 120 and
+/// 81 920 triangles; a bound of h on the sides alone left the coarse sphere's faces single
+/// and gathered the fine one's into groups twice their area (320, 358, 276 at h = 0.3);
+/// √2·h gave 194, 128, 128.
+const SIDE_FACTOR: f64 = 2.0;
+
+/// What grouping did: faces grouped and the elements they became.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Grouped {
+    /// Input faces that are now parts of a grouped element.
+    pub faces: usize,
+    /// Elements they became.
+    pub elements: usize,
+}
+
+/// The fine mesh with the small whole faces of each surface and material grouped into
+/// elements of about `element_size` (module docs). Element ids stay in generation order: a
+/// group takes the place of its first face.
+pub(crate) fn group(
+    scene: &Scene,
+    elements: Vec<Element>,
+    pieces: Vec<Piece>,
+    element_size: f64,
+) -> (Vec<Element>, Vec<Piece>, Grouped) {
+    // Candidates: a piece that is one element, exactly its input face.
+    let whole = |p: &Piece| {
+        p.count == 1 && elements[p.first as usize].polygon == scene.faces[p.face as usize].polygon
+    };
+    let mut sets: std::collections::BTreeMap<(u32, usize), Vec<usize>> = Default::default();
+    for (i, p) in pieces.iter().enumerate() {
+        if whole(p) {
+            let material = scene.faces[p.face as usize].material;
+            sets.entry((p.surface, material)).or_default().push(i);
+        }
+    }
+    let units: Vec<Unit> = pieces.iter().map(|p| Unit::of(&p.polygon)).collect();
+    // Per piece: the group it leads (its members), or that it is a later member.
+    let mut lead: Vec<Option<Vec<usize>>> = vec![None; pieces.len()];
+    let mut member = vec![false; pieces.len()];
+    let mut grouped = Grouped::default();
+    for set in sets.into_values().filter(|s| s.len() >= 2) {
+        let (size, area) = (SIDE_FACTOR * element_size, element_size * element_size);
+        for g in by_size_within(&units, set, size, area, ELEMENT_CONE_DEGREES) {
+            if g.len() < 2 {
+                continue;
+            }
+            let polygons: Vec<&Polygon> = g.iter().map(|&i| &pieces[i].polygon).collect();
+            if proxy(&polygons, element_size).is_none() {
+                continue;
+            }
+            grouped.faces += g.len();
+            grouped.elements += 1;
+            for &i in &g {
+                member[i] = true;
+            }
+            let first = g[0];
+            lead[first] = Some(g);
+        }
+    }
+    if grouped.elements == 0 {
+        return (elements, pieces, grouped);
+    }
+    let mut out_elements = Vec::with_capacity(elements.len());
+    let mut out_pieces = Vec::with_capacity(pieces.len());
+    for (i, piece) in pieces.iter().enumerate() {
+        let first = out_elements.len() as u32;
+        if let Some(g) = &lead[i] {
+            let polygons: Vec<&Polygon> = g.iter().map(|&j| &pieces[j].polygon).collect();
+            let polygon = proxy(&polygons, element_size).expect("checked above");
+            let mut parts: Vec<u32> = g.iter().map(|&j| pieces[j].face).collect();
+            parts.sort_unstable();
+            out_elements.push(Element {
+                polygon,
+                face: parts[0],
+                surface: piece.surface,
+                patch: u32::MAX,
+                parts: parts.clone(),
+            });
+            out_pieces.push(Piece {
+                polygon,
+                face: parts[0],
+                surface: piece.surface,
+                first,
+                count: 1,
+            });
+            continue;
+        }
+        if member[i] {
+            continue;
+        }
+        let range = piece.first as usize..(piece.first + piece.count) as usize;
+        out_elements.extend(elements[range].iter().cloned());
+        out_pieces.push(Piece {
+            first,
+            ..piece.clone()
+        });
+    }
+    (out_elements, out_pieces, grouped)
+}
+
+/// What is drawn of `elements` (in their order): one element per polygon drawn
+/// ([`Element::shown`]: the element itself, or each face of a dense mesh's element, `parts`
+/// empty), the index into `elements` each shows, and whether any element is drawn as other
+/// polygons than its own (then the file holds them as section FACES).
+pub(crate) fn shown_faces<'a>(
+    scene: &Scene,
+    elements: impl ExactSizeIterator<Item = &'a Element>,
+) -> (Vec<Element>, Vec<u32>, bool) {
+    let mut faces = Vec::with_capacity(elements.len());
+    let mut of = Vec::with_capacity(elements.len());
+    let mut grouped = false;
+    for (s, e) in elements.enumerate() {
+        grouped |= !e.parts.is_empty();
+        for (face, polygon) in e.shown(scene) {
+            faces.push(Element {
+                polygon: *polygon,
+                face,
+                surface: e.surface,
+                patch: e.patch,
+                parts: Vec::new(),
+            });
+            of.push(s as u32);
+        }
+    }
+    (faces, of, grouped)
+}
+
+/// The planar proxy of a group of faces (module docs): a rectangle of their total area, or
+/// `None` when their normals cancel or the rectangle would be degenerate. Its sides are at
+/// most `max_side` (a group's area is at most its square): the proxy is then one element of
+/// the subdivision hierarchy, as the patch cut and the split rule take it.
+pub(crate) fn proxy(parts: &[&Polygon], max_side: f64) -> Option<Polygon> {
+    let area: f64 = parts.iter().map(|p| p.area()).sum();
+    let centroid = parts.iter().map(|p| p.area() * p.centroid()).sum::<DVec3>() / area;
+    let normal = parts
+        .iter()
+        .map(|p| p.area() * p.normal)
+        .sum::<DVec3>()
+        .try_normalize()?;
+    let (a, b) = normal.any_orthonormal_pair();
+    let vertices = || parts.iter().flat_map(|p| p.vertices().iter().copied());
+    // Principal axes of the projected vertices (2×2 covariance, closed form).
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for v in vertices() {
+        let d = v - centroid;
+        let (x, y) = (d.dot(a), d.dot(b));
+        sxx += x * x;
+        sxy += x * y;
+        syy += y * y;
+    }
+    let theta = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    let u = a * theta.cos() + b * theta.sin();
+    let v = normal.cross(u);
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for x in vertices() {
+        let d = x - centroid;
+        let p = DVec3::new(d.dot(u), d.dot(v), d.dot(normal));
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    let (du, dv) = (hi.x - lo.x, hi.y - lo.y);
+    if !(du > 0.0 && dv > 0.0 && area > 0.0) {
+        return None;
+    }
+    let s = (area / (du * dv)).sqrt();
+    let (mut hu, mut hv) = (0.5 * s * du, 0.5 * s * dv);
+    let most = 0.5 * max_side * (1.0 - 1e-9);
+    if hu > most {
+        (hu, hv) = (most, 0.25 * area / most);
+    } else if hv > most {
+        (hu, hv) = (0.25 * area / most, most);
+    }
+    let middle = centroid + normal * hi.z.max(0.0);
+    let corners = [
+        middle - u * hu - v * hv,
+        middle + u * hu - v * hv,
+        middle + u * hu + v * hv,
+        middle - u * hu + v * hv,
+    ];
+    let mut p = Polygon::new(&corners)?;
+    p.normal = normal;
+    Some(p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::MeshSizes;
+
+    /// A unit sphere's octant-free icosphere of `subdivisions`, as triangles.
+    fn sphere(subdivisions: u32) -> Vec<[DVec3; 3]> {
+        let t = (1.0 + 5f64.sqrt()) / 2.0;
+        let v: Vec<DVec3> = [
+            (-1.0, t, 0.0),
+            (1.0, t, 0.0),
+            (-1.0, -t, 0.0),
+            (1.0, -t, 0.0),
+            (0.0, -1.0, t),
+            (0.0, 1.0, t),
+            (0.0, -1.0, -t),
+            (0.0, 1.0, -t),
+            (t, 0.0, -1.0),
+            (t, 0.0, 1.0),
+            (-t, 0.0, -1.0),
+            (-t, 0.0, 1.0),
+        ]
+        .iter()
+        .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
+        .collect();
+        let f = [
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ];
+        let mut tris: Vec<[DVec3; 3]> = f.iter().map(|t| t.map(|i| v[i])).collect();
+        for _ in 0..subdivisions {
+            tris = tris
+                .iter()
+                .flat_map(|&[a, b, c]| {
+                    let m = |x: DVec3, y: DVec3| ((x + y) * 0.5).normalize();
+                    let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
+                    [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
+                })
+                .collect();
+        }
+        tris
+    }
+
+    fn fine(triangles: &[[DVec3; 3]], h: f64) -> (Scene, Vec<Element>) {
+        let scene = crate::mesh::tests::one_surface("sphere", triangles);
+        let sizes = MeshSizes {
+            element_size: h,
+            patch_size: 2.0 * h,
+        };
+        let (elements, _, _) = crate::mesh::fine_mesh(&scene, sizes).unwrap();
+        (scene, elements)
+    }
+
+    /// The element count follows the area, not the triangles: the same sphere at 16× and
+    /// 256× its triangles gives about as many elements (within 1.5×, the issue's goal), each
+    /// face in exactly one element and the proxies' area the sphere's.
+    #[test]
+    fn a_finer_tessellation_gives_about_the_same_elements() {
+        let h = 0.35;
+        let mut counts = Vec::new();
+        for subdivisions in [2, 4, 6] {
+            let tris = sphere(subdivisions);
+            let (scene, elements) = fine(&tris, h);
+            let mut grouped = vec![0u32; scene.faces.len()];
+            let mut shown = 0.0;
+            for e in &elements {
+                e.parts.iter().for_each(|&f| grouped[f as usize] += 1);
+                shown += e.shown(&scene).map(|(_, p)| p.area()).sum::<f64>();
+            }
+            assert!(grouped.iter().all(|&c| c <= 1), "a face in two elements");
+            let area: f64 = scene.faces.iter().map(|f| f.polygon.area()).sum();
+            assert!((shown / area - 1.0).abs() < 1e-9, "drawn {shown} of {area}");
+            let proxies: f64 = elements.iter().map(|e| e.polygon.area()).sum();
+            assert!((proxies / area - 1.0).abs() < 1e-9, "{proxies} vs {area}");
+            counts.push(elements.len() as f64);
+        }
+        let (lo, hi) = counts
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(l, h), &c| (l.min(c), h.max(c)));
+        eprintln!("element counts {counts:?}");
+        assert!(hi / lo <= 1.5, "element counts {counts:?}");
+    }
+
+    /// The smooth weights of a dense mesh's faces, gathered per element, are what the file's
+    /// check asks: every vertex's weights on elements that exist, non-zero, finite, within
+    /// ±8 and summing to one; every face corner names a vertex.
+    #[test]
+    fn display_weights_gather_per_element() {
+        let (scene, elements) = fine(&sphere(5), 0.35);
+        assert!(elements.iter().any(|e| e.parts.len() > 1));
+        let (faces, of, grouped) = shown_faces(&scene, elements.iter());
+        assert!(grouped && faces.len() == scene.faces.len());
+        let refs: Vec<&Element> = faces.iter().collect();
+        let s = crate::mesh::smooth::per_element(&crate::mesh::smooth::weights(&scene, &refs), &of);
+        assert_eq!(s.corners.len(), 4 * faces.len());
+        for v in 0..s.vertex_count() {
+            let r = s.offsets[v] as usize..s.offsets[v + 1] as usize;
+            assert!(!r.is_empty());
+            let sum: f64 = s.weights[r.clone()].iter().map(|&w| f64::from(w)).sum();
+            assert!((sum - 1.0).abs() < 1e-5, "vertex {v}: {sum}");
+            for (&p, &w) in s.positions[r.clone()].iter().zip(&s.weights[r]) {
+                assert!((p as usize) < elements.len());
+                assert!(w.is_finite() && w != 0.0 && w.abs() <= 8.0);
+            }
+        }
+        for (f, face) in faces.iter().enumerate() {
+            for c in 0..face.polygon.count {
+                assert!((s.corners[4 * f + c] as usize) < s.vertex_count());
+            }
+        }
+    }
+
+    /// A proxy lies on or in front of every vertex of its faces, has their area, and faces
+    /// their mean normal.
+    #[test]
+    fn a_proxy_stands_in_front_of_its_faces() {
+        let tris = sphere(4);
+        let polygons: Vec<Polygon> = tris
+            .iter()
+            .filter(|t| t.iter().all(|v| v.z > 0.8))
+            .map(|t| Polygon::new(t).unwrap())
+            .collect();
+        let refs: Vec<&Polygon> = polygons.iter().collect();
+        let p = proxy(&refs, f64::INFINITY).unwrap();
+        let area: f64 = polygons.iter().map(|q| q.area()).sum();
+        assert!((p.area() / area - 1.0).abs() < 1e-12);
+        assert!(p.normal.dot(DVec3::Z) > 0.999);
+        for q in &polygons {
+            for v in q.vertices() {
+                assert!(p.height(*v) <= 1e-12, "{}", p.height(*v));
+            }
+        }
+    }
+}
