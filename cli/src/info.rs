@@ -85,7 +85,9 @@ pub fn run(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
     summary::print_surfaces(&op, out)
 }
 
-/// What the file holds for display (format 1.2 and 1.3 sections), as JSON.
+/// What the file holds for display (format 1.2 to 1.4 sections), as JSON; `faces`: the number
+/// of display faces when the file has section FACES (elements drawn as other polygons than
+/// their GEOMETRY), else null.
 fn display_json(f: &lrr_formats::OperatorFile) -> serde_json::Value {
     let d = &f.display;
     serde_json::json!({
@@ -95,6 +97,7 @@ fn display_json(f: &lrr_formats::OperatorFile) -> serde_json::Value {
         "cameras": d.cameras.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(),
         "bvh_nodes": d.bvh.as_ref().map(|b| b.nodes.len()),
         "lightmap_uv": d.lightmap.is_some(),
+        "faces": d.faces.as_ref().map(|faces| faces.element.len()),
     })
 }
 
@@ -120,6 +123,13 @@ fn display_line(f: &lrr_formats::OperatorFile) -> String {
     }
     if d.lightmap.is_some() {
         parts.push("the scene's lightmap coordinates (lrr export --uv scene)".into());
+    }
+    if let Some(faces) = &d.faces {
+        parts.push(format!(
+            "{} display faces for the {} elements (format 1.4)",
+            faces.element.len(),
+            f.n
+        ));
     }
     if parts.is_empty() {
         "none (a file of format 1.1: lrr render and smooth exports need a re-bake)".into()

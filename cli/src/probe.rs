@@ -77,14 +77,15 @@ pub fn run(a: &ProbeArgs, out: &mut dyn Write) -> Result<()> {
     let probes: Vec<Probe> = points
         .iter()
         .map(|p| {
-            let position = op
-                .locate_position(p.position, p.normal)
+            // The display face under the point (section FACES, else its element's polygon).
+            let face = op
+                .locate_face(p.position, p.normal)
                 .expect("an operator has at least one element");
-            let element = op.file().order[position];
+            let element = op.file().order[op.file().faces().element(face)];
             Probe {
                 position: p.position,
                 radiosity: match &smooth {
-                    Some(r) => r.at(&vertices, position, p.position),
+                    Some(r) => r.at(&vertices, face, p.position),
                     None => radiosity[element as usize],
                 },
                 element,

@@ -17,7 +17,8 @@ pub struct SurfaceSummary {
     pub mean_radiosity: [f64; 3],
 }
 
-/// Element areas from the file's geometry, by original id.
+/// Element areas from the file's geometry (GEOMETRY: each element's own polygon, the one its
+/// form factors were computed on, not its display faces), by original id.
 pub fn element_areas(op: &Operator) -> Vec<f64> {
     let g = &op.file().geometry;
     let mut areas = vec![0.0; op.n()];

@@ -108,7 +108,7 @@ fn read_exr(path: &Path) -> Vec<(String, usize, usize, Vec<[f32; 3]>)> {
 }
 
 /// The runtime's smooth reconstruction of one frame (the files baked here carry SMOOTH): B/π
-/// at a point of the element `locate_position` finds, or of a given element.
+/// at a point of the display face `locate_face` finds, or of a given face.
 struct Runtime<'f> {
     op: &'f Operator,
     smooth: Reconstruction<'f>,
@@ -127,7 +127,7 @@ impl<'f> Runtime<'f> {
         }
     }
 
-    /// B/π at `point` of the element at file position `s`.
+    /// B/π at `point` of display face `s`.
     fn at(&self, s: usize, point: DVec3) -> [f32; 3] {
         let p = [point.x as f32, point.y as f32, point.z as f32];
         self.smooth
@@ -135,11 +135,11 @@ impl<'f> Runtime<'f> {
             .map(|v| v / std::f32::consts::PI)
     }
 
-    /// B/π at `point`, on the element the runtime locates there.
+    /// B/π at `point`, on the display face the runtime locates there.
     fn locate(&self, point: DVec3, normal: DVec3) -> [f32; 3] {
         let p = [point.x as f32, point.y as f32, point.z as f32];
         let n = [normal.x as f32, normal.y as f32, normal.z as f32];
-        self.at(self.op.locate_position(p, n).unwrap(), point)
+        self.at(self.op.locate_face(p, n).unwrap(), point)
     }
 }
 
@@ -166,7 +166,7 @@ fn the_lightmap_of_a_lit_quad_matches_the_runtime_texel_by_texel() {
     let op = Operator::load(&file).unwrap();
     let b = op.evaluate_baked();
     let runtime = Runtime::new(&op, &b);
-    let charts = charts::charts(&op.file().geometry);
+    let charts = charts::charts(op.file().faces().geometry);
     assert_eq!(charts.len(), 2, "the floor and the lamp");
     let layout = atlas::pack(&charts, Sizing::Density(40.0), 2).unwrap();
     assert_eq!((layout.width, layout.height), (*w, *h));
@@ -265,7 +265,7 @@ fn no_texel_of_any_chart_of_the_cornell_box_is_black_and_inside_texels_match_the
     let file = cornell(&d);
     let op = Operator::load(&file).unwrap();
     let b = op.evaluate_baked();
-    let charts = charts::charts(&op.file().geometry);
+    let charts = charts::charts(op.file().faces().geometry);
     let layout = atlas::pack(&charts, Sizing::Size(256), 2).unwrap();
     let field = Field::new(op.file(), &b, Some(Reconstruction::new(op.file()).unwrap())).unwrap();
     let atlas = radiance_atlas(&op, &field, &charts, &layout);
@@ -339,14 +339,14 @@ fn glb_vertex_colours_equal_the_runtimes_values() {
     let positions: Vec<[f32; 3]> = reader.read_positions().unwrap().collect();
     let colours: Vec<[f32; 3]> = reader.read_colors(0).unwrap().into_rgb_f32().collect();
     let indices: Vec<u32> = reader.read_indices().unwrap().into_u32().collect();
-    assert_eq!(indices.len() / 3, op.file().geometry.triangle_count());
-    // Triangles come in the order of the display triangles: each names its element, and the
-    // runtime's value on that element at the vertex is the vertex's (every use of a shared
-    // vertex is checked, so sharing across elements with other values would fail).
+    assert_eq!(indices.len() / 3, op.file().faces().triangle_count());
+    // Triangles come in the order of the display triangles: each names its face, and the
+    // runtime's value on that face at the vertex is the vertex's (every use of a shared
+    // vertex is checked, so sharing across faces with other values would fail).
     let runtime = Runtime::new(&op, &b);
     let mut seen = vec![false; positions.len()];
     let mut clamped = 0;
-    for (tri, (s, _)) in indices.chunks(3).zip(op.file().geometry.triangles()) {
+    for (tri, (s, _)) in indices.chunks(3).zip(op.file().faces().triangles()) {
         for &v in tri {
             let at = DVec3::from_array(positions[v as usize].map(f64::from));
             let want = runtime
@@ -624,4 +624,145 @@ fn relight_writes_a_lightmap_per_frame_following_the_keyframes() {
     )
     .unwrap_err();
     assert!(format!("{e:#}").contains("times must increase"), "{e:#}");
+}
+
+/// A file drawn through display faces (section FACES, format 1.4; `testkit::faces`: two
+/// elements drawn as interleaved triangles over proxy quads): `lrr info` counts the faces, the
+/// glTF mesh is the faces (each vertex the value of its face's element flat, the runtime's
+/// smooth value on that face), and every lightmap texel shows the element of the face under it,
+/// not the element whose GEOMETRY proxy lies there.
+#[test]
+fn exports_of_a_file_with_display_faces_follow_the_faces() {
+    use lrr_runtime::testkit::faces::{EMISSION, element_at, interleaved};
+    let d = dir("faces");
+    let path = d.join("faces.lrr");
+    interleaved().write(&path).unwrap();
+    let info = lrr(&["info", s(&path)]);
+    assert!(
+        info.contains("4 display faces for the 2 elements"),
+        "{info}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&lrr(&["info", s(&path), "--json"])).unwrap();
+    assert_eq!(json["display"]["faces"], 4, "{}", json["display"]);
+
+    // `lrr probe`: (0.2, 0.4) lies on element 0's proxy but on a face of element 1 (original
+    // id 0); (0.9, 0.6) the other way round.
+    let points = d.join("points.json");
+    let json = r#"[{"position":[0.2,0.4,0.0],"normal":[0,0,1]},{"position":[0.9,0.6,0.0],"normal":[0,0,1]}]"#;
+    std::fs::write(&points, json).unwrap();
+    let probe = lrr(&[
+        "probe",
+        s(&path),
+        "--points",
+        s(&points),
+        "--json",
+        "--reconstruct",
+        "flat",
+    ]);
+    let probe: serde_json::Value = serde_json::from_str(&probe).unwrap();
+    for (i, (id, e)) in [(0, 1), (1, 0)].into_iter().enumerate() {
+        assert_eq!(probe[i]["element"], id, "{probe}");
+        let got: Vec<f64> = serde_json::from_value(probe[i]["radiosity"].clone()).unwrap();
+        let want = EMISSION[e].map(f64::from);
+        assert!((0..3).all(|c| (got[c] - want[c]).abs() < 1e-6), "{probe}");
+    }
+
+    let op = Operator::load(&path).unwrap();
+    let b = op.evaluate_baked();
+    let runtime = Runtime::new(&op, &b);
+    let flat_value =
+        |p: DVec3| EMISSION[element_at(p.x as f32, p.y as f32)].map(|v| v / std::f32::consts::PI);
+    for reconstruct in ["flat", "smooth"] {
+        let glb = d.join(format!("faces-{reconstruct}.glb"));
+        lrr(&[
+            "export",
+            s(&path),
+            "-o",
+            s(&glb),
+            "--exposure",
+            "1",
+            "--reconstruct",
+            reconstruct,
+        ]);
+        let gltf = gltf::Gltf::from_slice(&std::fs::read(&glb).unwrap()).unwrap();
+        let blob = gltf.blob.clone().unwrap();
+        let prim = gltf.meshes().next().unwrap().primitives().next().unwrap();
+        let reader = prim.reader(|_| Some(&blob));
+        let positions: Vec<[f32; 3]> = reader.read_positions().unwrap().collect();
+        let colours: Vec<[f32; 3]> = reader.read_colors(0).unwrap().into_rgb_f32().collect();
+        let indices: Vec<u32> = reader.read_indices().unwrap().into_u32().collect();
+        // One triangle per face, in face order, with the face's corners (not GEOMETRY's).
+        assert_eq!(indices.len(), 3 * 4, "{reconstruct}");
+        let faces: Vec<_> = op.file().faces().triangles().collect();
+        for (face, tri) in indices.chunks(3).enumerate() {
+            let corners: Vec<[f32; 3]> = tri.iter().map(|&v| positions[v as usize]).collect();
+            assert_eq!(
+                (faces[face].0 as usize, &corners[..]),
+                (face, &faces[face].1[..])
+            );
+            let p: Vec<DVec3> = corners
+                .iter()
+                .map(|c| DVec3::from_array(c.map(f64::from)))
+                .collect();
+            let centroid = (p[0] + p[1] + p[2]) / 3.0;
+            for (&v, &at) in tri.iter().zip(&p) {
+                let want = match reconstruct {
+                    "flat" => flat_value(centroid),
+                    _ => runtime.at(face, at),
+                };
+                let got = colours[v as usize];
+                assert!(
+                    (0..3).all(|c| (got[c] - want[c]).abs() <= 1e-6),
+                    "{reconstruct}: face {face} vertex {v}: {got:?} against {want:?}"
+                );
+            }
+        }
+    }
+
+    // The lightmap, flat, over generated charts: one chart of the 4 coplanar faces.
+    let exr = d.join("faces.exr");
+    lrr(&[
+        "export",
+        s(&path),
+        "-o",
+        s(&exr),
+        "--size",
+        "32",
+        "--reconstruct",
+        "flat",
+        "--samples",
+        "float",
+    ]);
+    let layers = read_exr(&exr);
+    let (_, w, h, pixels) = &layers[0];
+    let charts = charts::charts(op.file().faces().geometry);
+    assert_eq!(charts.len(), 1);
+    let layout = atlas::pack(&charts, Sizing::Size(32), 2).unwrap();
+    assert_eq!((layout.width, layout.height), (*w, *h));
+    let field = Field::new(op.file(), &b, None).unwrap();
+    let atlas = radiance_atlas(&op, &field, &charts, &layout);
+    assert_eq!(&atlas.pixels, pixels);
+    let (mut inside, mut off_proxy) = (0, 0);
+    for y in 0..*h {
+        for x in 0..*w {
+            if atlas.state[y * w + x] != Texel::Inside {
+                continue;
+            }
+            let q = layout.chart_point(0, DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
+            let p = charts[0].lift(q);
+            let diagonal = (p.y - (p.x - p.x.floor().clamp(0.0, 1.0))).abs();
+            if diagonal < 1e-6 {
+                continue;
+            }
+            assert_eq!(pixels[y * w + x], flat_value(p), "texel ({x}, {y}) at {p}");
+            let e = element_at(p.x as f32, p.y as f32);
+            off_proxy += usize::from(e != usize::from(p.y > 0.5));
+            inside += 1;
+        }
+    }
+    assert!(
+        inside > 100 && off_proxy > inside / 8,
+        "{inside} {off_proxy}"
+    );
 }

@@ -192,7 +192,7 @@ mod tests {
 
     fn chart(w: f64, h: f64) -> Chart {
         Chart {
-            elements: vec![0],
+            faces: vec![0],
             origin: DVec3::ZERO,
             u: DVec3::X,
             v: DVec3::Y,

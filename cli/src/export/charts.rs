@@ -1,6 +1,7 @@
-//! Lightmap charts from an operator file's geometry: connected sets of coplanar elements
-//! (same plane within a tolerance relative to the element sizes, sharing a piece of an edge),
-//! each flattened onto its plane.
+//! Lightmap charts from an operator file's display faces (`OperatorFile::faces`: section FACES,
+//! else GEOMETRY's elements; "element" below means a display face): connected sets of coplanar
+//! elements (same plane within a tolerance relative to the element sizes, sharing a piece of an
+//! edge), each flattened onto its plane.
 //!
 //! Two elements share an edge when at least two distinct points of one lie on the other's
 //! boundary (shared corners, T-junctions of adaptive subdivision and imprinting, offset grids);
@@ -12,11 +13,12 @@ use std::collections::HashMap;
 use glam::{DVec2, DVec3};
 use lrr_formats::Geometry;
 
-/// One chart: elements (file positions, increasing) flattened onto one plane.
+/// One chart: display faces (increasing) flattened onto one plane.
 #[derive(Debug, Clone)]
 pub struct Chart {
-    /// File positions of the chart's elements, increasing.
-    pub elements: Vec<u32>,
+    /// The chart's display faces (file positions of elements when the file has no section
+    /// FACES), increasing.
+    pub faces: Vec<u32>,
     /// The plane's frame: `point = origin + x u + y v`, with `u × v` the elements' normal.
     pub origin: DVec3,
     pub u: DVec3,
@@ -110,7 +112,7 @@ fn flatten(polys: &[Vec<DVec3>], normals: &[DVec3], elements: Vec<u32>) -> Chart
         }
     }
     Chart {
-        elements,
+        faces: elements,
         origin: first[0] + lo.x * u + lo.y * v,
         u,
         v,
@@ -276,7 +278,7 @@ mod tests {
             square(-1.0, 0.0, 1.0, 0.01),
         ]);
         let c = charts(&g);
-        let sets: Vec<Vec<u32>> = c.iter().map(|c| c.elements.clone()).collect();
+        let sets: Vec<Vec<u32>> = c.iter().map(|c| c.faces.clone()).collect();
         assert_eq!(sets, vec![vec![0, 1, 2], vec![3], vec![4]]);
         assert!((c[0].size - DVec2::new(3.0, 2.0)).abs().max_element() < 1e-6);
         // The frame flattens and lifts back, and u × v is the normal.

@@ -1,10 +1,13 @@
 //! The radiosity of one frame as a field over the surface, what every export samples: the
-//! value at a point of an element and at an element's corners, and which corners share one
-//! exported vertex. This file is the one place the reconstruction is chosen:
+//! value at a point of a display face and at a face's corners, and which corners share one
+//! exported vertex. The surface is the file's display faces
+//! ([`OperatorFile::faces`]: section FACES, else GEOMETRY's elements, face = file position),
+//! each showing its element's radiosity. This file is the one place the reconstruction is
+//! chosen:
 //! - smooth (the default when the file has SMOOTH weights): the runtime's
 //!   [`Reconstruction`], smooth-vertex values interpolated by mean value coordinates; corners
 //!   of one smooth vertex are one exported vertex;
-//! - flat: the element's value over the whole element; no corners are shared.
+//! - flat: the element's value over each of its faces; no corners are shared.
 
 use anyhow::Result;
 use glam::DVec3;
@@ -13,9 +16,9 @@ use lrr_runtime::Reconstruction;
 
 /// A frame's radiosity `B` (W/m² of exitance per channel, like the operator's) over the surface.
 pub struct Field<'f> {
-    /// `B` per file position.
+    /// `B` per display face (its element's).
     values: Vec<[f32; 3]>,
-    /// Per file position: the element sees no patch and emits nothing, so it is black in every
+    /// Per display face: its element sees no patch and emits nothing, so it is black in every
     /// frame (the floor under a block): hidden from view, left out of lightmaps.
     hidden: Vec<bool>,
     /// The smooth reconstruction, this frame's smooth-vertex values and SMOOTH's corners.
@@ -25,18 +28,21 @@ pub struct Field<'f> {
 type SmoothFrame<'f> = (Reconstruction<'f>, Vec<[f32; 3]>, &'f [u32]);
 
 impl<'f> Field<'f> {
-    /// The field of `radiosity` (per element, original ids) on `file`'s elements, smooth
+    /// The field of `radiosity` (per element, original ids) on `file`'s display faces, smooth
     /// through `smooth` (made from `file`) or flat.
     pub fn new(
         file: &'f OperatorFile,
         radiosity: &[[f32; 3]],
         smooth: Option<Reconstruction<'f>>,
     ) -> Result<Self> {
-        let values = file
-            .order
-            .iter()
-            .map(|&id| radiosity[id as usize])
-            .collect();
+        let faces = file.faces();
+        let elements = hidden(file);
+        let (values, hidden) = (0..faces.len())
+            .map(|f| {
+                let e = faces.element(f);
+                (radiosity[file.order[e] as usize], elements[e])
+            })
+            .unzip();
         let smooth = match (smooth, &file.display.smooth) {
             (Some(r), Some(weights)) => {
                 let mut vertices = vec![[0.0f32; 3]; r.vertex_count()];
@@ -47,18 +53,18 @@ impl<'f> Field<'f> {
         };
         Ok(Self {
             values,
-            hidden: hidden(file),
+            hidden,
             smooth,
         })
     }
 
-    /// Whether the element at file position `s` is black in every frame because it sees
-    /// nothing (its row of `F_k`, or of every `Y_c`, is zero) and emits nothing.
+    /// Whether display face `s` is black in every frame because its element sees nothing (its
+    /// row of `F_k`, or of every `Y_c`, is zero) and emits nothing.
     pub fn hidden(&self, s: usize) -> bool {
         self.hidden[s]
     }
 
-    /// `B` at `point` of the element at file position `s`.
+    /// `B` at `point` of display face `s`.
     pub fn at(&self, s: usize, point: DVec3) -> [f32; 3] {
         match &self.smooth {
             Some((r, vertices, _)) => r.at(
@@ -70,7 +76,7 @@ impl<'f> Field<'f> {
         }
     }
 
-    /// `B` at corner `c` of the element at file position `s`.
+    /// `B` at corner `c` of display face `s`.
     pub fn corner(&self, s: usize, c: usize) -> [f32; 3] {
         match &self.smooth {
             Some((r, vertices, _)) => r.corner_value(vertices, s, c),
@@ -96,7 +102,7 @@ impl<'f> Field<'f> {
     }
 }
 
-/// [`Field::hidden`] for every file position.
+/// [`Field::hidden`] of every element, by file position.
 fn hidden(file: &OperatorFile) -> Vec<bool> {
     let (n, k) = (file.n as usize, file.k as usize);
     let (matrix, blocks) = match &file.operator {

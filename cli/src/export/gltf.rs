@@ -38,17 +38,18 @@ pub struct MeshData {
     pub indices: Vec<u32>,
 }
 
-/// The lightmap a mesh refers to: the lightmap UV of every element corner and the seam it
+/// The lightmap a mesh refers to: the lightmap UV of every display face corner and the seam it
 /// lies on (corners share a vertex only on the same seam), and the image.
 pub struct Lightmap {
-    /// `n * 4`: UV of corner `c` of file position `s` at `4 s + c`.
+    /// `F * 4`: UV of corner `c` of display face `s` at `4 s + c`.
     pub uvs: Vec<[f32; 2]>,
-    /// `n * 4`: the seam key of each corner (generated: the chart; the scene's: the UV bits).
+    /// `F * 4`: the seam key of each corner (generated: the chart; the scene's: the UV bits).
     pub seams: Vec<u64>,
     pub png: Vec<u8>,
 }
 
-/// The mesh of `g` with the field's values (`exposure × B/π`) and, with `lightmap`, its UVs.
+/// The mesh of `g` (the file's display faces) with the field's values (`exposure × B/π`) and,
+/// with `lightmap`, its UVs.
 pub fn mesh(g: &Geometry, field: &Field, exposure: f32, lightmap: Option<&Lightmap>) -> MeshData {
     let n = g.vertex_count.len();
     let scale = exposure / std::f32::consts::PI;
@@ -92,12 +93,16 @@ pub fn mesh(g: &Geometry, field: &Field, exposure: f32, lightmap: Option<&Lightm
     out
 }
 
-/// The default exposure: 1 over the brightest radiance `B/π` at a corner of an element that
-/// does not emit (emitters then show clamped to white, as lamps do in a photograph); over the
-/// brightest of all when every element emits; 1 for a dark frame.
+/// The default exposure: 1 over the brightest radiance `B/π` at a corner of a display face whose
+/// element does not emit (emitters then show clamped to white, as lamps do in a photograph);
+/// over the brightest of all when every element emits; 1 for a dark frame.
 pub fn auto_exposure(file: &OperatorFile, field: &Field) -> f32 {
-    let g = &file.geometry;
-    let emits = |s: usize| file.emission[3 * s..3 * s + 3].iter().any(|&e| e > 0.0);
+    let faces = file.faces();
+    let g = faces.geometry;
+    let emits = |s: usize| {
+        let e = faces.element(s);
+        file.emission[3 * e..3 * e + 3].iter().any(|&e| e > 0.0)
+    };
     let brightest = |skip_emitters: bool| {
         (0..g.vertex_count.len())
             .filter(|&s| !(skip_emitters && emits(s)))

@@ -152,7 +152,7 @@ impl LightmapLayout {
                 Ok(Self::Scene { size, padding })
             }
             UvSource::Generated => {
-                let charts = charts::charts(&op.file().geometry);
+                let charts = charts::charts(op.file().faces().geometry);
                 let sizing = match (size, density) {
                     (_, Some(t)) => Sizing::Density(t),
                     (Some(n), None) => Sizing::Size(n),
@@ -187,16 +187,16 @@ impl LightmapLayout {
         }
     }
 
-    /// The lightmap UV of every element corner (`4 s + c`) and its seam key.
+    /// The lightmap UV of every display face corner (`4 s + c`) and its seam key.
     pub fn corner_uvs(&self, op: &Operator) -> (Vec<[f32; 2]>, Vec<u64>) {
-        let g = &op.file().geometry;
+        let g = op.file().faces().geometry;
         let n = g.vertex_count.len();
         let mut uvs = vec![[0.0; 2]; 4 * n];
         let mut seams = vec![0; 4 * n];
         match self {
             Self::Generated { charts, layout } => {
                 for (c, chart) in charts.iter().enumerate() {
-                    for &s in &chart.elements {
+                    for &s in &chart.faces {
                         let s = s as usize;
                         for (k, p) in charts::corners(g, s).iter().enumerate() {
                             uvs[4 * s + k] = layout.uv(c, chart.flatten(*p));
@@ -237,7 +237,7 @@ pub fn lightmap_atlas(op: &Operator, field: &Field, lay: &LightmapLayout) -> Atl
                 .expect("Scene needs LIGHTMAP")
                 .uv;
             let value = |s, p| radiance(field, s, p);
-            scene_uv::rasterise(&file.geometry, uv, *size, *size, *padding, &value)
+            scene_uv::rasterise(file.faces().geometry, uv, *size, *size, *padding, &value)
         }
     }
 }
@@ -317,16 +317,16 @@ fn lay_out(a: &ExportArgs, op: &Operator) -> Result<LightmapLayout> {
     a.lightmap_args.layout(op)
 }
 
-/// The exitant radiance `B/π` of `field` at point `p` of file position `s`; None for an element
-/// hidden in every frame (left to dilation).
+/// The exitant radiance `B/π` of `field` at point `p` of display face `s`; None for a face whose
+/// element is hidden in every frame (left to dilation).
 fn radiance(field: &Field, s: usize, p: glam::DVec3) -> Option<[f32; 3]> {
     (!field.hidden(s)).then(|| field.at(s, p).map(|v| v / std::f32::consts::PI))
 }
 
-/// The atlas of the exitant radiance `B/π` of `field` over the charts of `op`'s geometry.
+/// The atlas of the exitant radiance `B/π` of `field` over the charts of `op`'s display faces.
 pub fn radiance_atlas(op: &Operator, field: &Field, charts: &[Chart], layout: &Layout) -> Atlas {
     let value = |s, p| radiance(field, s, p);
-    raster::rasterise(&op.file().geometry, charts, layout, &value)
+    raster::rasterise(op.file().faces().geometry, charts, layout, &value)
 }
 
 fn export_exr(
@@ -434,7 +434,7 @@ fn export_gltf(
     out: &mut dyn Write,
 ) -> Result<()> {
     let radiosity = radiosity_cpu(op, lighting)?;
-    let g = &op.file().geometry;
+    let g = op.file().faces().geometry;
     let smooth = reconstruction(op, a.reconstruct, &a.file)?;
     let field = Field::new(op.file(), &radiosity, smooth)?;
     let exposure = a

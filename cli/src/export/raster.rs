@@ -1,5 +1,6 @@
-//! Rasterising a field into the atlas: every texel whose centre lies inside an element takes
-//! the field's value at that centre (elements in file order; a centre on a shared edge goes to
+//! Rasterising a field into the atlas: every texel whose centre lies inside an element (here: a
+//! display face of the file, see `charts.rs`) takes the field's value at that centre (elements
+//! in order; a centre on a shared edge goes to
 //! the first; an element without a value, such as one hidden under a block, is left to
 //! dilation like the space between charts); then each chart's rectangle is dilated, ring by ring, until every texel in it
 //! (padding included) holds the mean of its filled 8-neighbours, so bilinear filtering at a
@@ -33,7 +34,7 @@ pub struct Atlas {
     pub state: Vec<Texel>,
 }
 
-/// Rasterises `value(file position, point)` (`None`: no value, dilate) over `charts` laid out
+/// Rasterises `value(display face, point)` (`None`: no value, dilate) over `charts` laid out
 /// by `layout`.
 pub fn rasterise(
     g: &Geometry,
@@ -49,7 +50,7 @@ pub fn rasterise(
         state: vec![Texel::Empty; w * h],
     };
     for (c, chart) in charts.iter().enumerate() {
-        for &s in &chart.elements {
+        for &s in &chart.faces {
             fill_element(&mut atlas, g, chart, layout, c, s as usize, value);
         }
         let r = layout.rects[c];
@@ -118,7 +119,7 @@ fn seed_centroid(
     c: usize,
     value: &dyn Fn(usize, DVec3) -> Option<[f32; 3]>,
 ) {
-    let s = chart.elements[0] as usize;
+    let s = chart.faces[0] as usize;
     let pts = corners(g, s);
     let centroid = pts.iter().sum::<DVec3>() / pts.len() as f64;
     let t = layout.texel(c, chart.flatten(centroid));

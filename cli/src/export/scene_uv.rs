@@ -3,7 +3,8 @@
 //! `width × height` texels (texel `(i, j)` covers `[i, i+1) × [j, j+1)`, rows top to bottom,
 //! `v = 0` the top row, as glTF's UVs).
 //!
-//! Each element's corners map to a convex polygon of the atlas (the coordinates are an affine
+//! The coordinates are those of the file's display faces (`OperatorFile::faces`; "element"
+//! below means a display face). Each element's corners map to a convex polygon of the atlas (the coordinates are an affine
 //! map of its face's plane, so its image is the affine image of a convex polygon; it may be
 //! mirrored). A texel whose centre lies inside that polygon takes the field at the point of the
 //! element with the same barycentric coordinates (elements in file order; a centre on an edge
@@ -67,7 +68,7 @@ fn inside(t: &[DVec2], p: DVec2) -> bool {
     (0..t.len()).all(|k| side(k) >= -tolerance) || (0..t.len()).all(|k| side(k) <= tolerance)
 }
 
-/// Rasterises `value(file position, point)` (`None`: no value, dilate) over the coordinates
+/// Rasterises `value(display face, point)` (`None`: no value, dilate) over the coordinates
 /// `uv` (section LIGHTMAP) into a `width × height` atlas with `padding` rings of dilation.
 pub fn rasterise(
     g: &Geometry,

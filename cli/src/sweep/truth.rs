@@ -112,7 +112,8 @@ impl Truth {
     /// The error of `b` (radiosity per element, original ids, of `op`) at the points, flat:
     /// the value of the element each point falls in.
     pub fn error(&self, op: &Operator, b: &[[f64; 3]]) -> Spread {
-        self.spread(op, |s, _| b[op.file().order[s] as usize])
+        let faces = op.file().faces();
+        self.spread(op, |f, _| b[op.file().order[faces.element(f)] as usize])
     }
 
     /// The error of `b` at the points through the smooth reconstruction (`lrr probe`'s
@@ -122,20 +123,21 @@ impl Truth {
         let b32: Vec<[f32; 3]> = b.iter().map(|v| v.map(|x| x as f32)).collect();
         let mut vertices = vec![[0.0f32; 3]; r.vertex_count()];
         r.vertex_values(&b32, &mut vertices).ok()?;
-        Some(self.spread(op, |s, p| {
-            r.at(&vertices, s, p.position.map(|x| x as f32))
+        Some(self.spread(op, |f, p| {
+            r.at(&vertices, f, p.position.map(|x| x as f32))
                 .map(f64::from)
         }))
     }
 
-    /// The spread of the relative error of `value(file position, point)` over the points.
+    /// The spread of the relative error of `value(display face, point)` over the points (the
+    /// face each point lies on: `Operator::locate_face`).
     fn spread(&self, op: &Operator, value: impl Fn(usize, &Point) -> [f64; 3]) -> Spread {
         let rel: Vec<f64> = self
             .points
             .iter()
             .map(|p| {
                 let s = op
-                    .locate_position(p.position.map(|x| x as f32), p.normal.map(|x| x as f32))
+                    .locate_face(p.position.map(|x| x as f32), p.normal.map(|x| x as f32))
                     .expect("an operator has at least one element");
                 let v = value(s, p);
                 let d = [0, 1, 2].map(|c| v[c] - p.radiosity[c]);
