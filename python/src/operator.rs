@@ -36,7 +36,8 @@ impl PyOperator {
         }
     }
 
-    /// Vertices of the element at file position `s`.
+    /// Vertices of the element at file position `s`: its own polygon (GEOMETRY, what its form
+    /// factors were computed on; for its centroid, normal and area), not its display faces.
     fn corners(&self, s: usize) -> Vec<[f64; 3]> {
         let g = &self.op.file().geometry;
         (0..usize::from(g.vertex_count[s]))
@@ -432,13 +433,17 @@ impl PyOperator {
                 Ok(p.iter()
                     .zip(&nrm)
                     .map(|(p, n)| {
-                        let s = self
+                        // The display face under the point, and its element.
+                        let face = self
                             .op
-                            .locate_position(*p, *n)
+                            .locate_face(*p, *n)
                             .expect("an operator has at least one element");
                         match &rec {
-                            Some(r) => r.at(&vertices, s, *p),
-                            None => b[self.op.file().order[s] as usize],
+                            Some(r) => r.at(&vertices, face, *p),
+                            None => {
+                                let s = self.op.file().faces().element(face);
+                                b[self.op.file().order[s] as usize]
+                            }
                         }
                     })
                     .collect())

@@ -1,12 +1,13 @@
 //! The body of the `trace_mutated` target, shared with the replay test (included by
 //! `tests/tests/e2e/fuzz_replay.rs` like `operators.rs`): a valid file with every section the
-//! ray tracer reads (display geometry, a BVH, materials of every kind, point lights, a camera),
+//! ray tracer reads (display geometry, or display faces, a BVH, materials of every kind, point
+//! lights, a camera),
 //! edited as [`super::operators::mutate_from`] reads the fuzzer's bytes, then loaded, turned
 //! into a [`Tracer`] and rendered at a few pixels. Refusals are fine at every step; a panic, or
 //! a render of a checked tracer that fails, is the bug.
 
 use lrr_formats::{
-    Camera, Display, Layout, Material, Materials, OperatorFile, PointLight, Precision,
+    Camera, Display, Faces, Layout, Material, Materials, OperatorFile, PointLight, Precision,
 };
 use lrr_runtime::testkit;
 use lrr_runtime::trace::{Lighting, Tracer, View};
@@ -14,7 +15,9 @@ use lrr_runtime::trace::{Lighting, Tracer, View};
 use super::operators;
 
 /// A valid file for the tracer. `variant` bit 0: 16 elements instead of 64; bit 1: binary16
-/// `F_k`; bit 2: the second light follows a light group.
+/// `F_k`; bit 2: the second light follows a light group; bit 3: every element drawn through
+/// display faces (section FACES, format 1.4), its quad as two triangles cut along the other
+/// diagonal than GEOMETRY's fan.
 pub fn display_file(variant: u8) -> Vec<u8> {
     let n = if variant & 1 != 0 { 16 } else { 64 };
     let precision = if variant & 2 != 0 {
@@ -76,6 +79,23 @@ pub fn display_file(variant: u8) -> Vec<u8> {
         bvh: Some(testkit::bvh::build(&file.geometry)),
         ..Display::default()
     };
+    if variant & 8 != 0 {
+        let g = &file.geometry;
+        let mut faces = Faces::default();
+        for e in 0..n {
+            for corners in [[1, 2, 3], [3, 0, 1]] {
+                faces.element.push(e as u32);
+                faces.geometry.vertex_count.push(3);
+                for c in corners {
+                    faces.geometry.vertices.extend(g.vertex(e, c));
+                }
+                faces.geometry.vertices.extend([0.0; 3]);
+                faces.geometry.normals.extend(g.normal(e));
+            }
+        }
+        file.display.bvh = Some(testkit::bvh::build(&faces.geometry));
+        file.display.faces = Some(faces);
+    }
     file.to_bytes().expect("the base file encodes")
 }
 

@@ -136,7 +136,7 @@ fn a_coarse_bake_lights_every_lightmap_chart_and_relights_through_the_animation(
     assert_eq!(groups.len(), 9, "{groups:?}");
     // Every texel of every chart is filled and lit (every lamp on, as baked).
     let b = op.evaluate_baked();
-    let charts = charts::charts(&op.file().geometry);
+    let charts = charts::charts(op.file().faces().geometry);
     let layout = atlas::pack(&charts, Sizing::Size(512), 2).unwrap();
     let field = Field::new(op.file(), &b, Some(Reconstruction::new(op.file()).unwrap())).unwrap();
     let atlas = radiance_atlas(&op, &field, &charts, &layout);

@@ -99,10 +99,10 @@ fn a_bake_stores_materials_lights_cameras_and_a_bvh() {
     assert_eq!(d.point_lights[1].group, FilePointLight::FIXED);
     assert_eq!(d.cameras.len(), 1);
     assert_eq!(d.cameras[0].fov_y_deg, 39.3);
-    // The BVH covers the fan triangles of GEOMETRY (validated by from_bytes: a tree, every
-    // triangle once, boxes holding them).
+    // The BVH covers the fan triangles of the display faces (validated by from_bytes: a tree,
+    // every triangle once, boxes holding them).
     let bvh = d.bvh.as_ref().unwrap();
-    assert_eq!(bvh.triangles.len(), file.geometry.triangle_count());
+    assert_eq!(bvh.triangles.len(), file.faces().triangle_count());
     assert!(bvh.nodes.len() >= bvh.triangles.len() / 2);
     // Deterministic: the same bytes on one thread.
     assert_eq!(baked_bytes(&scene, 1), bytes);

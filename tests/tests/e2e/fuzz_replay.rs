@@ -153,7 +153,7 @@ fn kernels_agree_on_random_operators_and_emissions() {
 /// checks of damaged display sections every time; every base renders untouched.
 #[test]
 fn the_tracer_refuses_or_renders_damaged_files() {
-    for variant in 0..8 {
+    for variant in 0..16 {
         assert!(
             trace::trace_mutated(&[variant]),
             "base {variant} does not render"

@@ -141,22 +141,18 @@ fn errors(points: &[RefPoint], values: &[[f64; 3]]) -> Errors {
 }
 
 /// B of the element each point falls in (the flat reconstruction of `lrr probe`); asserts the
-/// element faces the way the point does.
+/// display face it lies on faces the way the point does.
 fn flat_values(op: &Operator, points: &[RefPoint]) -> Vec<[f64; 3]> {
     let b = op.evaluate_baked();
-    let file = op.file();
-    let mut slot = vec![0usize; op.n()];
-    for (s, &id) in file.order.iter().enumerate() {
-        slot[id as usize] = s;
-    }
+    let faces = op.file().faces();
     points
         .iter()
         .map(|p| {
-            let id = op
-                .locate(p.position.map(|x| x as f32), p.normal.map(|x| x as f32))
-                .unwrap() as usize;
-            let s = slot[id];
-            let n = [0, 1, 2].map(|c| f64::from(file.geometry.normals[3 * s + c]));
+            let face = op
+                .locate_face(p.position.map(|x| x as f32), p.normal.map(|x| x as f32))
+                .unwrap();
+            let id = op.file().order[faces.element(face)] as usize;
+            let n = faces.geometry.normal(face).map(f64::from);
             assert!(
                 dot(n, p.normal) > 0.99,
                 "point {:?} on '{}' was located in element {id} facing {n:?}",
@@ -168,8 +164,8 @@ fn flat_values(op: &Operator, points: &[RefPoint]) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// The smooth reconstruction at each point (`lrr probe`'s default), in the element `locate`
-/// finds.
+/// The smooth reconstruction at each point (`lrr probe`'s default), on the display face
+/// `locate_face` finds.
 fn smooth_values(op: &Operator, points: &[RefPoint]) -> Vec<[f64; 3]> {
     let b = op.evaluate_baked();
     let r = Reconstruction::new(op.file()).expect("a default bake carries smooth weights");
@@ -179,10 +175,10 @@ fn smooth_values(op: &Operator, points: &[RefPoint]) -> Vec<[f64; 3]> {
         .iter()
         .map(|p| {
             let position = p.position.map(|x| x as f32);
-            let s = op
-                .locate_position(position, p.normal.map(|x| x as f32))
+            let face = op
+                .locate_face(position, p.normal.map(|x| x as f32))
                 .unwrap();
-            r.at(&vertices, s, position).map(f64::from)
+            r.at(&vertices, face, position).map(f64::from)
         })
         .collect()
 }

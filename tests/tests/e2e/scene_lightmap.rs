@@ -139,9 +139,10 @@ fn the_bake_keeps_the_scenes_lightmap_coordinates_at_every_corner() {
     assert!(text.contains("the scene's lightmap coordinates"), "{text}");
     let file = lrr_formats::OperatorFile::read(&path).unwrap();
     let uv = &file.display.lightmap.as_ref().expect("section LIGHTMAP").uv;
-    let g = &file.geometry;
+    // LIGHTMAP holds the coordinates of the display faces' corners.
+    let g = file.faces().geometry;
     let mut floor_corners = 0;
-    for s in 0..file.n as usize {
+    for s in 0..g.len() {
         for c in 0..usize::from(g.vertex_count[s]) {
             let p = &g.vertices[12 * s + 3 * c..12 * s + 3 * c + 3];
             let got = DVec2::new(
@@ -196,7 +197,7 @@ fn the_exr_fills_the_scenes_atlas_with_the_runtimes_radiance() {
                 continue;
             }
             let p = [q.x as f32, q.y as f32, 0.0];
-            let s = op.locate_position(p, [0.0, 0.0, 1.0]).unwrap();
+            let s = op.locate_face(p, [0.0, 0.0, 1.0]).unwrap();
             let want = smooth.at(&vertices, s, p).map(|v| v / std::f32::consts::PI);
             let got = pixels[y * w + x];
             for c in 0..3 {
@@ -416,8 +417,8 @@ fn scene_coordinates_survive_an_include_with_a_scale() {
     .unwrap();
     let file = lrr_formats::OperatorFile::read(&out).unwrap();
     let uv = &file.display.lightmap.as_ref().unwrap().uv;
-    let g = &file.geometry;
-    for s in 0..file.n as usize {
+    let g = file.faces().geometry;
+    for s in 0..g.len() {
         let p = &g.vertices[12 * s..12 * s + 3];
         if p[2] < 5.0 {
             let want = floor_uv(DVec2::new(f64::from(p[0]), f64::from(p[1])) / 10.0);
