@@ -143,7 +143,10 @@ pub(crate) fn select(mesh: &Mesh, indicator: &[f64], budget: f64) -> Vec<bool> {
         if !mesh.elements[id].parts.is_empty() {
             continue; // a dense mesh's element stands for its faces: its proxy is not split
         }
-        let extra = children(&mesh.elements[id].polygon) - 1;
+        let Some(kids) = children(&mesh.elements[id].polygon) else {
+            continue; // a sliver whose halves have no area in floating point
+        };
+        let extra = kids - 1;
         if added + extra > allowed {
             continue; // a 1×2 split may still fit
         }
@@ -153,9 +156,9 @@ pub(crate) fn select(mesh: &Mesh, indicator: &[f64], budget: f64) -> Vec<bool> {
     marked
 }
 
-/// Children of one split of `p` (`subdivide::split`).
-fn children(p: &Polygon) -> usize {
-    subdivide::split(p).len()
+/// Children of one split of `p` (`subdivide::split`), `None` when it cannot be split.
+fn children(p: &Polygon) -> Option<usize> {
+    subdivide::try_split(p).map(|k| k.len())
 }
 
 /// The mesh with the `marked` elements (by id) split once: a split element's first child
@@ -167,7 +170,7 @@ pub(crate) fn split_marked(mesh: &Mesh, marked: &[bool]) -> (Mesh, Vec<u32>) {
     let mut siblings = vec![1u8; mesh.n()];
     for (id, _) in marked.iter().enumerate().filter(|(_, m)| **m) {
         let parent = mesh.elements[id].clone();
-        let kids = subdivide::split(&parent.polygon);
+        let kids = subdivide::try_split(&parent.polygon).expect("select checked the split");
         let count = u8::try_from(kids.len()).unwrap_or(u8::MAX);
         let mut kids = kids.into_iter();
         elements[id].polygon = kids.next().expect("a split has children");
@@ -254,7 +257,7 @@ pub(crate) fn refine_mesh(
         (n0 as u128) * (k as u128) * 8,
         max_memory,
         &format!("the first pass of --refine (n = {n0} elements × k = {k} patches)"),
-        &format!("use --refine 0, or: {}", checkpoint::size_advice(&mesh)),
+        &format!("use --refine 0, or: {}", checkpoint::size_advice()),
     )?;
     let mut ff =
         FormFactors::new(first.first_pass_samples(), first.occluder).with_enclosure(first.closed);

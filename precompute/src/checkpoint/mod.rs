@@ -51,24 +51,11 @@ pub(crate) struct Identity<'a> {
 /// for a bake, one shard's range for a sharded one). Returns the open checkpoint, which the
 /// caller removes once the output is safely written. `checkpoint` comes with the bake's
 /// [`key`] (for a range, [`range_key`]).
-/// What to change when `n · k` does not fit: a larger element size, unless the mesh is at its
-/// floor of about one element per input face (faces smaller than the element size are each an
-/// element: a larger size cannot lower n), when only fewer patches help.
-pub(crate) fn size_advice(mesh: &Mesh) -> String {
-    let mut faces: Vec<u32> = mesh.elements.iter().map(|e| e.face).collect();
-    faces.sort_unstable();
-    faces.dedup();
-    if mesh.n() < 2 * faces.len() {
-        format!(
-            "n is near its floor of one element per input face ({} faces carry elements), so \
-             a larger --element-size will not lower it; use fewer patches (a larger \
-             --threshold with 2msc, or --method 2mf with a larger --patch-size), or a machine \
-             with more memory",
-            faces.len()
-        )
-    } else {
-        "use a larger --element-size or --patch-size".to_string()
-    }
+/// What to change when `n · k` does not fit. A larger element size lowers n on every surface
+/// (small faces are grouped into elements of about the element size, `mesh::dense`); a larger
+/// patch size or threshold lowers k.
+pub(crate) fn size_advice() -> String {
+    "use a larger --element-size or --patch-size".to_string()
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -87,7 +74,7 @@ pub(crate) fn element_patch_matrix(
         bytes,
         max_memory,
         &format!("the element-to-patch matrix (n = {n} elements × k = {k} patches)"),
-        &size_advice(mesh),
+        &size_advice(),
     )?;
     let polygons: Vec<Polygon> = rows.clone().map(|s| mesh.element_at(s).polygon).collect();
     let ids = &mesh.order[rows];

@@ -27,7 +27,7 @@ pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display>
     let materials = materials(scene, mesh)?;
     let point_lights = point_lights(scene, mesh)?;
     let cameras = cameras(scene)?;
-    let shown = Shown::of(scene, mesh);
+    let shown = Shown::of(mesh);
     let stage = progress.stage("bvh", 0);
     let bvh = bvh::build(&shown.geometry);
     stage.finish();
@@ -46,7 +46,7 @@ pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display>
         cameras,
         bvh: Some(bvh),
         lightmap,
-        faces: shown.grouped.then(|| Faces {
+        faces: shown.grouped.then_some(Faces {
             element: shown.element,
             geometry: shown.geometry,
         }),
@@ -67,9 +67,9 @@ struct Shown {
 }
 
 impl Shown {
-    fn of(scene: &Scene, mesh: &Mesh) -> Self {
+    fn of(mesh: &Mesh) -> Self {
         let elements = (0..mesh.n()).map(|s| mesh.element_at(s));
-        let (faces, element, grouped) = crate::mesh::shown_faces(scene, elements);
+        let (faces, element, grouped) = crate::mesh::shown_faces(elements);
         let geometry = polygons(faces.iter().map(|e| &e.polygon), faces.len());
         Self {
             faces,

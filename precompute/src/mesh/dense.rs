@@ -3,9 +3,10 @@
 //! Subdivision makes every input face at least one element, so a finely tessellated surface
 //! (a scanned statue, a sphere at subdivision 7, a game level's trim) would have as many
 //! elements as triangles, and the bake's cost would follow the triangulation instead of the
-//! light. Here the faces that came through meshing whole and smaller than the element size
-//! (each one element, not cut by imprinting, not merged into a planar region) are grouped per
-//! surface and material by the bisection of patch clustering (`patches::cluster`): a group's
+//! light. Here the pieces that are one element each, of input faces no larger than the
+//! element size (whole, or cut by imprinting where others touch them), and the pieces of
+//! planar regions meshed as grids (a grid cell clipped to each of the region's faces) are
+//! grouped per surface and material by the bisection of patch clustering (`patches::cluster`): a group's
 //! area is at most h² (h the element size), its vertex bounding box has no side longer than
 //! 2h and its normals lie within [`ELEMENT_CONE_DEGREES`] of their area-weighted mean. A group of two or more faces becomes
 //! one element (DESIGN.md §10):
@@ -21,7 +22,7 @@
 //!
 //! The grouping is what Enlighten calls lighting a detail mesh through a simplified target:
 //! n ≈ area / h² whatever the tessellation. Occlusion still uses the input faces. A lone small
-//! face keeps its own polygon, so scenes without dense parts mesh exactly as before.
+//! piece keeps its own polygon, so scenes without dense parts mesh exactly as before.
 
 use glam::DVec3;
 
@@ -62,9 +63,11 @@ pub(crate) fn group(
     pieces: Vec<Piece>,
     element_size: f64,
 ) -> (Vec<Element>, Vec<Piece>, Grouped) {
-    // Candidates: a piece that is one element, exactly its input face.
+    // Candidates: a piece that is one element, of an input face no larger than an element
+    // (whole or cut by imprinting, not a sliver cut from a large face), or a piece of a
+    // planar region meshed as a grid (a cell clipped to one of its faces).
     let whole = |p: &Piece| {
-        p.count == 1 && elements[p.first as usize].polygon == scene.faces[p.face as usize].polygon
+        p.count == 1 && (p.grid || scene.faces[p.face as usize].polygon.size() <= element_size)
     };
     let mut sets: std::collections::BTreeMap<(u32, usize), Vec<usize>> = Default::default();
     for (i, p) in pieces.iter().enumerate() {
@@ -107,21 +110,24 @@ pub(crate) fn group(
         if let Some(g) = &lead[i] {
             let polygons: Vec<&Polygon> = g.iter().map(|&j| &pieces[j].polygon).collect();
             let polygon = proxy(&polygons, element_size).expect("checked above");
-            let mut parts: Vec<u32> = g.iter().map(|&j| pieces[j].face).collect();
-            parts.sort_unstable();
+            let parts: Vec<(u32, Polygon)> = g
+                .iter()
+                .map(|&j| (pieces[j].face, pieces[j].polygon))
+                .collect();
             out_elements.push(Element {
                 polygon,
-                face: parts[0],
+                face: piece.face,
                 surface: piece.surface,
                 patch: u32::MAX,
-                parts: parts.clone(),
+                parts,
             });
             out_pieces.push(Piece {
                 polygon,
-                face: parts[0],
+                face: piece.face,
                 surface: piece.surface,
                 first,
                 count: 1,
+                grid: false,
             });
             continue;
         }
@@ -143,7 +149,6 @@ pub(crate) fn group(
 /// empty), the index into `elements` each shows, and whether any element is drawn as other
 /// polygons than its own (then the file holds them as section FACES).
 pub(crate) fn shown_faces<'a>(
-    scene: &Scene,
     elements: impl ExactSizeIterator<Item = &'a Element>,
 ) -> (Vec<Element>, Vec<u32>, bool) {
     let mut faces = Vec::with_capacity(elements.len());
@@ -151,7 +156,7 @@ pub(crate) fn shown_faces<'a>(
     let mut grouped = false;
     for (s, e) in elements.enumerate() {
         grouped |= !e.parts.is_empty();
-        for (face, polygon) in e.shown(scene) {
+        for (face, polygon) in e.shown() {
             faces.push(Element {
                 polygon: *polygon,
                 face,
@@ -306,8 +311,8 @@ mod tests {
             let mut grouped = vec![0u32; scene.faces.len()];
             let mut shown = 0.0;
             for e in &elements {
-                e.parts.iter().for_each(|&f| grouped[f as usize] += 1);
-                shown += e.shown(&scene).map(|(_, p)| p.area()).sum::<f64>();
+                e.parts.iter().for_each(|&(f, _)| grouped[f as usize] += 1);
+                shown += e.shown().map(|(_, p)| p.area()).sum::<f64>();
             }
             assert!(grouped.iter().all(|&c| c <= 1), "a face in two elements");
             let area: f64 = scene.faces.iter().map(|f| f.polygon.area()).sum();
@@ -330,7 +335,7 @@ mod tests {
     fn display_weights_gather_per_element() {
         let (scene, elements) = fine(&sphere(5), 0.35);
         assert!(elements.iter().any(|e| e.parts.len() > 1));
-        let (faces, of, grouped) = shown_faces(&scene, elements.iter());
+        let (faces, of, grouped) = shown_faces(elements.iter());
         assert!(grouped && faces.len() == scene.faces.len());
         let refs: Vec<&Element> = faces.iter().collect();
         let s = crate::mesh::smooth::per_element(&crate::mesh::smooth::weights(&scene, &refs), &of);

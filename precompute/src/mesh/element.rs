@@ -15,22 +15,19 @@ pub struct Element {
     pub surface: u32,
     /// Index of the patch (in `Mesh::patches`) that holds it.
     pub patch: u32,
-    /// The input faces an element of a dense mesh groups (ascending, `face` the first), whose
-    /// light it stands for: `polygon` is then their planar proxy (`mesh::cluster`), and they
-    /// are what is drawn. Empty for an element that is its own polygon.
-    pub parts: Vec<u32>,
+    /// The pieces of small input faces an element of a dense mesh groups (`mesh::dense`), each
+    /// with its input face, in piece order: `polygon` is then their planar proxy, and they are
+    /// what is drawn. Empty for an element that is its own polygon.
+    pub parts: Vec<(u32, Polygon)>,
 }
 
 impl Element {
     /// What is drawn of the element: `(input face, polygon)` of each of its parts, or the
     /// element's own polygon.
-    pub fn shown<'a>(&'a self, scene: &'a Scene) -> impl Iterator<Item = (u32, &'a Polygon)> + 'a {
+    pub fn shown(&self) -> impl Iterator<Item = (u32, &Polygon)> + '_ {
         let own = self.parts.is_empty().then_some((self.face, &self.polygon));
-        own.into_iter().chain(
-            self.parts
-                .iter()
-                .map(move |&f| (f, &scene.faces[f as usize].polygon)),
-        )
+        own.into_iter()
+            .chain(self.parts.iter().map(|(f, p)| (*f, p)))
     }
 }
 

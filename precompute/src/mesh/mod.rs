@@ -58,6 +58,12 @@ pub(crate) fn fine_mesh(
     let (elements, pieces) = subdivide::fine(scene, roots, sizes.element_size, &mut report);
     let t = Instant::now();
     let (elements, pieces, grouped) = dense::group(scene, elements, pieces, sizes.element_size);
+    if grouped.elements > 0 {
+        report.min_angle = elements
+            .iter()
+            .map(|e| region::min_angle(&e.polygon))
+            .fold(180.0, f64::min);
+    }
     report.grouped = grouped;
     report.stages.push(("group", t.elapsed().as_secs_f64()));
     Ok((elements, pieces, report))

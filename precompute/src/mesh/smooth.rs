@@ -522,7 +522,7 @@ mod tests {
         };
         // What the file draws: a dense mesh's elements as their faces.
         let (elements, _, _) = fine_mesh(scene, sizes).unwrap();
-        let (faces, _, _) = crate::mesh::shown_faces(scene, elements.iter());
+        let (faces, _, _) = crate::mesh::shown_faces(elements.iter());
         let refs: Vec<&Element> = faces.iter().collect();
         let smooth = weights(scene, &refs);
         (faces, smooth)

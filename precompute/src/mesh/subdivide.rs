@@ -13,6 +13,12 @@ use crate::scene::Scene;
 /// Splits a node into children: quads 2×2 (or 1×2 along the long side when one side is at
 /// least twice the other, to keep elements near square), triangles into 4 by edge midpoints.
 pub(crate) fn split(p: &Polygon) -> Vec<Polygon> {
+    try_split(p).expect("children of a polygon larger than the element size are valid")
+}
+
+/// [`split`], or `None` when a child would have no area in floating point (a sliver far
+/// below the element size, as refinement may pick).
+pub(crate) fn try_split(p: &Polygon) -> Option<Vec<Polygon>> {
     let v = p.vertices();
     let mid = |a: DVec3, b: DVec3| (a + b) * 0.5;
     let pieces: Vec<Vec<DVec3>> = if v.len() == 3 {
@@ -49,9 +55,9 @@ pub(crate) fn split(p: &Polygon) -> Vec<Polygon> {
     pieces
         .iter()
         .map(|q| {
-            let mut child = Polygon::new(q).expect("children of a valid polygon are valid");
+            let mut child = Polygon::new(q)?;
             child.normal = p.normal; // exact parent normal: no drift down the hierarchy
-            child
+            Some(child)
         })
         .collect()
 }
@@ -103,6 +109,8 @@ pub(crate) struct Piece {
     pub surface: u32,
     pub first: u32,
     pub count: u32,
+    /// Whether it is a cell of a planar region meshed as a grid (`region`).
+    pub grid: bool,
 }
 
 /// What building the fine mesh found and how long its stages took.
@@ -173,6 +181,7 @@ pub(crate) fn fine(
                         surface,
                         first,
                         count: elements.len() as u32 - first,
+                        grid: false,
                     });
                 }
                 t_subdivide += t.elapsed().as_secs_f64();
@@ -215,6 +224,7 @@ pub(crate) fn fine(
                             surface,
                             first: elements.len() as u32,
                             count: 1,
+                            grid: true,
                         });
                         elements.push(Element {
                             polygon,

@@ -317,13 +317,7 @@ impl Mesh {
             CoherenceRule::Merge => {
                 let materials: Vec<coherence::Material> =
                     elements.iter().map(|e| material(scene, e.face)).collect();
-                coherence::merge::merge(
-                    scene,
-                    &mut elements,
-                    &materials,
-                    refinement.threshold,
-                    &probes,
-                )
+                coherence::merge::merge(&mut elements, &materials, refinement.threshold, &probes)
             }
         };
         Ok(Self {
@@ -503,7 +497,7 @@ impl Mesh {
                 // A dense mesh's element: the area-weighted mean of its faces' (one material).
                 let mut rho = [0.0; 3];
                 let mut area = 0.0;
-                for (f, p) in e.shown(scene) {
+                for (f, p) in e.shown() {
                     let (a, r) = (p.area(), scene.reflectance_over(f as usize, p, &lut));
                     (0..3).for_each(|c| rho[c] += a * r[c]);
                     area += a;

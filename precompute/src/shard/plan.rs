@@ -5,7 +5,7 @@
 //! N = 7), but 2MSC builds its patches from probe solves: half a shard's form-factor time at
 //! N = 7, repeated by every shard (docs/DISTRIBUTED.md). The plan stores the mesh exactly
 //! (every f64 by its bits), so a shard that reads it computes the same rows and the merge
-//! writes the same bytes. Layout: magic `LRRPLAN2` (2: elements list the input faces they group), body length, XXH64 of the body, body
+//! writes the same bytes. Layout: magic `LRRPLAN2` (2: elements list the face pieces they group), body length, XXH64 of the body, body
 //! (lrr version, scene content hash, settings text, then the mesh).
 
 use std::path::Path;
@@ -40,7 +40,11 @@ pub(crate) fn write(path: &Path, id: &PlanIdentity, mesh: &Mesh) -> Result<()> {
         for v in [el.face, el.surface, el.patch] {
             e.u64(u64::from(v));
         }
-        e.u64s(el.parts.iter().map(|&v| u64::from(v)));
+        e.u64(el.parts.len() as u64);
+        for (face, p) in &el.parts {
+            e.u64(u64::from(*face));
+            polygon(&mut e, p);
+        }
     }
     e.u64(mesh.patches.len() as u64);
     for p in &mesh.patches {
@@ -114,7 +118,10 @@ fn mesh(d: &mut Dec) -> Decoded<Mesh> {
     for _ in 0..d.count(8 * 16)? {
         let polygon = read_polygon(d)?;
         let [face, surface, patch] = [d.u32()?, d.u32()?, d.u32()?];
-        let parts = d.u32s()?;
+        let mut parts = Vec::new();
+        for _ in 0..d.count(8 * 15)? {
+            parts.push((d.u32()?, read_polygon(d)?));
+        }
         elements.push(Element {
             polygon,
             face,

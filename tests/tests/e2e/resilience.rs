@@ -280,28 +280,25 @@ fn bakes_are_identical_across_runs_and_thread_counts() {
 /// and names what will; following it (2MF with a larger patch size) the bake fits the same
 /// memory.
 #[test]
-fn a_refusal_at_the_element_floor_gives_advice_that_works() {
-    let dir = temp_dir("memory-floor");
+fn a_refusal_on_a_dense_mesh_gives_advice_that_works() {
+    // 5 120 triangles, each smaller than the element size: before issue #31 every one was an
+    // element whatever the size, and the advice had to say so; now they are grouped into
+    // elements of about the element size, and a larger size is what helps.
+    let dir = temp_dir("memory-dense");
     let scene =
         crate::util::generated_scene(&dir, "sphere", &["dense-sphere", "--subdivisions", "4"]);
     let out = dir.join("sphere.lrr");
-    let err = bake(&scene, &out, &["--max-memory", "4M"]).unwrap_err();
-    assert!(
-        err.contains("will not lower it")
-            && err.contains("--method 2mf with a larger --patch-size"),
-        "{err}"
-    );
+    let err = bake(
+        &scene,
+        &out,
+        &["--max-memory", "4M", "--element-size", "0.03"],
+    )
+    .unwrap_err();
+    assert!(err.contains("use a larger --element-size"), "{err}");
     bake(
         &scene,
         &out,
-        &[
-            "--max-memory",
-            "4M",
-            "--method",
-            "2mf",
-            "--patch-size",
-            "1.0",
-        ],
+        &["--max-memory", "4M", "--element-size", "0.12"],
     )
     .unwrap_or_else(|e| panic!("the advice did not make the bake fit: {e}"));
     assert!(out.exists());

@@ -43,7 +43,6 @@ use crate::geometry::{Polygon, Region};
 use crate::mesh::Element;
 use crate::patches::Patch;
 use crate::patches::cluster::NORMAL_CONE_DEGREES;
-use crate::scene::Scene;
 
 /// Revision of the merge rule: part of the checkpoint key (`checkpoint::key`) and of a shard
 /// plan's settings, since a change gives other patches for the same flags.
@@ -117,21 +116,19 @@ pub(crate) fn touch(a: &Polygon, b: &Polygon, eps: f64) -> bool {
 
 /// Whether two elements touch: one of the polygons drawn of one ([`Element::shown`]: a dense
 /// mesh's element is its faces, not its proxy) touches one of the other's.
-fn elements_touch(scene: &Scene, a: &Element, b: &Element, eps: f64) -> bool {
-    a.shown(scene)
-        .any(|(_, p)| b.shown(scene).any(|(_, q)| touch(p, q, eps)))
+fn elements_touch(a: &Element, b: &Element, eps: f64) -> bool {
+    a.shown()
+        .any(|(_, p)| b.shown().any(|(_, q)| touch(p, q, eps)))
 }
 
 /// For every element, the touching elements of the same surface (ascending ids), found
 /// through a uniform grid of cells about the size of the larger elements.
-fn neighbours(elements: &[Element], scene: &Scene) -> Vec<Vec<u32>> {
+fn neighbours(elements: &[Element]) -> Vec<Vec<u32>> {
     let n = elements.len();
     let boxes: Vec<(DVec3, DVec3)> = elements
         .iter()
         .map(|e| {
-            let v = e
-                .shown(scene)
-                .flat_map(|(_, p)| p.vertices().iter().copied());
+            let v = e.shown().flat_map(|(_, p)| p.vertices().iter().copied());
             v.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), x| {
                 (lo.min(x), hi.max(x))
             })
@@ -190,7 +187,7 @@ fn neighbours(elements: &[Element], scene: &Scene) -> Vec<Vec<u32>> {
                     && elements[o].surface == elements[e].surface
                     && boxes[o].0.cmple(b + eps).all()
                     && boxes[o].1.cmpge(a - eps).all()
-                    && elements_touch(scene, &elements[e], &elements[o], eps)
+                    && elements_touch(&elements[e], &elements[o], eps)
             });
             near
         })
@@ -282,7 +279,6 @@ impl Ctx {
 /// returns them, with `elements[..].patch` set. Patches are numbered by their smallest
 /// element id; a patch's parts are its elements' polygons in id order.
 pub(crate) fn merge(
-    scene: &Scene,
     elements: &mut [Element],
     materials: &[Material],
     threshold: f64,
@@ -318,7 +314,7 @@ pub(crate) fn merge(
         .collect();
     let norm: f64 = views.iter().map(|(_, b)| b * b).sum();
     let budget = threshold * threshold * norm;
-    let near = neighbours(elements, scene);
+    let near = neighbours(elements);
     let mut groups: Vec<Option<Group>> = views
         .into_par_iter()
         .zip(near)
@@ -606,16 +602,14 @@ mod tests {
         ] {
             let sizes = MeshSizes::resolve(&scene, None, None).unwrap();
             let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
-            let near = neighbours(&mesh.elements, &scene);
+            let near = neighbours(&mesh.elements);
             let eps = 1e-7 * scene.extent();
             let e = &mesh.elements;
             let mut pairs = 0;
             for a in 0..e.len() {
                 let all: Vec<u32> = (0..e.len())
                     .filter(|&b| {
-                        b != a
-                            && e[b].surface == e[a].surface
-                            && elements_touch(&scene, &e[a], &e[b], eps)
+                        b != a && e[b].surface == e[a].surface && elements_touch(&e[a], &e[b], eps)
                     })
                     .map(|b| b as u32)
                     .collect();
