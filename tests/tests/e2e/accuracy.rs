@@ -201,12 +201,14 @@ fn quick_accuracy_sweep_on_the_cornell_box() {
     assert!(svg.contains("Pareto front"));
 }
 
-/// The equal-error `k` ratio on a clustered scene (the dense sphere, quick mesh n = 1 684):
-/// pins what 2MSC achieves there, so a change of the rule that moves it either way is seen.
-/// Measured median k(2MF)/k(2MSC) = 2.15 (range 0.64–2.52, 8 errors from 1.5e-2 to 1.6e-3;
-/// by the split rule 0.77: 2MSC then needed *more* patches than 2MF here, docs/MESHING.md),
-/// above the issue's goal (a ratio of 1/0.6 = 1.67). Asserted within 1.15× of the measured
-/// value.
+/// The equal-error `k` ratio on a clustered scene (the dense sphere): pins what 2MSC achieves
+/// there, so a change of the rule that moves it either way is seen. Measured median
+/// k(2MF)/k(2MSC) = 3.22 (range 1.09–4.94) on the quick mesh since issue #31 groups the
+/// sphere's small faces into elements of about the element size; on the former quick mesh
+/// (n = 1 684, each sphere face an element) it was 2.15 (range 0.64–2.52; by the split rule
+/// 0.77, docs/MESHING.md). At `--element-sizes 0.0866` (n = 1 744, about the former n) the
+/// grouped mesh gives 4.51. Above the issue's goal (a ratio of 1/0.6 = 1.67) either way;
+/// asserted within 1.15× of the measured value.
 #[test]
 fn equal_error_k_ratio_on_the_dense_sphere() {
     let dir = temp_dir("accuracy-sphere");
@@ -230,7 +232,7 @@ fn equal_error_k_ratio_on_the_dense_sphere() {
     let ratio = analysis::k_ratio(&curve(&rows, "2mf"), &curve(&rows, "2msc"), 9)
         .expect("the 2MF and 2MSC curves overlap in error");
     println!("dense sphere, k(2MF)/k(2MSC) at equal error: {ratio:?}");
-    let measured = 2.15;
+    let measured = 3.22;
     assert!(
         ratio.median > measured / 1.15 && ratio.median < measured * 1.15,
         "median ratio {} moved from the measured {measured}: {ratio:?}",

@@ -288,9 +288,18 @@ fn cluttered_room_default_bake_against_the_path_tracer() {
     assert_within("cluttered smooth", &smooth, CLUTTERED_SMOOTH);
 }
 
+/// The dense sphere's description asks for h = 0.125, but before issue #31 each of its 1 280
+/// sphere faces was an element whatever h said (n = 2 020, the errors below). Its small faces
+/// are now grouped into elements of about h (n = 565 at 0.125: flat median 3.1%, smooth
+/// 2.1%, docs/ACCURACY.md); at this element size it has about the former n (2 244), and
+/// is held to the errors measured then.
+const SPHERE_FORMER_N: &[&str] = &["--element-size", "0.0625"];
+
 #[test]
-fn dense_sphere_default_bake_against_the_path_tracer() {
-    let (e, smooth) = default_bake_against_reference("dense-sphere");
+fn dense_sphere_bake_at_its_former_element_count_against_the_path_tracer() {
+    // Measured at n = 2 244: smooth median 0.81%, p90 2.57%; the reference's p90 noise
+    // (0.25%) is then 0.31× the median.
+    let (e, smooth) = bake_against_noisy_reference("dense-sphere", SPHERE_FORMER_N, 0.4);
     assert_within("dense-sphere", &e, [0.0212, 0.0723, 0.419]);
     assert_within("dense-sphere smooth", &smooth, SPHERE_SMOOTH);
 }
@@ -306,11 +315,13 @@ const SPHERE_UNREFINED: [[f64; 3]; 2] = [[0.0259, 0.0871, 0.469], [0.0200, 0.068
 /// lie where one element straddles a change).
 fn unrefined_against_reference(
     name: &str,
+    extra: &[&str],
     expected: [[f64; 3]; 2],
     default_smooth: [f64; 3],
     noise_share: f64,
 ) {
-    let (e, smooth) = bake_against_noisy_reference(name, &["--refine", "0"], noise_share);
+    let flags: Vec<&str> = extra.iter().copied().chain(["--refine", "0"]).collect();
+    let (e, smooth) = bake_against_noisy_reference(name, &flags, noise_share);
     assert_within(&format!("{name} --refine 0"), &e, expected[0]);
     assert_within(&format!("{name} --refine 0 smooth"), &smooth, expected[1]);
     assert!(
@@ -323,17 +334,23 @@ fn unrefined_against_reference(
 
 #[test]
 fn cornell_box_unrefined_bake_against_the_path_tracer() {
-    unrefined_against_reference("cornell-box", CORNELL_UNREFINED, CORNELL_SMOOTH, 0.4);
+    unrefined_against_reference("cornell-box", &[], CORNELL_UNREFINED, CORNELL_SMOOTH, 0.4);
 }
 
 #[test]
 fn cluttered_room_unrefined_bake_against_the_path_tracer() {
-    unrefined_against_reference("cluttered", CLUTTERED_UNREFINED, CLUTTERED_SMOOTH, 0.3);
+    unrefined_against_reference("cluttered", &[], CLUTTERED_UNREFINED, CLUTTERED_SMOOTH, 0.3);
 }
 
 #[test]
 fn dense_sphere_unrefined_bake_against_the_path_tracer() {
-    unrefined_against_reference("dense-sphere", SPHERE_UNREFINED, SPHERE_SMOOTH, 0.3);
+    unrefined_against_reference(
+        "dense-sphere",
+        SPHERE_FORMER_N,
+        SPHERE_UNREFINED,
+        SPHERE_SMOOTH,
+        0.4,
+    );
 }
 
 /// z-scores of the reference against exact values, per point and channel with stderr > 0.
