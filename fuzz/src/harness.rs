@@ -11,6 +11,9 @@
 
 use std::path::Path;
 
+use lrr_precompute::bake::{BakeSettings, bake};
+use lrr_precompute::patches::{CoherenceRule, PatchMethod};
+use lrr_precompute::progress::Progress;
 use lrr_precompute::scene::{description::SceneDescription, gltf, obj};
 
 /// The MTL written next to the OBJ when the input carries none.
@@ -72,4 +75,96 @@ pub fn scene_description(data: &[u8], dir: &Path) -> bool {
 /// URIs resolve there and may not leave it; see [`prepare_scene_dir`] for what it holds).
 pub fn gltf_import(data: &[u8], dir: &Path) -> bool {
     gltf::import(data, dir, "fuzz", "fuzz.gltf").is_ok()
+}
+
+/// Most triangles a `bake_geometry` input makes (each 18 bytes after the 2-byte head).
+pub const MAX_BAKE_TRIANGLES: usize = 48;
+
+/// `bake_geometry`: hostile geometry through the whole bake (issue #31: import, meshing, the
+/// grouping of small faces, smooth weights, 2MSC, form factors, the file's own checks). The
+/// input is a head (the scale, `10^(head[0] % 13 - 6)`: 1e-6 to 1e6; `head[1]`: the element
+/// size as a fraction of the scene, and bit 7 for `--method 2mf`), then up to
+/// [`MAX_BAKE_TRIANGLES`] triangles of nine little-endian i16 coordinates, each times the
+/// scale / 256 (needles, slivers, fans, duplicates and coincident vertices come from repeated
+/// or nearly equal values). An emitting square is added above them so the bake has light. They
+/// are written as an OBJ in `dir` and baked with the default settings at most a 64 MiB
+/// `--max-memory`, one thread, 4 samples; the result must be an error, or a file that passes
+/// its own checks with finite radiosity.
+pub fn bake_geometry(data: &[u8], dir: &Path) -> bool {
+    let Some((head, body)) = data.split_first_chunk::<2>() else {
+        return false;
+    };
+    let scale = 10f64.powi(i32::from(head[0] % 13) - 6);
+    let at = |c: &[u8]| f64::from(i16::from_le_bytes([c[0], c[1]])) * scale / 256.0;
+    let mut obj = String::from("mtllib scene.mtl\n");
+    let mut count = 0;
+    for t in body.chunks_exact(18).take(MAX_BAKE_TRIANGLES) {
+        for v in t.chunks_exact(6) {
+            obj.push_str(&format!(
+                "v {:e} {:e} {:e}\n",
+                at(&v[0..2]),
+                at(&v[2..4]),
+                at(&v[4..6])
+            ));
+        }
+        count += 1;
+    }
+    if count == 0 {
+        return false;
+    }
+    // The light: a square of side 256 scale units above the geometry's box (the i16 range).
+    let (lo, hi, top) = (-128.0 * scale, 128.0 * scale, 130.0 * scale);
+    for (x, z) in [(lo, lo), (hi, lo), (hi, hi), (lo, hi)] {
+        obj.push_str(&format!("v {x:e} {top:e} {z:e}\n"));
+    }
+    obj.push_str("g geometry\nusemtl white\n");
+    for i in 0..count {
+        let v = 3 * i + 1;
+        obj.push_str(&format!("f {} {} {}\n", v, v + 1, v + 2));
+    }
+    let l = 3 * count + 1;
+    obj.push_str(&format!(
+        "g light\nusemtl light\nf {} {} {} {}\n",
+        l + 3,
+        l + 2,
+        l + 1,
+        l
+    ));
+    let path = dir.join("bake.obj");
+    std::fs::write(&path, obj).expect("cannot write the fuzz OBJ");
+    std::fs::write(dir.join("scene.mtl"), DEFAULT_MTL).expect("cannot write the fuzz MTL");
+    let Ok(scene) = obj::load(&path) else {
+        return false;
+    };
+    let method = if head[1] & 0x80 != 0 {
+        PatchMethod::TwoFixed
+    } else {
+        PatchMethod::SpatialCoherence {
+            threshold: lrr_precompute::patches::coherence::merge::DEFAULT_THRESHOLD,
+            min_patch_area: None,
+            rule: CoherenceRule::Merge,
+        }
+    };
+    let fraction = f64::from(head[1] & 0x7f).max(2.0);
+    let settings = BakeSettings {
+        element_size: Some(scene.extent() / fraction),
+        method,
+        samples: 4,
+        threads: Some(1),
+        max_memory: Some(64 << 20),
+        refine: Some(lrr_precompute::refine::DEFAULT_BUDGET),
+        ..BakeSettings::default()
+    };
+    let Ok(baked) = bake(&scene, &settings, &Progress::hidden()) else {
+        return false;
+    };
+    let file = lrr_precompute::write::operator_file(&baked)
+        .expect("a finished bake makes a file that passes its checks");
+    file.to_bytes()
+        .expect("a finished bake's file passes the checks its encoding runs");
+    assert!(
+        baked.fk.iter().all(|f| f.is_finite()),
+        "non-finite form factors"
+    );
+    true
 }

@@ -114,8 +114,9 @@ pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
 /// The weights `s` of display faces (its positions index faces) as weights of the elements
 /// they show (`element_of[face]`, a file position): a vertex's weights on faces of one
 /// element add up, and weights that cancel (below [`MIN_MEAN_WEIGHT`] in magnitude) are left
-/// out, the rest scaled to sum to one; a vertex whose weights all cancel takes the plain
-/// mean of its elements. The corners stay the faces'.
+/// out, the rest scaled to sum to one; a vertex whose weights cancel (sum below a half) or
+/// would grow past [`MAX_EXTRAPOLATION_WEIGHT`] takes the plain mean of its elements. The
+/// corners stay the faces'.
 pub fn per_element(s: &Smooth, element_of: &[u32]) -> Smooth {
     let mut out = Smooth {
         corners: s.corners.clone(),
@@ -141,7 +142,10 @@ pub fn per_element(s: &Smooth, element_of: &[u32]) -> Smooth {
             .filter(|(_, w)| w.abs() >= MIN_MEAN_WEIGHT)
             .collect();
         let total: f64 = kept.iter().map(|(_, w)| w).sum();
-        if kept.is_empty() || total.abs() < 0.5 {
+        let bounded = kept
+            .iter()
+            .all(|(_, w)| (w / total).abs() <= MAX_EXTRAPOLATION_WEIGHT);
+        if kept.is_empty() || total.abs() < 0.5 || !bounded {
             let share = 1.0 / sums.len() as f64;
             for &(e, _) in &sums {
                 out.positions.push(e);

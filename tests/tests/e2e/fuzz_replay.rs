@@ -1,6 +1,6 @@
 //! The fuzz corpora as ordinary tests: every seed (`fuzz/seeds/<target>/`) and every committed
 //! crash input (`fuzz/regressions/<target>/`) runs through the same function as the cargo-fuzz
-//! target of that name (fuzz/src/harness.rs for the scene importers, fuzz/runtime/src/
+//! target of that name (fuzz/src/harness.rs for the scene importers and the bake, fuzz/runtime/src/
 //! operators.rs, kernels.rs and trace.rs for the runtime, included here), on stable, in CI. Each must be accepted or refused with an error, never panic.
 
 use std::path::{Path, PathBuf};
@@ -16,7 +16,7 @@ mod operators;
 #[path = "../../../fuzz/runtime/src/trace.rs"]
 mod trace;
 
-const TARGETS: [&str; 7] = [
+const TARGETS: [&str; 8] = [
     "kernels",
     "operator_bytes",
     "operator_mutated",
@@ -24,6 +24,7 @@ const TARGETS: [&str; 7] = [
     "obj_import",
     "scene_description",
     "gltf_import",
+    "bake_geometry",
 ];
 
 /// Runs one input through the target's body; `true` when it was accepted.
@@ -36,6 +37,7 @@ fn run(target: &str, data: &[u8], dir: &Path) -> bool {
         "obj_import" => harness::obj_import(data, dir),
         "scene_description" => harness::scene_description(data, dir),
         "gltf_import" => harness::gltf_import(data, dir),
+        "bake_geometry" => harness::bake_geometry(data, dir),
         other => panic!("fuzz folder {other} is not a fuzz target"),
     }
 }
@@ -146,6 +148,32 @@ fn kernels_agree_on_random_operators_and_emissions() {
         loaded >= 150,
         "only {loaded} of 300 random operators loaded: the test is shallow"
     );
+}
+
+/// The `bake_geometry` target on stable (issue #31: hostile geometry through meshing): 80
+/// random inputs (fixed seed) whose coordinates come from a palette of eight values, so that
+/// needles, slivers, coincident vertices, duplicated and zero-area faces are common, at scales
+/// 1e-6 to 1e6, through the whole bake; each is refused or makes a file that passes its checks.
+#[test]
+fn hostile_geometry_bakes_or_is_refused() {
+    let dir = temp_dir("fuzz-bake-geometry");
+    let mut next = xorshift(0x51a7_c0de_0031_0031);
+    let palette: [i16; 8] = [-100, -99, 0, 1, 2, 50, 100, 101];
+    let mut baked = 0;
+    for _ in 0..80 {
+        let mut data = vec![next() as u8, next() as u8];
+        for _ in 0..9 * (1 + next() % 12) {
+            let v = if next().is_multiple_of(4) {
+                next() as i16
+            } else {
+                palette[(next() % 8) as usize]
+            };
+            data.extend(v.to_le_bytes());
+        }
+        baked += usize::from(harness::bake_geometry(&data, &dir));
+    }
+    println!("bake_geometry: 80 random inputs, {baked} baked, the others refused");
+    assert!(baked >= 20, "only {baked} of 80 baked: the test is shallow");
 }
 
 /// The `trace_mutated` target on stable: 300 random edits of the tracer's base files (fixed
