@@ -1,6 +1,6 @@
 //! Form-factor targets made of several convex polygons: the clustered patches of dense meshes.
 //!
-//! A patch built by clustering (see [`crate::patches::cluster`]) is a union of the small input
+//! A patch built by clustering (see [`crate::geometry::cluster`]) is a union of the small input
 //! faces it groups, not one polygon. Form factors are additive over disjoint parts, so
 //!
 //! ```text

@@ -6,7 +6,7 @@
 //! light. Here the pieces that are one element each, of input faces no larger than the
 //! element size (whole, or cut by imprinting where others touch them), and the pieces of
 //! planar regions meshed as grids (a grid cell clipped to each of the region's faces) are
-//! grouped per surface and material by the bisection of patch clustering (`patches::cluster`): a group's
+//! grouped per surface and material by the bisection of patch clustering (`geometry::cluster`): a group's
 //! area is at most h² (h the element size), its vertex bounding box has no side longer than
 //! 2h and its normals lie within [`ELEMENT_CONE_DEGREES`] of their area-weighted mean. A group of two or more faces becomes
 //! one element (DESIGN.md §10):
@@ -27,9 +27,9 @@
 use glam::DVec3;
 
 use super::element::Element;
-use super::subdivide::Piece;
+use super::subdivide::{Grouped, Piece};
 use crate::geometry::Polygon;
-use crate::patches::cluster::{Unit, by_size_within};
+use crate::geometry::cluster::{Unit, by_size_within};
 use crate::scene::Scene;
 
 /// Largest angle between a grouped face's normal and its group's mean normal. Narrower than
@@ -44,15 +44,6 @@ pub(crate) const ELEMENT_CONE_DEGREES: f64 = 30.0;
 /// and gathered the fine one's into groups twice their area (320, 358, 276 at h = 0.3);
 /// √2·h gave 194, 128, 128.
 const SIDE_FACTOR: f64 = 2.0;
-
-/// What grouping did: faces grouped and the elements they became.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Grouped {
-    /// Input faces that are now parts of a grouped element.
-    pub faces: usize,
-    /// Elements they became.
-    pub elements: usize,
-}
 
 /// The fine mesh with the small whole faces of each surface and material grouped into
 /// elements of about `element_size` (module docs). Element ids stay in generation order: a
@@ -232,60 +223,12 @@ mod tests {
     use super::*;
     use crate::mesh::MeshSizes;
 
-    /// A unit sphere's octant-free icosphere of `subdivisions`, as triangles.
+    /// A unit icosphere of `subdivisions` (20·4^s triangles), as triangles.
     fn sphere(subdivisions: u32) -> Vec<[DVec3; 3]> {
-        let t = (1.0 + 5f64.sqrt()) / 2.0;
-        let v: Vec<DVec3> = [
-            (-1.0, t, 0.0),
-            (1.0, t, 0.0),
-            (-1.0, -t, 0.0),
-            (1.0, -t, 0.0),
-            (0.0, -1.0, t),
-            (0.0, 1.0, t),
-            (0.0, -1.0, -t),
-            (0.0, 1.0, -t),
-            (t, 0.0, -1.0),
-            (t, 0.0, 1.0),
-            (-t, 0.0, -1.0),
-            (-t, 0.0, 1.0),
-        ]
-        .iter()
-        .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
-        .collect();
-        let f = [
-            [0, 11, 5],
-            [0, 5, 1],
-            [0, 1, 7],
-            [0, 7, 10],
-            [0, 10, 11],
-            [1, 5, 9],
-            [5, 11, 4],
-            [11, 10, 2],
-            [10, 7, 6],
-            [7, 1, 8],
-            [3, 9, 4],
-            [3, 4, 2],
-            [3, 2, 6],
-            [3, 6, 8],
-            [3, 8, 9],
-            [4, 9, 5],
-            [2, 4, 11],
-            [6, 2, 10],
-            [8, 6, 7],
-            [9, 8, 1],
-        ];
-        let mut tris: Vec<[DVec3; 3]> = f.iter().map(|t| t.map(|i| v[i])).collect();
-        for _ in 0..subdivisions {
-            tris = tris
-                .iter()
-                .flat_map(|&[a, b, c]| {
-                    let m = |x: DVec3, y: DVec3| ((x + y) * 0.5).normalize();
-                    let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
-                    [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
-                })
-                .collect();
-        }
-        tris
+        crate::scene::procedural::icosphere(subdivisions, [0.0; 3], 1.0)
+            .iter()
+            .map(|t| [0, 1, 2].map(|i| DVec3::from_array(t[i])))
+            .collect()
     }
 
     fn fine(triangles: &[[DVec3; 3]], h: f64) -> (Scene, Vec<Element>) {

@@ -26,13 +26,13 @@ use std::time::Instant;
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 
-pub use dense::Grouped;
 pub(crate) use dense::shown_faces;
 pub use element::{
     DEFAULT_ELEMENT_FRACTION, DEFAULT_PATCH_FRACTION, Element, MAX_ELEMENTS, MeshSizes,
 };
 pub use region::PlanCounts;
 pub(crate) use region::occluder_faces;
+pub use subdivide::Grouped;
 pub use subdivide::{MeshReport, estimate_elements};
 
 /// The fine mesh (independent of the patch method), refused when it would be too large, and

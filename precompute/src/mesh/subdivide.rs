@@ -134,7 +134,16 @@ pub struct MeshReport {
     /// Elements split by refinement where light changes (`lrr bake --refine`), 0 without.
     pub refined: usize,
     /// Small input faces grouped into elements of about the element size (`dense`).
-    pub grouped: super::dense::Grouped,
+    pub grouped: Grouped,
+}
+
+/// What grouping did: faces grouped and the elements they became.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Grouped {
+    /// Input faces that are now parts of a grouped element.
+    pub faces: usize,
+    /// Elements they became.
+    pub elements: usize,
 }
 
 /// The fine mesh: planar regions planned (`region`), faces cut at their contacts and

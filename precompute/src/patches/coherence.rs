@@ -61,12 +61,12 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::cluster::{self, Unit};
 use super::patch::Patch;
 use crate::error::Result;
 use crate::formfactor::point::point_to_region;
 use crate::geometry::Polygon;
 use crate::geometry::Region;
+use crate::geometry::cluster::{self, Unit};
 use crate::geometry::hash::mix;
 use crate::mesh::subdivide::{self, Piece};
 use crate::mesh::{Element, MeshSizes};

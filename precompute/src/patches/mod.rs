@@ -13,13 +13,13 @@
 //! position → original element id) and the index vector `index` (k+1 offsets into file
 //! positions), with weights `w = A_e / A_p`.
 
-pub(crate) mod cluster;
 pub mod coherence;
 mod patch;
 
 pub use patch::{CoherenceRule, Patch, PatchMethod};
 
 use crate::error::{Error, Result};
+use crate::geometry::cluster;
 use crate::geometry::{Polygon, Region};
 use crate::mesh::subdivide;
 use crate::mesh::{Element, MeshReport, MeshSizes, fine_mesh};

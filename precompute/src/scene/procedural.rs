@@ -145,7 +145,7 @@ pub(crate) fn lit_room_surfaces(d: &mut SceneDescription) {
 /// A dense mesh for the clustering path: an icosphere of `20·4^subdivisions` small triangles
 /// (radius 0.25, floating at the centre of a closed unit room, y up) lit by a square light in
 /// the ceiling. Its triangles are smaller than the elements and patches, so 2MF and 2MSC build
-/// its patches by clustering (`patches::cluster`).
+/// its patches by clustering (`geometry::cluster`).
 pub fn dense_sphere(subdivisions: u32) -> SceneDescription {
     let mut d = empty(format!("dense sphere subdivisions={subdivisions}"));
     d.materials.push(grey("wall", 0.7, 0.0));
@@ -172,7 +172,7 @@ pub fn dense_sphere(subdivisions: u32) -> SceneDescription {
 
 /// Triangles of an icosahedron subdivided `levels` times (edges halved, vertices pushed onto
 /// the sphere), counter-clockwise seen from outside.
-pub(super) fn icosphere(levels: u32, centre: [f64; 3], radius: f64) -> Vec<Vec<[f64; 3]>> {
+pub(crate) fn icosphere(levels: u32, centre: [f64; 3], radius: f64) -> Vec<Vec<[f64; 3]>> {
     use glam::DVec3;
     let t = (1.0 + 5f64.sqrt()) / 2.0;
     let v = [

@@ -39,10 +39,10 @@ use rayon::prelude::*;
 
 use super::{Material, PROBE_RAYS, Probes, view_seed};
 use crate::formfactor::point::{point_to_region, point_to_region_sampled};
+use crate::geometry::cluster::NORMAL_CONE_DEGREES;
 use crate::geometry::{Polygon, Region};
 use crate::mesh::Element;
 use crate::patches::Patch;
-use crate::patches::cluster::NORMAL_CONE_DEGREES;
 
 /// Revision of the merge rule: part of the checkpoint key (`checkpoint::key`) and of a shard
 /// plan's settings, since a change gives other patches for the same flags.

@@ -20,7 +20,7 @@ use glam::DVec3;
 use crate::geometry::{Polygon, Region};
 
 /// Largest angle between a piece's normal and its 2MF cluster's mean normal.
-pub(super) const NORMAL_CONE_DEGREES: f64 = 45.0;
+pub(crate) const NORMAL_CONE_DEGREES: f64 = 45.0;
 
 /// What clustering needs of a piece.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,7 +52,7 @@ impl Unit {
 
     /// A region as one unit: its parts' bounding box, area and centroid, and their
     /// area-weighted mean normal (the first part's where they cancel).
-    pub(super) fn of_region(r: &Region) -> Self {
+    pub(crate) fn of_region(r: &Region) -> Self {
         let parts = r.parts();
         let mut u = Self::of(&parts[0]);
         let mut normal = DVec3::ZERO;
@@ -71,7 +71,7 @@ impl Unit {
 
 /// Splits `set` (at least two indices into `units`) into two non-empty halves at the median
 /// of the centroids along the longest axis of their bounding box; each half sorted by index.
-pub(super) fn bisect(units: &[Unit], set: &[usize]) -> [Vec<usize>; 2] {
+pub(crate) fn bisect(units: &[Unit], set: &[usize]) -> [Vec<usize>; 2] {
     debug_assert!(set.len() >= 2);
     let (lo, hi) = span(set.iter().map(|&u| units[u].centroid));
     median_split(units, set, widest_axis(hi - lo), |u| u.centroid)
@@ -135,14 +135,14 @@ fn summary_within(units: &[Unit], set: &[usize], cone_degrees: f64) -> (DVec3, D
 
 /// True when the set's vertex bounding box has no side longer than `size` and its normals lie
 /// within the cone of [`NORMAL_CONE_DEGREES`] around their area-weighted mean.
-pub(super) fn fits(units: &[Unit], set: &[usize], size: f64) -> bool {
+pub(crate) fn fits(units: &[Unit], set: &[usize], size: f64) -> bool {
     let (lo, hi, within) = summary(units, set);
     (hi - lo).max_element() <= size && within
 }
 
 /// The 2MF clusters of `set`: bisected until each [`fits`] the patch size. Each cluster is
 /// sorted by index; clusters come in the order of their smallest index.
-pub(super) fn by_size(units: &[Unit], set: Vec<usize>, size: f64) -> Vec<Vec<usize>> {
+pub(crate) fn by_size(units: &[Unit], set: Vec<usize>, size: f64) -> Vec<Vec<usize>> {
     by_size_within(units, set, size, f64::INFINITY, NORMAL_CONE_DEGREES)
 }
 
@@ -186,7 +186,7 @@ pub(crate) fn by_size_within(
 /// each step splits the set whose normals leave the cone of [`NORMAL_CONE_DEGREES`] by its
 /// normals, else the set of the widest vertex bounding box by position ([`bisect`]); ties go
 /// to the smaller first index. Deterministic; sets sorted, in the order of their smallest index.
-pub(super) fn to_budget(units: &[Unit], sets: Vec<Vec<usize>>, budget: usize) -> Vec<Vec<usize>> {
+pub(crate) fn to_budget(units: &[Unit], sets: Vec<Vec<usize>>, budget: usize) -> Vec<Vec<usize>> {
     use std::cmp::Reverse;
     use std::collections::BinaryHeap;
     // (normals outside the cone, box diagonal's bits, first index): f64 bits of a
