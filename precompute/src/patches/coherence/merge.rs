@@ -116,9 +116,33 @@ pub(crate) fn touch(a: &Polygon, b: &Polygon, eps: f64) -> bool {
 
 /// Whether two elements touch: one of the polygons drawn of one ([`Element::shown`]: a dense
 /// mesh's element is its faces, not its proxy) touches one of the other's.
+/// Only the polygons within `eps` of the other element's bounding box are paired: a grouped
+/// element's interior faces cannot touch another element.
 fn elements_touch(a: &Element, b: &Element, eps: f64) -> bool {
+    let bounds = |polygons: &mut dyn Iterator<Item = &Polygon>| {
+        polygons
+            .flat_map(|p| p.vertices().iter().copied())
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), x| {
+                (lo.min(x), hi.max(x))
+            })
+    };
+    let near = |p: &Polygon, (lo, hi): (DVec3, DVec3)| {
+        let (plo, phi) = bounds(&mut std::iter::once(p));
+        plo.cmple(hi + eps).all() && phi.cmpge(lo - eps).all()
+    };
+    let (box_a, box_b) = (
+        bounds(&mut a.shown().map(|(_, p)| p)),
+        bounds(&mut b.shown().map(|(_, p)| p)),
+    );
+    let near_b: Vec<&Polygon> = b
+        .shown()
+        .map(|(_, q)| q)
+        .filter(|q| near(q, box_a))
+        .collect();
     a.shown()
-        .any(|(_, p)| b.shown().any(|(_, q)| touch(p, q, eps)))
+        .map(|(_, p)| p)
+        .filter(|p| near(p, box_b))
+        .any(|p| near_b.iter().any(|q| touch(p, q, eps)))
 }
 
 /// For every element, the touching elements of the same surface (ascending ids), found
