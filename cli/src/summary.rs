@@ -140,9 +140,13 @@ pub struct MeshingSummary {
     pub grid_regions: usize,
     pub grid_faces: usize,
     pub grid_elements: usize,
+    /// Pieces of small faces and grid cells grouped into elements of about the element size
+    /// (issue #31), and the elements they became.
+    pub grouped_pieces: usize,
+    pub grouped_elements: usize,
     pub min_element_angle_degrees: f64,
     pub grid_min_element_angle_degrees: f64,
-    /// (stage, seconds) of the mesh stage: regions, grid, imprint, subdivide.
+    /// (stage, seconds) of the mesh stage: regions, grid, imprint, subdivide, group.
     pub stages: Vec<(String, f64)>,
     /// Elements split by `--refine` (0 without).
     pub refined_elements: usize,
@@ -164,6 +168,8 @@ impl MeshingSummary {
             grid_regions: m.regions.grid_groups,
             grid_faces: m.regions.grid_faces,
             grid_elements: m.grid_elements,
+            grouped_pieces: m.grouped.faces,
+            grouped_elements: m.grouped.elements,
             min_element_angle_degrees: m.min_angle,
             grid_min_element_angle_degrees: m.grid_min_angle,
             stages: m.stages.iter().map(|(s, t)| (s.to_string(), *t)).collect(),
@@ -198,12 +204,15 @@ impl MeshingSummary {
         writeln!(
             out,
             "meshing: {} region(s) of {} faces merged into one face, {} region(s) of {} faces \
-             remeshed as grids ({} elements), smallest element angle {:.1}°{}; {}",
+             remeshed as grids ({} elements), {} small piece(s) grouped into {} element(s), \
+             smallest element angle {:.1}°{}; {}",
             self.merged_regions,
             self.merged_faces,
             self.grid_regions,
             self.grid_faces,
             self.grid_elements,
+            self.grouped_pieces,
+            self.grouped_elements,
             self.min_element_angle_degrees,
             if self.grid_elements > 0 {
                 format!(" (grids {:.1}°)", self.grid_min_element_angle_degrees)

@@ -138,7 +138,7 @@ fn messy_scene_bakes_with_bounded_counts_and_its_repairs_listed() {
     );
     assert!(n <= bound && n >= area / (h * h), "n = {n}, bound {bound}");
     let stages = m["stages"].as_array().unwrap();
-    assert_eq!(stages.len(), 4, "{m}");
+    assert_eq!(stages.len(), 5, "{m}"); // regions, grid, imprint, subdivide, group
 }
 
 /// A needle of one square metre at 1 mm: refused with the surface, its area and a size that

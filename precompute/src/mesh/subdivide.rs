@@ -129,18 +129,20 @@ pub struct MeshReport {
     /// Smallest interior angle of a grid element, degrees (180 when there are none).
     pub grid_min_angle: f64,
     /// (stage, seconds): `regions` (grouping and merging), `grid` (clipped grids),
-    /// `imprint` (contact and crossing cuts), `subdivide` (the hierarchy's leaves).
+    /// `imprint` (contact and crossing cuts), `subdivide` (the hierarchy's leaves), `group`
+    /// (small pieces grouped, `dense`).
     pub stages: Vec<(&'static str, f64)>,
     /// Elements split by refinement where light changes (`lrr bake --refine`), 0 without.
     pub refined: usize,
-    /// Small input faces grouped into elements of about the element size (`dense`).
+    /// Pieces of small input faces and grid cells grouped into elements of about the element
+    /// size (`dense`; stage `group`).
     pub grouped: Grouped,
 }
 
-/// What grouping did: faces grouped and the elements they became.
+/// What grouping did: pieces grouped and the elements they became.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Grouped {
-    /// Input faces that are now parts of a grouped element.
+    /// Pieces (of small input faces, or grid cells) that are now parts of a grouped element.
     pub faces: usize,
     /// Elements they became.
     pub elements: usize,
