@@ -211,6 +211,50 @@ fn scaled_cornell_box_bakes_the_same() {
     }
 }
 
+/// The dense sphere at 5 120 triangles, its small faces grouped into elements (issue #31), at
+/// scales 1e-3 and 1e4: the same n and k and the same surfaces' mean radiosity within 1e-5.
+/// Before, bisection compared raw coordinates and the symmetric room's ties fell otherwise at
+/// another scale (n 562 / 783 / 563 at 1, 1e-3, 1e4, the room 8 element sizes wide split once
+/// more at 1e-3); the bisection now compares positions on a grid of 2⁻²⁴ of each set's range
+/// and size tests allow rounding (measured: identical n, k and means).
+#[test]
+fn scaled_dense_sphere_groups_and_bakes_the_same() {
+    let dir = temp_dir("scale-dense");
+    let text = std::fs::read_to_string(generated_scene(
+        &dir,
+        "sphere",
+        &["dense-sphere", "--subdivisions", "4"],
+    ))
+    .unwrap();
+    let baked = |s: f64| {
+        let path = dir.join(format!("sphere-{s}.toml"));
+        std::fs::write(&path, format!("scale = {s:e}\n{text}")).unwrap();
+        let out = dir.join(format!("sphere-{s}.lrr"));
+        bake(&path, &out, &[]).unwrap();
+        lrr_json(&["info", out.to_str().unwrap(), "--json"])
+    };
+    let base = baked(1.0);
+    for s in [1e-3, 1e4] {
+        let info = baked(s);
+        assert_eq!(info["n"], base["n"], "scale {s}");
+        assert_eq!(info["k"], base["k"], "scale {s}");
+        let means = |i: &serde_json::Value| -> Vec<f64> {
+            i["surfaces"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .flat_map(|x| (0..3).map(|c| x["mean_radiosity"][c].as_f64().unwrap()))
+                .collect()
+        };
+        for (a, b) in means(&info).iter().zip(means(&base)) {
+            assert!(
+                (a - b).abs() <= 1e-5 * b.abs().max(1e-3),
+                "scale {s}: {a} vs {b}"
+            );
+        }
+    }
+}
+
 /// Two rooms along x, sharing a wall from x = 1 to x = 1 + thickness (none: zero thickness,
 /// two coincident faces back to back). Floor, ceiling and side walls run under and over the
 /// wall as single faces, the worst case for leaks. A lamp hangs in the first room.

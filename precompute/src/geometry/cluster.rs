@@ -85,30 +85,48 @@ fn span(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
     )
 }
 
-/// The axis (0, 1, 2) of the largest component of `extent` (the first on ties).
-fn widest_axis(extent: DVec3) -> usize {
-    if extent.x >= extent.y && extent.x >= extent.z {
+/// Where `v` lies in `[lo, hi]` on a grid of 2⁻²⁴ of the range: bisection compares these, not
+/// raw coordinates, so that a scaled scene (whose coordinates round differently) makes the
+/// same choices unless a value falls within rounding of a grid line (as `coherence::view_seed`
+/// does for the view rays' seeds).
+fn quantized(v: f64, lo: f64, hi: f64) -> i64 {
+    if hi > lo {
+        ((v - lo) / (hi - lo) * (1u64 << 24) as f64).round() as i64
+    } else {
         0
-    } else if extent.y >= extent.z {
+    }
+}
+
+/// The axis (0, 1, 2) of the largest component of `extent` (the first on ties, compared on a
+/// grid of 2⁻²⁴ of the largest: [`quantized`]).
+fn widest_axis(extent: DVec3) -> usize {
+    let m = extent.max_element();
+    let [x, y, z] = extent.to_array().map(|e| quantized(e, 0.0, m));
+    if x >= y && x >= z {
+        0
+    } else if y >= z {
         1
     } else {
         2
     }
 }
 
-/// `set` halved at the median of `value(unit)[axis]` (ties by index), each half sorted.
+/// `set` halved at the median of `value(unit)[axis]` ([`quantized`] over the set's range;
+/// ties by index), each half sorted.
 fn median_split(
     units: &[Unit],
     set: &[usize],
     axis: usize,
     value: impl Fn(&Unit) -> DVec3,
 ) -> [Vec<usize>; 2] {
+    let (lo, hi) = set
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &u| {
+            let v = value(&units[u])[axis];
+            (l.min(v), h.max(v))
+        });
     let mut sorted = set.to_vec();
-    sorted.sort_by(|&a, &b| {
-        value(&units[a])[axis]
-            .total_cmp(&value(&units[b])[axis])
-            .then(a.cmp(&b))
-    });
+    sorted.sort_by_key(|&u| (quantized(value(&units[u])[axis], lo, hi), u));
     let mut second = sorted.split_off(sorted.len() / 2);
     sorted.sort_unstable();
     second.sort_unstable();
@@ -137,7 +155,7 @@ fn summary_within(units: &[Unit], set: &[usize], cone_degrees: f64) -> (DVec3, D
 /// within the cone of [`NORMAL_CONE_DEGREES`] around their area-weighted mean.
 pub(crate) fn fits(units: &[Unit], set: &[usize], size: f64) -> bool {
     let (lo, hi, within) = summary(units, set);
-    (hi - lo).max_element() <= size && within
+    super::within((hi - lo).max_element(), size) && within
 }
 
 /// The 2MF clusters of `set`: bisected until each [`fits`] the patch size. Each cluster is
@@ -159,7 +177,7 @@ pub(crate) fn by_size_within(
     let mut stack = vec![set];
     while let Some(s) = stack.pop() {
         let (lo, hi, within) = summary_within(units, &s, cone_degrees);
-        let box_fits = (hi - lo).max_element() <= size;
+        let box_fits = super::within((hi - lo).max_element(), size);
         let area: f64 = s.iter().map(|&u| units[u].area).sum();
         if s.len() <= 1 || (box_fits && within && area <= max_area) {
             if !s.is_empty() {
@@ -238,9 +256,10 @@ pub(crate) fn to_budget(units: &[Unit], sets: Vec<Vec<usize>>, budget: usize) ->
 fn bisect_normals(units: &[Unit], set: &[usize]) -> [Vec<usize>; 2] {
     let (lo, hi) = span(set.iter().map(|&u| units[u].normal));
     let axis = widest_axis(hi - lo);
-    let middle = 0.5 * (lo[axis] + hi[axis]);
-    let (below, above): (Vec<usize>, Vec<usize>) =
-        set.iter().partition(|&&u| units[u].normal[axis] < middle);
+    let middle = 1i64 << 23; // the middle of the range, quantized
+    let (below, above): (Vec<usize>, Vec<usize>) = set
+        .iter()
+        .partition(|&&u| quantized(units[u].normal[axis], lo[axis], hi[axis]) < middle);
     if !below.is_empty() && !above.is_empty() {
         return [below, above];
     }

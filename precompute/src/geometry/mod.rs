@@ -12,5 +12,6 @@ pub mod sampling;
 
 #[cfg(test)]
 pub(crate) use polygon::rectangle;
+pub(crate) use polygon::within;
 pub use polygon::{Polygon, area_vector};
 pub use region::{Outline, Region};

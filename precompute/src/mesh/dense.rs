@@ -26,7 +26,7 @@
 
 use glam::DVec3;
 
-use super::element::Element;
+use super::element::{Element, within};
 use super::subdivide::{Grouped, Piece};
 use crate::geometry::Polygon;
 use crate::geometry::cluster::{Unit, by_size_within};
@@ -58,7 +58,8 @@ pub(crate) fn group(
     // (whole or cut by imprinting, not a sliver cut from a large face), or a piece of a
     // planar region meshed as a grid (a cell clipped to one of its faces).
     let whole = |p: &Piece| {
-        p.count == 1 && (p.grid || scene.faces[p.face as usize].polygon.size() <= element_size)
+        p.count == 1
+            && (p.grid || within(scene.faces[p.face as usize].polygon.size(), element_size))
     };
     let mut sets: std::collections::BTreeMap<(u32, usize), Vec<usize>> = Default::default();
     for (i, p) in pieces.iter().enumerate() {

@@ -2,6 +2,7 @@
 
 use crate::error::{Error, Result};
 use crate::geometry::Polygon;
+pub(crate) use crate::geometry::within;
 use crate::scene::Scene;
 
 /// A fine-mesh element.
@@ -81,7 +82,7 @@ impl MeshSizes {
 /// the count by at most 4.
 pub(crate) fn face_estimate(p: &Polygon, element_size: f64) -> f64 {
     let ratio = p.size() / element_size;
-    if ratio <= 1.0 {
+    if within(p.size(), element_size) {
         1.0
     } else {
         4f64.powf(ratio.log2().ceil())

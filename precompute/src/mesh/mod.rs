@@ -27,6 +27,7 @@ use crate::error::{Error, Result};
 use crate::scene::Scene;
 
 pub(crate) use dense::shown_faces;
+pub(crate) use element::within;
 pub use element::{
     DEFAULT_ELEMENT_FRACTION, DEFAULT_PATCH_FRACTION, Element, MAX_ELEMENTS, MeshSizes,
 };

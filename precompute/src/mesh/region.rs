@@ -22,7 +22,7 @@ use std::collections::HashMap;
 
 use glam::{DVec2, DVec3};
 
-use super::element::face_estimate;
+use super::element::{face_estimate, within};
 use crate::geometry::Polygon;
 use crate::scene::{Face, Scene};
 
@@ -88,13 +88,14 @@ pub(crate) fn plan(
         let faces: Vec<&Face> = group.iter().map(|&f| &scene.faces[f]).collect();
         let p = &faces[0].polygon;
         let lone = group.len() == 1
-            && (p.count == 4 || p.size() <= element_size || min_angle(p) >= WELL_SHAPED);
+            && (p.count == 4 || within(p.size(), element_size) || min_angle(p) >= WELL_SHAPED);
         if lone || faces.iter().all(|f| f.polygon.count == 4) {
             roots.extend(group.iter().map(|&f| Root::Face(scene.faces[f].polygon, f)));
             continue;
         }
-        let fits =
-            |p: &Polygon| p.count == 4 || p.size() <= element_size || min_angle(p) >= WELL_SHAPED;
+        let fits = |p: &Polygon| {
+            p.count == 4 || within(p.size(), element_size) || min_angle(p) >= WELL_SHAPED
+        };
         let polygons: Vec<Polygon> = faces.iter().map(|f| f.polygon).collect();
         if let Some(merged) = merge_convex(&polygons, tolerance)
             && fits(&merged)

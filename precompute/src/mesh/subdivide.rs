@@ -4,7 +4,7 @@ use glam::DVec3;
 
 use std::time::Instant;
 
-use super::element::{Element, MeshSizes, face_estimate};
+use super::element::{Element, MeshSizes, face_estimate, within};
 use super::imprint::{Contact, Imprinter, boxes_meet, cut_all, polygon_bounds, through};
 use super::region::{self, PlanCounts, Root};
 use crate::geometry::Polygon;
@@ -261,7 +261,7 @@ pub(crate) fn fine(
 
 /// Calls `visit` on the leaves (elements) under `node`, depth-first.
 pub(crate) fn leaves(node: Polygon, element_size: f64, visit: &mut dyn FnMut(Polygon)) {
-    if node.size() <= element_size {
+    if within(node.size(), element_size) {
         visit(node);
         return;
     }
@@ -281,7 +281,7 @@ pub(crate) fn leaf_count(node: Polygon, element_size: f64) -> u32 {
 /// pieces are grouped by clustering instead of each becoming a patch.
 pub(crate) fn is_small(piece: &Piece, sizes: MeshSizes) -> bool {
     let size = piece.polygon.size();
-    size <= sizes.patch_size || size <= sizes.element_size
+    within(size, sizes.patch_size) || within(size, sizes.element_size)
 }
 
 /// Fewest small pieces a surface must have for them to be clustered: below it each small
@@ -314,7 +314,7 @@ pub(crate) fn cut(
     visit: &mut dyn FnMut(Polygon, u32, u32),
 ) -> u32 {
     let edge = node.size();
-    if edge <= sizes.patch_size || edge <= sizes.element_size {
+    if within(edge, sizes.patch_size) || within(edge, sizes.element_size) {
         let count = leaf_count(node, sizes.element_size);
         visit(node, first, count);
         return count;

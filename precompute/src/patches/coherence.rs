@@ -327,7 +327,7 @@ impl Ctx<'_> {
                 first,
                 ..
             } => {
-                if polygon.size() <= self.element_size {
+                if crate::mesh::within(polygon.size(), self.element_size) {
                     return Vec::new(); // an element
                 }
                 let mut next = *first;

@@ -253,12 +253,19 @@ impl PartialOrd for Join {
         Some(self.cmp(other))
     }
 }
+/// A join's cost to about 9 significant digits (the low 22 bits of the mantissa cleared): costs
+/// that differ only by the rounding of a scaled scene's coordinates order as ties, broken by
+/// the ids, so a scene scaled by 1e-3 joins in the same order (a symmetric room's equal
+/// joins came out in another order).
+fn coarse(cost: f64) -> f64 {
+    f64::from_bits(cost.to_bits() & !((1u64 << 22) - 1))
+}
+
 impl Ord for Join {
     fn cmp(&self, other: &Self) -> Ordering {
         // Reversed: `BinaryHeap` is a max-heap.
-        other
-            .cost
-            .total_cmp(&self.cost)
+        coarse(other.cost)
+            .total_cmp(&coarse(self.cost))
             .then(other.a.cmp(&self.a))
             .then(other.b.cmp(&self.b))
     }
