@@ -6,7 +6,7 @@
 use std::f32::consts::PI;
 use std::path::Path;
 
-use lrr_formats::{Camera, OperatorFile, Smooth};
+use lrr_formats::{Camera, OperatorFile};
 use lrr_runtime::{Layout, Operator, Precision, testkit};
 
 /// A 64-element grid (8 × 8 unit squares at z = 0) with a BVH and a camera looking down at it.
@@ -139,38 +139,6 @@ fn refusals_are_clear() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// Smooth weights joining every corner at one position, weights equal.
-fn smooth_by_position(g: &lrr_formats::Geometry) -> Smooth {
-    let n = g.vertex_count.len();
-    let mut keys: Vec<[i64; 3]> = Vec::new();
-    let mut members: Vec<Vec<u32>> = Vec::new();
-    let mut corners = vec![Smooth::NONE; 4 * n];
-    for e in 0..n {
-        for i in 0..usize::from(g.vertex_count[e]) {
-            let at = 12 * e + 3 * i;
-            let key = [0, 1, 2].map(|c| (g.vertices[at + c] * 1024.0).round() as i64);
-            let v = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
-                keys.push(key);
-                members.push(Vec::new());
-                keys.len() - 1
-            });
-            members[v].push(e as u32);
-            corners[4 * e + i] = v as u32;
-        }
-    }
-    let mut s = Smooth {
-        corners,
-        offsets: vec![0],
-        ..Smooth::default()
-    };
-    for m in members {
-        s.weights.extend(m.iter().map(|_| 1.0 / m.len() as f32));
-        s.positions.extend(m);
-        s.offsets.push(s.positions.len() as u32);
-    }
-    s
-}
-
 /// `--reconstruct`: smooth by default when the file has SMOOTH weights (`--explain` says so,
 /// and the image is not the flat one), flat when asked; smooth on a file without the weights
 /// is a clear error.
@@ -180,7 +148,9 @@ fn reconstruct_chooses_smooth_or_flat_shading() {
     std::fs::create_dir_all(&dir).unwrap();
     let plain = dir.join("plain.lrr");
     let mut file = write_file(&plain, true);
-    file.display.smooth = Some(smooth_by_position(&file.geometry));
+    file.display.smooth = Some(testkit::faces::smooth_by_position(&file.geometry, &|e| {
+        e as u32
+    }));
     let smooth = dir.join("smooth.lrr");
     file.write(&smooth).unwrap();
     let (plain, smooth) = (plain.to_str().unwrap(), smooth.to_str().unwrap());

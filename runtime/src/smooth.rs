@@ -291,40 +291,8 @@ mod tests {
                 }
             }
         }
-        let smooth = by_position(&g);
+        let smooth = crate::testkit::faces::smooth_by_position(&g, &|e| e as u32);
         (g, smooth)
-    }
-
-    /// Smooth weights joining every corner at one position, weights equal.
-    fn by_position(g: &Geometry) -> Smooth {
-        let n = g.vertex_count.len();
-        let mut keys: Vec<[i64; 2]> = Vec::new();
-        let mut members: Vec<Vec<u32>> = Vec::new();
-        let mut corners = vec![Smooth::NONE; 4 * n];
-        for e in 0..n {
-            for i in 0..usize::from(g.vertex_count[e]) {
-                let at = 12 * e + 3 * i;
-                let key = [g.vertices[at], g.vertices[at + 1]].map(|x| (x * 1024.0) as i64);
-                let v = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
-                    keys.push(key);
-                    members.push(Vec::new());
-                    keys.len() - 1
-                });
-                members[v].push(e as u32);
-                corners[4 * e + i] = v as u32;
-            }
-        }
-        let mut s = Smooth {
-            corners,
-            offsets: vec![0],
-            ..Smooth::default()
-        };
-        for m in members {
-            s.weights.extend(m.iter().map(|_| 1.0 / m.len() as f32));
-            s.positions.extend(m);
-            s.offsets.push(s.positions.len() as u32);
-        }
-        s
     }
 
     fn file(g: Geometry, smooth: Smooth) -> OperatorFile {

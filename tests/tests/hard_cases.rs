@@ -189,20 +189,26 @@ fn scaled_cornell_box_bakes_the_same() {
         bake(&scaled_cornell(&dir, s), &out, &[]).unwrap();
         lrr_json(&["info", out.to_str().unwrap(), "--json"])
     };
+    same_at_other_scales(&baked);
+}
+
+/// `baked(s)` (the `lrr info --json` of the bake at scale `s`) at 1e-3 and 1e4 against 1: the
+/// same n and k and every surface's mean radiosity within 1e-5.
+fn same_at_other_scales(baked: &dyn Fn(f64) -> serde_json::Value) {
+    let means = |i: &serde_json::Value| -> Vec<f64> {
+        i["surfaces"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|x| (0..3).map(|c| x["mean_radiosity"][c].as_f64().unwrap()))
+            .collect()
+    };
     let base = baked(1.0);
     for s in [1e-3, 1e4] {
         let info = baked(s);
         assert_eq!(info["n"], base["n"], "scale {s}");
         assert_eq!(info["k"], base["k"], "scale {s}");
-        let surfaces = |i: &serde_json::Value| -> Vec<f64> {
-            i["surfaces"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .flat_map(|x| (0..3).map(|c| x["mean_radiosity"][c].as_f64().unwrap()))
-                .collect::<Vec<f64>>()
-        };
-        for (a, b) in surfaces(&info).iter().zip(surfaces(&base)) {
+        for (a, b) in means(&info).iter().zip(means(&base)) {
             assert!(
                 (a - b).abs() <= 1e-5 * b.abs().max(1e-3),
                 "scale {s}: {a} vs {b}"
@@ -233,26 +239,7 @@ fn scaled_dense_sphere_groups_and_bakes_the_same() {
         bake(&path, &out, &[]).unwrap();
         lrr_json(&["info", out.to_str().unwrap(), "--json"])
     };
-    let base = baked(1.0);
-    for s in [1e-3, 1e4] {
-        let info = baked(s);
-        assert_eq!(info["n"], base["n"], "scale {s}");
-        assert_eq!(info["k"], base["k"], "scale {s}");
-        let means = |i: &serde_json::Value| -> Vec<f64> {
-            i["surfaces"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .flat_map(|x| (0..3).map(|c| x["mean_radiosity"][c].as_f64().unwrap()))
-                .collect()
-        };
-        for (a, b) in means(&info).iter().zip(means(&base)) {
-            assert!(
-                (a - b).abs() <= 1e-5 * b.abs().max(1e-3),
-                "scale {s}: {a} vs {b}"
-            );
-        }
-    }
+    same_at_other_scales(&baked);
 }
 
 /// Two rooms along x, sharing a wall from x = 1 to x = 1 + thickness (none: zero thickness,

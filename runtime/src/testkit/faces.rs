@@ -70,7 +70,7 @@ pub fn interleaved() -> OperatorFile {
         faces.geometry.vertices.extend([0.0; 3]);
         faces.geometry.normals.extend([0.0, 0.0, 1.0]);
     }
-    let smooth = smooth_by_position(&faces);
+    let smooth = smooth_by_position(&faces.geometry, &|f| faces.element[f]);
     let bvh = super::bvh::build(&faces.geometry);
     let file = OperatorFile {
         metadata_json: r#"{"generator":"lrr_runtime::testkit::faces"}"#.into(),
@@ -111,23 +111,25 @@ pub fn interleaved() -> OperatorFile {
     file
 }
 
-/// Smooth weights joining every face corner at one position: the mean of the elements (each
-/// once) with a face there.
-fn smooth_by_position(faces: &Faces) -> Smooth {
-    let g = &faces.geometry;
-    let mut keys: Vec<[f32; 2]> = Vec::new();
+/// Smooth weights joining every corner of `g` at one position (to 1/1024): the mean of the
+/// elements (each once, `element(polygon)`) with a corner there. The tests' stand-in for the
+/// bake's weights, on GEOMETRY or on display faces.
+pub fn smooth_by_position(g: &Geometry, element: &dyn Fn(usize) -> u32) -> Smooth {
+    let mut keys: Vec<[i64; 3]> = Vec::new();
     let mut members: Vec<Vec<u32>> = Vec::new();
     let mut corners = vec![Smooth::NONE; 4 * g.len()];
     for f in 0..g.len() {
         for i in 0..usize::from(g.vertex_count[f]) {
-            let [x, y, _] = g.vertex(f, i);
-            let v = keys.iter().position(|k| *k == [x, y]).unwrap_or_else(|| {
-                keys.push([x, y]);
+            let key = g
+                .vertex(f, i)
+                .map(|x| (f64::from(x) * 1024.0).round() as i64);
+            let v = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
+                keys.push(key);
                 members.push(Vec::new());
                 keys.len() - 1
             });
-            if !members[v].contains(&faces.element[f]) {
-                members[v].push(faces.element[f]);
+            if !members[v].contains(&element(f)) {
+                members[v].push(element(f));
             }
             corners[4 * f + i] = v as u32;
         }
