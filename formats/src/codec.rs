@@ -504,7 +504,8 @@ mod tests {
         one.display.cameras = display_sample().display.cameras;
         let c_bytes = encode(&one);
         assert_eq!(Container::parse(&c_bytes).unwrap().version(), (1, 2));
-        // LIGHTMAP makes a 1.3 file, written last of the optional sections.
+        // LIGHTMAP makes a 1.3 file, written last of the optional sections: the lowest minor
+        // that describes it (lib.rs, "Compatibility"), so 3, not VERSION_MINOR, since 1.4.
         let mut lit = display_sample();
         lit.display.lightmap = Some(crate::LightmapUv { uv: lit_uv(&lit) });
         let bytes = encode(&lit);

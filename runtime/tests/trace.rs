@@ -8,7 +8,6 @@ use std::f64::consts::PI;
 
 use lrr_formats::{
     Camera, Display, Geometry, Layout, Material, Materials, OperatorFile, PointLight, Precision,
-    Smooth,
 };
 use lrr_runtime::trace::{Effects, Lighting, RayBatch, Tracer, View};
 use lrr_runtime::{Reconstruction, testkit};
@@ -187,39 +186,6 @@ fn a_diffuse_scene_renders_exactly_b_over_pi_of_the_hit_element() {
     assert!(checked > 3000 && background > 500, "{checked} {background}");
 }
 
-/// Smooth weights for `file` joining every corner at one position, weights equal (a mean of
-/// the elements around each vertex).
-fn smooth_by_position(g: &Geometry) -> Smooth {
-    let n = g.vertex_count.len();
-    let mut keys: Vec<[i64; 3]> = Vec::new();
-    let mut members: Vec<Vec<u32>> = Vec::new();
-    let mut corners = vec![Smooth::NONE; 4 * n];
-    for e in 0..n {
-        for i in 0..usize::from(g.vertex_count[e]) {
-            let at = 12 * e + 3 * i;
-            let key = [0, 1, 2].map(|c| (g.vertices[at + c] * 1024.0).round() as i64);
-            let v = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
-                keys.push(key);
-                members.push(Vec::new());
-                keys.len() - 1
-            });
-            members[v].push(e as u32);
-            corners[4 * e + i] = v as u32;
-        }
-    }
-    let mut s = Smooth {
-        corners,
-        offsets: vec![0],
-        ..Smooth::default()
-    };
-    for m in members {
-        s.weights.extend(m.iter().map(|_| 1.0 / m.len() as f32));
-        s.positions.extend(m);
-        s.offsets.push(s.positions.len() as u32);
-    }
-    s
-}
-
 #[test]
 fn a_smooth_scene_renders_the_reconstruction_at_the_hit_point_over_pi() {
     // The diffuse grid above, with smooth weights and a permuted element order: each pixel is
@@ -243,7 +209,10 @@ fn a_smooth_scene_renders_the_reconstruction_at_the_hit_point_over_pi() {
         .collect();
     let mut file = file_of(&faces, vec![diffuse()], Vec::new(), 0);
     file.order = (0..n as u32).map(|p| (p * 7 + 3) % n as u32).collect();
-    file.display.smooth = Some(smooth_by_position(&file.geometry));
+    file.display.smooth = Some(lrr_runtime::testkit::faces::smooth_by_position(
+        &file.geometry,
+        &|e| e as u32,
+    ));
     let cam = camera([3.0, 2.0, 5.0], [3.0, 2.0, 0.0], [0.0, 1.0, 0.0], 60.0);
     let (w, h) = (97u32, 71u32);
     let (image, report) = render(&file, &cam, w, h, &b, &[]);

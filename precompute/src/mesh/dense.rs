@@ -70,7 +70,7 @@ pub(crate) fn group(
     }
     let units: Vec<Unit> = pieces.iter().map(|p| Unit::of(&p.polygon)).collect();
     // Per piece: the group it leads (its members), or that it is a later member.
-    let mut lead: Vec<Option<Vec<usize>>> = vec![None; pieces.len()];
+    let mut lead: Vec<Option<(Vec<usize>, Polygon)>> = vec![None; pieces.len()];
     let mut member = vec![false; pieces.len()];
     let mut grouped = Grouped::default();
     for set in sets.into_values().filter(|s| s.len() >= 2) {
@@ -80,16 +80,16 @@ pub(crate) fn group(
                 continue;
             }
             let polygons: Vec<&Polygon> = g.iter().map(|&i| &pieces[i].polygon).collect();
-            if proxy(&polygons, element_size).is_none() {
+            let Some(polygon) = proxy(&polygons, element_size) else {
                 continue;
-            }
+            };
             grouped.faces += g.len();
             grouped.elements += 1;
             for &i in &g {
                 member[i] = true;
             }
             let first = g[0];
-            lead[first] = Some(g);
+            lead[first] = Some((g, polygon));
         }
     }
     if grouped.elements == 0 {
@@ -99,9 +99,8 @@ pub(crate) fn group(
     let mut out_pieces = Vec::with_capacity(pieces.len());
     for (i, piece) in pieces.iter().enumerate() {
         let first = out_elements.len() as u32;
-        if let Some(g) = &lead[i] {
-            let polygons: Vec<&Polygon> = g.iter().map(|&j| &pieces[j].polygon).collect();
-            let polygon = proxy(&polygons, element_size).expect("checked above");
+        if let Some((g, polygon)) = &lead[i] {
+            let polygon = *polygon;
             let parts: Vec<(u32, Polygon)> = g
                 .iter()
                 .map(|&j| (pieces[j].face, pieces[j].polygon))

@@ -115,49 +115,41 @@ pub(crate) fn touch(a: &Polygon, b: &Polygon, eps: f64) -> bool {
 }
 
 /// Whether two elements touch: one of the polygons drawn of one ([`Element::shown`]: a dense
-/// mesh's element is its faces, not its proxy) touches one of the other's.
-/// Only the polygons within `eps` of the other element's bounding box are paired: a grouped
-/// element's interior faces cannot touch another element.
-fn elements_touch(a: &Element, b: &Element, eps: f64) -> bool {
-    let bounds = |polygons: &mut dyn Iterator<Item = &Polygon>| {
-        polygons
-            .flat_map(|p| p.vertices().iter().copied())
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), x| {
-                (lo.min(x), hi.max(x))
-            })
-    };
+/// mesh's element is its faces, not its proxy) touches one of the other's. Only the polygons
+/// within `eps` of the other element's bounding box (`boxes`, as [`neighbours`] has them) are
+/// paired: a grouped element's interior faces cannot touch another element.
+fn elements_touch(a: &Element, b: &Element, boxes: [(DVec3, DVec3); 2], eps: f64) -> bool {
     let near = |p: &Polygon, (lo, hi): (DVec3, DVec3)| {
-        let (plo, phi) = bounds(&mut std::iter::once(p));
+        let v = p.vertices();
+        let (plo, phi) = v
+            .iter()
+            .fold((v[0], v[0]), |(l, h), &x| (l.min(x), h.max(x)));
         plo.cmple(hi + eps).all() && phi.cmpge(lo - eps).all()
     };
-    let (box_a, box_b) = (
-        bounds(&mut a.shown().map(|(_, p)| p)),
-        bounds(&mut b.shown().map(|(_, p)| p)),
-    );
     let near_b: Vec<&Polygon> = b
         .shown()
         .map(|(_, q)| q)
-        .filter(|q| near(q, box_a))
+        .filter(|q| near(q, boxes[0]))
         .collect();
     a.shown()
         .map(|(_, p)| p)
-        .filter(|p| near(p, box_b))
+        .filter(|p| near(p, boxes[1]))
         .any(|p| near_b.iter().any(|q| touch(p, q, eps)))
+}
+
+/// The bounding box of what is drawn of `e`.
+fn element_box(e: &Element) -> (DVec3, DVec3) {
+    let v = e.shown().flat_map(|(_, p)| p.vertices().iter().copied());
+    v.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), x| {
+        (lo.min(x), hi.max(x))
+    })
 }
 
 /// For every element, the touching elements of the same surface (ascending ids), found
 /// through a uniform grid of cells about the size of the larger elements.
 fn neighbours(elements: &[Element]) -> Vec<Vec<u32>> {
     let n = elements.len();
-    let boxes: Vec<(DVec3, DVec3)> = elements
-        .iter()
-        .map(|e| {
-            let v = e.shown().flat_map(|(_, p)| p.vertices().iter().copied());
-            v.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), x| {
-                (lo.min(x), hi.max(x))
-            })
-        })
-        .collect();
+    let boxes: Vec<(DVec3, DVec3)> = elements.iter().map(element_box).collect();
     let (lo, hi) = boxes
         .iter()
         .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), &(a, b)| {
@@ -211,7 +203,7 @@ fn neighbours(elements: &[Element]) -> Vec<Vec<u32>> {
                     && elements[o].surface == elements[e].surface
                     && boxes[o].0.cmple(b + eps).all()
                     && boxes[o].1.cmpge(a - eps).all()
-                    && elements_touch(&elements[e], &elements[o], eps)
+                    && elements_touch(&elements[e], &elements[o], [boxes[e], boxes[o]], eps)
             });
             near
         })
@@ -640,7 +632,14 @@ mod tests {
             for a in 0..e.len() {
                 let all: Vec<u32> = (0..e.len())
                     .filter(|&b| {
-                        b != a && e[b].surface == e[a].surface && elements_touch(&e[a], &e[b], eps)
+                        b != a
+                            && e[b].surface == e[a].surface
+                            && elements_touch(
+                                &e[a],
+                                &e[b],
+                                [element_box(&e[a]), element_box(&e[b])],
+                                eps,
+                            )
                     })
                     .map(|b| b as u32)
                     .collect();
