@@ -59,6 +59,7 @@ mod batch;
 mod bvh;
 mod bvh4;
 mod camera;
+mod direct;
 mod effects;
 mod math;
 mod scene;
@@ -67,6 +68,9 @@ mod tracer;
 
 pub use batch::{RayBatch, TraceHit};
 pub use camera::{CameraChoiceError, CameraFields, View};
+pub use direct::{
+    DEFAULT_SAMPLES, DirectLighting, DirectReport, Light, Sky, reflected, sh9, spot_falloff,
+};
 pub use effects::{DEFAULT_MAX_DEPTH, Decision, Effects, MAX_DEPTH_LIMIT};
 pub use shade::RayCounts;
 pub use tracer::{Image, Lighting, RenderReport, TILE_ROWS, Tracer};

@@ -1,0 +1,689 @@
+//! Lights that are not surfaces (DESIGN.md §9): point, spot and directional lights and a sky, and
+//! the per-frame direct pass that turns them into an emission the operator bounces.
+//!
+//! The operator maps any emission to radiosity, `B = G E`. A light enters through `E`: for
+//! element `i`, `E_i = ρ_i ⊙ H_i`, where `H_i` is the light's direct irradiance averaged over the
+//! element, visibility included. [`DirectLighting::irradiance`] computes `H` per element at fixed
+//! sample points (chosen once, when the pass is made, so a frame never flickers), each behind a
+//! shadow ray through the file's BVH; [`reflected`] makes `ρ ⊙ H`; `B = G E` then holds the
+//! reflected direct light and every further bounce, and `B − E` the bounced part alone, which
+//! the display adds to the direct light at the shaded point itself ([`DirectLighting::at`]):
+//! shadow edges as sharp as the light makes them, not as coarse as the elements.
+//!
+//! Irradiance at a point `x` with front normal `n` (elements are one-sided: light from behind
+//! does nothing):
+//!
+//! ```text
+//! point        H = I · max(0, n·ω) / |p − x|² · V(x, p)           ω = (p − x)/|p − x|, I in W/sr
+//! spot         the same times glTF's cone falloff: t = clamp((cos α − cos outer)
+//!              / max(1e-3, cos inner − cos outer), 0, 1), falloff t²   (α: angle off the axis)
+//! directional  H = E⊥ · max(0, −n·d) · V(x, −d)                   d the travel direction,
+//!                                                                  E⊥ in W/m² facing it
+//! sky          H = ∫ L(ω) V(x, ω) max(0, n·ω) dω = Σ_lm L_lm T_lm  (order-2 spherical
+//!              harmonics: T per element, projected once from cosine-weighted rays)
+//! ```
+//!
+//! Only what a frame calls for is traced: no lights, no rays; a light whose place, direction and
+//! cone did not change since the last frame is not traced again (its colour and intensity scale
+//! a cached geometric term); the sky's transfer is projected on the first frame that has a sky.
+
+use std::f32::consts::PI;
+
+use lrr_formats::OperatorFile;
+
+use super::bvh::Ray;
+use super::math::{V3, add, cross, dot, length, mad, normalize, scale, sub};
+use super::scene::TraceScene;
+use crate::error::{RuntimeError, input};
+
+/// A light that is not a surface, as a frame gives it. Every field may change every frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Light {
+    /// A point light: radiant intensity per channel in W/sr (irradiance `I cos θ / d²`).
+    Point { position: [f32; 3], intensity: [f32; 3] },
+    /// A spot light: a point light whose intensity falls off off its axis as glTF's
+    /// `KHR_lights_punctual` says, from 1 inside `inner` to 0 outside `outer` (half-angles in
+    /// radians, `0 <= inner <= outer <= π/2`); `intensity` in W/sr on the axis; `direction`
+    /// where it points (any length but zero).
+    Spot {
+        position: [f32; 3],
+        direction: [f32; 3],
+        intensity: [f32; 3],
+        inner: f32,
+        outer: f32,
+    },
+    /// A directional light (a sun): `direction` the direction its light travels (any length but
+    /// zero), `irradiance` per channel in W/m² (scene units) on a surface facing it.
+    Directional { direction: [f32; 3], irradiance: [f32; 3] },
+}
+
+impl Light {
+    /// Its colour times intensity (W/sr, or W/m² for a directional light).
+    pub fn strength(&self) -> [f32; 3] {
+        match *self {
+            Light::Point { intensity, .. } | Light::Spot { intensity, .. } => intensity,
+            Light::Directional { irradiance, .. } => irradiance,
+        }
+    }
+
+    /// The light with its strength set to 1: what its shadows and falloff depend on.
+    fn shape(&self) -> Light {
+        let mut l = *self;
+        match &mut l {
+            Light::Point { intensity, .. } | Light::Spot { intensity, .. } => *intensity = [1.0; 3],
+            Light::Directional { irradiance, .. } => *irradiance = [1.0; 3],
+        }
+        l
+    }
+
+    /// Checks the values (finite, non-negative strengths, non-zero directions, cones in
+    /// order); the message names the field.
+    pub fn check(&self) -> Result<(), String> {
+        let finite = |v: [f32; 3]| v.iter().all(|c| c.is_finite());
+        let strength = self.strength();
+        if !strength.iter().all(|c| c.is_finite() && *c >= 0.0) {
+            return Err(format!(
+                "its intensity {strength:?} must be finite and >= 0 per channel"
+            ));
+        }
+        match *self {
+            Light::Point { position, .. } if !finite(position) => {
+                Err(format!("its position {position:?} is not finite"))
+            }
+            Light::Spot {
+                position,
+                direction,
+                inner,
+                outer,
+                ..
+            } => {
+                if !finite(position) {
+                    return Err(format!("its position {position:?} is not finite"));
+                }
+                if !finite(direction) || length(direction) == 0.0 {
+                    return Err(format!(
+                        "its direction {direction:?} must be finite and not zero"
+                    ));
+                }
+                if !(inner >= 0.0 && inner <= outer && outer <= std::f32::consts::FRAC_PI_2) {
+                    return Err(format!(
+                        "its cone angles must satisfy 0 <= inner <= outer <= 90 degrees, got \
+                         inner {:.4} and outer {:.4} degrees",
+                        inner.to_degrees(),
+                        outer.to_degrees()
+                    ));
+                }
+                Ok(())
+            }
+            Light::Directional { direction, .. }
+                if !finite(direction) || length(direction) == 0.0 =>
+            {
+                Err(format!(
+                    "its direction {direction:?} must be finite and not zero"
+                ))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The irradiance per unit strength at `x` (front normal `n`, unit) before visibility, and
+    /// the shadow ray's direction (unit, towards the light) and length (`INFINITY` for a
+    /// directional light); `None` when no light arrives.
+    #[inline]
+    fn towards(&self, x: V3, n: V3) -> Option<(f32, V3, f32)> {
+        match *self {
+            Light::Point { position, .. } => {
+                let to = sub(position, x);
+                let d2 = dot(to, to);
+                if d2 <= 0.0 {
+                    return None;
+                }
+                let dist = d2.sqrt();
+                let w = scale(to, 1.0 / dist);
+                let cos = dot(n, w);
+                (cos > 0.0).then(|| (cos / d2, w, dist))
+            }
+            Light::Spot {
+                position,
+                direction,
+                inner,
+                outer,
+                ..
+            } => {
+                let to = sub(position, x);
+                let d2 = dot(to, to);
+                if d2 <= 0.0 {
+                    return None;
+                }
+                let dist = d2.sqrt();
+                let w = scale(to, 1.0 / dist);
+                let cos = dot(n, w);
+                if cos <= 0.0 {
+                    return None;
+                }
+                let falloff = spot_falloff(-dot(normalize(direction), w), inner, outer);
+                (falloff > 0.0).then(|| (cos * falloff / d2, w, dist))
+            }
+            Light::Directional { direction, .. } => {
+                let w = scale(normalize(direction), -1.0);
+                let cos = dot(n, w);
+                (cos > 0.0).then_some((cos, w, f32::INFINITY))
+            }
+        }
+    }
+}
+
+/// glTF's spot falloff at `cos_axis`, the cosine of the angle off the spot's axis: a smooth
+/// square from 1 at the inner cone to 0 at the outer (`KHR_lights_punctual`'s
+/// `lightAngleScale`/`lightAngleOffset`, the divisor at least 1e-3; equal cones give a hard edge).
+#[inline]
+pub fn spot_falloff(cos_axis: f32, inner: f32, outer: f32) -> f32 {
+    let (cos_inner, cos_outer) = (inner.cos(), outer.cos());
+    if cos_axis < cos_outer {
+        return 0.0;
+    }
+    if cos_inner <= cos_outer {
+        return 1.0;
+    }
+    let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
+    let t = ((cos_axis - cos_outer) * scale).clamp(0.0, 1.0);
+    t * t
+}
+
+/// A sky: radiance per direction, as order-2 spherical harmonics once projected.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Sky {
+    /// The same radiance (W/m²/sr per channel) from every direction.
+    Uniform { radiance: [f32; 3] },
+    /// `horizon + (zenith − horizon) · max(0, ω·up)`: the zenith's radiance straight up, the
+    /// horizon's at and below the horizon; `up` any length but zero (it rotates the sky).
+    Gradient {
+        zenith: [f32; 3],
+        horizon: [f32; 3],
+        up: [f32; 3],
+    },
+}
+
+impl Sky {
+    /// Checks the values; the message names the field.
+    pub fn check(&self) -> Result<(), String> {
+        let radiance = |v: [f32; 3]| v.iter().all(|c| c.is_finite() && *c >= 0.0);
+        match *self {
+            Sky::Uniform { radiance: r } if !radiance(r) => Err(format!(
+                "its radiance {r:?} must be finite and >= 0 per channel"
+            )),
+            Sky::Gradient {
+                zenith,
+                horizon,
+                up,
+            } => {
+                if !radiance(zenith) || !radiance(horizon) {
+                    return Err(format!(
+                        "its zenith {zenith:?} and horizon {horizon:?} radiances must be \
+                         finite and >= 0 per channel"
+                    ));
+                }
+                if !up.iter().all(|c| c.is_finite()) || length(up) == 0.0 {
+                    return Err(format!("its up direction {up:?} must be finite and not zero"));
+                }
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The order-2 spherical harmonic coefficients `L_lm` per channel (real, orthonormal
+    /// basis, [`sh9`] order). The gradient's clamped cosine is its order-2 projection (the
+    /// zonal coefficients √π/2, √(π/3), √(5π)/8 rotated to `up`).
+    pub fn coefficients(&self) -> [[f32; 3]; 9] {
+        let mut c = [[0.0f32; 3]; 9];
+        let y00 = 0.5 / PI.sqrt();
+        match *self {
+            Sky::Uniform { radiance } => c[0] = scale(radiance, 1.0 / y00),
+            Sky::Gradient {
+                zenith,
+                horizon,
+                up,
+            } => {
+                // horizon everywhere, plus (zenith − horizon) times the clamped cosine about up.
+                c[0] = scale(horizon, 1.0 / y00);
+                let delta = sub(zenith, horizon);
+                let zonal = [PI.sqrt() / 2.0, (PI / 3.0).sqrt(), (5.0 * PI).sqrt() / 8.0];
+                let y = sh9(normalize(up));
+                for (i, yi) in y.iter().enumerate() {
+                    let l = if i == 0 { 0 } else if i < 4 { 1 } else { 2 };
+                    let k = zonal[l] * (4.0 * PI / (2 * l + 1) as f32).sqrt() * yi;
+                    c[i] = add(c[i], scale(delta, k));
+                }
+            }
+        }
+        c
+    }
+}
+
+/// The nine real orthonormal spherical harmonics of order ≤ 2 at unit `w`:
+/// `Y00, Y1-1 (y), Y10 (z), Y11 (x), Y2-2 (xy), Y2-1 (yz), Y20, Y21 (xz), Y22 (x² − y²)`.
+#[inline]
+pub fn sh9(w: [f32; 3]) -> [f32; 9] {
+    let [x, y, z] = w;
+    [
+        0.282_094_8,
+        0.488_602_5 * y,
+        0.488_602_5 * z,
+        0.488_602_5 * x,
+        1.092_548_4 * x * y,
+        1.092_548_4 * y * z,
+        0.315_391_57 * (3.0 * z * z - 1.0),
+        1.092_548_4 * x * z,
+        0.546_274_2 * (x * x - y * y),
+    ]
+}
+
+/// `out[i] = base[i] + ρ[i] ⊙ h[i]`: the emission a frame gives the operator (the baked or
+/// group emission `base` plus the lights' reflected direct light).
+pub fn reflected(
+    rho: &[[f32; 3]],
+    h: &[[f32; 3]],
+    base: &[[f32; 3]],
+    out: &mut [[f32; 3]],
+) -> Result<(), RuntimeError> {
+    let n = out.len();
+    if rho.len() != n || h.len() != n || base.len() != n {
+        return Err(input(format!(
+            "reflected direct light: {} reflectances, {} irradiances and {} base emissions for \
+             {n} elements",
+            rho.len(),
+            h.len(),
+            base.len()
+        )));
+    }
+    for i in 0..n {
+        for c in 0..3 {
+            out[i][c] = base[i][c] + rho[i][c] * h[i][c];
+        }
+    }
+    Ok(())
+}
+
+/// What one call of [`DirectLighting::irradiance`] traced.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct DirectReport {
+    /// Lights whose geometric term was traced this frame (the others came from the cache).
+    pub traced: u32,
+    /// Lights whose term came from the cache (only their strength changed, or nothing).
+    pub cached: u32,
+    /// Shadow rays cast (sky projection included).
+    pub rays: u64,
+}
+
+/// One sample point of an element: on its surface, with its front normal.
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    point: V3,
+    normal: V3,
+}
+
+/// The default number of sample points per element.
+pub const DEFAULT_SAMPLES: u32 = 4;
+
+/// Cosine-weighted directions per sample point for the sky's transfer.
+const SKY_DIRECTIONS: u32 = 64;
+
+/// The per-frame direct pass of an operator file: fixed sample points per element, shadow rays
+/// through the file's BVH, a cache of each light's geometric term. See the [module docs](self).
+#[derive(Debug, Clone)]
+pub struct DirectLighting {
+    scene: TraceScene,
+    samples: Vec<Sample>,
+    per_element: usize,
+    threads: usize,
+    /// Per light slot of the last frame: its shape and its irradiance per unit strength.
+    cache: Vec<(Light, Vec<f32>)>,
+    /// The sky's transfer per element, order-2 harmonics (projected on first use).
+    sky: Option<Vec<[f32; 9]>>,
+}
+
+impl DirectLighting {
+    /// The pass of `file` with `samples` points per element (1 to 64; [`DEFAULT_SAMPLES`]) on
+    /// `threads` threads (0: what the machine has). An error when the file has no BVH (re-bake
+    /// it) or its display data does not fit together.
+    pub fn new(file: &OperatorFile, samples: u32, threads: usize) -> Result<Self, RuntimeError> {
+        if !(1..=64).contains(&samples) {
+            return Err(input(format!(
+                "direct lighting: {samples} samples per element; use 1 to 64"
+            )));
+        }
+        let scene = TraceScene::new(file)?;
+        let n = scene.n();
+        // Each element's display triangles with their areas and front normals.
+        let mut tris: Vec<Vec<(usize, f32)>> = vec![Vec::new(); n];
+        for (t, tri) in scene.tris.iter().enumerate() {
+            let face = scene.tri_face[t] as usize;
+            let e = scene.face_id[face] as usize;
+            let area = 0.5 * length(cross(sub(v(tri, 1), v(tri, 0)), sub(v(tri, 2), v(tri, 0))));
+            tris[e].push((t, area));
+        }
+        let s = samples as usize;
+        let mut points = Vec::with_capacity(n * s);
+        for list in &tris {
+            let total: f64 = list.iter().map(|&(_, a)| a as f64).sum();
+            if list.is_empty() || total <= 0.0 {
+                // An element drawn by no triangle of area (never in a bake's file): its samples
+                // see no light.
+                points.extend(std::iter::repeat_n(
+                    Sample {
+                        point: [f32::NAN; 3],
+                        normal: [0.0; 3],
+                    },
+                    s,
+                ));
+                continue;
+            }
+            for j in 0..s {
+                // Equal-area strata along the triangles (by cumulative area), van der Corput
+                // across: a Hammersley set over the element.
+                let u = (j as f64 + 0.5) / s as f64 * total;
+                let mut acc = 0.0f64;
+                let mut pick = list.len() - 1;
+                let mut r = 0.5f64;
+                for (k, &(_, a)) in list.iter().enumerate() {
+                    if u < acc + a as f64 || k == list.len() - 1 {
+                        pick = k;
+                        r = ((u - acc) / (a as f64).max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+                        break;
+                    }
+                    acc += a as f64;
+                }
+                let q = (radical_inverse(j as u32) + 0.5 / s as f64).fract();
+                let t = list[pick].0;
+                let tri = &scene.tris[t];
+                let root = r.sqrt();
+                let (b1, b2) = ((root * (1.0 - q)) as f32, (root * q) as f32);
+                let (a, b, c) = (v(tri, 0), v(tri, 1), v(tri, 2));
+                let point = add(a, add(scale(sub(b, a), b1), scale(sub(c, a), b2)));
+                let face = scene.tri_face[t] as usize;
+                points.push(Sample {
+                    point,
+                    normal: scene.normals[face],
+                });
+            }
+        }
+        let threads = if threads == 0 {
+            std::thread::available_parallelism().map_or(1, |p| p.get())
+        } else {
+            threads
+        };
+        Ok(DirectLighting {
+            scene,
+            samples: points,
+            per_element: s,
+            threads,
+            cache: Vec::new(),
+            sky: None,
+        })
+    }
+
+    /// Number of elements.
+    pub fn n(&self) -> usize {
+        self.scene.n()
+    }
+
+    /// Sample points per element.
+    pub fn samples_per_element(&self) -> u32 {
+        self.per_element as u32
+    }
+
+    /// The direct irradiance `H` per element (original ids) of `lights` and `sky`, written to
+    /// `h` (n values): each element's mean over its sample points, each behind a shadow ray.
+    /// Lights whose shape (all but the strength) matches the same slot of the last call are not
+    /// traced again. An error names a light whose values are bad, or a wrong length.
+    pub fn irradiance(
+        &mut self,
+        lights: &[Light],
+        sky: Option<&Sky>,
+        h: &mut [[f32; 3]],
+    ) -> Result<DirectReport, RuntimeError> {
+        let n = self.n();
+        if h.len() != n {
+            return Err(input(format!(
+                "direct irradiance: {} values for {n} elements",
+                h.len()
+            )));
+        }
+        for (i, light) in lights.iter().enumerate() {
+            light
+                .check()
+                .map_err(|p| input(format!("light {i} ({light:?}): {p}")))?;
+        }
+        if let Some(sky) = sky {
+            sky.check().map_err(|p| input(format!("the sky: {p}")))?;
+        }
+        let mut report = DirectReport::default();
+        self.cache.truncate(lights.len());
+        for (i, light) in lights.iter().enumerate() {
+            let shape = light.shape();
+            if light.strength() == [0.0; 3] {
+                // Dark: nothing to trace; the slot keeps whatever it held.
+                report.cached += 1;
+                continue;
+            }
+            if self.cache.get(i).is_some_and(|(s, _)| *s == shape) {
+                report.cached += 1;
+                continue;
+            }
+            let (term, rays) = self.trace_light(&shape);
+            report.traced += 1;
+            report.rays += rays;
+            if i < self.cache.len() {
+                self.cache[i] = (shape, term);
+            } else {
+                // Slots below i that were dark and never traced hold a placeholder.
+                while self.cache.len() < i {
+                    self.cache.push((Light::Point {
+                        position: [f32::NAN; 3],
+                        intensity: [0.0; 3],
+                    }, Vec::new()));
+                }
+                self.cache.push((shape, term));
+            }
+        }
+        h.iter_mut().for_each(|x| *x = [0.0; 3]);
+        for (light, (_, term)) in lights.iter().zip(&self.cache) {
+            let strength = light.strength();
+            if strength == [0.0; 3] || term.is_empty() {
+                continue;
+            }
+            for (x, &g) in h.iter_mut().zip(term) {
+                *x = add(*x, scale(strength, g));
+            }
+        }
+        if let Some(sky) = sky {
+            if self.sky.is_none() {
+                let (transfer, rays) = self.project_sky();
+                report.rays += rays;
+                self.sky = Some(transfer);
+            }
+            let c = sky.coefficients();
+            let transfer = self.sky.as_ref().expect("projected above");
+            for (x, t) in h.iter_mut().zip(transfer) {
+                for (cl, tl) in c.iter().zip(t) {
+                    *x = add(*x, scale(*cl, *tl));
+                }
+                // The order-2 product may dip below zero where the sky is dark and occluded.
+                *x = x.map(|c| c.max(0.0));
+            }
+        }
+        Ok(report)
+    }
+
+    /// The direct irradiance at one surface point `x` with front normal `normal` (unit), each
+    /// light behind its own shadow ray (the sky: the element's transfer is not per point, so
+    /// it is left out here; [`DirectLighting::irradiance`] holds it per element).
+    pub fn at(&self, lights: &[Light], x: [f32; 3], normal: [f32; 3]) -> [f32; 3] {
+        let origin = mad(x, normal, self.scene.epsilon);
+        let mut sum = [0.0f32; 3];
+        for light in lights {
+            let strength = light.strength();
+            if strength == [0.0; 3] {
+                continue;
+            }
+            if let Some(g) = self.visible(light, x, origin, normal) {
+                sum = add(sum, scale(strength, g));
+            }
+        }
+        sum
+    }
+
+    /// The light's irradiance per unit strength at `x` seen from the shadow ray's `origin`, or
+    /// `None` when none arrives or it is blocked.
+    #[inline]
+    fn visible(&self, light: &Light, x: V3, origin: V3, normal: V3) -> Option<f32> {
+        let (g, w, dist) = light.towards(x, normal)?;
+        let ray = Ray::new(origin, w);
+        let reach = if dist.is_finite() {
+            dist * (1.0 - 1e-5)
+        } else {
+            f32::INFINITY
+        };
+        (!self.scene.occluded(&ray, 0.0, reach)).then_some(g)
+    }
+
+    /// One light's irradiance per unit strength per element (original ids), and the rays cast.
+    fn trace_light(&self, light: &Light) -> (Vec<f32>, u64) {
+        let n = self.n();
+        let s = self.per_element;
+        let mut term = vec![0.0f32; n];
+        let chunk = n.div_ceil(self.threads * 8).max(64);
+        let eps = self.scene.epsilon;
+        let rays: u64 = std::thread::scope(|scope| {
+            let handles: Vec<_> = term
+                .chunks_mut(chunk)
+                .enumerate()
+                .map(|(c, out)| {
+                    scope.spawn(move || {
+                        let mut rays = 0u64;
+                        for (k, value) in out.iter_mut().enumerate() {
+                            let e = c * chunk + k;
+                            let mut sum = 0.0f32;
+                            for smp in &self.samples[e * s..(e + 1) * s] {
+                                if !smp.point[0].is_finite() {
+                                    continue;
+                                }
+                                let Some((g, w, dist)) = light.towards(smp.point, smp.normal)
+                                else {
+                                    continue;
+                                };
+                                rays += 1;
+                                let origin = mad(smp.point, smp.normal, eps);
+                                let reach = if dist.is_finite() {
+                                    dist * (1.0 - 1e-5)
+                                } else {
+                                    f32::INFINITY
+                                };
+                                if !self.scene.occluded(&Ray::new(origin, w), 0.0, reach) {
+                                    sum += g;
+                                }
+                            }
+                            *value = sum / s as f32;
+                        }
+                        rays
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().expect("no panic")).sum()
+        });
+        (term, rays)
+    }
+
+    /// The sky's transfer per element: `T_lm = ∫ V(x, ω) max(0, n·ω) Y_lm(ω) dω`, averaged over
+    /// the element's sample points, from [`SKY_DIRECTIONS`] cosine-weighted directions per
+    /// point (fixed, rotated per point by a hash of its index: no pattern shared by
+    /// neighbours); a direction counts when its ray leaves the scene.
+    fn project_sky(&self) -> (Vec<[f32; 9]>, u64) {
+        let n = self.n();
+        let s = self.per_element;
+        let mut transfer = vec![[0.0f32; 9]; n];
+        let chunk = n.div_ceil(self.threads * 8).max(16);
+        let eps = self.scene.epsilon;
+        let m = SKY_DIRECTIONS;
+        let rays: u64 = std::thread::scope(|scope| {
+            let handles: Vec<_> = transfer
+                .chunks_mut(chunk)
+                .enumerate()
+                .map(|(c, out)| {
+                    scope.spawn(move || {
+                        let mut rays = 0u64;
+                        for (k, value) in out.iter_mut().enumerate() {
+                            let e = c * chunk + k;
+                            let mut sum = [0.0f32; 9];
+                            for (j, smp) in self.samples[e * s..(e + 1) * s].iter().enumerate() {
+                                if !smp.point[0].is_finite() {
+                                    continue;
+                                }
+                                let (t, b) = basis(smp.normal);
+                                let origin = mad(smp.point, smp.normal, eps);
+                                let rotation = unit_hash((e * s + j) as u64);
+                                for d in 0..m {
+                                    // Cosine-weighted: a stratified disc point lifted.
+                                    let u1 = (d as f32 + 0.5) / m as f32;
+                                    let u2 = (d as f32 * 0.618_034 + rotation).fract();
+                                    let r = u1.sqrt();
+                                    let phi = 2.0 * PI * u2;
+                                    let z = (1.0 - u1).max(0.0).sqrt();
+                                    let w = add(
+                                        add(scale(t, r * phi.cos()), scale(b, r * phi.sin())),
+                                        scale(smp.normal, z),
+                                    );
+                                    rays += 1;
+                                    let ray = Ray::new(origin, w);
+                                    if !self.scene.occluded(&ray, 0.0, f32::INFINITY) {
+                                        let y = sh9(w);
+                                        for (acc, yl) in sum.iter_mut().zip(y) {
+                                            *acc += yl;
+                                        }
+                                    }
+                                }
+                            }
+                            // pdf cos/π: each unoccluded direction adds π/M · Y; mean over points.
+                            let w = PI / (m as f32 * s as f32);
+                            *value = sum.map(|x| x * w);
+                        }
+                        rays
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().expect("no panic")).sum()
+        });
+        (transfer, rays)
+    }
+}
+
+#[inline]
+fn v(tri: &[f32; 9], i: usize) -> V3 {
+    [tri[3 * i], tri[3 * i + 1], tri[3 * i + 2]]
+}
+
+/// The base-2 radical inverse of `j` (van der Corput), in [0, 1).
+fn radical_inverse(j: u32) -> f64 {
+    j.reverse_bits() as f64 / 4_294_967_296.0
+}
+
+/// Two unit vectors completing `n` (unit) to an orthonormal frame.
+fn basis(n: V3) -> (V3, V3) {
+    let a = if n[0].abs() > 0.9 {
+        [0.0, 1.0, 0.0]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let t = normalize(cross(a, n));
+    (t, cross(n, t))
+}
+
+/// A number in [0, 1) from `i` (SplitMix64's finaliser).
+fn unit_hash(i: u64) -> f32 {
+    let mut z = i.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 40) as f32 / (1u64 << 24) as f32
+}
