@@ -20,7 +20,9 @@ use crate::geometry::Geometry;
 use crate::kind;
 use crate::validate::{Sizes, check_dims, check_fk};
 use crate::writer::{ContainerWriter, Streamed};
-use crate::{bvh, cameras, faces, lightmap, lights, materials, point_lights, smooth};
+use crate::{
+    bvh, cameras, direct_lights, faces, lightmap, lights, materials, point_lights, smooth,
+};
 
 /// Bytes in the DIMS payload: n, k, channels, precision, layout, 3 reserved, all u32.
 pub(crate) const DIMS_LEN: usize = 32;
@@ -69,6 +71,8 @@ pub(crate) const MINOR_WITHOUT_DISPLAY: u16 = 1;
 pub(crate) const MINOR_WITHOUT_LIGHTMAP: u16 = 2;
 /// The minor version of files with LIGHTMAP but no FACES (what a 1.3 writer gave).
 pub(crate) const MINOR_WITHOUT_FACES: u16 = 3;
+/// The minor version of a file with FACES but no DIRECT_LIGHTS (format 1.4).
+pub(crate) const MINOR_WITHOUT_DIRECT_LIGHTS: u16 = 4;
 
 /// Sections before FK in a factored file: METADATA, DIMS, ORDER, INDEX, WEIGHTS.
 const SECTIONS_BEFORE_FK: usize = 5;
@@ -175,10 +179,14 @@ fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter {
     let d = &file.display;
     if *d == Display::default() {
         w.set_version(VERSION_MAJOR, MINOR_WITHOUT_DISPLAY);
+    } else if !d.direct_lights.is_empty() {
+        // VERSION_MINOR: 1.5.
     } else if d.faces.is_none() && d.lightmap.is_none() {
         w.set_version(VERSION_MAJOR, MINOR_WITHOUT_LIGHTMAP);
     } else if d.faces.is_none() {
         w.set_version(VERSION_MAJOR, MINOR_WITHOUT_FACES);
+    } else {
+        w.set_version(VERSION_MAJOR, MINOR_WITHOUT_DIRECT_LIGHTS);
     }
     w
 }
@@ -212,6 +220,13 @@ fn add_display(w: &mut ContainerWriter, d: &Display) {
     if let Some(f) = &d.faces {
         w.add(kind::FACES, true, faces::encode(f));
     }
+    if !d.direct_lights.is_empty() {
+        w.add(
+            kind::DIRECT_LIGHTS,
+            false,
+            direct_lights::encode(&d.direct_lights),
+        );
+    }
 }
 
 /// The display sections of `c` for `n` elements; lengths are checked, values are not. FACES
@@ -230,6 +245,10 @@ fn decode_display(c: &Container<'_>, n: usize) -> Result<Display, FormatError> {
             .transpose()?,
         point_lights: match c.section(kind::POINT_LIGHTS) {
             Some(p) => point_lights::decode(p)?,
+            None => Vec::new(),
+        },
+        direct_lights: match c.section(kind::DIRECT_LIGHTS) {
+            Some(p) => direct_lights::decode(p)?,
             None => Vec::new(),
         },
         cameras: match c.section(kind::CAMERAS) {
@@ -521,7 +540,6 @@ mod tests {
             let bytes = encode(&faced);
             let c = Container::parse(&bytes).unwrap();
             assert_eq!(c.version(), (1, 4));
-            assert_eq!(crate::VERSION_MINOR, 4);
             assert_eq!(c.kinds().last(), Some(kind::FACES));
             let last = c.sections().last().unwrap();
             assert!(last.required());
@@ -531,6 +549,32 @@ mod tests {
                     .all(|s| !s.required())
             );
             assert_eq!(OperatorFile::from_bytes(&bytes).unwrap(), faced);
+        }
+    }
+
+    #[test]
+    fn direct_lights_make_a_1_5_file_and_are_optional() {
+        use crate::{DirectLight, DirectLightKind};
+        for mut file in [display_sample(), faces_sample()] {
+            file.display.direct_lights = vec![DirectLight {
+                name: "sun".into(),
+                kind: DirectLightKind::Directional,
+                position: [0.0; 3],
+                direction: [0.0, -1.0, 0.5],
+                strength: [3.0; 3],
+                extra: [0.0; 3],
+            }];
+            let bytes = encode(&file);
+            let c = Container::parse(&bytes).unwrap();
+            assert_eq!(c.version(), (1, 5));
+            assert_eq!(crate::VERSION_MINOR, 5);
+            let section = c
+                .sections()
+                .iter()
+                .find(|s| s.kind == kind::DIRECT_LIGHTS)
+                .unwrap();
+            assert!(!section.required(), "a 1.4 reader skips it");
+            assert_eq!(OperatorFile::from_bytes(&bytes).unwrap(), file);
         }
     }
 

@@ -129,6 +129,73 @@ impl PointLight {
     pub const FIXED: u32 = u32::MAX;
 }
 
+/// What a [`DirectLight`] is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DirectLightKind {
+    /// A spot light: glTF's `KHR_lights_punctual` spot.
+    Spot,
+    /// A directional light (a sun).
+    Directional,
+    /// A sky of the same radiance from every direction.
+    UniformSky,
+    /// A sky of radiance `horizon + (zenith − horizon) · max(0, ω·up)`.
+    GradientSky,
+}
+
+impl DirectLightKind {
+    /// The code DIRECT_LIGHTS stores.
+    pub fn code(self) -> u32 {
+        match self {
+            DirectLightKind::Spot => 0,
+            DirectLightKind::Directional => 1,
+            DirectLightKind::UniformSky => 2,
+            DirectLightKind::GradientSky => 3,
+        }
+    }
+
+    /// The kind of a stored code.
+    pub fn from_code(code: u32) -> Option<Self> {
+        Some(match code {
+            0 => DirectLightKind::Spot,
+            1 => DirectLightKind::Directional,
+            2 => DirectLightKind::UniformSky,
+            3 => DirectLightKind::GradientSky,
+            _ => return None,
+        })
+    }
+
+    /// A sky (at most one per file).
+    pub fn is_sky(self) -> bool {
+        matches!(self, DirectLightKind::UniformSky | DirectLightKind::GradientSky)
+    }
+}
+
+/// A light that is not a surface and not a point light (section DIRECT_LIGHTS, format 1.5):
+/// the runtime's direct pass lights the elements with it every frame and the operator bounces
+/// that light (DESIGN.md §9). Fields by kind (unused ones zero):
+///
+/// | kind | `position` | `direction` | `strength` | `extra` |
+/// |------|-----------|-------------|------------|---------|
+/// | spot | position | where it points | W/sr on the axis | `[inner, outer, 0]`: glTF's cone half-angles, radians, `0 <= inner <= outer <= π/2` |
+/// | directional | 0 | the direction light travels | irradiance, W/m² facing it | 0 |
+/// | uniform sky | 0 | 0 | radiance, W/m²/sr | 0 |
+/// | gradient sky | 0 | up | zenith radiance | horizon radiance |
+#[derive(Debug, Clone, PartialEq)]
+pub struct DirectLight {
+    /// Name (UTF-8, may be empty).
+    pub name: String,
+    /// What it is.
+    pub kind: DirectLightKind,
+    /// See the table.
+    pub position: [f32; 3],
+    /// See the table; not normalised.
+    pub direction: [f32; 3],
+    /// See the table; finite, >= 0 per channel.
+    pub strength: [f32; 3],
+    /// See the table.
+    pub extra: [f32; 3],
+}
+
 /// A pinhole camera.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Camera {
@@ -178,6 +245,9 @@ pub struct Display {
     pub materials: Option<Materials>,
     /// Point lights (section POINT_LIGHTS; none: not written).
     pub point_lights: Vec<PointLight>,
+    /// Spot and directional lights and the sky (section DIRECT_LIGHTS, format 1.5; none: not
+    /// written).
+    pub direct_lights: Vec<DirectLight>,
     /// Cameras (section CAMERAS; none: not written).
     pub cameras: Vec<Camera>,
     /// The BVH over the display triangles (section BVH).

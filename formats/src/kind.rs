@@ -4,7 +4,8 @@
 //! [`LIGHTS`] (optional, so that readers of format 1.0 skip it) and the display sections of format
 //! 1.2 and 1.3, [`SMOOTH`] to [`LIGHTMAP`] (optional: a reader that only evaluates skips them);
 //! [`FACES`] (1.4) is required although it is for display: it changes what SMOOTH, LIGHTMAP and
-//! the BVH are defined on, so an older reader must refuse the file rather than misread them. A
+//! the BVH are defined on, so an older reader must refuse the file rather than misread them;
+//! [`DIRECT_LIGHTS`] (1.5) is optional (a reader that does not know it loses those lights only). A
 //! reader that meets a required kind it does not know refuses the file, and skips unknown
 //! optional ones. New kinds take new codes; a code is never reused for another meaning.
 
@@ -50,10 +51,13 @@ pub const LIGHTMAP: u32 = 18;
 /// written as required when present).
 pub const FACES: u32 = 19;
 
+/// Spot and directional lights and the sky (format 1.5, optional).
+pub const DIRECT_LIGHTS: u32 = 20;
+
 /// Every kind this reader knows, by code. The writer stores them in this order, leaving out the
 /// operator sections of the other layout (FK and CORES, or YK), an empty LIGHTS and the display
 /// sections the file lacks.
-pub const KNOWN: [u32; 19] = [
+pub const KNOWN: [u32; 20] = [
     METADATA,
     DIMS,
     ORDER,
@@ -73,6 +77,7 @@ pub const KNOWN: [u32; 19] = [
     BVH,
     LIGHTMAP,
     FACES,
+    DIRECT_LIGHTS,
 ];
 
 /// The name of a known kind (`"FK"`), `None` for unknown codes.
@@ -93,6 +98,7 @@ pub fn name(kind: u32) -> Option<&'static str> {
         SMOOTH => "SMOOTH",
         MATERIALS => "MATERIALS",
         POINT_LIGHTS => "POINT_LIGHTS",
+        DIRECT_LIGHTS => "DIRECT_LIGHTS",
         CAMERAS => "CAMERAS",
         BVH => "BVH",
         LIGHTMAP => "LIGHTMAP",
@@ -131,6 +137,7 @@ mod tests {
         assert_eq!(describe(BVH), "BVH (kind 17)");
         assert_eq!(describe(LIGHTMAP), "LIGHTMAP (kind 18)");
         assert_eq!(describe(FACES), "FACES (kind 19)");
-        assert_eq!(KNOWN.last(), Some(&FACES));
+        assert_eq!(describe(DIRECT_LIGHTS), "DIRECT_LIGHTS (kind 20)");
+        assert_eq!(KNOWN.last(), Some(&DIRECT_LIGHTS));
     }
 }

@@ -68,6 +68,7 @@
 //! | 17 | [`BVH`](kind::BVH) | optional (1.2): the flattened BVH over the display triangles ([`Bvh`]) |
 //! | 18 | [`LIGHTMAP`](kind::LIGHTMAP) | optional (1.3): `F * 4 * 2` × f32, lightmap `u, v` of each display face corner, a triangle's 4th zero ([`LightmapUv`]) |
 //! | 19 | [`FACES`](kind::FACES) | 1.4, absent when elements are drawn as their GEOMETRY, **required** when present: the display faces ([`Faces`]), see below |
+//! | 20 | [`DIRECT_LIGHTS`](kind::DIRECT_LIGHTS) | optional (1.5), absent when there are none: spot and directional lights and the sky ([`DirectLight`]) |
 //!
 //! The factored layout stores FK and CORES and no YK; the plain layout stores YK and neither FK
 //! nor CORES. A file holding a section of the other layout is refused.
@@ -130,7 +131,7 @@
 //! | then | `4 P` | positions: u32, file positions |
 //! | then | `4 P` | weights: f32 |
 //!
-//! MATERIALS, POINT_LIGHTS and CAMERAS share one shape: a head of the record count and a
+//! MATERIALS, POINT_LIGHTS, CAMERAS and DIRECT_LIGHTS share one shape: a head of the record count and a
 //! reserved word, the records, a block (MATERIALS only: `n` × u32, the material of each file
 //! position), then every record's name in record order, back to back (the record holds its
 //! byte length `L`; no padding); the payload ends with the last name. Records:
@@ -140,6 +141,7 @@
 //! | MATERIALS | 64 | 0 diffuse, 12 shininess, 16 specular, 28 ior, 32 mirror, 44 `L` (u32), 48 transmission, 60 reserved |
 //! | POINT_LIGHTS | 32 | 0 position, 12 group (u32; [`PointLight::FIXED`]: none), 16 intensity, 28 `L` (u32) |
 //! | CAMERAS | 48 | 0 eye, 12 fov_y_deg, 16 target, 28 `L` (u32), 32 up, 44 reserved |
+//! | DIRECT_LIGHTS (1.5) | 64 | 0 position, 12 kind (u32: 0 spot, 1 directional, 2 uniform sky, 3 gradient sky), 16 direction, 28 `L` (u32), 32 strength, 44 reserved, 48 extra, 60 reserved ([`DirectLight`] says which field means what per kind) |
 //!
 //! BVH, with `N` nodes over `T` display triangles:
 //!
@@ -168,7 +170,10 @@
 //! and an older reader refuses the file with its "unknown required section" error
 //! ([`ErrorKind::UnsupportedVersion`]) instead of misreading it. A file is stamped with the
 //! lowest minor version that describes it: 1.1 without display sections (the bytes a 1.1 writer
-//! gave), 1.2 with any but LIGHTMAP and FACES, 1.3 with LIGHTMAP but no FACES, 1.4 with FACES.
+//! gave), 1.2 with any but LIGHTMAP and FACES, 1.3 with LIGHTMAP but no FACES, 1.4 with FACES,
+//! 1.5 with DIRECT_LIGHTS. Version 1.5 added DIRECT_LIGHTS (optional): spot and directional
+//! lights and a sky, which the runtime's direct pass turns into emission every frame; a 1.4
+//! reader evaluates the file and draws it without them.
 //!
 //! A reader also refuses ([`ErrorKind`] says which kind of fault): a wrong magic; a table or
 //! payload past the end of the file; a payload offset that is misaligned or inside the table;
@@ -255,6 +260,7 @@ pub mod kind;
 mod lightmap;
 mod lights;
 mod materials;
+mod direct_lights;
 mod point_lights;
 mod records;
 mod smooth;
@@ -270,7 +276,8 @@ pub use container::{
     Section, VERSION_MAJOR, VERSION_MINOR,
 };
 pub use display::{
-    Bvh, BvhNode, Camera, Display, LightmapUv, Material, Materials, PointLight, Smooth,
+    Bvh, BvhNode, Camera, DirectLight, DirectLightKind, Display, LightmapUv, Material, Materials,
+    PointLight, Smooth,
 };
 pub use error::{ErrorKind, FormatError};
 pub use file::{

@@ -1,4 +1,5 @@
-//! The shape shared by the display sections of named records (MATERIALS, POINT_LIGHTS, CAMERAS;
+//! The shape shared by the display sections of named records (MATERIALS, POINT_LIGHTS, CAMERAS,
+//! DIRECT_LIGHTS;
 //! tabled in the crate docs): an 8-byte head (record count, reserved), the records (fixed size,
 //! each holding the byte length of its name), a fixed-size block (MATERIALS: the material of
 //! every element), then the names, UTF-8, back to back.

@@ -133,6 +133,7 @@ pub(crate) fn display_sample() -> OperatorFile {
         }),
         lightmap: None,
         faces: None,
+        direct_lights: Vec::new(),
     };
     f
 }

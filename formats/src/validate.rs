@@ -8,7 +8,9 @@ use crate::bytes::checked_product;
 use crate::error::FormatError;
 use crate::file::{OperatorData, OperatorFile, StoredMatrix};
 use crate::half::f16_to_f32;
-use crate::{bvh, cameras, faces, lightmap, lights, materials, point_lights, smooth};
+use crate::{
+    bvh, cameras, direct_lights, faces, lightmap, lights, materials, point_lights, smooth,
+};
 
 const RGB: [&str; 3] = ["r", "g", "b"];
 
@@ -121,6 +123,7 @@ fn check_display(f: &OperatorFile) -> Result<(), FormatError> {
         materials::check(f, m)?;
     }
     point_lights::check(f, &d.point_lights)?;
+    direct_lights::check(&d.direct_lights)?;
     cameras::check(&d.cameras)?;
     if let Some(l) = &d.lightmap {
         lightmap::check(f, l)?;

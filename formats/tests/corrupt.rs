@@ -28,7 +28,12 @@ fn round_trip_is_byte_exact() {
         assert!(c.sections().iter().all(|s| s.offset % 64 == 0));
         // FACES is for display too, but required: without it SMOOTH, LIGHTMAP and the BVH would
         // be misread.
-        let optional = |k| k == kind::LIGHTS || k == kind::LIGHTMAP || DISPLAY_KINDS.contains(&k);
+        let optional = |k| {
+            k == kind::LIGHTS
+                || k == kind::LIGHTMAP
+                || k == kind::DIRECT_LIGHTS
+                || DISPLAY_KINDS.contains(&k)
+        };
         assert!(
             c.sections()
                 .iter()
@@ -45,6 +50,7 @@ fn round_trip_is_byte_exact() {
             .filter(|&k| !DISPLAY_KINDS.contains(&k) || display)
             .filter(|&k| k != kind::LIGHTMAP || file.display.lightmap.is_some())
             .filter(|&k| k != kind::FACES || file.display.faces.is_some())
+            .filter(|&k| k != kind::DIRECT_LIGHTS || !file.display.direct_lights.is_empty())
             .collect();
         assert_eq!(c.kinds().collect::<Vec<_>>(), expected);
         // A file is stamped with the lowest minor version that describes it.

@@ -124,6 +124,7 @@ pub fn with_display(mut file: OperatorFile) -> OperatorFile {
         }),
         lightmap: None,
         faces: None,
+        direct_lights: Vec::new(),
     };
     file
 }
