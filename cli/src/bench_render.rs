@@ -389,6 +389,7 @@ fn frames(
     let lighting = Lighting {
         radiosity: &radiosity,
         group_intensities: &groups,
+        direct: None,
     };
     let decision = tracer.decide(view, &lighting)?;
     let (mut decided, mut all, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
@@ -465,6 +466,7 @@ fn gpu_frames(
     let lighting = Lighting {
         radiosity: &radiosity,
         group_intensities: &groups,
+        direct: None,
     };
     let buffer = gt.upload_radiosity(&radiosity)?;
     let decision = tracer.decide(view, &lighting)?;

@@ -94,6 +94,10 @@ fn display_json(f: &lrr_formats::OperatorFile) -> serde_json::Value {
         "smooth_vertices": d.smooth.as_ref().map(|s| s.vertex_count()),
         "materials": d.materials.as_ref().map(|m| m.materials.len()),
         "point_lights": d.point_lights.iter().map(|l| l.name.as_str()).collect::<Vec<_>>(),
+        "direct_lights": d.direct_lights.iter().map(|l| serde_json::json!({
+            "name": l.name,
+            "kind": kind_name(l.kind),
+        })).collect::<Vec<_>>(),
         "cameras": d.cameras.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(),
         "bvh_nodes": d.bvh.as_ref().map(|b| b.nodes.len()),
         "lightmap_uv": d.lightmap.is_some(),
@@ -110,6 +114,17 @@ fn display_line(f: &lrr_formats::OperatorFile) -> String {
     }
     if let Some(m) = &d.materials {
         parts.push(format!("{} materials", m.materials.len()));
+    }
+    for kind in [
+        lrr_formats::DirectLightKind::Spot,
+        lrr_formats::DirectLightKind::Directional,
+        lrr_formats::DirectLightKind::UniformSky,
+        lrr_formats::DirectLightKind::GradientSky,
+    ] {
+        let count = d.direct_lights.iter().filter(|l| l.kind == kind).count();
+        if count > 0 {
+            parts.push(format!("{count} {}", kind_name(kind)));
+        }
     }
     if !d.point_lights.is_empty() {
         parts.push(format!("{} point light(s)", d.point_lights.len()));
@@ -135,5 +150,15 @@ fn display_line(f: &lrr_formats::OperatorFile) -> String {
         "none (a file of format 1.1: lrr render and smooth exports need a re-bake)".into()
     } else {
         parts.join(", ")
+    }
+}
+
+/// What `lrr info` calls a kind of light.
+fn kind_name(kind: lrr_formats::DirectLightKind) -> &'static str {
+    match kind {
+        lrr_formats::DirectLightKind::Spot => "spot light(s)",
+        lrr_formats::DirectLightKind::Directional => "directional light(s)",
+        lrr_formats::DirectLightKind::UniformSky => "uniform sky",
+        lrr_formats::DirectLightKind::GradientSky => "gradient sky",
     }
 }

@@ -93,6 +93,7 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
             let frame = TraceLighting {
                 radiosity: &radiosity,
                 group_intensities: &groups,
+                direct: None,
             };
             let start = Instant::now();
             let (image, report) = tracer.render(&view, &frame, w, h, a.threads.unwrap_or(0))?;

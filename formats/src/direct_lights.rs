@@ -86,20 +86,21 @@ impl DirectLight {
 
 fn check_values(l: &DirectLight) -> Result<(), String> {
     let finite = |what: &str, v: [f32; 3]| match v.iter().position(|c| !c.is_finite()) {
-        Some(c) => Err(format!("{what} coordinate {c}: value {} must be finite", v[c])),
-        None => Ok(()),
-    };
-    let radiometric = |what: &str, v: [f32; 3]| match v
-        .iter()
-        .position(|&c| !(c.is_finite() && c >= 0.0))
-    {
         Some(c) => Err(format!(
-            "{what} channel {}: value {} must be finite and >= 0",
-            ["r", "g", "b"][c],
+            "{what} coordinate {c}: value {} must be finite",
             v[c]
         )),
         None => Ok(()),
     };
+    let radiometric =
+        |what: &str, v: [f32; 3]| match v.iter().position(|&c| !(c.is_finite() && c >= 0.0)) {
+            Some(c) => Err(format!(
+                "{what} channel {}: value {} must be finite and >= 0",
+                ["r", "g", "b"][c],
+                v[c]
+            )),
+            None => Ok(()),
+        };
     let direction = |what: &str, v: [f32; 3]| {
         finite(what, v)?;
         if v.iter().all(|&c| c == 0.0) {
@@ -225,12 +226,18 @@ mod tests {
     fn invariants_name_light_and_field() {
         type Edit = fn(&mut Vec<DirectLight>);
         let cases: [(Edit, &str); 7] = [
-            (|l| l[0].position[1] = f32::NAN, "light 0: \"spot\": position"),
+            (
+                |l| l[0].position[1] = f32::NAN,
+                "light 0: \"spot\": position",
+            ),
             (|l| l[0].direction = [0.0; 3], "direction is zero"),
             (|l| l[0].extra = [0.6, 0.5, 0.0], "cone angles"),
             (|l| l[0].strength[2] = -1.0, "intensity channel b"),
             (|l| l[1].position = [1.0; 3], "light 1: \"sun\": position"),
-            (|l| l[2].extra[0] = f32::INFINITY, "horizon radiance channel r"),
+            (
+                |l| l[2].extra[0] = f32::INFINITY,
+                "horizon radiance channel r",
+            ),
             (
                 |l| {
                     let sky = l[2].clone();

@@ -166,7 +166,10 @@ impl DirectLightKind {
 
     /// A sky (at most one per file).
     pub fn is_sky(self) -> bool {
-        matches!(self, DirectLightKind::UniformSky | DirectLightKind::GradientSky)
+        matches!(
+            self,
+            DirectLightKind::UniformSky | DirectLightKind::GradientSky
+        )
     }
 }
 

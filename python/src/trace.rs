@@ -51,6 +51,7 @@ pub fn render(
     let lighting = Lighting {
         radiosity,
         group_intensities: groups,
+        direct: None,
     };
     let (image, _) = tracer.render(&view, &lighting, a.width, a.height, a.threads)?;
     Ok(image.pixels)

@@ -91,7 +91,11 @@ fn a_point_light_over_a_plane_is_the_closed_form_at_points_and_per_element() {
         let h = pass.at(&[light], [x, y, 0.0], [0.0, 0.0, 1.0]);
         for c in 0..3 {
             let e = intensity[c] as f64 * exact(x as f64, y as f64);
-            assert!(rel(h[c], e) < 1e-5, "({x}, {y}) channel {c}: {} vs {e}", h[c]);
+            assert!(
+                rel(h[c], e) < 1e-5,
+                "({x}, {y}) channel {c}: {} vs {e}",
+                h[c]
+            );
         }
     }
     // Per element: the mean over the element (the integrand varies by up to 3.4x across a
@@ -101,9 +105,13 @@ fn a_point_light_over_a_plane_is_the_closed_form_at_points_and_per_element() {
     for (samples, tolerance) in [(64u32, 2e-2), (4, 1e-1)] {
         let mut pass = DirectLighting::new(&file, samples, 2).unwrap();
         let mut h = vec![[0.0f32; 3]; 16];
-        let report = pass.irradiance(&[light], None, &mut h).unwrap();
+        let report = pass.irradiance(&[light], &mut h).unwrap();
         assert_eq!((report.traced, report.cached), (1, 0));
-        assert_eq!(report.rays, 16 * samples as u64, "every sample faces the light");
+        assert_eq!(
+            report.rays,
+            16 * samples as u64,
+            "every sample faces the light"
+        );
         let order = file.order.clone();
         let mut worst = 0.0f64;
         for (pos, &id) in order.iter().enumerate() {
@@ -128,7 +136,7 @@ fn a_directional_light_at_an_angle_gives_e_cos_theta_and_none_from_behind() {
         irradiance: e,
     };
     let mut h = vec![[0.0f32; 3]; 9];
-    pass.irradiance(&[sun], None, &mut h).unwrap();
+    pass.irradiance(&[sun], &mut h).unwrap();
     let cos = 2.0 / 5f64.sqrt();
     for v in &h {
         for c in 0..3 {
@@ -140,7 +148,7 @@ fn a_directional_light_at_an_angle_gives_e_cos_theta_and_none_from_behind() {
         direction: [0.0, 0.3, 1.0],
         irradiance: e,
     };
-    let report = pass.irradiance(&[below], None, &mut h).unwrap();
+    let report = pass.irradiance(&[below], &mut h).unwrap();
     assert_eq!(report.rays, 0);
     assert!(h.iter().all(|v| *v == [0.0; 3]));
 }
@@ -172,13 +180,23 @@ fn a_spot_light_falls_off_as_gltf_says() {
         inner,
         outer,
     };
-    for (x, y) in [(2.0f64, 2.0f64), (2.5, 2.2), (3.0, 2.0), (3.5, 3.5), (0.1, 0.1)] {
+    for (x, y) in [
+        (2.0f64, 2.0f64),
+        (2.5, 2.2),
+        (3.0, 2.0),
+        (3.5, 3.5),
+        (0.1, 0.1),
+    ] {
         let (dx, dy) = (2.0 - x, 2.0 - y);
         let r2 = dx * dx + dy * dy + 4.0;
         let cd = 2.0 / r2.sqrt();
         let e = 5.0 * cd / r2 * gltf(cd, inner as f64, outer as f64);
         let h = pass.at(&[spot], [x as f32, y as f32, 0.0], [0.0, 0.0, 1.0]);
-        assert!((h[0] as f64 - e).abs() <= 1e-5 * e.max(1e-3), "({x}, {y}): {} vs {e}", h[0]);
+        assert!(
+            (h[0] as f64 - e).abs() <= 1e-5 * e.max(1e-3),
+            "({x}, {y}): {} vs {e}",
+            h[0]
+        );
     }
 }
 
@@ -199,13 +217,20 @@ fn an_occluder_casts_its_shadow() {
         intensity: [1.0; 3],
     };
     let mut h = vec![[0.0f32; 3]; 17];
-    pass.irradiance(&[light], None, &mut h).unwrap();
+    pass.irradiance(&[light], &mut h).unwrap();
     let id = |pos: usize| file.order[pos] as usize;
-    assert_eq!(h[id(0)], [0.0; 3], "the cell under the square is in its shadow");
+    assert_eq!(
+        h[id(0)],
+        [0.0; 3],
+        "the cell under the square is in its shadow"
+    );
     assert!(h[id(1)][0] > 0.0 && h[id(15)][0] > 0.0);
     assert_eq!(h[id(16)], [0.0; 3], "the square faces away from the light");
     // At points: under the square dark, beside it lit.
-    assert_eq!(pass.at(&[light], [0.5, 0.5, 0.0], [0.0, 0.0, 1.0]), [0.0; 3]);
+    assert_eq!(
+        pass.at(&[light], [0.5, 0.5, 0.0], [0.0, 0.0, 1.0]),
+        [0.0; 3]
+    );
     assert!(pass.at(&[light], [1.5, 0.5, 0.0], [0.0, 0.0, 1.0])[0] > 0.0);
 }
 
@@ -216,17 +241,20 @@ fn a_uniform_sky_gives_pi_l_over_a_plane_and_nothing_in_a_closed_box() {
     let l = [0.8f32, 0.9, 1.0];
     let mut h = vec![[0.0f32; 3]; 9];
     let report = pass
-        .irradiance(&[], Some(&Sky::Uniform { radiance: l }), &mut h)
+        .sky_irradiance(&Sky::Uniform { radiance: l }, &mut h)
         .unwrap();
     assert_eq!(report.rays, 9 * 4 * 64);
     for v in &h {
         for c in 0..3 {
-            assert!(rel(v[c], std::f64::consts::PI * l[c] as f64) < 1e-5, "{v:?}");
+            assert!(
+                rel(v[c], std::f64::consts::PI * l[c] as f64) < 1e-5,
+                "{v:?}"
+            );
         }
     }
     // A second frame reuses the projection: no ray.
     let report = pass
-        .irradiance(&[], Some(&Sky::Uniform { radiance: l }), &mut h)
+        .sky_irradiance(&Sky::Uniform { radiance: l }, &mut h)
         .unwrap();
     assert_eq!(report.rays, 0);
     // The unit cube's six inner faces: no ray leaves.
@@ -242,7 +270,7 @@ fn a_uniform_sky_gives_pi_l_over_a_plane_and_nothing_in_a_closed_box() {
     let file = file_of(&cube);
     let mut pass = DirectLighting::new(&file, 4, 1).unwrap();
     let mut h = vec![[1.0f32; 3]; 6];
-    pass.irradiance(&[], Some(&Sky::Uniform { radiance: l }), &mut h)
+    pass.sky_irradiance(&Sky::Uniform { radiance: l }, &mut h)
         .unwrap();
     assert!(h.iter().all(|v| *v == [0.0; 3]), "{h:?}");
 }
@@ -261,7 +289,7 @@ fn a_gradient_sky_is_its_order_two_projection() {
         up: [0.0, 0.0, 5.0],
     };
     let mut h = vec![[0.0f32; 3]; 4];
-    pass.irradiance(&[], Some(&sky), &mut h).unwrap();
+    pass.sky_irradiance(&sky, &mut h).unwrap();
     let pi = std::f64::consts::PI;
     for v in &h {
         for c in 0..3 {
@@ -276,11 +304,14 @@ fn a_gradient_sky_is_its_order_two_projection() {
         horizon,
         up: [0.0, 0.0, -1.0],
     };
-    pass.irradiance(&[], Some(&sky), &mut h).unwrap();
+    pass.sky_irradiance(&sky, &mut h).unwrap();
     for v in &h {
         for c in 0..3 {
             let exact = pi * horizon[c] as f64;
-            assert!((v[c] as f64 - exact).abs() < 2e-2 * (zenith[c] as f64), "{v:?}");
+            assert!(
+                (v[c] as f64 - exact).abs() < 2e-2 * (zenith[c] as f64),
+                "{v:?}"
+            );
         }
     }
 }
@@ -298,11 +329,11 @@ fn a_light_that_did_not_move_is_not_traced_again() {
         irradiance: [0.5; 3],
     };
     let mut h1 = vec![[0.0f32; 3]; 16];
-    let r = pass.irradiance(&[a, b], None, &mut h1).unwrap();
+    let r = pass.irradiance(&[a, b], &mut h1).unwrap();
     assert_eq!((r.traced, r.cached), (2, 0));
     // Same lights: nothing traced, the same values.
     let mut h2 = vec![[0.0f32; 3]; 16];
-    let r = pass.irradiance(&[a, b], None, &mut h2).unwrap();
+    let r = pass.irradiance(&[a, b], &mut h2).unwrap();
     assert_eq!((r.traced, r.cached, r.rays), (0, 2, 0));
     assert_eq!(h1, h2);
     // Brighter: nothing traced, the first light's part doubled.
@@ -310,26 +341,29 @@ fn a_light_that_did_not_move_is_not_traced_again() {
         position: [1.0, 1.0, 1.0],
         intensity: [2.0; 3],
     };
-    let r = pass.irradiance(&[a2, b], None, &mut h2).unwrap();
+    let r = pass.irradiance(&[a2, b], &mut h2).unwrap();
     assert_eq!((r.traced, r.rays), (0, 0));
     for (x, y) in h1.iter().zip(&h2) {
         let (x, y) = (x[0] as f64, y[0] as f64);
         let only_b = 0.5;
-        assert!(((y - only_b) - 2.0 * (x - only_b)).abs() < 1e-5 * y, "{x} {y}");
+        assert!(
+            ((y - only_b) - 2.0 * (x - only_b)).abs() < 1e-5 * y,
+            "{x} {y}"
+        );
     }
     // Moved: traced again.
     let a3 = Light::Point {
         position: [1.0, 1.5, 1.0],
         intensity: [2.0; 3],
     };
-    let r = pass.irradiance(&[a3, b], None, &mut h2).unwrap();
+    let r = pass.irradiance(&[a3, b], &mut h2).unwrap();
     assert_eq!((r.traced, r.cached), (1, 1));
     // A dark light casts no ray.
     let dark = Light::Point {
         position: [3.0, 3.0, 1.0],
         intensity: [0.0; 3],
     };
-    let r = pass.irradiance(&[a3, b, dark], None, &mut h2).unwrap();
+    let r = pass.irradiance(&[a3, b, dark], &mut h2).unwrap();
     assert_eq!(r.rays, 0);
 }
 
@@ -356,14 +390,14 @@ fn the_direct_pass_does_not_depend_on_the_thread_count() {
             outer: 0.6,
         },
     ];
-    let sky = Sky::Uniform {
-        radiance: [0.1; 3],
-    };
+    let sky = Sky::Uniform { radiance: [0.1; 3] };
     let run = |threads| {
         let mut pass = DirectLighting::new(&file, 4, threads).unwrap();
         let mut h = vec![[0.0f32; 3]; quads.len()];
-        pass.irradiance(&lights, Some(&sky), &mut h).unwrap();
-        h
+        pass.irradiance(&lights, &mut h).unwrap();
+        let mut s = vec![[0.0f32; 3]; quads.len()];
+        pass.sky_irradiance(&sky, &mut s).unwrap();
+        (h, s)
     };
     assert_eq!(run(1), run(3));
 }
@@ -417,11 +451,11 @@ fn bad_lights_and_sizes_are_refused_with_the_reason() {
         ),
     ];
     for (light, word) in bad {
-        let e = pass.irradiance(&[light], None, &mut h).unwrap_err().to_string();
+        let e = pass.irradiance(&[light], &mut h).unwrap_err().to_string();
         assert!(e.contains("light 0") && e.contains(word), "{e}");
     }
     let e = pass
-        .irradiance(&[], None, &mut vec![[0.0; 3]; 3])
+        .irradiance(&[], &mut vec![[0.0; 3]; 3])
         .unwrap_err()
         .to_string();
     assert!(e.contains("3 values for 4 elements"), "{e}");

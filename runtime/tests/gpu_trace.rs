@@ -280,6 +280,7 @@ fn compare_images(
     let lighting = Lighting {
         radiosity: &b,
         group_intensities: groups,
+        direct: None,
     };
     let (cpu, cpu_report) = tracer.render(&view, &lighting, w, h, 2).unwrap();
     let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
@@ -495,6 +496,7 @@ fn smooth_shading_matches_the_cpu_twin_per_pixel() {
     let lighting = Lighting {
         radiosity: &b,
         group_intensities: &[],
+        direct: None,
     };
     let view = View::new(&cam, 97, 61).unwrap();
     let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
@@ -545,6 +547,7 @@ fn display_faces_match_the_cpu_twin_per_pixel() {
     let lighting = Lighting {
         radiosity: &b,
         group_intensities: &[],
+        direct: None,
     };
     let view = View::new(&cam, 80, 60).unwrap();
     let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
@@ -669,6 +672,7 @@ fn the_ray_tree_scenes_are_well_conditioned() {
         let lighting = Lighting {
             radiosity: &b,
             group_intensities: &groups,
+            direct: None,
         };
         let (image, report) = tracer
             .render(&View::new(&base, w, h).unwrap(), &lighting, w, h, 2)
@@ -782,6 +786,7 @@ fn the_tracer_reads_the_relighting_buffer_without_readback() {
     let lighting = Lighting {
         radiosity: &cpu_b,
         group_intensities: &groups,
+        direct: None,
     };
     let (cpu, _) = tracer.render(&view, &lighting, w, h, 2).unwrap();
     let mut eval = GpuEvaluator::new(gpu(), &op).unwrap();
@@ -842,6 +847,7 @@ fn unchecked_equals_checked(file: &OperatorFile, smooth: bool) {
     let lighting = Lighting {
         radiosity: &b,
         group_intensities: &[],
+        direct: None,
     };
     let checked_gpu = open(&GpuOptions {
         bounds_checks: true,

@@ -119,6 +119,7 @@ fn render(
     let lighting = Lighting {
         radiosity: b,
         group_intensities: groups,
+        direct: None,
     };
     tracer.render(&view, &lighting, w, h, 2).unwrap()
 }
@@ -229,6 +230,7 @@ fn a_smooth_scene_renders_the_reconstruction_at_the_hit_point_over_pi() {
     let lighting = Lighting {
         radiosity: &b,
         group_intensities: &[],
+        direct: None,
     };
     let (flat, flat_report) = tracer.render(&view, &lighting, w, h, 2).unwrap();
     assert!(!flat_report.decision.effects.smooth);
@@ -298,6 +300,7 @@ fn a_file_with_display_faces_shows_the_element_of_the_hit_face() {
     let lighting = Lighting {
         radiosity: &b,
         group_intensities: &[],
+        direct: None,
     };
     let (flat, _) = tracer.render(&view, &lighting, w, h, 2).unwrap();
     let reconstruction = Reconstruction::new(&file).unwrap();
@@ -698,6 +701,7 @@ fn the_image_does_not_depend_on_the_thread_count_and_forcing_effects_changes_not
     let lighting = Lighting {
         radiosity: &b,
         group_intensities: &[],
+        direct: None,
     };
     let (one, _) = tracer.render(&view, &lighting, 64, 40, 1).unwrap();
     let (three, _) = tracer.render(&view, &lighting, 64, 40, 3).unwrap();
@@ -761,6 +765,7 @@ fn effects_out_of_the_cameras_view_are_not_simulated() {
     let lighting = Lighting {
         radiosity: &b,
         group_intensities: &[],
+        direct: None,
     };
     let frame = |cam: Camera| {
         let view = View::new(&cam, 48, 32).unwrap();

@@ -316,6 +316,7 @@ impl Images {
         let lighting = TraceLighting {
             radiosity: b,
             group_intensities: groups,
+            direct: None,
         };
         let (w, h) = self.size;
         let (image, _) = self

@@ -119,6 +119,7 @@ pub fn trace_mutated(data: &[u8]) -> bool {
     let lighting = Lighting {
         radiosity: &radiosity,
         group_intensities: &groups,
+        direct: None,
     };
     let mut rendered = false;
     for camera in cameras.iter().take(2) {

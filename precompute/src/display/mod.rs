@@ -26,6 +26,7 @@ use crate::scene::{Optics, Scene};
 pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display> {
     let materials = materials(scene, mesh)?;
     let point_lights = point_lights(scene, mesh)?;
+    let direct_lights = direct_lights(scene)?;
     let cameras = cameras(scene)?;
     let shown = Shown::of(mesh);
     let stage = progress.stage("bvh", 0);
@@ -43,6 +44,7 @@ pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display>
         smooth: Some(smooth),
         materials: Some(materials),
         point_lights,
+        direct_lights,
         cameras,
         bvh: Some(bvh),
         lightmap,
@@ -190,6 +192,27 @@ fn light_groups(scene: &Scene, mesh: &Mesh) -> Vec<Option<u32>> {
             })
         })
         .collect()
+}
+
+/// The scene's spot and directional lights and sky, as the file stores them (checked: the error
+/// names the light and the field).
+fn direct_lights(scene: &Scene) -> Result<Vec<lrr_formats::DirectLight>> {
+    let mut lights = Vec::with_capacity(scene.direct_lights.len());
+    for l in &scene.direct_lights {
+        let light = lrr_formats::DirectLight {
+            name: l.name.clone(),
+            kind: l.kind,
+            position: f32s(l.position),
+            direction: f32s(l.direction),
+            strength: f32s(l.strength),
+            extra: f32s(l.extra),
+        };
+        light
+            .check_values()
+            .map_err(|e| Error::scene(&scene.name, format!("light {}", e.message)))?;
+        lights.push(light);
+    }
+    Ok(lights)
 }
 
 /// The scene's point lights, each with the index of its group: a group name is an emitting

@@ -47,7 +47,23 @@
 //! name = "bulb"
 //! position = [0, 1.9, 0]
 //! intensity = [5, 5, 5]             # W/sr per channel; or colour = [..] and power = W (4π sr)
-//! group = "ceiling"                 # optional: follows this light group's intensity
+//! group = "ceiling"                 # optional: follows this light group's intensity (then a
+//!                                   # highlight of that emitter; without: lights the scene)
+//! [[spot_light]]                    # glTF's spot: full inside inner, falling to 0 at outer
+//! name = "spot"
+//! position = [0, 1.9, 0]
+//! direction = [0, -1, 0]            # where it points
+//! intensity = [20, 20, 20]          # W/sr on the axis
+//! inner_cone_deg = 20               # default 0
+//! outer_cone_deg = 30               # default 45 (glTF's π/4); inner <= outer <= 90
+//! [[directional_light]]
+//! name = "sun"
+//! direction = [-0.3, -1, 0.2]       # the direction its light travels
+//! irradiance = [3, 3, 2.5]          # W/m² (scene units) on a surface facing it
+//! [sky]                             # at most one: radiance = [..] (uniform), or
+//! zenith = [0.5, 0.7, 1.0]          # the radiance straight up and
+//! horizon = [0.9, 0.9, 0.9]         # at and below the horizon (a gradient)
+//! up = [0, 1, 0]                    # default +y
 //! [bake]                            # defaults for `lrr bake`; explicit flags win
 //! output = "model.lrr"              # relative to this file (then `-o` may be left out)
 //! element_size = 0.1                # or in [mesh], not both
@@ -62,7 +78,7 @@ use std::path::Path;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use super::model::{BakeDefaults, Camera, Material, Optics, PointLight, Scene};
+use super::model::{BakeDefaults, Camera, DirectLight, Material, Optics, PointLight, Scene};
 use crate::error::{Error, Result};
 
 /// A parsed scene description file (the TOML above).
@@ -106,6 +122,19 @@ pub struct SceneDescription {
     /// Point lights for the ray tracer (`[[point_light]]`).
     #[serde(default, rename = "point_light", skip_serializing_if = "Vec::is_empty")]
     pub point_lights: Vec<PointLightDesc>,
+    /// Spot lights (`[[spot_light]]`).
+    #[serde(default, rename = "spot_light", skip_serializing_if = "Vec::is_empty")]
+    pub spot_lights: Vec<SpotLightDesc>,
+    /// Directional lights (`[[directional_light]]`).
+    #[serde(
+        default,
+        rename = "directional_light",
+        skip_serializing_if = "Vec::is_empty"
+    )]
+    pub directional_lights: Vec<DirectionalLightDesc>,
+    /// The sky (`[sky]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sky: Option<SkyDesc>,
     /// Bake settings (`[bake]`).
     #[serde(default, skip_serializing_if = "BakeDesc::is_empty")]
     pub bake: BakeDesc,
@@ -247,6 +276,60 @@ pub struct PointLightDesc {
     pub group: Option<String>,
 }
 
+/// A spot light (`[[spot_light]]`): glTF's `KHR_lights_punctual` spot.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpotLightDesc {
+    /// Name.
+    pub name: String,
+    /// Position, in description units.
+    pub position: [f64; 3],
+    /// Where it points.
+    pub direction: [f64; 3],
+    /// Radiant intensity per channel on the axis (W/sr).
+    pub intensity: [f64; 3],
+    /// Half-angle of the full-intensity cone, degrees (default 0).
+    #[serde(default)]
+    pub inner_cone_deg: f64,
+    /// Half-angle where the light ends, degrees (default 45).
+    #[serde(default = "forty_five")]
+    pub outer_cone_deg: f64,
+}
+
+fn forty_five() -> f64 {
+    45.0
+}
+
+/// A directional light (`[[directional_light]]`), a sun.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DirectionalLightDesc {
+    /// Name.
+    pub name: String,
+    /// The direction its light travels.
+    pub direction: [f64; 3],
+    /// Irradiance per channel (W/m², scene units) on a surface facing it.
+    pub irradiance: [f64; 3],
+}
+
+/// The sky (`[sky]`): `radiance` (uniform), or `zenith` and `horizon` (a gradient about `up`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkyDesc {
+    /// Uniform radiance per channel (W/m²/sr).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radiance: Option<[f64; 3]>,
+    /// Radiance straight up (a gradient sky).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub zenith: Option<[f64; 3]>,
+    /// Radiance at and below the horizon (a gradient sky).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub horizon: Option<[f64; 3]>,
+    /// The gradient's up (default +y).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub up: Option<[f64; 3]>,
+}
+
 /// Bake settings (`[bake]`); `lrr bake` flags given explicitly win over them.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -385,6 +468,9 @@ impl Default for SceneDescription {
             light_groups: Vec::new(),
             cameras: Vec::new(),
             point_lights: Vec::new(),
+            spot_lights: Vec::new(),
+            directional_lights: Vec::new(),
+            sky: None,
             bake: BakeDesc::default(),
         }
     }
@@ -734,6 +820,103 @@ impl SceneDescription {
                 group: l.group.clone(),
             });
         }
+        self.add_direct_lights(scene, origin)
+    }
+
+    /// `[[spot_light]]`, `[[directional_light]]` and `[sky]`, checked (errors name the light
+    /// and the field), positions scaled.
+    fn add_direct_lights(&self, scene: &mut Scene, origin: &str) -> Result<()> {
+        use lrr_formats::DirectLightKind as Kind;
+        let s = self.scale;
+        let bad = |what: String| Error::scene(origin, what);
+        let finite = |v: &[f64; 3]| v.iter().all(|x| x.is_finite());
+        let radiometric = |v: &[f64; 3]| v.iter().all(|x| x.is_finite() && *x >= 0.0);
+        let direction = |v: &[f64; 3]| finite(v) && v.iter().any(|&x| x != 0.0);
+        for l in &self.spot_lights {
+            let what = format!("spot_light '{}'", l.name);
+            if !finite(&l.position) || !direction(&l.direction) {
+                return Err(bad(format!(
+                    "{what}: position must be finite and direction finite and not zero"
+                )));
+            }
+            if !radiometric(&l.intensity) {
+                return Err(bad(format!(
+                    "{what}: intensity {:?} must be finite and >= 0 per channel",
+                    l.intensity
+                )));
+            }
+            let (inner, outer) = (l.inner_cone_deg, l.outer_cone_deg);
+            if !(inner >= 0.0 && inner <= outer && outer <= 90.0) {
+                return Err(bad(format!(
+                    "{what}: need 0 <= inner_cone_deg <= outer_cone_deg <= 90, got {inner} and                      {outer}"
+                )));
+            }
+            scene.direct_lights.push(DirectLight {
+                name: l.name.clone(),
+                kind: Kind::Spot,
+                position: l.position.map(|x| x * s),
+                direction: l.direction,
+                strength: l.intensity,
+                extra: [inner.to_radians(), outer.to_radians(), 0.0],
+            });
+        }
+        for l in &self.directional_lights {
+            let what = format!("directional_light '{}'", l.name);
+            if !direction(&l.direction) || !radiometric(&l.irradiance) {
+                return Err(bad(format!(
+                    "{what}: direction must be finite and not zero, irradiance finite and >= 0                      per channel"
+                )));
+            }
+            scene.direct_lights.push(DirectLight {
+                name: l.name.clone(),
+                kind: Kind::Directional,
+                position: [0.0; 3],
+                direction: l.direction,
+                strength: l.irradiance,
+                extra: [0.0; 3],
+            });
+        }
+        if let Some(sky) = &self.sky {
+            let light = match (sky.radiance, sky.zenith, sky.horizon) {
+                (Some(r), None, None) if sky.up.is_none() => DirectLight {
+                    name: "sky".into(),
+                    kind: Kind::UniformSky,
+                    position: [0.0; 3],
+                    direction: [0.0; 3],
+                    strength: r,
+                    extra: [0.0; 3],
+                },
+                (None, Some(z), Some(h)) => DirectLight {
+                    name: "sky".into(),
+                    kind: Kind::GradientSky,
+                    position: [0.0; 3],
+                    direction: sky.up.unwrap_or([0.0, 1.0, 0.0]),
+                    strength: z,
+                    extra: h,
+                },
+                _ => {
+                    return Err(bad(
+                        "[sky]: give radiance = [r, g, b] (a uniform sky), or zenith and horizon                          (a gradient, with an optional up)"
+                            .into(),
+                    ));
+                }
+            };
+            if !radiometric(&light.strength)
+                || !radiometric(&light.extra)
+                || (light.kind == Kind::GradientSky && !direction(&light.direction))
+            {
+                return Err(bad(
+                    "[sky]: radiances must be finite and >= 0 per channel, up finite and not                      zero"
+                        .into(),
+                ));
+            }
+            if scene.direct_lights.iter().any(|l| l.kind.is_sky()) {
+                return Err(bad(
+                    "[sky]: the scene has a sky already (an include's)".into()
+                ));
+            }
+            scene.direct_lights.push(light);
+        }
         Ok(())
     }
 
@@ -918,6 +1101,12 @@ fn merge(scene: &mut Scene, sub: Scene, s: f64) {
     scene
         .point_lights
         .extend(sub.point_lights.into_iter().map(|l| PointLight {
+            position: scaled(l.position),
+            ..l
+        }));
+    scene
+        .direct_lights
+        .extend(sub.direct_lights.into_iter().map(|l| DirectLight {
             position: scaled(l.position),
             ..l
         }));

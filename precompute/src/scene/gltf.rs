@@ -34,7 +34,7 @@ use base64::Engine;
 use glam::{DMat4, DQuat, DVec3};
 use gltf::json;
 
-use super::model::{Camera, Material, Optics, PointLight, Scene};
+use super::model::{Camera, DirectLight, Material, Optics, PointLight, Scene};
 use super::texture::{Texture, TextureBinding, UvMap, Wrap};
 use crate::error::{Error, Result};
 
@@ -604,18 +604,72 @@ impl<'a> Importer<'a> {
                     group: None,
                 });
             }
-            Kind::Spot { .. } | Kind::Directional => {
-                self.scene.warnings.push(format!(
-                    "{}: light '{name}' is a {} light; only point lights are imported",
-                    self.origin,
-                    if matches!(light.kind(), Kind::Directional) {
-                        "directional"
-                    } else {
-                        "spot"
-                    }
-                ));
+            Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => {
+                let strength = light
+                    .color()
+                    .map(|c| f64::from(c) * f64::from(light.intensity()));
+                let (inner, outer) = (f64::from(inner_cone_angle), f64::from(outer_cone_angle));
+                let cones = inner >= 0.0 && inner <= outer && outer <= std::f64::consts::FRAC_PI_2;
+                if strength.iter().any(|i| !(i.is_finite() && *i >= 0.0)) || !cones {
+                    self.scene.warnings.push(format!(
+                        "{}: spot light '{name}' has intensity {strength:?} and cone angles                          {inner} and {outer} rad (need 0 <= inner <= outer <= pi/2); skipped",
+                        self.origin
+                    ));
+                    return;
+                }
+                let Some(direction) = self.forward(world, &name) else {
+                    return;
+                };
+                self.scene.direct_lights.push(DirectLight {
+                    name,
+                    kind: lrr_formats::DirectLightKind::Spot,
+                    position: world.transform_point3(DVec3::ZERO).to_array(),
+                    direction,
+                    strength,
+                    extra: [inner, outer, 0.0],
+                });
+            }
+            Kind::Directional => {
+                let strength = light
+                    .color()
+                    .map(|c| f64::from(c) * f64::from(light.intensity()));
+                if strength.iter().any(|i| !(i.is_finite() && *i >= 0.0)) {
+                    self.scene.warnings.push(format!(
+                        "{}: directional light '{name}' has irradiance {strength:?}; skipped",
+                        self.origin
+                    ));
+                    return;
+                }
+                let Some(direction) = self.forward(world, &name) else {
+                    return;
+                };
+                self.scene.direct_lights.push(DirectLight {
+                    name,
+                    kind: lrr_formats::DirectLightKind::Directional,
+                    position: [0.0; 3],
+                    direction,
+                    strength,
+                    extra: [0.0; 3],
+                });
             }
         }
+    }
+
+    /// Where a light node points: its local −z in the world, or `None` (with a warning) when
+    /// the transform flattens it.
+    fn forward(&mut self, world: &DMat4, name: &str) -> Option<[f64; 3]> {
+        let d = world.transform_vector3(DVec3::NEG_Z);
+        if d.length() > 0.0 && d.is_finite() {
+            return Some(d.normalize().to_array());
+        }
+        self.scene.warnings.push(format!(
+            "{}: light '{name}': its node's transform has no direction; skipped",
+            self.origin
+        ));
+        None
     }
 
     /// The scene material of a glTF material (made on first use).

@@ -68,6 +68,26 @@ pub struct PointLight {
     pub group: Option<String>,
 }
 
+/// A light that is neither a surface nor a point light (description, glTF
+/// `KHR_lights_punctual`): a spot, a directional light or the sky. The runtime's direct pass
+/// lights the elements with it every frame (DESIGN.md §9); the fields mean what
+/// `lrr_formats::DirectLight`'s table says for its kind (scene units, f64 here).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DirectLight {
+    /// Name.
+    pub name: String,
+    /// Spot, directional, uniform or gradient sky.
+    pub kind: lrr_formats::DirectLightKind,
+    /// Spot: position.
+    pub position: [f64; 3],
+    /// Spot: where it points; directional: where its light travels; gradient sky: up.
+    pub direction: [f64; 3],
+    /// Spot: W/sr on the axis; directional: W/m² facing it; sky: (zenith) radiance.
+    pub strength: [f64; 3],
+    /// Spot: `[inner, outer, 0]` half-angles in radians; gradient sky: horizon radiance.
+    pub extra: [f64; 3],
+}
+
 /// A pinhole camera of the scene (description, glTF).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Camera {
@@ -213,6 +233,8 @@ pub struct Scene {
     pub repairs: Repairs,
     /// Point lights for the ray tracer.
     pub point_lights: Vec<PointLight>,
+    /// Spot and directional lights and the sky.
+    pub direct_lights: Vec<DirectLight>,
     /// Cameras.
     pub cameras: Vec<Camera>,
     /// Bake settings of the scene description (`[bake]`).

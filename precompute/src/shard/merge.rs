@@ -317,7 +317,11 @@ fn display_bytes(d: &Display) -> u128 {
         4 * m.element_material.len() + m.materials.iter().map(|m| 64 + m.name.len()).sum::<usize>()
     });
     let named = |name: &String| 64 + name.len();
-    let lights: usize = d.point_lights.iter().map(|l| named(&l.name)).sum();
+    let lights: usize = d.point_lights.iter().map(|l| named(&l.name)).sum::<usize>()
+        + d.direct_lights
+            .iter()
+            .map(|l| named(&l.name))
+            .sum::<usize>();
     let cameras: usize = d.cameras.iter().map(|c| named(&c.name)).sum();
     let bvh = d
         .bvh

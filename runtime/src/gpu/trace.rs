@@ -266,6 +266,12 @@ impl GpuTracer {
         width: u32,
         height: u32,
     ) -> Result<(Image, GpuRenderReport), GpuError> {
+        if lighting.direct.is_some_and(|d| !d.lights.is_empty()) {
+            return Err(GpuError::Runtime(crate::error::input(
+                "the GPU tracer does not shade lights that are not surfaces (point lights of no \
+                 group, spots, suns) per point yet; render on the CPU",
+            )));
+        }
         let buffer = self.upload_radiosity(lighting.radiosity)?;
         self.render(view, &buffer, lighting.group_intensities, width, height)
     }

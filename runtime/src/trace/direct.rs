@@ -39,22 +39,34 @@ use crate::error::{RuntimeError, input};
 /// A light that is not a surface, as a frame gives it. Every field may change every frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Light {
-    /// A point light: radiant intensity per channel in W/sr (irradiance `I cos θ / d²`).
-    Point { position: [f32; 3], intensity: [f32; 3] },
-    /// A spot light: a point light whose intensity falls off off its axis as glTF's
-    /// `KHR_lights_punctual` says, from 1 inside `inner` to 0 outside `outer` (half-angles in
-    /// radians, `0 <= inner <= outer <= π/2`); `intensity` in W/sr on the axis; `direction`
-    /// where it points (any length but zero).
-    Spot {
+    /// A point light.
+    Point {
+        /// Where it is.
         position: [f32; 3],
-        direction: [f32; 3],
+        /// Radiant intensity per channel, W/sr (irradiance `I cos θ / d²`).
         intensity: [f32; 3],
+    },
+    /// A spot light: a point light whose intensity falls off off its axis as glTF's
+    /// `KHR_lights_punctual` says, from 1 inside `inner` to 0 outside `outer`.
+    Spot {
+        /// Where it is.
+        position: [f32; 3],
+        /// Where it points (any length but zero).
+        direction: [f32; 3],
+        /// Radiant intensity per channel on the axis, W/sr.
+        intensity: [f32; 3],
+        /// Half-angle of the full-intensity cone, radians, `0 <= inner <= outer`.
         inner: f32,
+        /// Half-angle where the light ends, radians, `<= π/2`.
         outer: f32,
     },
-    /// A directional light (a sun): `direction` the direction its light travels (any length but
-    /// zero), `irradiance` per channel in W/m² (scene units) on a surface facing it.
-    Directional { direction: [f32; 3], irradiance: [f32; 3] },
+    /// A directional light (a sun).
+    Directional {
+        /// The direction its light travels (any length but zero).
+        direction: [f32; 3],
+        /// Irradiance per channel, W/m² (scene units) on a surface facing it.
+        irradiance: [f32; 3],
+    },
 }
 
 impl Light {
@@ -130,7 +142,7 @@ impl Light {
     /// the shadow ray's direction (unit, towards the light) and length (`INFINITY` for a
     /// directional light); `None` when no light arrives.
     #[inline]
-    fn towards(&self, x: V3, n: V3) -> Option<(f32, V3, f32)> {
+    pub(crate) fn towards(&self, x: V3, n: V3) -> Option<(f32, V3, f32)> {
         match *self {
             Light::Point { position, .. } => {
                 let to = sub(position, x);
@@ -193,13 +205,18 @@ pub fn spot_falloff(cos_axis: f32, inner: f32, outer: f32) -> f32 {
 /// A sky: radiance per direction, as order-2 spherical harmonics once projected.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Sky {
-    /// The same radiance (W/m²/sr per channel) from every direction.
-    Uniform { radiance: [f32; 3] },
-    /// `horizon + (zenith − horizon) · max(0, ω·up)`: the zenith's radiance straight up, the
-    /// horizon's at and below the horizon; `up` any length but zero (it rotates the sky).
+    /// The same radiance from every direction.
+    Uniform {
+        /// Radiance per channel, W/m²/sr.
+        radiance: [f32; 3],
+    },
+    /// `horizon + (zenith − horizon) · max(0, ω·up)`.
     Gradient {
+        /// Radiance straight up.
         zenith: [f32; 3],
+        /// Radiance at and below the horizon.
         horizon: [f32; 3],
+        /// Up (any length but zero): it rotates the sky.
         up: [f32; 3],
     },
 }
@@ -224,7 +241,9 @@ impl Sky {
                     ));
                 }
                 if !up.iter().all(|c| c.is_finite()) || length(up) == 0.0 {
-                    return Err(format!("its up direction {up:?} must be finite and not zero"));
+                    return Err(format!(
+                        "its up direction {up:?} must be finite and not zero"
+                    ));
                 }
                 Ok(())
             }
@@ -251,7 +270,13 @@ impl Sky {
                 let zonal = [PI.sqrt() / 2.0, (PI / 3.0).sqrt(), (5.0 * PI).sqrt() / 8.0];
                 let y = sh9(normalize(up));
                 for (i, yi) in y.iter().enumerate() {
-                    let l = if i == 0 { 0 } else if i < 4 { 1 } else { 2 };
+                    let l = if i == 0 {
+                        0
+                    } else if i < 4 {
+                        1
+                    } else {
+                        2
+                    };
                     let k = zonal[l] * (4.0 * PI / (2 * l + 1) as f32).sqrt() * yi;
                     c[i] = add(c[i], scale(delta, k));
                 }
@@ -433,14 +458,13 @@ impl DirectLighting {
         self.per_element as u32
     }
 
-    /// The direct irradiance `H` per element (original ids) of `lights` and `sky`, written to
-    /// `h` (n values): each element's mean over its sample points, each behind a shadow ray.
-    /// Lights whose shape (all but the strength) matches the same slot of the last call are not
-    /// traced again. An error names a light whose values are bad, or a wrong length.
+    /// The direct irradiance `H` per element (original ids) of `lights`, written to `h` (n
+    /// values): each element's mean over its sample points, each behind a shadow ray. Lights
+    /// whose shape (all but the strength) matches the same slot of the last call are not traced
+    /// again. An error names a light whose values are bad, or a wrong length.
     pub fn irradiance(
         &mut self,
         lights: &[Light],
-        sky: Option<&Sky>,
         h: &mut [[f32; 3]],
     ) -> Result<DirectReport, RuntimeError> {
         let n = self.n();
@@ -455,37 +479,23 @@ impl DirectLighting {
                 .check()
                 .map_err(|p| input(format!("light {i} ({light:?}): {p}")))?;
         }
-        if let Some(sky) = sky {
-            sky.check().map_err(|p| input(format!("the sky: {p}")))?;
-        }
         let mut report = DirectReport::default();
         self.cache.truncate(lights.len());
         for (i, light) in lights.iter().enumerate() {
             let shape = light.shape();
-            if light.strength() == [0.0; 3] {
-                // Dark: nothing to trace; the slot keeps whatever it held.
-                report.cached += 1;
-                continue;
-            }
-            if self.cache.get(i).is_some_and(|(s, _)| *s == shape) {
+            if light.strength() == [0.0; 3] || self.cache.get(i).is_some_and(|(s, _)| *s == shape) {
+                // Dark (nothing to trace; the slot keeps what it held) or not moved.
                 report.cached += 1;
                 continue;
             }
             let (term, rays) = self.trace_light(&shape);
             report.traced += 1;
             report.rays += rays;
-            if i < self.cache.len() {
-                self.cache[i] = (shape, term);
-            } else {
-                // Slots below i that were dark and never traced hold a placeholder.
-                while self.cache.len() < i {
-                    self.cache.push((Light::Point {
-                        position: [f32::NAN; 3],
-                        intensity: [0.0; 3],
-                    }, Vec::new()));
-                }
-                self.cache.push((shape, term));
+            // Slots below i that were dark and never traced hold an empty placeholder.
+            while self.cache.len() <= i {
+                self.cache.push((shape, Vec::new()));
             }
+            self.cache[i] = (shape, term);
         }
         h.iter_mut().for_each(|x| *x = [0.0; 3]);
         for (light, (_, term)) in lights.iter().zip(&self.cache) {
@@ -497,55 +507,52 @@ impl DirectLighting {
                 *x = add(*x, scale(strength, g));
             }
         }
-        if let Some(sky) = sky {
-            if self.sky.is_none() {
-                let (transfer, rays) = self.project_sky();
-                report.rays += rays;
-                self.sky = Some(transfer);
+        Ok(report)
+    }
+
+    /// The sky's direct irradiance `H` per element (original ids), written to `h`: `Σ_lm L_lm
+    /// T_lm` with the element's transfer `T` (projected on the first call, the rays counted in
+    /// the report; then O(9) per element), clamped at zero (an order-2 product may dip below it
+    /// where the sky is dark and mostly hidden).
+    pub fn sky_irradiance(
+        &mut self,
+        sky: &Sky,
+        h: &mut [[f32; 3]],
+    ) -> Result<DirectReport, RuntimeError> {
+        let n = self.n();
+        if h.len() != n {
+            return Err(input(format!(
+                "sky irradiance: {} values for {n} elements",
+                h.len()
+            )));
+        }
+        sky.check().map_err(|p| input(format!("the sky: {p}")))?;
+        let mut report = DirectReport::default();
+        if self.sky.is_none() {
+            let (transfer, rays) = self.project_sky();
+            report.rays += rays;
+            report.traced = 1;
+            self.sky = Some(transfer);
+        } else {
+            report.cached = 1;
+        }
+        let c = sky.coefficients();
+        let transfer = self.sky.as_ref().expect("projected above");
+        for (x, t) in h.iter_mut().zip(transfer) {
+            let mut sum = [0.0f32; 3];
+            for (cl, tl) in c.iter().zip(t) {
+                sum = add(sum, scale(*cl, *tl));
             }
-            let c = sky.coefficients();
-            let transfer = self.sky.as_ref().expect("projected above");
-            for (x, t) in h.iter_mut().zip(transfer) {
-                for (cl, tl) in c.iter().zip(t) {
-                    *x = add(*x, scale(*cl, *tl));
-                }
-                // The order-2 product may dip below zero where the sky is dark and occluded.
-                *x = x.map(|c| c.max(0.0));
-            }
+            *x = sum.map(|c| c.max(0.0));
         }
         Ok(report)
     }
 
-    /// The direct irradiance at one surface point `x` with front normal `normal` (unit), each
-    /// light behind its own shadow ray (the sky: the element's transfer is not per point, so
-    /// it is left out here; [`DirectLighting::irradiance`] holds it per element).
+    /// The direct irradiance of `lights` at one surface point `x` with front normal `normal`
+    /// (unit), each light behind its own shadow ray (the sky has no per-point value: its
+    /// transfer is per element, [`DirectLighting::sky_irradiance`]).
     pub fn at(&self, lights: &[Light], x: [f32; 3], normal: [f32; 3]) -> [f32; 3] {
-        let origin = mad(x, normal, self.scene.epsilon);
-        let mut sum = [0.0f32; 3];
-        for light in lights {
-            let strength = light.strength();
-            if strength == [0.0; 3] {
-                continue;
-            }
-            if let Some(g) = self.visible(light, x, origin, normal) {
-                sum = add(sum, scale(strength, g));
-            }
-        }
-        sum
-    }
-
-    /// The light's irradiance per unit strength at `x` seen from the shadow ray's `origin`, or
-    /// `None` when none arrives or it is blocked.
-    #[inline]
-    fn visible(&self, light: &Light, x: V3, origin: V3, normal: V3) -> Option<f32> {
-        let (g, w, dist) = light.towards(x, normal)?;
-        let ray = Ray::new(origin, w);
-        let reach = if dist.is_finite() {
-            dist * (1.0 - 1e-5)
-        } else {
-            f32::INFINITY
-        };
-        (!self.scene.occluded(&ray, 0.0, reach)).then_some(g)
+        at_point(&self.scene, lights, x, normal, &mut 0)
     }
 
     /// One light's irradiance per unit strength per element (original ids), and the rays cast.
@@ -590,7 +597,10 @@ impl DirectLighting {
                     })
                 })
                 .collect();
-            handles.into_iter().map(|h| h.join().expect("no panic")).sum()
+            handles
+                .into_iter()
+                .map(|h| h.join().expect("no panic"))
+                .sum()
         });
         (term, rays)
     }
@@ -652,10 +662,47 @@ impl DirectLighting {
                     })
                 })
                 .collect();
-            handles.into_iter().map(|h| h.join().expect("no panic")).sum()
+            handles
+                .into_iter()
+                .map(|h| h.join().expect("no panic"))
+                .sum()
         });
         (transfer, rays)
     }
+}
+
+/// The direct irradiance of `lights` at `x` (front normal `normal`, unit) in `scene`, each
+/// light behind its own shadow ray from just off the surface to just short of the light;
+/// `rays` counts them. The tracer's shading and [`DirectLighting::at`] share it.
+#[inline]
+pub(crate) fn at_point(
+    scene: &TraceScene,
+    lights: &[Light],
+    x: V3,
+    normal: V3,
+    rays: &mut u64,
+) -> V3 {
+    let origin = mad(x, normal, scene.epsilon);
+    let mut sum = [0.0f32; 3];
+    for light in lights {
+        let strength = light.strength();
+        if strength == [0.0; 3] {
+            continue;
+        }
+        let Some((g, w, dist)) = light.towards(x, normal) else {
+            continue;
+        };
+        *rays += 1;
+        let reach = if dist.is_finite() {
+            dist * (1.0 - 1e-5)
+        } else {
+            f32::INFINITY
+        };
+        if !scene.occluded(&Ray::new(origin, w), 0.0, reach) {
+            sum = add(sum, scale(strength, g));
+        }
+    }
+    sum
 }
 
 #[inline]

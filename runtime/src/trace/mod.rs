@@ -48,7 +48,7 @@
 //! let view = View::new(&camera, 64, 48)?;
 //! let radiosity = op.evaluate_baked();
 //! let groups = vec![1.0; op.light_groups().len()];
-//! let lighting = Lighting { radiosity: &radiosity, group_intensities: &groups };
+//! let lighting = Lighting { radiosity: &radiosity, group_intensities: &groups, direct: None };
 //! let (image, report) = tracer.render(&view, &lighting, 64, 48, 2)?;
 //! assert_eq!(image.pixels.len(), 64 * 48);
 //! assert!(!report.decision.effects.secondary);
@@ -73,7 +73,7 @@ pub use direct::{
 };
 pub use effects::{DEFAULT_MAX_DEPTH, Decision, Effects, MAX_DEPTH_LIMIT};
 pub use shade::RayCounts;
-pub use tracer::{Image, Lighting, RenderReport, TILE_ROWS, Tracer};
+pub use tracer::{DirectShading, Image, Lighting, RenderReport, TILE_ROWS, Tracer};
 
 // For the GPU twin (runtime/src/gpu/trace.rs).
 #[cfg(feature = "gpu")]

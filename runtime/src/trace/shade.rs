@@ -27,6 +27,7 @@
 use std::f32::consts::FRAC_1_PI;
 
 use super::bvh::{Hit, Ray};
+use super::direct::{Light, at_point};
 use super::effects::MAX_DEPTH_LIMIT;
 use super::math::{V3, add, dot, length, mad, max_component, mul, normalize, scale, sub};
 use super::scene::{Optics, TraceScene};
@@ -42,6 +43,9 @@ pub(crate) struct FrameInput<'a> {
     /// When the frame shades smooth: the reconstruction and this frame's smooth-vertex values
     /// ([`Reconstruction::vertex_values`] of `radiosity`).
     pub smooth: Option<(Reconstruction<'a>, &'a [[f32; 3]])>,
+    /// Lights that are not surfaces and the reflectance per element (original ids): their
+    /// direct light at the hit point, `ρ H(x) / π`, is added to the radiosity's radiance.
+    pub direct: Option<(&'a [Light], &'a [[f32; 3]])>,
 }
 
 /// Rays cast, by kind.
@@ -49,7 +53,8 @@ pub(crate) struct FrameInput<'a> {
 pub struct RayCounts {
     /// Camera rays (closest hit).
     pub primary: u64,
-    /// Rays to point lights (any hit).
+    /// Rays to point lights for highlights, and to the frame's lights that are not surfaces
+    /// (any hit).
     pub shadow: u64,
     /// Reflected and refracted rays (closest hit).
     pub secondary: u64,
@@ -78,13 +83,33 @@ const STACK: usize = MAX_DEPTH_LIMIT as usize + 2;
 
 /// The radiosity of the hit point `p` on display face `f` as a radiance, `B / π`: smooth,
 /// [`Reconstruction::at`] from the frame's smooth-vertex values; flat (or when the frame has no
-/// smooth values), the value of the face's element.
+/// smooth values), the value of the face's element. Plus the frame's direct light at `p`,
+/// `ρ H(p) / π`, on the face's front (`direct::at_point`, its shadow rays counted).
 #[inline(always)]
-fn diffuse<const SMOOTH: bool>(scene: &TraceScene, frame: &FrameInput, f: u32, p: V3) -> V3 {
-    if SMOOTH && let Some((reconstruction, vertices)) = &frame.smooth {
-        return scale(reconstruction.at(vertices, f as usize, p), FRAC_1_PI);
+fn diffuse<const SMOOTH: bool>(
+    scene: &TraceScene,
+    frame: &FrameInput,
+    f: u32,
+    p: V3,
+    counts: &mut RayCounts,
+) -> V3 {
+    let element = scene.face_id[f as usize] as usize;
+    let b = if SMOOTH && let Some((reconstruction, vertices)) = &frame.smooth {
+        reconstruction.at(vertices, f as usize, p)
+    } else {
+        frame.radiosity[element]
+    };
+    let mut b = b;
+    if let Some((lights, rho)) = frame.direct {
+        let h = at_point(
+            scene,
+            lights,
+            p,
+            scene.normals[f as usize],
+            &mut counts.shadow,
+        );
+        b = add(b, mul(rho[element], h));
     }
-    let b = frame.radiosity[scene.face_id[f as usize] as usize];
     scale(b, FRAC_1_PI)
 }
 
@@ -166,7 +191,7 @@ pub(crate) fn radiance<const HIGHLIGHTS: bool, const SECONDARY: bool, const SMOO
         return match primary {
             Some(hit) => {
                 let f = scene.tri_face[hit.tri as usize];
-                diffuse::<SMOOTH>(scene, frame, f, mad(origin, dir, hit.t))
+                diffuse::<SMOOTH>(scene, frame, f, mad(origin, dir, hit.t), counts)
             }
             None => [0.0; 3],
         };
@@ -197,7 +222,7 @@ pub(crate) fn radiance<const HIGHLIGHTS: bool, const SECONDARY: bool, const SMOO
         };
         let f = scene.tri_face[hit.tri as usize];
         let p = mad(ray.origin, ray.dir, hit.t);
-        let local = diffuse::<SMOOTH>(scene, frame, f, p);
+        let local = diffuse::<SMOOTH>(scene, frame, f, p, counts);
         let optics = scene.optics_of(f);
         let n = scene.normals[f as usize];
         let cos_n = dot(ray.dir, n);

@@ -12,6 +12,7 @@ use lrr_formats::{Camera, OperatorFile, PointLight};
 use super::batch::{self, RayBatch, TraceHit};
 use super::bvh::{Hit, Ray};
 use super::camera::View;
+use super::direct::Light;
 use super::effects::{self, Decision, Effects, MAX_DEPTH_LIMIT};
 use super::math::{V3, scale};
 use super::scene::TraceScene;
@@ -41,15 +42,31 @@ impl Image {
 }
 
 /// A frame's lighting: the radiosity the evaluator computed and the light groups' intensities
-/// (which scale the point lights of each group).
-#[derive(Debug, Clone, Copy)]
+/// (which scale the point lights of each group), and the lights that are not surfaces whose
+/// direct light is added at every shaded point.
+#[derive(Debug, Clone, Copy, Default)]
 pub struct Lighting<'a> {
     /// Radiosity per element, original ids (what [`Evaluator::evaluate`](crate::Evaluator)
-    /// writes).
+    /// writes); with [`Lighting::direct`], without the lights' reflected direct light (`B − ρ ⊙
+    /// H` per element, `H` from [`DirectLighting::irradiance`](super::DirectLighting)): the
+    /// bounced light, which the shaded point's own direct light completes.
     pub radiosity: &'a [[f32; 3]],
     /// One intensity per light group of the file (1 = as baked); a point light of group `g`
     /// shines at `intensities[g]` times its intensity.
     pub group_intensities: &'a [f32],
+    /// Lights that are not surfaces, shaded per point: `ρ(x) H(x) / π` added at every hit, each
+    /// light behind its own shadow ray (DESIGN.md §9); `None`: none.
+    pub direct: Option<DirectShading<'a>>,
+}
+
+/// The lights a frame adds at every shaded point, and the reflectance they are reflected with.
+#[derive(Debug, Clone, Copy)]
+pub struct DirectShading<'a> {
+    /// The lights (the frame's, as [`DirectLighting::irradiance`](super::DirectLighting) took
+    /// them).
+    pub lights: &'a [Light],
+    /// Reflectance per element, original ids ([`Operator::reflectance`](crate::Operator)).
+    pub reflectance: &'a [[f32; 3]],
 }
 
 /// What a render produced besides the image.
@@ -298,10 +315,28 @@ impl Tracer {
             vertices = vec![[0.0f32; 3]; r.vertex_count()];
             r.vertex_values(lighting.radiosity, &mut vertices)?;
         }
+        if let Some(d) = &lighting.direct {
+            if d.reflectance.len() != self.scene.n() {
+                return Err(input(format!(
+                    "direct shading: {} reflectances for {} elements",
+                    d.reflectance.len(),
+                    self.scene.n()
+                )));
+            }
+            for (i, light) in d.lights.iter().enumerate() {
+                light
+                    .check()
+                    .map_err(|p| input(format!("light {i} ({light:?}): {p}")))?;
+            }
+        }
         let frame = FrameInput {
             radiosity: lighting.radiosity,
             light_intensity: intensities,
             smooth: reconstruction.map(|r| (r, vertices.as_slice())),
+            direct: lighting
+                .direct
+                .filter(|d| !d.lights.is_empty())
+                .map(|d| (d.lights, d.reflectance)),
         };
         let mut image = Image {
             width,
