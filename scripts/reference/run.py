@@ -4,6 +4,8 @@
     scripts/setup-reference.sh                      # once: mitsuba (PyPI), libllvm19 (Debian)
     python3 scripts/reference/run.py                # every scene and check, into tests/data/reference/
     python3 scripts/reference/run.py --only furnace squares --paths 4096   # a part, fewer paths
+    LRR_REFERENCE_FACES=/tmp/reference_faces python3 scripts/reference/run.py --only cornell-sun
+        # a prebuilt `reference_faces` instead of `cargo run` (a tree that must not be built)
 
 For each scene: lrr's own import of it (`cargo run -p lrr-tests --example reference_faces`) is
 turned into a Mitsuba scene (mitsuba_scene.py), points are spread over every surface by area
@@ -13,6 +15,15 @@ square under an emitting parallel square (B = ρ·E·F, F in closed form) and re
 in standard errors. The Cornell box also gets an image from its usual camera (half EXR).
 Everything goes to `--out` as small JSON files the Rust tests read (tests/tests/e2e/reference.rs);
 they never need the renderer.
+
+Lights that are not surfaces (`[[point_light]]`, `[[spot_light]]`, `[[directional_light]]`,
+`[sky]`) are read from the description by this script itself (lights.py, with `tomllib`; no lrr
+code) and given to Mitsuba as `point`, `spot` (hard cone), `directional` and `constant`
+emitters: lights.py says how each unit convention maps (they coincide with lrr's: B = ρ·H, H =
+I·cos θ/r², E⊥·cos θ or π·L). lrr's faces are exported from a copy of the description without
+those tables. Their closed-form checks (point-, spot-, sun- and sky-square) compare with
+B = ρ·H from lights.direct_irradiance; a delta light seen once has zero variance, so those
+values are compared by relative error, not in standard errors.
 """
 
 import argparse
@@ -32,6 +43,7 @@ sys.path.insert(0, HERE)
 
 import closed_form  # noqa: E402
 import estimate  # noqa: E402
+import lights as light_tables  # noqa: E402
 import mitsuba_scene  # noqa: E402
 import points as point_sampling  # noqa: E402
 
@@ -41,11 +53,25 @@ SCENES = {
     "cornell-box": ("scenes/cornell-box/cornell-box.toml", 400, 1),
     "cluttered": (f"{DATA}/scenes/cluttered.toml", 400, 2),
     "dense-sphere": (f"{DATA}/scenes/dense-sphere.toml", 400, 3),
+    # The Cornell box with its lamp switched off (a plain panel) and one light that is not a
+    # surface (issue #32).
+    "cornell-point": (f"{DATA}/scenes/cornell-point.toml", 400, 6),
+    "cornell-spot": (f"{DATA}/scenes/cornell-spot.toml", 400, 7),
+    "cornell-sun": (f"{DATA}/scenes/cornell-sun.toml", 400, 8),
+    "cornell-sky": (f"{DATA}/scenes/cornell-sky.toml", 400, 9),
 }
 CHECKS = {
     "furnace": (f"{DATA}/scenes/furnace.toml", 60, 4),
     "squares": (f"{DATA}/scenes/squares.toml", 60, 5),
+    # A unit square (ρ = 0.5) and one light: B = ρ·H in closed form (lights.direct_irradiance).
+    "point-square": (f"{DATA}/scenes/point-square.toml", 60, 10),
+    "sun-square": (f"{DATA}/scenes/sun-square.toml", 60, 11),
+    "sky-square": (f"{DATA}/scenes/sky-square.toml", 60, 12),
+    "spot-square": (f"{DATA}/scenes/spot-square.toml", 60, 13),
 }
+LIGHT_CHECKS = {"point-square", "sun-square", "sky-square", "spot-square"}
+# A value whose stderr is below this share of |exact| is deterministic (a delta light seen once).
+DETERMINISTIC_BELOW = 1e-6
 # The Cornell box's usual camera (the Cornell data page: eye (278, 273, -800), looking down +z,
 # 35 mm focal length on a 25 mm film: horizontal field of view 2·atan(12.5/35) = 39.3077°).
 CORNELL_CAMERA = {
@@ -61,10 +87,20 @@ def log(msg):
 
 
 def export_faces(scene_path, out):
-    cmd = [
-        "cargo", "run", "--quiet", "--release", "--locked", "-p", "lrr-tests",
-        "--example", "reference_faces", "--", scene_path, out,
-    ]
+    """lrr's faces of the scene: `cargo run … --example reference_faces`, or the prebuilt binary
+    named by LRR_REFERENCE_FACES. A description with light tables is exported from a copy
+    without them (their geometry is none of the faces'; an lrr that predates them refuses
+    them)."""
+    if light_tables.read(scene_path):
+        scene_path = light_tables.strip(scene_path, out + ".nolights.toml")
+    prebuilt = os.environ.get("LRR_REFERENCE_FACES")
+    if prebuilt:
+        cmd = [prebuilt, scene_path, out]
+    else:
+        cmd = [
+            "cargo", "run", "--quiet", "--release", "--locked", "-p", "lrr-tests",
+            "--example", "reference_faces", "--", scene_path, out,
+        ]
     subprocess.run(cmd, cwd=ROOT, check=True)
     return mitsuba_scene.load_faces(out)
 
@@ -80,8 +116,12 @@ def round_list(a, digits=7):
 
 def measure(mi, name, scene_file, count, seed, args, tmp):
     """Points, B and stderr of one scene, as the JSON document the tests read."""
-    doc = export_faces(os.path.join(ROOT, scene_file), os.path.join(tmp, f"{name}.faces.json"))
+    path = os.path.join(ROOT, scene_file)
+    doc = export_faces(path, os.path.join(tmp, f"{name}.faces.json"))
     scene_dict, two_sided = mitsuba_scene.build(mi, doc, os.path.join(tmp, name))
+    lights = light_tables.read(path)
+    emitters = light_tables.emitters(mi, lights)
+    scene_dict.update(emitters)
     scene = mi.load_dict(scene_dict)
     delta = 1e-4 * extent(doc)
     pts = point_sampling.sample(doc, count, seed)
@@ -93,15 +133,18 @@ def measure(mi, name, scene_file, count, seed, args, tmp):
     pos, nrm = pos[keep], nrm[keep]
     estimate.check_hits(mi, scene, pos, nrm, delta)
     log(f"{name}: {len(doc['faces'])} faces ({len(two_sided)} two-sided groups), {len(pts)} points "
-        f"({int(hidden.sum())} buried ones dropped), {args.paths} paths each")
+        f"({int(hidden.sum())} buried ones dropped), {args.paths} paths each"
+        + (f", lights: {', '.join(e['type'] for e in emitters.values())}" if emitters else ""))
     b, se, seconds, paths = estimate.radiosity(
         mi, scene, pos, nrm, delta, args.paths, args.batch, seed, log
     )
     rel = se / np.maximum(np.abs(b), 1e-300)
     log(f"{name}: {seconds:.0f} s; relative stderr median {np.median(rel):.2e}, max {rel.max():.2e}")
-    return doc, {
+    result = {
         "scene": scene_file,
         "scene_name": doc["scene"],
+        # the description's bytes: a test can refuse a reference made from another version
+        "scene_sha256": light_tables.sha256(path),
         "renderer": f"mitsuba {mi.__version__} {mi.variant()} path max_depth=-1 rr_depth=5",
         "paths_per_point": paths,
         "seed": seed,
@@ -119,12 +162,22 @@ def measure(mi, name, scene_file, count, seed, args, tmp):
             for (s, _, p, n), bb, ee in zip(pts, b, se)
         ],
     }
+    if lights:
+        # the light tables as read (tomllib), and the Mitsuba emitters they became
+        result["lights"] = lights
+        result["mitsuba_emitters"] = list(light_tables.emitter_dicts(lights).values())
+    return doc, result
 
 
 def exact_values(name, doc, result):
     """The closed-form B of a check scene at its points."""
     pos = np.array([p["position"] for p in result["points"]])
     mats = {m["name"]: m for m in doc["materials"]}
+    if name in LIGHT_CHECKS:
+        (m,) = doc["materials"]
+        nrm = np.array([p["normal"] for p in result["points"]])
+        h = light_tables.direct_irradiance(result["lights"], pos, nrm)
+        return np.array(m["reflectance"]) * h
     if name == "furnace":
         (m,) = doc["materials"]
         e, rho = np.array(m["emission"]), np.array(m["reflectance"])
@@ -177,7 +230,9 @@ def main():
                 b = np.array([p["radiosity"] for p in result["points"]])
                 se = np.array([p["stderr"] for p in result["points"]])
                 exact = exact_values(name, doc, result)
-                result["agreement"] = closed_form.agreement(b, se, exact)
+                result["agreement"] = closed_form.agreement(
+                    b, se, exact, DETERMINISTIC_BELOW if name in LIGHT_CHECKS else None
+                )
                 log(f"{name}: agreement with the closed form {result['agreement']}")
             write_json(os.path.join(args.out, f"{name}.json"), result)
             if name == "cornell-box" and args.image_spp > 0:
