@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lrr_runtime::gpu::{Gpu, GpuError, GpuEvaluator, GpuOptions};
+use lrr_runtime::trace::{DirectLighting, DirectReport, Light, Sky, file_lights, reflected};
 use lrr_runtime::{Operator, Reconstruction, Rgb, RgbMut};
 
 /// The emission flags.
@@ -20,6 +21,144 @@ pub struct EmissionArgs {
     /// (finite, >= 0), in original element ids.
     #[arg(long, value_name = "E.json", conflicts_with = "groups")]
     pub emission: Option<PathBuf>,
+    #[command(flatten)]
+    pub lights: LightArgs,
+}
+
+/// Lights that are not surfaces, added to the frame's emission by the direct pass (DESIGN.md
+/// §9): the file's (point lights of no group, spot and directional lights, the sky) and these.
+#[derive(Debug, Clone, Default, Args)]
+pub struct LightArgs {
+    /// A point light `X,Y,Z:R,G,B`: position and intensity per channel in W/sr (repeatable).
+    #[arg(long = "point-light", value_name = "X,Y,Z:R,G,B")]
+    pub points: Vec<String>,
+    /// A spot light `X,Y,Z:DX,DY,DZ:R,G,B:INNER,OUTER`: position, where it points, intensity on
+    /// the axis (W/sr) and glTF's cone half-angles in degrees (repeatable).
+    #[arg(long = "spot-light", value_name = "X,Y,Z:DX,DY,DZ:R,G,B:INNER,OUTER")]
+    pub spots: Vec<String>,
+    /// A directional light `DX,DY,DZ:R,G,B`: the direction its light travels and its irradiance
+    /// per channel (W/m², scene units, facing it) (repeatable).
+    #[arg(long = "sun", value_name = "DX,DY,DZ:R,G,B")]
+    pub suns: Vec<String>,
+    /// A uniform sky of radiance `R,G,B` (W/m²/sr), in place of the file's sky.
+    #[arg(long, value_name = "R,G,B")]
+    pub sky: Option<String>,
+    /// Leave out the lights the file holds (its point lights of no group, spots, suns, sky).
+    #[arg(long)]
+    pub no_file_lights: bool,
+    /// Sample points per element for the direct pass's irradiance (1 to 64).
+    #[arg(long, value_name = "N", default_value_t = lrr_runtime::trace::DEFAULT_SAMPLES)]
+    pub light_samples: u32,
+}
+
+/// A frame's lights that are not surfaces.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FrameLights {
+    /// Point, spot and directional lights.
+    pub lights: Vec<Light>,
+    /// The sky.
+    pub sky: Option<Sky>,
+    /// Sample points per element.
+    pub samples: u32,
+}
+
+impl FrameLights {
+    /// No light to shade: no direct pass, no shadow ray.
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty() && self.sky.is_none()
+    }
+}
+
+impl LightArgs {
+    /// The frame's lights: the file's unless `--no-file-lights`, then the flags'. Errors name
+    /// the flag and what is wrong with it.
+    pub fn lights(&self, op: &Operator) -> Result<FrameLights> {
+        let (mut lights, mut sky) = if self.no_file_lights {
+            (Vec::new(), None)
+        } else {
+            file_lights(op.file())
+        };
+        for spec in &self.points {
+            let flag = format!("--point-light {spec}");
+            let [p, i] = fields(spec, &flag, "X,Y,Z:R,G,B")?;
+            lights.push(Light::Point {
+                position: triple(p, &flag)?,
+                intensity: triple(i, &flag)?,
+            });
+        }
+        for spec in &self.spots {
+            let flag = format!("--spot-light {spec}");
+            let [p, d, i, cones] = fields(spec, &flag, "X,Y,Z:DX,DY,DZ:R,G,B:INNER,OUTER")?;
+            let cones = numbers(cones, &flag)?;
+            let [inner, outer] = cones[..] else {
+                bail!("{flag}: the cones are two angles in degrees, INNER,OUTER");
+            };
+            lights.push(Light::Spot {
+                position: triple(p, &flag)?,
+                direction: triple(d, &flag)?,
+                intensity: triple(i, &flag)?,
+                inner: inner.to_radians(),
+                outer: outer.to_radians(),
+            });
+        }
+        for spec in &self.suns {
+            let flag = format!("--sun {spec}");
+            let [d, e] = fields(spec, &flag, "DX,DY,DZ:R,G,B")?;
+            lights.push(Light::Directional {
+                direction: triple(d, &flag)?,
+                irradiance: triple(e, &flag)?,
+            });
+        }
+        if let Some(spec) = &self.sky {
+            sky = Some(Sky::Uniform {
+                radiance: triple(spec, &format!("--sky {spec}"))?,
+            });
+        }
+        for (i, light) in lights.iter().enumerate() {
+            light
+                .check()
+                .map_err(|p| anyhow::anyhow!("light {i} ({light:?}): {p}"))?;
+        }
+        if let Some(s) = &sky {
+            s.check().map_err(|p| anyhow::anyhow!("the sky: {p}"))?;
+        }
+        if !(1..=64).contains(&self.light_samples) {
+            bail!("--light-samples {}: use 1 to 64", self.light_samples);
+        }
+        Ok(FrameLights {
+            lights,
+            sky,
+            samples: self.light_samples,
+        })
+    }
+}
+
+/// `spec` split at `:` into `N` fields, or an error showing the `shape`.
+fn fields<'s, const N: usize>(spec: &'s str, flag: &str, shape: &str) -> Result<[&'s str; N]> {
+    let parts: Vec<&str> = spec.split(':').collect();
+    parts
+        .try_into()
+        .map_err(|_| anyhow::anyhow!("{flag}: expected {shape}"))
+}
+
+/// Comma-separated finite numbers.
+fn numbers(text: &str, flag: &str) -> Result<Vec<f32>> {
+    text.split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<f32>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .with_context(|| format!("{flag}: '{t}' is not a finite number"))
+        })
+        .collect()
+}
+
+/// Three comma-separated finite numbers.
+fn triple(text: &str, flag: &str) -> Result<[f32; 3]> {
+    let v = numbers(text, flag)?;
+    <[f32; 3]>::try_from(v.as_slice())
+        .map_err(|_| anyhow::anyhow!("{flag}: '{text}' is not three numbers X,Y,Z"))
 }
 
 /// `--device`: which evaluator computes the frame.
@@ -200,4 +339,100 @@ fn gpu_radiosity(op: &Operator, lighting: &Lighting) -> Result<Vec<[f32; 3]>, Gp
         Lighting::Emission(e) => eval.evaluate(Rgb::triples(e), RgbMut::triples(&mut b))?,
     }
     Ok(b)
+}
+
+/// A frame with its lights that are not surfaces: the radiosity `B` of the emission plus the
+/// lights' reflected direct light, and what a display interpolates over the surface (`B` less
+/// the point-shaded lights' part, `ρ ⊙ H` per element) before it adds the direct light at the
+/// shaded point itself ([`Frame::at`]).
+pub struct Frame {
+    /// `B` per element, original ids.
+    pub radiosity: Vec<[f32; 3]>,
+    /// `B − ρ ⊙ H_lights` per element (the sky's direct light stays in: it has no per-point
+    /// value); the radiosity itself when the frame has no lights.
+    pub shown: Vec<[f32; 3]>,
+    /// The frame's point, spot and directional lights.
+    pub lights: Vec<Light>,
+    /// Reflectance per element, original ids.
+    pub reflectance: Vec<[f32; 3]>,
+    /// The direct pass, when the frame has lights or a sky.
+    pub pass: Option<DirectLighting>,
+    /// What the direct pass traced.
+    pub report: DirectReport,
+}
+
+impl Frame {
+    /// The direct irradiance times the reflectance of `element` at point `x` of a face with
+    /// front normal `normal` (zero without point-shaded lights).
+    pub fn at(&self, element: usize, x: [f32; 3], normal: [f32; 3]) -> [f32; 3] {
+        match &self.pass {
+            Some(pass) if !self.lights.is_empty() => {
+                let h = pass.at(&self.lights, x, normal);
+                let rho = self.reflectance[element];
+                [rho[0] * h[0], rho[1] * h[1], rho[2] * h[2]]
+            }
+            _ => [0.0; 3],
+        }
+    }
+}
+
+/// The frame of `lighting` and `lights` on `device`. Without lights and sky: the evaluator's
+/// frame alone (no direct pass, no ray). With them: the direct pass on the CPU (its shadow
+/// rays through the file's BVH; an error when the file has none), then the frame of the
+/// emission plus `ρ ⊙ H`.
+pub fn frame(
+    op: &Operator,
+    lighting: &Lighting,
+    lights: &FrameLights,
+    device: Device,
+) -> Result<Frame> {
+    let reflectance = op.reflectance();
+    if lights.is_empty() {
+        let b = radiosity(op, lighting, device)?;
+        return Ok(Frame {
+            shown: b.clone(),
+            radiosity: b,
+            lights: Vec::new(),
+            reflectance,
+            pass: None,
+            report: DirectReport::default(),
+        });
+    }
+    let n = op.n();
+    let mut pass = DirectLighting::new(op.file(), lights.samples, 0)
+        .map_err(|e| anyhow::anyhow!("the direct pass of the frame's lights: {e}"))?;
+    let mut h = vec![[0.0f32; 3]; n];
+    let mut report = pass.irradiance(&lights.lights, &mut h)?;
+    let mut h_sky = vec![[0.0f32; 3]; n];
+    if let Some(sky) = &lights.sky {
+        let r = pass.sky_irradiance(sky, &mut h_sky)?;
+        report.rays += r.rays;
+    }
+    let base = match lighting {
+        Lighting::Baked => op.baked_emission(),
+        Lighting::Groups(a) => op.group_emission(a)?,
+        Lighting::Emission(e) => e.clone(),
+    };
+    let mut e = vec![[0.0f32; 3]; n];
+    let total: Vec<[f32; 3]> = h
+        .iter()
+        .zip(&h_sky)
+        .map(|(a, b)| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
+        .collect();
+    reflected(&reflectance, &total, &base, &mut e)?;
+    let b = radiosity(op, &Lighting::Emission(e), device)?;
+    let shown = b
+        .iter()
+        .zip(&h)
+        .zip(&reflectance)
+        .map(|((b, h), r)| std::array::from_fn(|c| b[c] - r[c] * h[c]))
+        .collect();
+    Ok(Frame {
+        radiosity: b,
+        shown,
+        lights: lights.lights.clone(),
+        reflectance,
+        pass: Some(pass),
+        report,
+    })
 }

@@ -1,5 +1,7 @@
 //! `lrr probe`: radiosity at surface points, smooth (interpolated from the file's per-vertex
-//! weights, `lrr_runtime::Reconstruction`) or flat (the value of the element the point falls in).
+//! weights, `lrr_runtime::Reconstruction`) or flat (the value of the element the point falls in),
+//! plus the direct light of the frame's lights that are not surfaces at the point itself
+//! (`emission::Frame::at`: `ρ H(x)`, each light behind its own shadow ray).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -9,7 +11,7 @@ use clap::Args;
 use lrr_runtime::Operator;
 use serde::{Deserialize, Serialize};
 
-use crate::emission::{Device, EmissionArgs, Reconstruct, radiosity, reconstruction};
+use crate::emission::{Device, EmissionArgs, Reconstruct, frame, reconstruction};
 
 #[derive(Debug, Args)]
 pub struct ProbeArgs {
@@ -67,13 +69,16 @@ pub fn run(a: &ProbeArgs, out: &mut dyn Write) -> Result<()> {
         }
     }
     let lighting = a.emission.lighting(&op)?;
-    let radiosity = radiosity(&op, &lighting, a.device)?;
+    let lights = a.emission.lights.lights(&op)?;
+    let frame = frame(&op, &lighting, &lights, a.device)?;
     let smooth = reconstruction(&op, a.reconstruct, &a.file)?;
     let mut vertices = Vec::new();
     if let Some(r) = &smooth {
         vertices = vec![[0.0f32; 3]; r.vertex_count()];
-        r.vertex_values(&radiosity, &mut vertices)?;
+        r.vertex_values(&frame.shown, &mut vertices)?;
     }
+    let faces = op.file().faces();
+    let normals = &faces.geometry.normals;
     let probes: Vec<Probe> = points
         .iter()
         .map(|p| {
@@ -81,13 +86,22 @@ pub fn run(a: &ProbeArgs, out: &mut dyn Write) -> Result<()> {
             let face = op
                 .locate_face(p.position, p.normal)
                 .expect("an operator has at least one element");
-            let element = op.file().order[op.file().faces().element(face)];
+            let element = op.file().order[faces.element(face)];
+            // The bounced light over the surface, plus the lights' direct light at the point
+            // (its own shadow rays, on the face's front).
+            let bounced = match &smooth {
+                Some(r) => r.at(&vertices, face, p.position),
+                None => frame.shown[element as usize],
+            };
+            let normal = [
+                normals[3 * face],
+                normals[3 * face + 1],
+                normals[3 * face + 2],
+            ];
+            let direct = frame.at(element as usize, p.position, normal);
             Probe {
                 position: p.position,
-                radiosity: match &smooth {
-                    Some(r) => r.at(&vertices, face, p.position),
-                    None => radiosity[element as usize],
-                },
+                radiosity: std::array::from_fn(|c| bounced[c] + direct[c]),
                 element,
             }
         })

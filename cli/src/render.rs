@@ -87,13 +87,49 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
         Lighting::Groups(g) => g.clone(),
         _ => vec![1.0; op.light_groups().len()],
     };
+    let lights = a.emission.lights.lights(&op)?;
+    if a.device == TraceDevice::Gpu && !lights.is_empty() {
+        bail!(
+            "--device gpu: the GPU tracer does not shade lights that are not surfaces yet (this \
+             frame has {} and {}); render on the CPU, or leave them out with --no-file-lights",
+            plural(lights.lights.len(), "light"),
+            if lights.sky.is_some() {
+                "a sky"
+            } else {
+                "no sky"
+            }
+        );
+    }
     let (image, decision, rays, seconds) = match a.device {
         TraceDevice::Cpu => {
-            let radiosity = emission::radiosity(&op, &lighting, emission::Device::Cpu)?;
+            let frame = emission::frame(&op, &lighting, &lights, emission::Device::Cpu)?;
+            if a.explain && !lights.is_empty() {
+                writeln!(
+                    out,
+                    "direct pass: {} and {}, {} samples per element: {} shadow rays",
+                    plural(lights.lights.len(), "light"),
+                    if lights.sky.is_some() {
+                        "a sky"
+                    } else {
+                        "no sky"
+                    },
+                    lights.samples,
+                    frame.report.rays
+                )?;
+            } else if a.explain {
+                writeln!(
+                    out,
+                    "direct pass: none (no point light of no group, spot, sun or sky): no \
+                     shadow rays for it"
+                )?;
+            }
             let frame = TraceLighting {
-                radiosity: &radiosity,
+                radiosity: &frame.shown,
                 group_intensities: &groups,
-                direct: None,
+                direct: Some(lrr_runtime::trace::DirectShading {
+                    lights: &frame.lights,
+                    reflectance: &frame.reflectance,
+                }),
             };
             let start = Instant::now();
             let (image, report) = tracer.render(&view, &frame, w, h, a.threads.unwrap_or(0))?;
@@ -154,4 +190,13 @@ fn render_gpu(
     let seconds = start.elapsed().as_secs_f64();
     let rays = report.rays.unwrap_or_default();
     Ok((image, report.decision, rays, seconds))
+}
+
+/// `n thing(s)`.
+fn plural(n: usize, thing: &str) -> String {
+    if n == 1 {
+        format!("1 {thing}")
+    } else {
+        format!("{n} {thing}s")
+    }
 }

@@ -39,6 +39,7 @@ pub mod error;
 pub mod exact;
 pub mod formfactor;
 pub mod geometry;
+pub mod lights;
 mod memory;
 pub mod mesh;
 pub mod patches;

@@ -107,6 +107,39 @@ impl Operator {
         self.per_element(&self.file.emission)
     }
 
+    /// The emission of light-group intensities `a_g` (one per
+    /// [`light_groups`](Self::light_groups) entry, finite, >= 0) per element, original ids:
+    /// `E = Σ_g a_g E_g` (what [`Operator::evaluate_groups`] bounces).
+    pub fn group_emission(&self, intensities: &[f32]) -> Result<Vec<[f32; 3]>, RuntimeError> {
+        let groups = &self.file.lights;
+        if intensities.len() != groups.len() {
+            return Err(crate::error::input(format!(
+                "light group intensities: {} values for the file's {} groups",
+                intensities.len(),
+                groups.len()
+            )));
+        }
+        if let Some(g) = intensities
+            .iter()
+            .position(|a| !(a.is_finite() && *a >= 0.0))
+        {
+            return Err(crate::error::input(format!(
+                "light group intensity {g} is {}; intensities must be finite and >= 0",
+                intensities[g]
+            )));
+        }
+        let mut out = vec![[0.0f32; 3]; self.n()];
+        for (g, &a) in groups.iter().zip(intensities) {
+            for (&s, e) in g.positions.iter().zip(g.emission.chunks_exact(3)) {
+                let o = &mut out[self.file.order[s as usize] as usize];
+                for c in 0..3 {
+                    o[c] += a * e[c];
+                }
+            }
+        }
+        Ok(out)
+    }
+
     /// Reflectance per element in original id order (after any albedo edit).
     pub fn reflectance(&self) -> Vec<[f32; 3]> {
         self.per_element(&self.file.reflectance)

@@ -68,6 +68,7 @@ use crate::geometry::Polygon;
 use crate::geometry::Region;
 use crate::geometry::cluster::{self, Unit};
 use crate::geometry::hash::mix;
+use crate::lights::{LightsOwned, SceneLights};
 use crate::mesh::subdivide::{self, Piece};
 use crate::mesh::{Element, MeshSizes};
 use crate::visibility::Occluder;
@@ -130,6 +131,25 @@ pub(crate) struct Probes<'a> {
     pub occluder: Option<&'a dyn Occluder>,
     /// What view seeds are measured from ([`view_seed`]).
     pub frame: SeedFrame,
+    /// The scene's lights that are not surfaces: their reflected direct light is emission to
+    /// every estimate (`crate::lights`).
+    pub lights: LightsOwned,
+}
+
+impl Probes<'_> {
+    /// The scene's lights that are not surfaces, shadowed by the probes' occluder.
+    pub(crate) fn lights(&self) -> SceneLights<'_> {
+        SceneLights::new(&self.lights, self.occluder)
+    }
+
+    /// `ρ H` at `x` (mean over the channels): the reflected direct light of the lights that
+    /// are not surfaces, for a surface of mean reflectance `rho`.
+    pub(crate) fn direct(&self, rho: f64, x: DVec3, normal: DVec3) -> f64 {
+        if self.lights.is_empty() {
+            return 0.0;
+        }
+        rho * self.lights().mean_irradiance(x, normal)
+    }
 }
 
 /// The scene's bounding-box corner and extent: view seeds hash positions relative to them, so
@@ -151,6 +171,7 @@ impl<'a> Probes<'a> {
         emission: Vec<f64>,
         occluder: Option<&'a dyn Occluder>,
         frame: SeedFrame,
+        lights: LightsOwned,
     ) -> Result<Self> {
         let q = targets.len();
         let mut probes = Self {
@@ -162,7 +183,23 @@ impl<'a> Probes<'a> {
             elements: vec![0.0; q],
             occluder,
             frame,
+            lights,
         };
+        // The lights' reflected direct light at each probe's representative point.
+        let mut emission = emission;
+        if !probes.lights.is_empty() {
+            let direct: Vec<f64> = (0..q)
+                .into_par_iter()
+                .map(|i| {
+                    let t = &probes.targets[i];
+                    let part = t.nearest_part(t.centroid());
+                    probes.direct(probes.reflectance[i], part.centroid(), part.normal)
+                })
+                .collect();
+            for (e, d) in emission.iter_mut().zip(direct) {
+                *e += d;
+            }
+        }
         let mut f = vec![0.0; q * q];
         f.par_chunks_mut(q.max(1)).enumerate().for_each(|(i, row)| {
             let t = &probes.targets[i];
@@ -410,7 +447,8 @@ impl Ctx<'_> {
             let mut f = vec![0.0; q];
             view(probes, x, normal, &mut f);
             let gathered: f64 = f.iter().zip(&probes.radiosity).map(|(f, b)| f * b).sum();
-            views.push((a, m.emission + m.reflectance * gathered, f));
+            let direct = probes.direct(m.reflectance, x, normal);
+            views.push((a, m.emission + direct + m.reflectance * gathered, f));
             area += a;
         }
         let mean_b = views.iter().map(|(a, b, _)| a * b).sum::<f64>() / area;

@@ -129,7 +129,9 @@ pub(crate) fn msc_inputs<'a>(
         origin,
         extent: scene.extent(),
     };
-    let mut probes = coherence::Probes::new(targets, reflectance, emission, occluder, frame)?;
+    let lights = crate::lights::LightsOwned::of(scene);
+    let mut probes =
+        coherence::Probes::new(targets, reflectance, emission, occluder, frame, lights)?;
     for e in &probed {
         probes.elements[e.patch as usize] += 1.0;
     }

@@ -304,6 +304,53 @@ pub fn sh9(w: [f32; 3]) -> [f32; 9] {
     ]
 }
 
+/// The lights a file holds that the direct pass shades: its point lights that follow no light
+/// group (a point light of a group is the highlight of that group's emitting surface, whose
+/// light the radiosity already carries), its spot and directional lights (section
+/// DIRECT_LIGHTS), and its sky.
+pub fn file_lights(file: &OperatorFile) -> (Vec<Light>, Option<Sky>) {
+    use lrr_formats::{DirectLightKind as Kind, PointLight};
+    let mut lights: Vec<Light> = file
+        .display
+        .point_lights
+        .iter()
+        .filter(|l| l.group == PointLight::FIXED)
+        .map(|l| Light::Point {
+            position: l.position,
+            intensity: l.intensity,
+        })
+        .collect();
+    let mut sky = None;
+    for l in &file.display.direct_lights {
+        match l.kind {
+            Kind::Spot => lights.push(Light::Spot {
+                position: l.position,
+                direction: l.direction,
+                intensity: l.strength,
+                inner: l.extra[0],
+                outer: l.extra[1],
+            }),
+            Kind::Directional => lights.push(Light::Directional {
+                direction: l.direction,
+                irradiance: l.strength,
+            }),
+            Kind::UniformSky => {
+                sky = Some(Sky::Uniform {
+                    radiance: l.strength,
+                })
+            }
+            Kind::GradientSky => {
+                sky = Some(Sky::Gradient {
+                    zenith: l.strength,
+                    horizon: l.extra,
+                    up: l.direction,
+                })
+            }
+        }
+    }
+    (lights, sky)
+}
+
 /// `out[i] = base[i] + ρ[i] ⊙ h[i]`: the emission a frame gives the operator (the baked or
 /// group emission `base` plus the lights' reflected direct light).
 pub fn reflected(

@@ -69,7 +69,8 @@ mod tracer;
 pub use batch::{RayBatch, TraceHit};
 pub use camera::{CameraChoiceError, CameraFields, View};
 pub use direct::{
-    DEFAULT_SAMPLES, DirectLighting, DirectReport, Light, Sky, reflected, sh9, spot_falloff,
+    DEFAULT_SAMPLES, DirectLighting, DirectReport, Light, Sky, file_lights, reflected, sh9,
+    spot_falloff,
 };
 pub use effects::{DEFAULT_MAX_DEPTH, Decision, Effects, MAX_DEPTH_LIMIT};
 pub use shade::RayCounts;

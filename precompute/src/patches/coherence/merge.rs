@@ -325,7 +325,8 @@ pub(crate) fn merge(
             let mut f = vec![0.0; q];
             far.view(probes, e.polygon.centroid(), e.polygon.normal, &mut f);
             let gathered: f64 = f.iter().zip(&probes.radiosity).map(|(f, b)| f * b).sum();
-            let b = m.emission + m.reflectance * gathered;
+            let direct = probes.direct(m.reflectance, e.polygon.centroid(), e.polygon.normal);
+            let b = m.emission + direct + m.reflectance * gathered;
             let a = e.polygon.area();
             let s = f
                 .iter()
