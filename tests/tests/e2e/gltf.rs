@@ -282,6 +282,7 @@ pub fn room() -> Builder {
     b.push(
         "nodes",
         json!({"name": "eye", "camera": 0, "translation": [0.0, -3.0, 0.5],
+        "extensions": {"KHR_lights_punctual": {"light": 2}},
         "rotation": [std::f32::consts::FRAC_1_SQRT_2, 0.0, 0.0, std::f32::consts::FRAC_1_SQRT_2]}),
     );
     b.push(
@@ -304,7 +305,9 @@ pub fn room() -> Builder {
         "extensions".into(),
         json!({"KHR_lights_punctual": {"lights": [
         {"name": "bulb", "type": "point", "color": [1.0, 0.5, 0.25], "intensity": 4.0},
-        {"name": "sun", "type": "directional", "intensity": 2.0}]}}),
+        {"name": "sun", "type": "directional", "intensity": 2.0},
+        {"name": "torch", "type": "spot", "color": [1.0, 1.0, 0.5], "intensity": 3.0,
+         "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}}]}}),
     );
     b.doc.insert(
         "extensionsUsed".into(),
@@ -459,15 +462,31 @@ fn room_imports_with_its_transforms_materials_camera_and_lights() {
     assert!(close(cam.target, [0.0, -2.0, 0.5], 1e-6), "{cam:?}");
     assert!(close(cam.up, [0.0, 0.0, 1.0], 1e-6), "{cam:?}");
     assert!((cam.fov_y_deg - f64::from(0.8f32).to_degrees()).abs() < 1e-9);
-    // One point light (colour × intensity); the directional one warned about by name.
+    // One point light (colour × intensity); the sun along its node's −z (no transform: down),
+    // white × 2; the spot at the eye, along the eye node's −z (+y), its cones as given.
     assert_eq!(s.point_lights.len(), 1);
     assert_eq!(s.point_lights[0].name, "bulb");
     assert!(close(s.point_lights[0].position, [0.0, 0.0, 0.8], 1e-6));
     assert!(close(s.point_lights[0].intensity, [4.0, 2.0, 1.0], 1e-6));
+    assert_eq!(s.direct_lights.len(), 2, "{:?}", s.direct_lights);
+    let sun = s.direct_lights.iter().find(|l| l.name == "sun").unwrap();
+    assert_eq!(sun.kind, lrr_formats::DirectLightKind::Directional);
+    assert!(close(sun.direction, [0.0, 0.0, -1.0], 1e-9), "{sun:?}");
+    assert!(close(sun.strength, [2.0; 3], 1e-9));
+    let torch = s.direct_lights.iter().find(|l| l.name == "torch").unwrap();
+    assert_eq!(torch.kind, lrr_formats::DirectLightKind::Spot);
+    assert!(close(torch.position, [0.0, -3.0, 0.5], 1e-6));
+    assert!(close(torch.direction, [0.0, 1.0, 0.0], 1e-6), "{torch:?}");
+    assert!(close(torch.strength, [3.0, 3.0, 1.5], 1e-9));
+    assert!(close(
+        torch.extra,
+        [f64::from(0.2f32), f64::from(0.5f32), 0.0],
+        1e-12
+    ));
     assert!(
-        s.warnings
+        !s.warnings
             .iter()
-            .any(|w| w.contains("'sun'") && w.contains("directional")),
+            .any(|w| w.contains("'sun'") || w.contains("'torch'")),
         "{:?}",
         s.warnings
     );
@@ -501,6 +520,31 @@ fn room_bakes_like_its_description() {
             toml += &format!("  {v:?},\n");
         }
         toml += "]\n";
+    }
+    // Its lights too: they light the bake's estimates, so they shape its patches.
+    for l in &scene.point_lights {
+        toml += &format!(
+            "[[point_light]]\nname = \"{}\"\nposition = {:?}\nintensity = {:?}\n",
+            l.name, l.position, l.intensity
+        );
+    }
+    for l in &scene.direct_lights {
+        toml += &match l.kind {
+            lrr_formats::DirectLightKind::Spot => format!(
+                "[[spot_light]]\nname = \"{}\"\nposition = {:?}\ndirection = {:?}\n\
+                 intensity = {:?}\ninner_cone_deg = {:?}\nouter_cone_deg = {:?}\n",
+                l.name,
+                l.position,
+                l.direction,
+                l.strength,
+                l.extra[0].to_degrees(),
+                l.extra[1].to_degrees()
+            ),
+            _ => format!(
+                "[[directional_light]]\nname = \"{}\"\ndirection = {:?}\nirradiance = {:?}\n",
+                l.name, l.direction, l.strength
+            ),
+        };
     }
     let desc_path = write(&dir, "room.toml", toml.as_bytes());
     let a = dir.join("gltf.lrr");

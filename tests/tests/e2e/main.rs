@@ -13,6 +13,7 @@ mod fuzz_replay;
 mod gltf;
 mod gltf_textures;
 mod import;
+mod lights;
 mod meshing;
 mod real_scenes;
 mod reference;

@@ -18,12 +18,12 @@ use serde_json::Value;
 use crate::util::{bake, cornell, root, temp_dir};
 
 /// One reference point: where, which surface, and the path tracer's B with its stderr.
-struct RefPoint {
-    surface: String,
-    position: [f64; 3],
-    normal: [f64; 3],
-    b: [f64; 3],
-    stderr: [f64; 3],
+pub(super) struct RefPoint {
+    pub surface: String,
+    pub position: [f64; 3],
+    pub normal: [f64; 3],
+    pub b: [f64; 3],
+    pub stderr: [f64; 3],
 }
 
 fn data_dir() -> PathBuf {
@@ -36,7 +36,7 @@ fn triple(v: &Value) -> [f64; 3] {
 }
 
 /// The committed reference `NAME.json`: its document and its points.
-fn load_reference(name: &str) -> (Value, Vec<RefPoint>) {
+pub(super) fn load_reference(name: &str) -> (Value, Vec<RefPoint>) {
     let path = data_dir().join(format!("{name}.json"));
     let text = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("{}: {e} (made by scripts/reference/run.py)", path.display()));
@@ -56,11 +56,11 @@ fn load_reference(name: &str) -> (Value, Vec<RefPoint>) {
     (doc, points)
 }
 
-fn scene_path(doc: &Value) -> PathBuf {
+pub(super) fn scene_path(doc: &Value) -> PathBuf {
     root().join(doc["scene"].as_str().unwrap())
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(super) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -73,7 +73,7 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
         a[0] * b[1] - a[1] * b[0],
     ]
 }
-fn l1(a: [f64; 3]) -> f64 {
+pub(super) fn l1(a: [f64; 3]) -> f64 {
     a.iter().map(|x| x.abs()).sum()
 }
 
@@ -108,7 +108,7 @@ fn assert_points_on_scene(scene: &Path, points: &[RefPoint]) {
 }
 
 /// Quantile `q` of `v` (nearest rank on the sorted values).
-fn quantile(v: &[f64], q: f64) -> f64 {
+pub(super) fn quantile(v: &[f64], q: f64) -> f64 {
     let mut s = v.to_vec();
     s.sort_by(f64::total_cmp);
     s[((q * (s.len() - 1) as f64).round() as usize).min(s.len() - 1)]
@@ -116,15 +116,15 @@ fn quantile(v: &[f64], q: f64) -> f64 {
 
 /// Median, 90th percentile and max of the per-point relative error, and the reference's noise.
 #[derive(Debug)]
-struct Errors {
-    median: f64,
-    p90: f64,
-    max: f64,
-    noise_median: f64,
-    noise_p90: f64,
+pub(super) struct Errors {
+    pub median: f64,
+    pub p90: f64,
+    pub max: f64,
+    pub noise_median: f64,
+    pub noise_p90: f64,
 }
 
-fn errors(points: &[RefPoint], values: &[[f64; 3]]) -> Errors {
+pub(super) fn errors(points: &[RefPoint], values: &[[f64; 3]]) -> Errors {
     let rel: Vec<f64> = points
         .iter()
         .zip(values)
