@@ -32,6 +32,9 @@ pub enum BenchKind {
     /// single-ray queries on the same rays, one thread; whole frames with the decided effects
     /// against all forced on.
     Render(crate::bench_render::RenderBench),
+    /// Relit frames per second with moving point lights: the direct pass (shadow rays per
+    /// second) and the operator's frame, each timed, against the same lights standing still.
+    Lights(crate::bench_lights::LightsBench),
 }
 
 #[derive(Debug, Args)]
@@ -112,6 +115,7 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
         BenchKind::Runtime(b) => b,
         BenchKind::Visibility(v) => return crate::bench_visibility::run(v, out),
         BenchKind::Render(r) => return crate::bench_render::run(r, out),
+        BenchKind::Lights(l) => return crate::bench_lights::run(l, out),
     };
     if b.device != crate::emission::Device::Cpu {
         let operators = Operators {

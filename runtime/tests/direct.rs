@@ -455,7 +455,7 @@ fn bad_lights_and_sizes_are_refused_with_the_reason() {
         assert!(e.contains("light 0") && e.contains(word), "{e}");
     }
     let e = pass
-        .irradiance(&[], &mut vec![[0.0; 3]; 3])
+        .irradiance(&[], &mut [[0.0; 3]; 3])
         .unwrap_err()
         .to_string();
     assert!(e.contains("3 values for 4 elements"), "{e}");

@@ -8,11 +8,17 @@
 //!   [`Reconstruction`], smooth-vertex values interpolated by mean value coordinates; corners
 //!   of one smooth vertex are one exported vertex;
 //! - flat: the element's value over each of its faces; no corners are shared.
+//!
+//! A frame with lights that are not surfaces ([`Field::with_direct`]) reconstructs the bounced
+//! light (`emission::Frame::shown`) and adds the direct light at the point or corner itself, so
+//! shadow edges in a lightmap are as sharp as its texels, not as coarse as the elements.
 
 use anyhow::Result;
 use glam::DVec3;
 use lrr_formats::{OperatorData, OperatorFile};
 use lrr_runtime::Reconstruction;
+
+use crate::emission::Frame;
 
 /// A frame's radiosity `B` (W/m² of exitance per channel, like the operator's) over the surface.
 pub struct Field<'f> {
@@ -23,6 +29,8 @@ pub struct Field<'f> {
     hidden: Vec<bool>,
     /// The smooth reconstruction, this frame's smooth-vertex values and SMOOTH's corners.
     smooth: Option<SmoothFrame<'f>>,
+    /// The frame's lights that are not surfaces, added per point; with the display faces.
+    direct: Option<(&'f Frame, &'f OperatorFile)>,
 }
 
 type SmoothFrame<'f> = (Reconstruction<'f>, Vec<[f32; 3]>, &'f [u32]);
@@ -55,7 +63,29 @@ impl<'f> Field<'f> {
             values,
             hidden,
             smooth,
+            direct: None,
         })
+    }
+
+    /// The field of `frame` (made with [`Field::new`] from `frame.shown`): the bounced light
+    /// reconstructed over the surface plus the direct light of the frame's lights at each
+    /// point.
+    pub fn with_direct(mut self, frame: &'f Frame, file: &'f OperatorFile) -> Self {
+        if !frame.lights.is_empty() {
+            self.direct = Some((frame, file));
+        }
+        self
+    }
+
+    /// `ρ H` of the frame's lights at `point` of display face `s`.
+    fn direct_at(&self, s: usize, point: [f32; 3]) -> [f32; 3] {
+        let Some((frame, file)) = self.direct else {
+            return [0.0; 3];
+        };
+        let faces = file.faces();
+        let element = file.order[faces.element(s)] as usize;
+        let n = faces.geometry.normal(s);
+        frame.at(element, point, n)
     }
 
     /// Whether display face `s` is black in every frame because its element sees nothing (its
@@ -66,22 +96,25 @@ impl<'f> Field<'f> {
 
     /// `B` at `point` of display face `s`.
     pub fn at(&self, s: usize, point: DVec3) -> [f32; 3] {
-        match &self.smooth {
-            Some((r, vertices, _)) => r.at(
-                vertices,
-                s,
-                [point.x as f32, point.y as f32, point.z as f32],
-            ),
+        let p = [point.x as f32, point.y as f32, point.z as f32];
+        let b = match &self.smooth {
+            Some((r, vertices, _)) => r.at(vertices, s, p),
             None => self.values[s],
-        }
+        };
+        add(b, self.direct_at(s, p))
     }
 
     /// `B` at corner `c` of display face `s`.
     pub fn corner(&self, s: usize, c: usize) -> [f32; 3] {
-        match &self.smooth {
+        let b = match &self.smooth {
             Some((r, vertices, _)) => r.corner_value(vertices, s, c),
             None => self.values[s],
-        }
+        };
+        let Some((_, file)) = self.direct else {
+            return b;
+        };
+        let v = &file.faces().geometry.vertices[12 * s + 3 * c..12 * s + 3 * c + 3];
+        add(b, self.direct_at(s, [v[0], v[1], v[2]]))
     }
 
     /// A key equal for corners that are one vertex of the exported mesh: the smooth vertex, or
@@ -119,4 +152,8 @@ fn hidden(file: &OperatorFile) -> Vec<bool> {
             dark && sees_nothing
         })
         .collect()
+}
+
+fn add(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }

@@ -24,7 +24,7 @@ use anyhow::{Result, bail};
 use clap::Args;
 use lrr_runtime::{Operator, RgbMut};
 
-use crate::emission::{EmissionArgs, Lighting, Reconstruct, radiosity_cpu, reconstruction};
+use crate::emission::{self, EmissionArgs, Lighting, Reconstruct, reconstruction};
 use crate::exr_image::{self, ExrSamples, RgbLayer};
 use atlas::{Layout, Sizing};
 use charts::Chart;
@@ -338,13 +338,35 @@ fn export_exr(
     let lay = lay_out(a, op)?;
     let (width, height) = lay.size();
     let smooth = reconstruction(op, a.reconstruct, &a.file)?;
+    let lights = a.emission.lights.lights(op)?;
+    // The lights that are not surfaces: in the frame of all groups, or a layer of their own.
+    let mut lit = None;
     let frames = match a.layers {
-        Layers::All => vec![(None, radiosity_cpu(op, lighting)?)],
-        Layers::Groups => group_frames(op, lighting)?,
+        Layers::All => {
+            let frame = emission::frame(op, lighting, &lights, emission::Device::Cpu)?;
+            let b = frame.shown.clone();
+            lit = Some((0, frame));
+            vec![(None, b)]
+        }
+        Layers::Groups => {
+            let mut frames = group_frames(op, lighting)?;
+            if !lights.is_empty() {
+                let dark = Lighting::Emission(vec![[0.0; 3]; op.n()]);
+                let frame = emission::frame(op, &dark, &lights, emission::Device::Cpu)?;
+                lit = Some((frames.len(), frame));
+                frames.push((Some("lights".to_string()), Vec::new()));
+            }
+            frames
+        }
     };
     let mut atlases: Vec<(Option<String>, Atlas)> = Vec::new();
-    for (name, b) in &frames {
-        let field = Field::new(op.file(), b, smooth)?;
+    for (i, (name, b)) in frames.iter().enumerate() {
+        let field = match &lit {
+            Some((j, frame)) if *j == i => {
+                Field::new(op.file(), &frame.shown, smooth)?.with_direct(frame, op.file())
+            }
+            _ => Field::new(op.file(), b, smooth)?,
+        };
         atlases.push((name.clone(), lightmap_atlas(op, &field, &lay)));
     }
     let layers: Vec<RgbLayer> = atlases
@@ -356,7 +378,7 @@ fn export_exr(
         .collect();
     let note = format!(
         "exitant radiance B/pi (linear RGB, emission units per sr), reconstruction {}, {}",
-        Field::new(op.file(), &frames[0].1, smooth)?.method(),
+        Field::new(op.file(), &vec![[0.0; 3]; op.n()], smooth)?.method(),
         lay.describe()
     );
     exr_image::write_rgb(&a.output, width, height, &layers, a.samples, &note)?;
@@ -433,10 +455,11 @@ fn export_gltf(
     binary: bool,
     out: &mut dyn Write,
 ) -> Result<()> {
-    let radiosity = radiosity_cpu(op, lighting)?;
+    let lights = a.emission.lights.lights(op)?;
+    let frame = emission::frame(op, lighting, &lights, emission::Device::Cpu)?;
     let g = op.file().faces().geometry;
     let smooth = reconstruction(op, a.reconstruct, &a.file)?;
-    let field = Field::new(op.file(), &radiosity, smooth)?;
+    let field = Field::new(op.file(), &frame.shown, smooth)?.with_direct(&frame, op.file());
     let exposure = a
         .exposure
         .unwrap_or_else(|| gltf::auto_exposure(op.file(), &field));
