@@ -528,21 +528,28 @@ impl DirectLighting {
         }
         let mut report = DirectReport::default();
         self.cache.truncate(lights.len());
+        // The lights to trace: neither dark nor where they were in the same slot last frame.
+        let mut todo: Vec<(usize, Light)> = Vec::new();
         for (i, light) in lights.iter().enumerate() {
             let shape = light.shape();
             if light.strength() == [0.0; 3] || self.cache.get(i).is_some_and(|(s, _)| *s == shape) {
-                // Dark (nothing to trace; the slot keeps what it held) or not moved.
                 report.cached += 1;
-                continue;
+            } else {
+                todo.push((i, shape));
             }
-            let (term, rays) = self.trace_light(&shape);
-            report.traced += 1;
+        }
+        if !todo.is_empty() {
+            let shapes: Vec<Light> = todo.iter().map(|&(_, l)| l).collect();
+            let (terms, rays) = self.trace_lights(&shapes);
+            report.traced += todo.len() as u32;
             report.rays += rays;
-            // Slots below i that were dark and never traced hold an empty placeholder.
-            while self.cache.len() <= i {
-                self.cache.push((shape, Vec::new()));
+            for ((i, shape), term) in todo.into_iter().zip(terms) {
+                // Slots below i that were dark and never traced hold an empty placeholder.
+                while self.cache.len() <= i {
+                    self.cache.push((shape, Vec::new()));
+                }
+                self.cache[i] = (shape, term);
             }
-            self.cache[i] = (shape, term);
         }
         h.iter_mut().for_each(|x| *x = [0.0; 3]);
         for (light, (_, term)) in lights.iter().zip(&self.cache) {
@@ -602,54 +609,105 @@ impl DirectLighting {
         at_point(&self.scene, lights, x, normal, &mut 0)
     }
 
-    /// One light's irradiance per unit strength per element (original ids), and the rays cast.
-    fn trace_light(&self, light: &Light) -> (Vec<f32>, u64) {
+    /// Each light's irradiance per unit strength per element (original ids), and the rays
+    /// cast. `threads` workers take chunks of elements from a shared counter; an element's
+    /// rays to one light go as a packet of four (`occluded4`) when four samples face it.
+    fn trace_lights(&self, lights: &[Light]) -> (Vec<Vec<f32>>, u64) {
         let n = self.n();
-        let s = self.per_element;
-        let mut term = vec![0.0f32; n];
-        let chunk = n.div_ceil(self.threads * 8).max(64);
-        let eps = self.scene.epsilon;
-        let rays: u64 = std::thread::scope(|scope| {
-            let handles: Vec<_> = term
-                .chunks_mut(chunk)
-                .enumerate()
-                .map(|(c, out)| {
-                    scope.spawn(move || {
-                        let mut rays = 0u64;
-                        for (k, value) in out.iter_mut().enumerate() {
-                            let e = c * chunk + k;
-                            let mut sum = 0.0f32;
-                            for smp in &self.samples[e * s..(e + 1) * s] {
-                                if !smp.point[0].is_finite() {
-                                    continue;
-                                }
-                                let Some((g, w, dist)) = light.towards(smp.point, smp.normal)
-                                else {
-                                    continue;
-                                };
-                                rays += 1;
-                                let origin = mad(smp.point, smp.normal, eps);
-                                let reach = if dist.is_finite() {
-                                    dist * (1.0 - 1e-5)
-                                } else {
-                                    f32::INFINITY
-                                };
-                                if !self.scene.occluded(&Ray::new(origin, w), 0.0, reach) {
-                                    sum += g;
-                                }
-                            }
-                            *value = sum / s as f32;
-                        }
-                        rays
+        let chunk = n.div_ceil(self.threads * 8).clamp(1, 256);
+        let chunks = n.div_ceil(chunk);
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        type Done = Vec<(usize, Vec<Vec<f32>>)>;
+        let work = || -> (Done, u64) {
+            let mut done = Vec::new();
+            let mut rays = 0u64;
+            loop {
+                let c = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                if c >= chunks {
+                    return (done, rays);
+                }
+                let range = c * chunk..((c + 1) * chunk).min(n);
+                let values: Vec<Vec<f32>> = lights
+                    .iter()
+                    .map(|light| {
+                        range
+                            .clone()
+                            .map(|e| self.element_term(light, e, &mut rays))
+                            .collect()
                     })
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().expect("no panic"))
-                .sum()
+                    .collect();
+                done.push((c, values));
+            }
+        };
+        let workers = self.threads.min(chunks).max(1);
+        let results: Vec<(Done, u64)> = std::thread::scope(|scope| {
+            let handles: Vec<_> = (1..workers).map(|_| scope.spawn(work)).collect();
+            let mut all = vec![work()];
+            all.extend(handles.into_iter().map(|h| h.join().expect("no panic")));
+            all
         });
-        (term, rays)
+        let mut terms = vec![vec![0.0f32; n]; lights.len()];
+        let mut rays = 0u64;
+        for (done, r) in results {
+            rays += r;
+            for (c, values) in done {
+                for (term, v) in terms.iter_mut().zip(values) {
+                    term[c * chunk..c * chunk + v.len()].copy_from_slice(&v);
+                }
+            }
+        }
+        (terms, rays)
+    }
+
+    /// One light's irradiance per unit strength over element `e`: the mean over its samples.
+    #[inline]
+    fn element_term(&self, light: &Light, e: usize, rays: &mut u64) -> f32 {
+        let s = self.per_element;
+        let eps = self.scene.epsilon;
+        let mut sum = 0.0f32;
+        let mut packet: [(Ray, f32, f32); 4] = [(Ray::new([0.0; 3], [0.0, 0.0, 1.0]), 0.0, 0.0); 4];
+        let mut filled = 0usize;
+        let flush = |packet: &[(Ray, f32, f32); 4], filled: usize, sum: &mut f32| {
+            if filled == 4 {
+                let reach = [packet[0].2, packet[1].2, packet[2].2, packet[3].2];
+                let rays = [packet[0].0, packet[1].0, packet[2].0, packet[3].0];
+                let blocked = self.scene.occluded4(&rays, 0.0, reach);
+                for (p, b) in packet.iter().zip(blocked) {
+                    if !b {
+                        *sum += p.1;
+                    }
+                }
+            } else {
+                for p in &packet[..filled] {
+                    if !self.scene.occluded(&p.0, 0.0, p.2) {
+                        *sum += p.1;
+                    }
+                }
+            }
+        };
+        for smp in &self.samples[e * s..(e + 1) * s] {
+            if !smp.point[0].is_finite() {
+                continue;
+            }
+            let Some((g, w, dist)) = light.towards(smp.point, smp.normal) else {
+                continue;
+            };
+            *rays += 1;
+            let origin = mad(smp.point, smp.normal, eps);
+            let reach = if dist.is_finite() {
+                dist * (1.0 - 1e-5)
+            } else {
+                f32::INFINITY
+            };
+            packet[filled] = (Ray::new(origin, w), g, reach);
+            filled += 1;
+            if filled == 4 {
+                flush(&packet, 4, &mut sum);
+                filled = 0;
+            }
+        }
+        flush(&packet, filled, &mut sum);
+        sum / s as f32
     }
 
     /// The sky's transfer per element: `T_lm = ∫ V(x, ω) max(0, n·ω) Y_lm(ω) dω`, averaged over
