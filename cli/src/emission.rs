@@ -344,7 +344,8 @@ fn gpu_radiosity(op: &Operator, lighting: &Lighting) -> Result<Vec<[f32; 3]>, Gp
 /// A frame with its lights that are not surfaces: the radiosity `B` of the emission plus the
 /// lights' reflected direct light, and what a display interpolates over the surface (`B` less
 /// the point-shaded lights' part, `ρ ⊙ H` per element) before it adds the direct light at the
-/// shaded point itself ([`Frame::at`]).
+/// shaded point itself ([`Frame::at`]). One `Frame` can be lit again and again (`lrr relight`):
+/// its direct pass, made on first use, keeps what it traced for lights that did not move.
 pub struct Frame {
     /// `B` per element, original ids.
     pub radiosity: Vec<[f32; 3]>,
@@ -355,13 +356,82 @@ pub struct Frame {
     pub lights: Vec<Light>,
     /// Reflectance per element, original ids.
     pub reflectance: Vec<[f32; 3]>,
-    /// The direct pass, when the frame has lights or a sky.
+    /// The direct pass, once a frame has had lights or a sky.
     pub pass: Option<DirectLighting>,
-    /// What the direct pass traced.
+    /// What the direct pass traced for the last frame.
     pub report: DirectReport,
+    /// `H` of the point-shaded lights per element (empty without lights).
+    h: Vec<[f32; 3]>,
 }
 
 impl Frame {
+    /// A frame of `op` not lit yet.
+    pub fn new(op: &Operator) -> Self {
+        Frame {
+            radiosity: Vec::new(),
+            shown: Vec::new(),
+            lights: Vec::new(),
+            reflectance: op.reflectance(),
+            pass: None,
+            report: DirectReport::default(),
+            h: Vec::new(),
+        }
+    }
+
+    /// The emission `base + ρ ⊙ H` of `lights` (the direct pass made on first use, its shadow
+    /// rays through the file's BVH: an error when the file has none); `base` itself when there
+    /// are no lights, and no ray.
+    pub fn light(
+        &mut self,
+        op: &Operator,
+        base: Vec<[f32; 3]>,
+        lights: &FrameLights,
+    ) -> Result<Vec<[f32; 3]>> {
+        self.lights = lights.lights.clone();
+        self.report = DirectReport::default();
+        if lights.is_empty() {
+            self.h.clear();
+            return Ok(base);
+        }
+        let n = op.n();
+        if self.pass.is_none() {
+            self.pass = Some(
+                DirectLighting::new(op.file(), lights.samples, 0)
+                    .map_err(|e| anyhow::anyhow!("the direct pass of the frame's lights: {e}"))?,
+            );
+        }
+        let pass = self.pass.as_mut().expect("made above");
+        self.h.resize(n, [0.0; 3]);
+        self.report = pass.irradiance(&lights.lights, &mut self.h)?;
+        let mut total = self.h.clone();
+        if let Some(sky) = &lights.sky {
+            let mut h_sky = vec![[0.0f32; 3]; n];
+            let r = pass.sky_irradiance(sky, &mut h_sky)?;
+            self.report.rays += r.rays;
+            for (t, s) in total.iter_mut().zip(&h_sky) {
+                *t = std::array::from_fn(|c| t[c] + s[c]);
+            }
+        }
+        let mut e = vec![[0.0f32; 3]; n];
+        reflected(&self.reflectance, &total, &base, &mut e)?;
+        Ok(e)
+    }
+
+    /// Takes the frame's radiosity `b` (of the emission [`Frame::light`] gave): `shown` is `b`
+    /// less the point-shaded lights' `ρ ⊙ H`.
+    pub fn set_radiosity(&mut self, b: Vec<[f32; 3]>) {
+        self.shown = if self.h.is_empty() {
+            b.clone()
+        } else {
+            b.iter()
+                .zip(&self.h)
+                .zip(&self.reflectance)
+                .map(|((b, h), r)| std::array::from_fn(|c| b[c] - r[c] * h[c]))
+                .collect()
+        };
+        self.radiosity = b;
+    }
+
     /// The direct irradiance times the reflectance of `element` at point `x` of a face with
     /// front normal `normal` (zero without point-shaded lights).
     pub fn at(&self, element: usize, x: [f32; 3], normal: [f32; 3]) -> [f32; 3] {
@@ -376,63 +446,31 @@ impl Frame {
     }
 }
 
+/// The emission of `lighting` per element, original ids.
+pub fn emission_of(op: &Operator, lighting: &Lighting) -> Result<Vec<[f32; 3]>> {
+    Ok(match lighting {
+        Lighting::Baked => op.baked_emission(),
+        Lighting::Groups(a) => op.group_emission(a)?,
+        Lighting::Emission(e) => e.clone(),
+    })
+}
+
 /// The frame of `lighting` and `lights` on `device`. Without lights and sky: the evaluator's
-/// frame alone (no direct pass, no ray). With them: the direct pass on the CPU (its shadow
-/// rays through the file's BVH; an error when the file has none), then the frame of the
-/// emission plus `ρ ⊙ H`.
+/// frame alone (no direct pass, no ray). With them: the direct pass on the CPU, then the frame
+/// of the emission plus `ρ ⊙ H`.
 pub fn frame(
     op: &Operator,
     lighting: &Lighting,
     lights: &FrameLights,
     device: Device,
 ) -> Result<Frame> {
-    let reflectance = op.reflectance();
-    if lights.is_empty() {
-        let b = radiosity(op, lighting, device)?;
-        return Ok(Frame {
-            shown: b.clone(),
-            radiosity: b,
-            lights: Vec::new(),
-            reflectance,
-            pass: None,
-            report: DirectReport::default(),
-        });
-    }
-    let n = op.n();
-    let mut pass = DirectLighting::new(op.file(), lights.samples, 0)
-        .map_err(|e| anyhow::anyhow!("the direct pass of the frame's lights: {e}"))?;
-    let mut h = vec![[0.0f32; 3]; n];
-    let mut report = pass.irradiance(&lights.lights, &mut h)?;
-    let mut h_sky = vec![[0.0f32; 3]; n];
-    if let Some(sky) = &lights.sky {
-        let r = pass.sky_irradiance(sky, &mut h_sky)?;
-        report.rays += r.rays;
-    }
-    let base = match lighting {
-        Lighting::Baked => op.baked_emission(),
-        Lighting::Groups(a) => op.group_emission(a)?,
-        Lighting::Emission(e) => e.clone(),
+    let mut frame = Frame::new(op);
+    let b = if lights.is_empty() {
+        radiosity(op, lighting, device)?
+    } else {
+        let e = frame.light(op, emission_of(op, lighting)?, lights)?;
+        radiosity(op, &Lighting::Emission(e), device)?
     };
-    let mut e = vec![[0.0f32; 3]; n];
-    let total: Vec<[f32; 3]> = h
-        .iter()
-        .zip(&h_sky)
-        .map(|(a, b)| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
-        .collect();
-    reflected(&reflectance, &total, &base, &mut e)?;
-    let b = radiosity(op, &Lighting::Emission(e), device)?;
-    let shown = b
-        .iter()
-        .zip(&h)
-        .zip(&reflectance)
-        .map(|((b, h), r)| std::array::from_fn(|c| b[c] - r[c] * h[c]))
-        .collect();
-    Ok(Frame {
-        radiosity: b,
-        shown,
-        lights: lights.lights.clone(),
-        reflectance,
-        pass: Some(pass),
-        report,
-    })
+    frame.set_radiosity(b);
+    Ok(frame)
 }

@@ -189,6 +189,68 @@ fn a_rendered_frame_is_lrr_render_of_the_same_lighting_pixel_for_pixel() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
+/// A light of the animation's own, moving: a frame is `lrr render` of the same groups with a
+/// `--point-light` where the track puts it, pixel for pixel, and the light moves the image.
+#[test]
+fn a_moving_point_light_is_lrr_render_with_that_light_pixel_for_pixel() {
+    let d = dir("torch");
+    let file = room(&d);
+    let anim = d.join("anim.toml");
+    std::fs::write(
+        &anim,
+        "fps = 2.0\n[[group]]\nname = \"cool\"\nkeys = [{ time = 0.0, intensity = 0.0 }]\n\
+         [[light]]\nname = \"torch\"\nkind = \"point\"\nkeys = [\n\
+         { time = 0.0, position = [0.5, 1.5, 1.5], intensity = [2.0, 2.0, 2.0] },\n\
+         { time = 1.0, position = [1.5, 1.5, 1.5], intensity = [2.0, 2.0, 2.0] }]\n",
+    )
+    .unwrap();
+    let frames = d.join("frames");
+    lrr(&[
+        "relight",
+        s(&file),
+        "--animation",
+        s(&anim),
+        "-o",
+        s(&frames),
+        "-q",
+        "--images",
+        "exr",
+        "--image-size",
+        "48x32",
+        "--samples",
+        "float",
+    ])
+    .unwrap();
+    let out = d.join("t05.exr");
+    lrr(&[
+        "render",
+        s(&file),
+        "--size",
+        "48x32",
+        "--exr-samples",
+        "float",
+        "--group",
+        "cool=0",
+        "--point-light",
+        "1,1.5,1.5:2,2,2",
+        "-o",
+        s(&out),
+    ])
+    .unwrap();
+    let want = read_exr(&out).1;
+    assert_eq!(
+        read_exr(&frames.join("frame-00001.exr")).1,
+        want,
+        "frame 1 (t = 0.5 s) against lrr render --point-light 1,1.5,1.5:2,2,2"
+    );
+    assert_ne!(
+        read_exr(&frames.join("frame-00000.exr")).1,
+        read_exr(&frames.join("frame-00002.exr")).1,
+        "the torch moved"
+    );
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
 #[test]
 fn a_png_sequence_keeps_the_first_lit_frames_exposure() {
     let d = dir("png");

@@ -1,5 +1,7 @@
-//! `lrr relight OUT.lrr --animation ANIM.toml -o DIR`: light groups keyframed over time
-//! ([`animation`]), evaluated frame by frame with one persistent evaluator. Each frame's
+//! `lrr relight OUT.lrr --animation ANIM.toml -o DIR`: light groups, and lights that are not
+//! surfaces, keyframed over time ([`animation`]), evaluated frame by frame with one persistent
+//! evaluator (the lights, the file's and the animation's, through one direct pass that traces
+//! again only the lights that moved). Each frame's
 //! radiosity is written as an EXR lightmap (`DIR/lightmap-00000.exr`, …; the atlas of
 //! `lrr export`, laid out once) and/or, with `--images png|exr`, ray traced from a camera
 //! (`DIR/frame-00000.png`, …; the CPU tracer of `lrr render`, PNGs at one exposure for the
@@ -14,10 +16,10 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lrr_runtime::trace::{Image, Lighting as TraceLighting, Tracer, View};
+use lrr_runtime::trace::{DirectShading, Image, Lighting as TraceLighting, Tracer, View};
 use lrr_runtime::{Operator, Reconstruction, Rgb, RgbMut};
 
-use crate::emission::{Reconstruct, reconstruction};
+use crate::emission::{Frame, FrameLights, Reconstruct, reconstruction};
 use crate::export::field::Field;
 use crate::export::{LightmapArgs, LightmapLayout, lightmap_atlas};
 use crate::exr_image::{self, ExrSamples, RgbLayer};
@@ -104,35 +106,52 @@ pub fn run(a: &RelightArgs, out: &mut dyn Write) -> Result<()> {
     };
     let stage = progress.stage("relight", frames as u64);
     let (start, mut time) = (Instant::now(), Timings::default());
+    // The lights that are not surfaces: the file's, and the animation's tracks.
+    let (file_lights, sky) = lrr_runtime::trace::file_lights(op.file());
+    let mut lit = Frame::new(&op);
     for f in 0..frames {
         let t = f as f64 / anim.fps;
         let scales = frame_scales(&tracks, t);
         let timer = Instant::now();
+        let lights = FrameLights {
+            lights: file_lights
+                .iter()
+                .copied()
+                .chain(anim.light.iter().map(|track| track.at(t)))
+                .collect(),
+            sky,
+            samples: lrr_runtime::trace::DEFAULT_SAMPLES,
+        };
         let intensities = match grey(&scales) {
-            Some(intensities) => {
+            Some(intensities) if lights.is_empty() => {
                 // Every group white: the groups' fast path, as `lrr render --group` evaluates.
                 eval.evaluate_groups(&intensities, RgbMut::triples(&mut b))?;
                 intensities
             }
-            None => {
+            _ => {
                 fill_emission(&mut emission, &groups, &scales);
-                eval.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut b))?;
+                let e = lit.light(&op, emission.clone(), &lights)?;
+                eval.evaluate(Rgb::triples(&e), RgbMut::triples(&mut b))?;
                 scales.iter().map(|s| (s[0] + s[1] + s[2]) / 3.0).collect()
             }
         };
+        if lights.is_empty() {
+            lit.lights.clear();
+        }
+        lit.set_radiosity(b.clone());
         time.evaluating += timer.elapsed().as_secs_f64();
         let note = format!("frame {f} at t = {t:.6} s of {}", a.animation.display());
         if let Some(l) = &lightmaps {
             let timer = Instant::now();
             let path = a.output.join(format!("lightmap-{f:05}.exr"));
-            l.write(&op, &b, smooth, &path, &note)?;
+            l.write(&op, &lit, smooth, &path, &note)?;
             time.writing += timer.elapsed().as_secs_f64();
         }
         if let Some(images) = images.as_mut() {
             let path = a
                 .output
                 .join(format!("frame-{f:05}.{}", images.format.extension()));
-            images.frame(&b, &intensities, &path, &note, &mut time, out)?;
+            images.frame(&lit, &intensities, &path, &note, &mut time, out)?;
         }
         stage.inc(1);
     }
@@ -234,16 +253,17 @@ impl Lightmaps {
         })
     }
 
-    /// Rasterises the frame's `B/π` and writes it to `path`.
+    /// Rasterises the frame's `B/π` (its lights' direct light per texel) and writes it to
+    /// `path`.
     fn write(
         &self,
         op: &Operator,
-        b: &[[f32; 3]],
+        frame: &Frame,
         smooth: Option<Reconstruction>,
         path: &Path,
         note: &str,
     ) -> Result<()> {
-        let field = Field::new(op.file(), b, smooth)?;
+        let field = Field::new(op.file(), &frame.shown, smooth)?.with_direct(frame, op.file());
         let atlas = lightmap_atlas(op, &field, &self.layout);
         let layer = [RgbLayer {
             name: None,
@@ -302,10 +322,11 @@ impl Images {
         })
     }
 
-    /// Traces the frame of radiosity `b` and group intensities `groups`, writes it to `path`.
+    /// Traces `frame` (its lights shaded per hit) with group intensities `groups` (their
+    /// highlights), writes it to `path`.
     fn frame(
         &mut self,
-        b: &[[f32; 3]],
+        frame: &Frame,
         groups: &[f32],
         path: &Path,
         note: &str,
@@ -314,9 +335,12 @@ impl Images {
     ) -> Result<()> {
         let timer = Instant::now();
         let lighting = TraceLighting {
-            radiosity: b,
+            radiosity: &frame.shown,
             group_intensities: groups,
-            direct: None,
+            direct: Some(DirectShading {
+                lights: &frame.lights,
+                reflectance: &frame.reflectance,
+            }),
         };
         let (w, h) = self.size;
         let (image, _) = self

@@ -261,7 +261,8 @@ fn animation() -> String {
         "# The lights of scenes/building/building.toml over 8 s, for `lrr relight` (written by\n\
          # `lrr scene building`): the living room dims and comes back, the kitchen switches\n\
          # off and on again in blue, the hall turns orange, the study and the bedroom switch\n\
-         # on, the studio fades to green, the guest room fades in; bath off, landing on.\n\
+         # on, the studio fades to green, the guest room fades in; bath off, landing on;\n\
+         # a torch is carried from the living room through the kitchen and hall to the study.\n\
          fps = 12.0\nduration = 8.0\n",
     );
     for (name, keys) in tracks {
@@ -274,6 +275,26 @@ fn animation() -> String {
         }
         text += "]\n";
     }
+    // A torch carried at hand height (1.2 m) from the living room through the opening into
+    // the kitchen, through its door into the hall and on into the study: a light that is not
+    // a surface, lit every frame by the runtime's direct pass (README "Lights").
+    const TORCH: [(f64, [f64; 3]); 7] = [
+        (0.0, [2.0, 1.2, 4.0]),
+        (2.0, [4.2, 1.2, 2.1]),
+        (3.0, [5.5, 1.2, 2.1]),
+        (4.5, [6.95, 1.2, 3.0]),
+        (5.5, [6.95, 1.2, 5.0]),
+        (6.5, [8.0, 1.2, 4.95]),
+        (8.0, [10.0, 1.2, 6.0]),
+    ];
+    text += "\n# The torch: a point light (W/sr) carried along the ground floor.\n[[light]]\n\
+             name = \"torch\"\nkind = \"point\"\nkeys = [\n";
+    for (time, [x, y, z]) in TORCH {
+        text += &format!(
+            "  {{ time = {time:?}, position = [{x:?}, {y:?}, {z:?}], intensity = [30.0, 25.0, 17.0] }},\n"
+        );
+    }
+    text += "]\n";
     text
 }
 
