@@ -101,6 +101,54 @@ int32_t lrr_locate(const lrr_operator *op, const float position[3], const float 
 void lrr_free(lrr_operator *op);
 
 /*
+ * Lights that are not surfaces (point, spot, directional), moving every frame: the operator is
+ * linear in the emission, so a frame lights each element with their direct irradiance H (at
+ * fixed sample points, each behind a shadow ray through the file's BVH) and evaluates
+ * E = base + rho * H. A light is LRR_LIGHT_FLOATS floats:
+ *   [0]      kind: 0 point, 1 spot, 2 directional
+ *   [1..4]   position (point, spot)
+ *   [4..7]   direction: where a spot points, where a directional light's light travels
+ *   [7..10]  intensity per channel: W/sr (point; spot on its axis), W/m^2 facing it (directional)
+ *   [10, 11] a spot's inner and outer cone half-angles in radians (glTF's falloff between)
+ */
+#define LRR_LIGHT_FLOATS 12
+
+/* The direct pass of one operator (opaque). One thread at a time. */
+typedef struct lrr_direct lrr_direct;
+
+/*
+ * Makes the direct pass of `op` with `samples` points per element (1 to 64; 4 is the default
+ * elsewhere) into *out_direct, freed with lrr_direct_free; NULL there on failure. Needs a file
+ * baked with a BVH (this lrr). Errors: LRR_ERROR_NULL, LRR_ERROR_BUFFER, LRR_ERROR_INPUT.
+ */
+int32_t lrr_direct_new(const lrr_operator *op, uint32_t samples, lrr_direct **out_direct);
+
+/*
+ * The emission of a frame with lights: emission = base + rho * H (3 * n floats each, not
+ * overlapping). `lights` holds lights_len = LRR_LIGHT_FLOATS * count floats (NULL with 0: no
+ * light, no ray). A light that did not move since the last call is not traced again. Pass
+ * `emission` to lrr_evaluate. Errors: LRR_ERROR_NULL, LRR_ERROR_LENGTH, LRR_ERROR_BUFFER,
+ * LRR_ERROR_INPUT (a bad light, named by its index).
+ */
+int32_t lrr_direct_emission(lrr_direct *direct, const float *lights, size_t lights_len,
+                            const float *base, size_t base_len, float *emission,
+                            size_t emission_len);
+
+/*
+ * The direct light reflected at a surface point: rho * H(x) of element `element` at
+ * `position` on a surface of front normal `normal` (unit), each light behind its own shadow
+ * ray, into out_rgb[3]. Added to the bounced light there (the radiosity less rho * H of the
+ * element), shadow edges are as sharp as the light's. Errors: LRR_ERROR_NULL,
+ * LRR_ERROR_LENGTH, LRR_ERROR_BUFFER, LRR_ERROR_INPUT.
+ */
+int32_t lrr_direct_at(const lrr_direct *direct, const float *lights, size_t lights_len,
+                      uint32_t element, const float position[3], const float normal[3],
+                      float out_rgb[3]);
+
+/* Frees a direct pass from lrr_direct_new. NULL does nothing. */
+void lrr_direct_free(lrr_direct *direct);
+
+/*
  * The message of the last call that failed on the calling thread (NUL-terminated UTF-8), or ""
  * if none has. The string belongs to the library: do not free it. It stays valid until the next
  * failing lrr_ call on the same thread; successful calls leave it unchanged.

@@ -150,6 +150,38 @@ pub(crate) unsafe fn rgb_mut<'a>(
     Ok(unsafe { std::slice::from_raw_parts_mut(ptr.cast::<[f32; 3]>(), n) })
 }
 
+/// `len` floats at `ptr`; a null pointer is accepted for `len == 0`.
+///
+/// # Safety
+/// `ptr` is null or points to `len` readable floats that nobody writes to for `'a`.
+pub(crate) unsafe fn floats<'a>(
+    ptr: *const f32,
+    len: usize,
+    name: &str,
+) -> Result<&'a [f32], Error> {
+    if len == 0 {
+        return Ok(&[]);
+    }
+    if ptr.is_null() {
+        return Err(Error::null(&format!("the {name} buffer")));
+    }
+    if !ptr.is_aligned() {
+        return Err(Error::new(
+            LRR_ERROR_BUFFER,
+            format!("the {name} buffer is not aligned for float"),
+        ));
+    }
+    if len > isize::MAX as usize / size_of::<f32>() {
+        return Err(Error::new(
+            LRR_ERROR_LENGTH,
+            format!("a length of {len} floats cannot be addressed"),
+        ));
+    }
+    // SAFETY: non-null, aligned, the byte length addressable; the caller promises `len`
+    // readable floats that nobody writes to during the call.
+    Ok(unsafe { std::slice::from_raw_parts(ptr, len) })
+}
+
 /// Whether two buffers of `len` floats share any byte (address arithmetic only).
 pub(crate) fn overlap(a: *const f32, b: *const f32, len: usize) -> bool {
     let bytes = len.saturating_mul(size_of::<f32>());

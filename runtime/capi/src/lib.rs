@@ -42,6 +42,7 @@
 #![deny(clippy::undocumented_unsafe_blocks)]
 
 mod args;
+mod lights;
 mod status;
 
 use std::ffi::c_char;
@@ -49,6 +50,10 @@ use std::path::Path;
 
 use lrr_runtime::Operator;
 
+pub use lights::{
+    LRR_LIGHT_FLOATS, LrrDirect, lrr_direct_at, lrr_direct_emission, lrr_direct_free,
+    lrr_direct_new,
+};
 use status::{Error, guard, status};
 pub use status::{
     LRR_ERROR_BUFFER, LRR_ERROR_FORMAT, LRR_ERROR_INPUT, LRR_ERROR_IO, LRR_ERROR_LENGTH,

@@ -252,3 +252,155 @@ fn operators_are_shared_across_threads() {
     // SAFETY: the last user of the handle.
     unsafe { lrr_free(op as *mut LrrOperator) };
 }
+
+/// A 3 × 3 floor of unit squares facing +z (synthetic operator) with a BVH, as file bytes.
+fn lit_floor() -> Vec<u8> {
+    use lrr_runtime::testkit::{bvh, synthetic};
+    let mut file = synthetic::file(
+        9,
+        3,
+        3,
+        lrr_runtime::Precision::F32,
+        lrr_runtime::Layout::Factored,
+        5,
+    )
+    .unwrap();
+    file.display.bvh = Some(bvh::build(&file.geometry));
+    file.to_bytes().unwrap()
+}
+
+#[test]
+fn lights_give_the_runtimes_emission_and_point_values() {
+    let bytes = lit_floor();
+    let op = load(&bytes);
+    let rust = Operator::from_bytes(&bytes).unwrap();
+    // A point light 1.5 over (1.5, 1.5) and a sun at an angle.
+    #[rustfmt::skip]
+    let lights: [f32; 24] = [
+        0.0, 1.5, 1.5, 1.5, 0.0, 0.0, 0.0, 2.0, 3.0, 4.0, 0.0, 0.0,
+        2.0, 0.0, 0.0, 0.0, 1.0, 0.0, -2.0, 0.5, 0.5, 0.5, 0.0, 0.0,
+    ];
+    let base = [0.25f32; 27];
+    let mut emission = [0.0f32; 27];
+    let mut direct = null_mut();
+    // SAFETY: live handles until freed below; every buffer has the length passed.
+    unsafe {
+        assert_eq!(
+            lrr_direct_new(op, 4, &mut direct),
+            LRR_OK,
+            "{}",
+            last_error()
+        );
+        let code = lrr_direct_emission(
+            direct,
+            lights.as_ptr(),
+            24,
+            base.as_ptr(),
+            27,
+            emission.as_mut_ptr(),
+            27,
+        );
+        assert_eq!(code, LRR_OK, "{}", last_error());
+        // The runtime's own direct pass gives the same emission.
+        use lrr_runtime::trace::{DirectLighting, Light, reflected};
+        let list = [
+            Light::Point {
+                position: [1.5, 1.5, 1.5],
+                intensity: [2.0, 3.0, 4.0],
+            },
+            Light::Directional {
+                direction: [1.0, 0.0, -2.0],
+                irradiance: [0.5; 3],
+            },
+        ];
+        let mut pass = DirectLighting::new(rust.file(), 4, 1).unwrap();
+        let mut h = vec![[0.0f32; 3]; 9];
+        pass.irradiance(&list, &mut h).unwrap();
+        let mut want = vec![[0.0f32; 3]; 9];
+        reflected(&rust.reflectance(), &h, &[[0.25; 3]; 9], &mut want).unwrap();
+        assert_eq!(emission.as_slice(), want.as_flattened());
+        // At a point: ρ of the element times the point's irradiance.
+        let (p, n) = ([1.5f32, 1.5, 0.0], [0.0f32, 0.0, 1.0]);
+        let mut element = 0u32;
+        assert_eq!(lrr_locate(op, p.as_ptr(), n.as_ptr(), &mut element), LRR_OK);
+        let mut rgb = [0.0f32; 3];
+        let code = lrr_direct_at(
+            direct,
+            lights.as_ptr(),
+            24,
+            element,
+            p.as_ptr(),
+            n.as_ptr(),
+            rgb.as_mut_ptr(),
+        );
+        assert_eq!(code, LRR_OK, "{}", last_error());
+        let rho = rust.reflectance()[element as usize];
+        let sun = 0.5 * 2.0 / 5f32.sqrt();
+        let point = [2.0f32, 3.0, 4.0].map(|i| i / (1.5 * 1.5));
+        for c in 0..3 {
+            let expected = rho[c] * (point[c] + sun);
+            assert!(
+                (rgb[c] - expected).abs() <= 1e-5 * expected,
+                "{rgb:?} vs {expected}"
+            );
+        }
+        // Bad lights name themselves; lengths that are no whole light are refused.
+        let mut bad = lights;
+        bad[12] = 7.0;
+        let code = lrr_direct_emission(
+            direct,
+            bad.as_ptr(),
+            24,
+            base.as_ptr(),
+            27,
+            emission.as_mut_ptr(),
+            27,
+        );
+        assert_eq!(code, LRR_ERROR_INPUT);
+        assert!(last_error().contains("light 1: kind 7"), "{}", last_error());
+        let code = lrr_direct_emission(
+            direct,
+            lights.as_ptr(),
+            23,
+            base.as_ptr(),
+            27,
+            emission.as_mut_ptr(),
+            27,
+        );
+        assert_eq!(code, LRR_ERROR_LENGTH);
+        // No lights: the base, and a null list is fine.
+        let code = lrr_direct_emission(
+            direct,
+            null(),
+            0,
+            base.as_ptr(),
+            27,
+            emission.as_mut_ptr(),
+            27,
+        );
+        assert_eq!(code, LRR_OK, "{}", last_error());
+        assert_eq!(emission, base);
+        assert_eq!(
+            lrr_direct_at(
+                direct,
+                lights.as_ptr(),
+                24,
+                99,
+                p.as_ptr(),
+                n.as_ptr(),
+                rgb.as_mut_ptr()
+            ),
+            LRR_ERROR_INPUT
+        );
+        lrr_direct_free(direct);
+        lrr_direct_free(null_mut());
+        // A file without a BVH cannot be lit: the error says to re-bake.
+        let plain = load(&plates());
+        let mut none = null_mut();
+        assert_ne!(lrr_direct_new(plain, 4, &mut none), LRR_OK);
+        assert!(none.is_null());
+        assert!(last_error().contains("BVH"), "{}", last_error());
+        lrr_free(plain);
+        lrr_free(op);
+    }
+}
