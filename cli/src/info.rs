@@ -94,6 +94,7 @@ fn display_json(f: &lrr_formats::OperatorFile) -> serde_json::Value {
         "smooth_vertices": d.smooth.as_ref().map(|s| s.vertex_count()),
         "materials": d.materials.as_ref().map(|m| m.materials.len()),
         "point_lights": d.point_lights.iter().map(|l| l.name.as_str()).collect::<Vec<_>>(),
+        "sky_transfer": d.sky_transfer.is_some(),
         "direct_lights": d.direct_lights.iter().map(|l| serde_json::json!({
             "name": l.name,
             "kind": kind_name(l.kind),
@@ -125,6 +126,9 @@ fn display_line(f: &lrr_formats::OperatorFile) -> String {
         if count > 0 {
             parts.push(format!("{count} {}", kind_name(kind)));
         }
+    }
+    if d.sky_transfer.is_some() {
+        parts.push("the sky's transfer per element".to_string());
     }
     if !d.point_lights.is_empty() {
         parts.push(format!("{} point light(s)", d.point_lights.len()));

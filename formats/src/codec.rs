@@ -179,7 +179,7 @@ fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter {
     let d = &file.display;
     if *d == Display::default() {
         w.set_version(VERSION_MAJOR, MINOR_WITHOUT_DISPLAY);
-    } else if !d.direct_lights.is_empty() {
+    } else if !d.direct_lights.is_empty() || d.sky_transfer.is_some() {
         // VERSION_MINOR: 1.5.
     } else if d.faces.is_none() && d.lightmap.is_none() {
         w.set_version(VERSION_MAJOR, MINOR_WITHOUT_LIGHTMAP);
@@ -227,6 +227,11 @@ fn add_display(w: &mut ContainerWriter, d: &Display) {
             direct_lights::encode(&d.direct_lights),
         );
     }
+    if let Some(t) = &d.sky_transfer {
+        let mut payload = Vec::new();
+        bytes::put_f32s(&mut payload, t);
+        w.add(kind::SKY_TRANSFER, false, payload);
+    }
 }
 
 /// The display sections of `c` for `n` elements; lengths are checked, values are not. FACES
@@ -251,6 +256,10 @@ fn decode_display(c: &Container<'_>, n: usize) -> Result<Display, FormatError> {
             Some(p) => direct_lights::decode(p)?,
             None => Vec::new(),
         },
+        sky_transfer: c
+            .section(kind::SKY_TRANSFER)
+            .map(|p| sky_transfer(p, n))
+            .transpose()?,
         cameras: match c.section(kind::CAMERAS) {
             Some(p) => cameras::decode(p)?,
             None => Vec::new(),
@@ -280,6 +289,21 @@ impl Display {
     pub fn from_container_bytes(bytes: &[u8], n: u32) -> Result<Self, FormatError> {
         decode_display(&Container::parse(bytes)?, n as usize)
     }
+}
+
+/// SKY_TRANSFER's payload: `9 n` f32 (values checked by `validate`).
+fn sky_transfer(payload: &[u8], n: usize) -> Result<Vec<f32>, FormatError> {
+    let want = n.checked_mul(36);
+    if want != Some(payload.len()) {
+        return Err(FormatError::corrupt(format!(
+            "section SKY_TRANSFER: {} bytes, expected 9 × 4 bytes for each of the {n} elements",
+            payload.len()
+        )));
+    }
+    Ok(payload
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect())
 }
 
 fn matrix_payload(m: &StoredMatrix) -> Vec<u8> {
@@ -575,6 +599,27 @@ mod tests {
                 .unwrap();
             assert!(!section.required(), "a 1.4 reader skips it");
             assert_eq!(OperatorFile::from_bytes(&bytes).unwrap(), file);
+            // The sky's transfer: 9 floats per element, optional, 1.5; a wrong length or a
+            // non-finite value is refused.
+            file.display.sky_transfer = Some((0..9 * file.n).map(|i| i as f32 * 0.5).collect());
+            let bytes = encode(&file);
+            let c = Container::parse(&bytes).unwrap();
+            assert_eq!(c.version(), (1, 5));
+            assert!(
+                !c.sections()
+                    .iter()
+                    .find(|s| s.kind == kind::SKY_TRANSFER)
+                    .unwrap()
+                    .required()
+            );
+            assert_eq!(OperatorFile::from_bytes(&bytes).unwrap(), file);
+            let mut bad = file.clone();
+            bad.display.sky_transfer.as_mut().unwrap().pop();
+            assert!(bad.validate().is_err());
+            let mut bad = file.clone();
+            bad.display.sky_transfer.as_mut().unwrap()[4] = f32::NAN;
+            let e = bad.validate().unwrap_err().to_string();
+            assert!(e.contains("element 0 coefficient 4"), "{e}");
         }
     }
 

@@ -251,6 +251,12 @@ pub struct Display {
     /// Spot and directional lights and the sky (section DIRECT_LIGHTS, format 1.5; none: not
     /// written).
     pub direct_lights: Vec<DirectLight>,
+    /// The sky's transfer per element (section SKY_TRANSFER, format 1.5): `9 n` floats in file
+    /// order, element `s`'s order-2 spherical harmonic coefficients `T_lm = ∫ V(x, ω) max(0,
+    /// n·ω) Y_lm(ω) dω` averaged over the element (real orthonormal basis in the order `Y00,
+    /// Y1-1 (y), Y10 (z), Y11 (x), Y2-2 (xy), Y2-1 (yz), Y20, Y21 (xz), Y22 (x² − y²)`), so a
+    /// sky of coefficients `L_lm` gives the element's irradiance `Σ L_lm T_lm`. Finite.
+    pub sky_transfer: Option<Vec<f32>>,
     /// Cameras (section CAMERAS; none: not written).
     pub cameras: Vec<Camera>,
     /// The BVH over the display triangles (section BVH).

@@ -5,7 +5,8 @@
 //! 1.2 and 1.3, [`SMOOTH`] to [`LIGHTMAP`] (optional: a reader that only evaluates skips them);
 //! [`FACES`] (1.4) is required although it is for display: it changes what SMOOTH, LIGHTMAP and
 //! the BVH are defined on, so an older reader must refuse the file rather than misread them;
-//! [`DIRECT_LIGHTS`] (1.5) is optional (a reader that does not know it loses those lights only). A
+//! [`DIRECT_LIGHTS`] and [`SKY_TRANSFER`] (1.5) are optional (a reader that does not know them
+//! loses those lights only). A
 //! reader that meets a required kind it does not know refuses the file, and skips unknown
 //! optional ones. New kinds take new codes; a code is never reused for another meaning.
 
@@ -54,10 +55,13 @@ pub const FACES: u32 = 19;
 /// Spot and directional lights and the sky (format 1.5, optional).
 pub const DIRECT_LIGHTS: u32 = 20;
 
+/// The sky's order-2 spherical harmonic transfer per element (format 1.5, optional).
+pub const SKY_TRANSFER: u32 = 21;
+
 /// Every kind this reader knows, by code. The writer stores them in this order, leaving out the
 /// operator sections of the other layout (FK and CORES, or YK), an empty LIGHTS and the display
 /// sections the file lacks.
-pub const KNOWN: [u32; 20] = [
+pub const KNOWN: [u32; 21] = [
     METADATA,
     DIMS,
     ORDER,
@@ -78,6 +82,7 @@ pub const KNOWN: [u32; 20] = [
     LIGHTMAP,
     FACES,
     DIRECT_LIGHTS,
+    SKY_TRANSFER,
 ];
 
 /// The name of a known kind (`"FK"`), `None` for unknown codes.
@@ -99,6 +104,7 @@ pub fn name(kind: u32) -> Option<&'static str> {
         MATERIALS => "MATERIALS",
         POINT_LIGHTS => "POINT_LIGHTS",
         DIRECT_LIGHTS => "DIRECT_LIGHTS",
+        SKY_TRANSFER => "SKY_TRANSFER",
         CAMERAS => "CAMERAS",
         BVH => "BVH",
         LIGHTMAP => "LIGHTMAP",
@@ -138,6 +144,7 @@ mod tests {
         assert_eq!(describe(LIGHTMAP), "LIGHTMAP (kind 18)");
         assert_eq!(describe(FACES), "FACES (kind 19)");
         assert_eq!(describe(DIRECT_LIGHTS), "DIRECT_LIGHTS (kind 20)");
-        assert_eq!(KNOWN.last(), Some(&DIRECT_LIGHTS));
+        assert_eq!(describe(SKY_TRANSFER), "SKY_TRANSFER (kind 21)");
+        assert_eq!(KNOWN.last(), Some(&SKY_TRANSFER));
     }
 }

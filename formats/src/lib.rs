@@ -69,6 +69,7 @@
 //! | 18 | [`LIGHTMAP`](kind::LIGHTMAP) | optional (1.3): `F * 4 * 2` × f32, lightmap `u, v` of each display face corner, a triangle's 4th zero ([`LightmapUv`]) |
 //! | 19 | [`FACES`](kind::FACES) | 1.4, absent when elements are drawn as their GEOMETRY, **required** when present: the display faces ([`Faces`]), see below |
 //! | 20 | [`DIRECT_LIGHTS`](kind::DIRECT_LIGHTS) | optional (1.5), absent when there are none: spot and directional lights and the sky ([`DirectLight`]) |
+//! | 21 | [`SKY_TRANSFER`](kind::SKY_TRANSFER) | optional (1.5), written with a sky: `9 n` × f32 in file order, each element's order-2 spherical harmonic sky transfer ([`Display::sky_transfer`]) |
 //!
 //! The factored layout stores FK and CORES and no YK; the plain layout stores YK and neither FK
 //! nor CORES. A file holding a section of the other layout is refused.
@@ -171,9 +172,10 @@
 //! ([`ErrorKind::UnsupportedVersion`]) instead of misreading it. A file is stamped with the
 //! lowest minor version that describes it: 1.1 without display sections (the bytes a 1.1 writer
 //! gave), 1.2 with any but LIGHTMAP and FACES, 1.3 with LIGHTMAP but no FACES, 1.4 with FACES,
-//! 1.5 with DIRECT_LIGHTS. Version 1.5 added DIRECT_LIGHTS (optional): spot and directional
-//! lights and a sky, which the runtime's direct pass turns into emission every frame; a 1.4
-//! reader evaluates the file and draws it without them.
+//! 1.5 with DIRECT_LIGHTS or SKY_TRANSFER. Version 1.5 added DIRECT_LIGHTS (optional): spot
+//! and directional lights and a sky, which the runtime's direct pass turns into emission every
+//! frame, and SKY_TRANSFER (optional): the sky's visibility per element, projected at bake
+//! time; a 1.4 reader evaluates the file and draws it without them.
 //!
 //! A reader also refuses ([`ErrorKind`] says which kind of fault): a wrong magic; a table or
 //! payload past the end of the file; a payload offset that is misaligned or inside the table;

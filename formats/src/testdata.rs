@@ -134,6 +134,7 @@ pub(crate) fn display_sample() -> OperatorFile {
         lightmap: None,
         faces: None,
         direct_lights: Vec::new(),
+        sky_transfer: None,
     };
     f
 }

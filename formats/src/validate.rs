@@ -124,6 +124,22 @@ fn check_display(f: &OperatorFile) -> Result<(), FormatError> {
     }
     point_lights::check(f, &d.point_lights)?;
     direct_lights::check(&d.direct_lights)?;
+    if let Some(t) = &d.sky_transfer {
+        if Some(t.len()) != (f.n as usize).checked_mul(9) {
+            return Err(FormatError::invalid(format!(
+                "section SKY_TRANSFER: {} values for {} elements (9 each)",
+                t.len(),
+                f.n
+            )));
+        }
+        if let Some(i) = t.iter().position(|v| !v.is_finite()) {
+            return Err(FormatError::invalid(format!(
+                "section SKY_TRANSFER: element {} coefficient {} is not finite",
+                i / 9,
+                i % 9
+            )));
+        }
+    }
     cameras::check(&d.cameras)?;
     if let Some(l) = &d.lightmap {
         lightmap::check(f, l)?;

@@ -435,7 +435,12 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             MeshFrom::meshing(settings),
         )?;
         // Before the form factors: bad point lights and cameras are refused early.
-        let display = crate::display::build(scene, &prepared.mesh, progress)?;
+        let display = crate::display::build(
+            scene,
+            &prepared.mesh,
+            prepared.occluder.as_deref(),
+            progress,
+        )?;
         let ff = prepared.form_factors(settings.samples);
         let (fk, checkpoint) = prepared.element_patch_matrix(
             &ff,

@@ -238,6 +238,109 @@ impl<'a> SceneLights<'a> {
     }
 }
 
+/// Sample points per element of [`sky_transfer`].
+pub const SKY_SAMPLES: usize = 4;
+/// Cosine-weighted directions per sample point of [`sky_transfer`] (the runtime's when it
+/// projects a file that has none).
+pub const SKY_DIRECTIONS: usize = 64;
+
+/// The sky's transfer of each polygon (an element's, in file order): its order-2 spherical
+/// harmonic coefficients `T_lm = ∫ V(x, ω) max(0, n·ω) Y_lm(ω) dω` averaged over
+/// [`SKY_SAMPLES`] points (equal-area strata of its fan triangles), each from
+/// [`SKY_DIRECTIONS`] cosine-weighted directions (stratified, turned per point by a hash of
+/// the polygon's index and the point's: fixed, the same bytes for any thread count); a
+/// direction counts when nothing of the scene blocks it within 4 extents. What section
+/// SKY_TRANSFER stores (`lrr_runtime::trace::DirectLighting` reads it).
+pub fn sky_transfer(
+    polygons: &[&crate::geometry::Polygon],
+    occluder: Option<&dyn Occluder>,
+    extent: f64,
+) -> Vec<f32> {
+    use rayon::prelude::*;
+    let far = 4.0 * extent.max(f64::MIN_POSITIVE);
+    let per: Vec<[f32; 9]> = polygons
+        .par_iter()
+        .enumerate()
+        .map(|(e, polygon)| {
+            let normal = polygon.normal;
+            let (t, b) = normal.any_orthonormal_pair();
+            let mut sum = [0.0f64; 9];
+            for (j, x) in sample_points(polygon).into_iter().enumerate() {
+                let key = (e * SKY_SAMPLES + j) as u64;
+                let turn = (crate::geometry::hash::mix(key) >> 11) as f64 / (1u64 << 53) as f64;
+                for d in 0..SKY_DIRECTIONS {
+                    let u1 = (d as f64 + 0.5) / SKY_DIRECTIONS as f64;
+                    let u2 = (d as f64 * 0.618_033_988_749_894_8 + turn).fract();
+                    let r = u1.sqrt();
+                    let phi = 2.0 * std::f64::consts::PI * u2;
+                    let w = t * (r * phi.cos()) + b * (r * phi.sin()) + normal * (1.0 - u1).sqrt();
+                    let blocked = occluder.is_some_and(|o| o.occluded(x, normal, x + w * far, -w));
+                    if !blocked {
+                        for (s, y) in sum.iter_mut().zip(sh9(w)) {
+                            *s += y;
+                        }
+                    }
+                }
+            }
+            let scale = std::f64::consts::PI / (SKY_DIRECTIONS * SKY_SAMPLES) as f64;
+            sum.map(|s| (s * scale) as f32)
+        })
+        .collect();
+    per.concat()
+}
+
+/// The nine real orthonormal spherical harmonics of order ≤ 2 at unit `w`, in SKY_TRANSFER's
+/// order (`lrr_formats::Display::sky_transfer`; the runtime's `trace::sh9` in f32).
+fn sh9(w: DVec3) -> [f64; 9] {
+    let (x, y, z) = (w.x, w.y, w.z);
+    let c1 = 0.5 * (3.0 / std::f64::consts::PI).sqrt();
+    let c2 = 0.5 * (15.0 / std::f64::consts::PI).sqrt();
+    let c20 = 0.25 * (5.0 / std::f64::consts::PI).sqrt();
+    [
+        0.5 / std::f64::consts::PI.sqrt(),
+        c1 * y,
+        c1 * z,
+        c1 * x,
+        c2 * x * y,
+        c2 * y * z,
+        c20 * (3.0 * z * z - 1.0),
+        c2 * x * z,
+        0.5 * c2 * (x * x - y * y),
+    ]
+}
+
+/// [`SKY_SAMPLES`] points of a convex polygon: equal-area strata along its fan triangles, the
+/// van der Corput sequence across (a Hammersley set).
+fn sample_points(polygon: &crate::geometry::Polygon) -> Vec<DVec3> {
+    let v = polygon.vertices();
+    let tris: Vec<(DVec3, DVec3, DVec3, f64)> = (1..v.len() - 1)
+        .map(|i| {
+            let (a, b, c) = (v[0], v[i], v[i + 1]);
+            (a, b, c, 0.5 * (b - a).cross(c - a).length())
+        })
+        .collect();
+    let total: f64 = tris.iter().map(|t| t.3).sum();
+    (0..SKY_SAMPLES)
+        .map(|j| {
+            let u = (j as f64 + 0.5) / SKY_SAMPLES as f64 * total;
+            let mut acc = 0.0;
+            let mut pick = (tris.len() - 1, 0.5);
+            for (k, t) in tris.iter().enumerate() {
+                if u < acc + t.3 || k == tris.len() - 1 {
+                    pick = (k, ((u - acc) / t.3.max(f64::MIN_POSITIVE)).clamp(0.0, 1.0));
+                    break;
+                }
+                acc += t.3;
+            }
+            let q = ((j as u32).reverse_bits() as f64 / 4_294_967_296.0 + 0.5 / SKY_SAMPLES as f64)
+                .fract();
+            let (a, b, c, _) = tris[pick.0];
+            let root = pick.1.sqrt();
+            a + (b - a) * (root * (1.0 - q)) + (c - a) * (root * q)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -281,5 +384,25 @@ mod tests {
         let h = lights.irradiance(DVec3::new(1.0, 0.0, 0.0), -DVec3::Z);
         assert!(h.iter().all(|&c| (c - sky).abs() < 1e-12), "{h:?}");
         assert!(SceneLights::new(&LightsOwned::default(), None).is_empty());
+    }
+
+    #[test]
+    fn an_open_plane_sees_the_whole_sky() {
+        // Unoccluded: T_00 = π Y00 exactly (every direction counts), so a uniform sky L gives
+        // π L; the other coefficients are the clamped cosine's, estimated.
+        let square = crate::geometry::rectangle(0.0, 1.0, 0.0, 1.0, 0.0, false);
+        let t = sky_transfer(&[&square], None, 1.0);
+        let y00 = 0.5 / std::f64::consts::PI.sqrt();
+        assert!(
+            (f64::from(t[0]) - std::f64::consts::PI * y00).abs() < 1e-6,
+            "{t:?}"
+        );
+        // Y10 along the normal: ∫ cos² Y10-ish = 2π/3 · 0.4886 exactly; the estimate within 1%.
+        let normal_axis = if square.normal.z.abs() > 0.5 { 2 } else { 1 };
+        let exact = 2.0 * std::f64::consts::PI / 3.0 * 0.488_602_5 * square.normal.z.signum();
+        assert!(
+            (f64::from(t[normal_axis]) - exact).abs() < 1e-2 * exact.abs(),
+            "{t:?} vs {exact}"
+        );
     }
 }

@@ -125,6 +125,7 @@ pub fn with_display(mut file: OperatorFile) -> OperatorFile {
         lightmap: None,
         faces: None,
         direct_lights: Vec::new(),
+        sky_transfer: None,
     };
     file
 }

@@ -23,7 +23,14 @@ use crate::scene::{Optics, Scene};
 /// The display sections of a bake of `scene` meshed as `mesh` (the smooth weights from
 /// `mesh::smooth`). Errors
 /// name the scene and the light, camera or material at fault.
-pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display> {
+/// With a sky, its transfer per element is projected here through `occluder` (section
+/// SKY_TRANSFER; `lights::sky_transfer`).
+pub fn build(
+    scene: &Scene,
+    mesh: &Mesh,
+    occluder: Option<&dyn crate::visibility::Occluder>,
+    progress: &Progress,
+) -> Result<Display> {
     let materials = materials(scene, mesh)?;
     let point_lights = point_lights(scene, mesh)?;
     let direct_lights = direct_lights(scene)?;
@@ -40,7 +47,20 @@ pub fn build(scene: &Scene, mesh: &Mesh, progress: &Progress) -> Result<Display>
     }
     stage.finish();
     let lightmap = lightmap(scene, &shown.faces);
+    let sky_transfer = scene
+        .direct_lights
+        .iter()
+        .any(|l| l.kind.is_sky())
+        .then(|| {
+            let stage = progress.stage("sky", 0);
+            let polygons: Vec<&Polygon> =
+                (0..mesh.n()).map(|s| &mesh.element_at(s).polygon).collect();
+            let t = crate::lights::sky_transfer(&polygons, occluder, scene.extent());
+            stage.finish();
+            t
+        });
     Ok(Display {
+        sky_transfer,
         smooth: Some(smooth),
         materials: Some(materials),
         point_lights,

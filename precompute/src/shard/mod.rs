@@ -161,7 +161,12 @@ pub fn bake_shard(
         )?;
         // Removed with the rows' checkpoint once the part is written.
         let first_pass_checkpoint = prepared.first_pass_checkpoint.take();
-        let display = crate::display::build(scene, &prepared.mesh, progress)?;
+        let display = crate::display::build(
+            scene,
+            &prepared.mesh,
+            prepared.occluder.as_deref(),
+            progress,
+        )?;
         let stage = progress.stage("cut", 0);
         let costs = cost::row_costs(&prepared.mesh, prepared.occluder.is_some());
         let cut = cost::boundaries(&costs, shard.count);

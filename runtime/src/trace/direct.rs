@@ -485,13 +485,23 @@ impl DirectLighting {
         } else {
             threads
         };
+        // The bake's projection of the sky (section SKY_TRANSFER), by original id.
+        let sky = file.display.sky_transfer.as_ref().and_then(|t| {
+            (t.len() == 9 * n).then(|| {
+                let mut by_id = vec![[0.0f32; 9]; n];
+                for (s, &id) in file.order.iter().enumerate() {
+                    by_id[id as usize].copy_from_slice(&t[9 * s..9 * s + 9]);
+                }
+                by_id
+            })
+        });
         Ok(DirectLighting {
             scene,
             samples: points,
             per_element: s,
             threads,
             cache: Vec::new(),
-            sky: None,
+            sky,
         })
     }
 
@@ -565,8 +575,9 @@ impl DirectLighting {
     }
 
     /// The sky's direct irradiance `H` per element (original ids), written to `h`: `Σ_lm L_lm
-    /// T_lm` with the element's transfer `T` (projected on the first call, the rays counted in
-    /// the report; then O(9) per element), clamped at zero (an order-2 product may dip below it
+    /// T_lm` with the element's transfer `T` (the bake's, section SKY_TRANSFER, when the file
+    /// has one; else projected on the first call, the rays counted in the report; then O(9)
+    /// per element), clamped at zero (an order-2 product may dip below it
     /// where the sky is dark and mostly hidden).
     pub fn sky_irradiance(
         &mut self,
