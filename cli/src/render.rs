@@ -100,6 +100,13 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
             }
         );
     }
+    if a.explain && lights.is_empty() {
+        writeln!(
+            out,
+            "direct pass: none (no point light of no group, spot, sun or sky): no shadow rays \
+             for it"
+        )?;
+    }
     let (image, decision, rays, seconds) = match a.device {
         TraceDevice::Cpu => {
             let frame = emission::frame(&op, &lighting, &lights, emission::Device::Cpu)?;
@@ -115,12 +122,6 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
                     },
                     lights.samples,
                     frame.report.rays
-                )?;
-            } else if a.explain {
-                writeln!(
-                    out,
-                    "direct pass: none (no point light of no group, spot, sun or sky): no \
-                     shadow rays for it"
                 )?;
             }
             let frame = TraceLighting {
