@@ -10,7 +10,8 @@
 //! CPU, and then its pixel differs by whatever the two surfaces show; those pixels are counted
 //! and bounded by [`MAX_OFF_FRACTION`] of the image. On a CPU adapter (lavapipe) the images
 //! agree much more closely, and the tests hold it to that: no pixel off, 1e-6 relative (measured:
-//! bit-identical without highlights, 2.2e-7 with them, from `pow`).
+//! bit-identical without highlights, 2.2e-7 with them, from `pow`; bit-identical with lights that
+//! are not surfaces, their shadow rays counted alike).
 //!
 //! Smooth shading: the CPU twin reconstructs in f64 (`Reconstruction`: vertex sums, mean value
 //! coordinates), the GPU in f32 (`smooth.wgsl`, `trace.wgsl`; the mirrors' tests in
@@ -27,7 +28,7 @@ use lrr_formats::{
 };
 use lrr_runtime::gpu::{self, Gpu, GpuEvaluator, GpuOptions, GpuTracer};
 use lrr_runtime::testkit;
-use lrr_runtime::trace::{Image, Lighting, Tracer, View};
+use lrr_runtime::trace::{DirectLighting, DirectShading, Image, Light, Lighting, Tracer, View};
 use lrr_runtime::{Operator, Rgb};
 
 /// Per-pixel relative agreement of a pixel whose rays hit what the CPU's hit.
@@ -282,12 +283,24 @@ fn compare_images(
         group_intensities: groups,
         direct: None,
     };
-    let (cpu, cpu_report) = tracer.render(&view, &lighting, w, h, 2).unwrap();
     let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
     if let Some(t) = tile {
         gt.set_tile_pixels(t).unwrap();
     }
-    let (image, report) = gt.render_lighting(&view, &lighting, w, h).unwrap();
+    compare_frame(name, &tracer, &mut gt, (&view, w, h), &lighting)
+}
+
+/// One frame of `lighting` through `view` on both twins (`gt` made from `tracer`), checked as
+/// [`compare`] says; the GPU's report and both images (GPU, CPU).
+fn compare_frame(
+    name: &str,
+    tracer: &Tracer,
+    gt: &mut GpuTracer,
+    (view, w, h): (&View, u32, u32),
+    lighting: &Lighting,
+) -> (lrr_runtime::gpu::GpuRenderReport, Image, Image) {
+    let (cpu, cpu_report) = tracer.render(view, lighting, w, h, 2).unwrap();
+    let (image, report) = gt.render_lighting(view, lighting, w, h).unwrap();
     assert_eq!(report.decision, cpu_report.decision, "{name}");
     // The trace dispatches' GPU time, where the adapter has timestamps, within the frame's wall.
     let timestamps = gpu()
@@ -818,7 +831,7 @@ fn bounds(v: &[f32]) -> ([f32; 3], [f32; 3]) {
 }
 
 /// The bounds-check-free build (the default) computes the same image as the checked one, flat
-/// and smooth.
+/// and smooth, with and without lights that are not surfaces.
 #[test]
 fn the_unchecked_pipeline_equals_the_checked_one() {
     let mut faces = Vec::new();
@@ -834,20 +847,25 @@ fn the_unchecked_pipeline_equals_the_checked_one() {
     ];
     let mut file = file_of(&faces, materials, vec![], 0);
     file.display.smooth = Some(smooth_weights(&file.geometry));
-    for smooth in [true, false] {
-        unchecked_equals_checked(&file, smooth);
+    let lights = direct_lights();
+    for (smooth, direct) in [(true, false), (false, false), (true, true), (false, true)] {
+        unchecked_equals_checked(&file, smooth, direct.then_some(lights.as_slice()));
     }
 }
 
-fn unchecked_equals_checked(file: &OperatorFile, smooth: bool) {
+fn unchecked_equals_checked(file: &OperatorFile, smooth: bool, lights: Option<&[Light]>) {
     let mut tracer = Tracer::new(file).unwrap();
     tracer.set_smooth(smooth).unwrap();
     let view = View::new(&camera([3.0, 2.0, 3.9], [1.8, 1.1, 1.6]), 48, 32).unwrap();
     let b = radiosity(file.n as usize);
+    let rho = reflectance(file.n as usize);
     let lighting = Lighting {
         radiosity: &b,
         group_intensities: &[],
-        direct: None,
+        direct: lights.map(|lights| DirectShading {
+            lights,
+            reflectance: &rho,
+        }),
     };
     let checked_gpu = open(&GpuOptions {
         bounds_checks: true,
@@ -909,4 +927,385 @@ fn bad_calls_are_clear_errors() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("radiosity buffer holds 16 bytes"), "{e}");
+}
+
+/// An open court (a floor and two walls, no ceiling: a sun's rays leave it) with two blocks on
+/// the floor (the first, glass in the ray tree's scene, 1 cm above it: see
+/// [`mirror_and_glass_scene`]) and a slab hanging above it, all casting shadows, lit by lights that are
+/// not surfaces: a point light, a soft spot, a hard-edged spot (equal cones), a sun and a dark
+/// light (skipped before any ray). No light lies in the plane of a face and the sun is parallel
+/// to none (a cosine of exactly 0 would be decided by rounding).
+fn direct_scene(materials: Vec<Material>, block_material: u32) -> (OperatorFile, Camera) {
+    let mut faces = Vec::new();
+    let s = 4.0;
+    grid(&mut faces, [0.0; 3], [0.0, 0.0, s], [s, 0.0, 0.0], 5, 5, 0); // floor, +y
+    grid(
+        &mut faces,
+        [0.0; 3],
+        [s, 0.0, 0.0],
+        [0.0, 3.0, 0.0],
+        5,
+        4,
+        0,
+    ); // back z = 0, +z
+    grid(
+        &mut faces,
+        [0.0; 3],
+        [0.0, 3.0, 0.0],
+        [0.0, 0.0, s],
+        4,
+        5,
+        0,
+    ); // x = 0, +x
+    block(
+        &mut faces,
+        [1.0, 0.01, 1.2],
+        [2.0, 1.2, 2.2],
+        2,
+        block_material,
+    );
+    block(&mut faces, [2.6, 0.0, 0.6], [3.2, 2.2, 1.2], 1, 0);
+    block(&mut faces, [1.4, 1.9, 2.6], [2.4, 2.0, 3.4], 1, 0);
+    let file = file_of(&faces, materials, vec![], 0);
+    (file, camera([3.9, 3.4, 4.6], [1.6, 0.7, 1.6]))
+}
+
+fn direct_lights() -> Vec<Light> {
+    vec![
+        Light::Point {
+            position: [2.3, 2.7, 2.9],
+            intensity: [3.0, 2.6, 2.2],
+        },
+        Light::Spot {
+            position: [0.7, 2.9, 0.9],
+            direction: [0.8, -3.0, 1.9],
+            intensity: [6.0, 5.0, 4.0],
+            inner: 20f32.to_radians(),
+            outer: 35f32.to_radians(),
+        },
+        Light::Point {
+            position: [3.1, 0.5, 3.3],
+            intensity: [0.0; 3],
+        },
+        Light::Spot {
+            position: [3.6, 2.5, 3.6],
+            direction: [-2.1, -1.9, -1.9],
+            intensity: [2.0, 2.0, 3.0],
+            inner: 15f32.to_radians(),
+            outer: 15f32.to_radians(),
+        },
+        Light::Directional {
+            direction: [-0.45, -1.0, -0.35],
+            irradiance: [1.2, 1.1, 0.9],
+        },
+    ]
+}
+
+/// A frame of radiosity `b` (the bounced light) and `lights` reflected with `rho`.
+fn lit<'a>(b: &'a [[f32; 3]], lights: &'a [Light], rho: &'a [[f32; 3]]) -> Lighting<'a> {
+    Lighting {
+        radiosity: b,
+        group_intensities: &[],
+        direct: Some(DirectShading {
+            lights,
+            reflectance: rho,
+        }),
+    }
+}
+
+/// A varied reflectance per element.
+fn reflectance(n: usize) -> Vec<[f32; 3]> {
+    (0..n)
+        .map(|i| {
+            let x = i as f32;
+            [
+                0.5 + 0.3 * (0.41 * x).sin(),
+                0.5 + 0.25 * (0.29 * x + 0.5).cos(),
+                0.4 + 0.2 * (0.17 * x + 1.0).sin(),
+            ]
+        })
+        .collect()
+}
+
+/// Lights that are not surfaces, shaded at every hit (`trace.wgsl`'s `DIRECT` variant): the
+/// images equal the CPU twin's per pixel, shadow rays included, frame after frame on one tracer
+/// (more lights than its buffer held, then a new reflectance, then none: the variant without
+/// them), and the GPU-resident entry point gives the same image. The scene's shadows are real:
+/// the sun's and the point light's shadow rays are blocked where the blocks stand between.
+#[test]
+fn direct_lights_and_their_shadows_match_the_cpu_twin_per_pixel() {
+    let (file, cam) = direct_scene(vec![Material::diffuse("white", [0.7; 3])], 0);
+    let n = file.n as usize;
+    let (w, h) = (110, 80);
+    let tracer = Tracer::new(&file).unwrap();
+    let view = View::new(&cam, w, h).unwrap();
+    let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
+    let b = radiosity(n);
+    let mut rho = reflectance(n);
+    let all = direct_lights();
+    // One light first (the buffer holds one), then all of them.
+    let (report, one, _) = compare_frame(
+        "direct: the spot",
+        &tracer,
+        &mut gt,
+        (&view, w, h),
+        &lit(&b, &all[1..2], &rho),
+    );
+    assert!(report.rays.unwrap().shadow > 0);
+    let (report, image, cpu) = compare_frame(
+        "direct: point, spots, sun",
+        &tracer,
+        &mut gt,
+        (&view, w, h),
+        &lit(&b, &all, &rho),
+    );
+    let e = report.decision.effects;
+    assert!(!e.smooth && !e.secondary && !e.highlights, "{e:?}");
+    let rays = report.rays.unwrap();
+    assert!(rays.shadow > rays.primary, "{rays:?}");
+    assert!(differing(&image, &one) > (w * h) as usize / 4);
+    // A new reflectance is uploaded (and the image follows it).
+    for r in rho.iter_mut().step_by(3) {
+        r[1] *= 0.5;
+    }
+    let (_, dimmer, _) = compare_frame(
+        "direct: new reflectance",
+        &tracer,
+        &mut gt,
+        (&view, w, h),
+        &lit(&b, &all, &rho),
+    );
+    assert!(differing(&dimmer, &image) > 0);
+    // The GPU-resident entry point: the same image from a storage buffer.
+    let buffer = gt.upload_radiosity(&b).unwrap();
+    let direct = DirectShading {
+        lights: &all,
+        reflectance: &rho,
+    };
+    let (resident, _) = gt
+        .render_direct(&view, &buffer, &[], Some(direct), w, h)
+        .unwrap();
+    assert_eq!(resident, dimmer);
+    // No lights again: the plain variant, the plain image.
+    let plain = Lighting {
+        radiosity: &b,
+        group_intensities: &[],
+        direct: None,
+    };
+    let (none, report) = gt.render_lighting(&view, &plain, w, h).unwrap();
+    assert_eq!(report.rays.unwrap().shadow, 0);
+    let (cpu_none, _) = tracer.render(&view, &plain, w, h, 2).unwrap();
+    assert_eq!(agreement(&none, &cpu_none).off, 0);
+    assert!(differing(&cpu, &cpu_none) > (w * h) as usize / 3);
+    // The shadows: a floor point that the first block hides from the sun, and one it does not.
+    let pass = DirectLighting::new(&file, 1, 1).unwrap();
+    let sun = &all[4..5];
+    let Light::Directional { direction: d, .. } = sun[0] else {
+        unreachable!()
+    };
+    // The floor point whose ray to the sun passes the middle of the block's top.
+    let centre = [1.5f32, 1.2, 1.7];
+    let t = -centre[1] / d[1];
+    let under = [centre[0] + t * d[0], 0.0, centre[2] + t * d[2]];
+    let up = [0.0, 1.0, 0.0];
+    assert_eq!(
+        pass.at(sun, under, up),
+        [0.0; 3],
+        "{under:?} is in the shadow"
+    );
+    assert!(pass.at(sun, [3.5, 0.0, 3.5], up)[0] > 0.0);
+    let point = &all[0..1];
+    assert_eq!(
+        pass.at(point, [1.9, 0.0, 3.1], up),
+        [0.0; 3],
+        "under the slab"
+    );
+}
+
+/// [`direct_scene`] with a glass block, a mirror wall, plaster with highlights under a file's
+/// point light, and SMOOTH weights.
+fn direct_ray_tree_scene() -> (OperatorFile, Camera) {
+    let materials = vec![
+        Material {
+            specular: [0.2; 3],
+            shininess: 8.0,
+            ..Material::diffuse("plaster", [0.6; 3])
+        },
+        Material {
+            mirror: [1.0; 3],
+            transmission: [0.95, 0.97, 1.0],
+            ior: 1.5,
+            ..Material::diffuse("glass", [0.0; 3])
+        },
+    ];
+    let (mut file, cam) = direct_scene(materials, 1);
+    file.display.point_lights = vec![PointLight {
+        name: "lamp".into(),
+        position: [0.6, 2.6, 3.3],
+        intensity: [2.0, 1.8, 1.6],
+        group: PointLight::FIXED,
+    }];
+    // The back wall a mirror.
+    let materials = file.display.materials.as_mut().unwrap();
+    materials.materials.push(Material {
+        mirror: [0.8, 0.75, 0.7],
+        ..Material::diffuse("mirror", [0.1; 3])
+    });
+    for m in &mut materials.element_material[25..45] {
+        *m = 2;
+    }
+    file.display.smooth = Some(smooth_weights(&file.geometry));
+    file.validate().unwrap();
+    (file, cam)
+}
+
+/// The lights' direct light inside the ray tree and with smooth shading: every diffuse term of
+/// every ray (camera, mirror, glass) adds its own `ρ H(x) / π` behind its shadow rays, as the
+/// CPU twin's does, beside a file's point light's highlights.
+#[test]
+fn direct_lights_in_the_ray_tree_and_smooth_match_the_cpu_twin_per_pixel() {
+    let (file, cam) = direct_ray_tree_scene();
+    let n = file.n as usize;
+    let (w, h) = (110, 80);
+    let tracer = Tracer::new(&file).unwrap();
+    let view = View::new(&cam, w, h).unwrap();
+    let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
+    let (b, rho, lights) = (radiosity(n), reflectance(n), direct_lights());
+    let lighting = Lighting {
+        radiosity: &b,
+        group_intensities: &[],
+        direct: Some(DirectShading {
+            lights: &lights,
+            reflectance: &rho,
+        }),
+    };
+    let (report, _, _) = compare_frame(
+        "direct: ray tree, smooth",
+        &tracer,
+        &mut gt,
+        (&view, w, h),
+        &lighting,
+    );
+    let e = report.decision.effects;
+    assert!(e.smooth && e.secondary && e.highlights, "{e:?}");
+    let rays = report.rays.unwrap();
+    assert!(rays.secondary > 0 && rays.shadow > rays.primary, "{rays:?}");
+}
+
+/// The direct scenes, as [`the_ray_tree_scenes_are_well_conditioned`] asks of the others: the
+/// CPU twin's image and rays barely move when the eye moves by a few ulp (the shadow
+/// edges and the hard-edged spot's cone included).
+#[test]
+fn the_direct_scenes_are_well_conditioned() {
+    let flat = direct_scene(vec![Material::diffuse("white", [0.7; 3])], 0);
+    for (name, (file, base)) in [
+        ("direct", flat),
+        ("direct ray tree", direct_ray_tree_scene()),
+    ] {
+        direct_scene_is_well_conditioned(name, &file, &base);
+    }
+}
+
+fn direct_scene_is_well_conditioned(name: &str, file: &OperatorFile, base: &Camera) {
+    let n = file.n as usize;
+    let (w, h) = (110, 80);
+    let (b, rho, lights) = (radiosity(n), reflectance(n), direct_lights());
+    let tracer = Tracer::new(file).unwrap();
+    let lighting = lit(&b, &lights, &rho);
+    let (image, report) = tracer
+        .render(&View::new(base, w, h).unwrap(), &lighting, w, h, 2)
+        .unwrap();
+    for eps in [1e-7f32, 1e-6] {
+        let mut cam = base.clone();
+        cam.eye[0] *= 1.0 + eps;
+        cam.eye[1] *= 1.0 - eps;
+        let (moved, moved_report) = tracer
+            .render(&View::new(&cam, w, h).unwrap(), &lighting, w, h, 2)
+            .unwrap();
+        let a = agreement(&moved, &image);
+        let (r, m) = (report.rays, moved_report.rays);
+        eprintln!(
+            "{name}, eye moved by {eps:e}: {} of {} pixels beyond {REL:e} (worst {:.2e}); \
+             rays {r:?} then {m:?}",
+            a.off,
+            w * h,
+            a.worst_off
+        );
+        assert!(
+            (a.off as f64) < MAX_OFF_FRACTION * f64::from(w * h),
+            "{name}"
+        );
+        let close = |x: u64, y: u64| x.abs_diff(y) <= 8 * a.off as u64;
+        assert!(
+            close(r.shadow, m.shadow) && close(r.secondary, m.secondary),
+            "{name}: {r:?} then {m:?}"
+        );
+    }
+}
+
+/// Bad lights and reflectances are refused naming them, as the CPU twin refuses them.
+#[test]
+fn bad_direct_lights_are_clear_errors() {
+    let file = white_room(0);
+    let n = file.n as usize;
+    let tracer = Tracer::new(&file).unwrap();
+    let mut gt = GpuTracer::new(gpu(), &tracer).unwrap();
+    let view = View::new(&camera([2.0, 2.0, 3.0], [2.0, 2.0, 0.0]), 8, 8).unwrap();
+    let b = radiosity(n);
+    let rho = reflectance(n);
+    let cases: Vec<(Vec<Light>, usize, &str)> = vec![
+        (
+            vec![Light::Point {
+                position: [1.0; 3],
+                intensity: [1.0, -1.0, 1.0],
+            }],
+            n,
+            "light 0",
+        ),
+        (
+            vec![
+                Light::Point {
+                    position: [1.0; 3],
+                    intensity: [1.0; 3],
+                },
+                Light::Spot {
+                    position: [1.0; 3],
+                    direction: [0.0; 3],
+                    intensity: [1.0; 3],
+                    inner: 0.1,
+                    outer: 0.2,
+                },
+            ],
+            n,
+            "light 1",
+        ),
+        (
+            vec![Light::Directional {
+                direction: [0.0, -1.0, 0.0],
+                irradiance: [1.0; 3],
+            }],
+            n - 1,
+            "23 reflectances for 24 elements",
+        ),
+    ];
+    for (lights, len, want) in cases {
+        let lighting = Lighting {
+            radiosity: &b,
+            group_intensities: &[],
+            direct: Some(DirectShading {
+                lights: &lights,
+                reflectance: &rho[..len],
+            }),
+        };
+        let e = gt
+            .render_lighting(&view, &lighting, 8, 8)
+            .unwrap_err()
+            .to_string();
+        let cpu = tracer
+            .render(&view, &lighting, 8, 8, 1)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want), "{e}");
+        assert_eq!(e, cpu);
+    }
 }

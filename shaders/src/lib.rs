@@ -23,7 +23,9 @@
 //! and its CPU mirror is the runtime's CPU tracer (`lrr_runtime::trace`). Smooth shading adds
 //! one pass before it, `smooth.wgsl` ([`SMOOTH_VERTICES`], mirror [`cpu::smooth_vertices`]):
 //! the smooth-vertex values from `B`, which `trace.wgsl` interpolates by mean value coordinates
-//! at each hit (mirror [`cpu::mean_value_weights`]).
+//! at each hit (mirror [`cpu::mean_value_weights`]). Lights that are not surfaces (point, spot,
+//! sun) are shaded per hit by its `DIRECT` variant ([`direct_light`] records, the reflectance
+//! per element), as the CPU twin's `Lighting::direct` does.
 //!
 //! [`Pass::Read`] (`read.wgsl`) is not a step of a frame: it reads the gather's bytes and
 //! nothing else, the roofline the benchmark compares the gather with.
@@ -108,8 +110,9 @@ mod naga_tests;
 pub use params::{GatherConstants, Params};
 pub use smooth::{SMOOTH_BINDINGS, SMOOTH_ENTRY, SMOOTH_LANES, SMOOTH_VERTICES, SmoothParams};
 pub use trace::{
-    LIGHT_BYTES, NO_CORNER, NODE_BYTES, OPTICS_BYTES, SMOOTH_ELEMENT_BYTES, SMOOTH_ELEMENT_FIELDS,
-    TRACE, TRACE_BINDINGS, TRACE_ENTRY, TRACE_LANES, TraceConstants, TraceParams, smooth_element,
+    DIRECT_LIGHT_BYTES, DIRECT_LIGHT_FIELDS, DirectKind, LIGHT_BYTES, NO_CORNER, NODE_BYTES,
+    OPTICS_BYTES, SMOOTH_ELEMENT_BYTES, SMOOTH_ELEMENT_FIELDS, TRACE, TRACE_BINDINGS, TRACE_ENTRY,
+    TRACE_LANES, TraceConstants, TraceParams, direct_light, smooth_element,
 };
 
 /// Invocations per workgroup in segment_sums, core_product and the light-group passes.

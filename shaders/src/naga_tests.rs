@@ -317,12 +317,13 @@ fn validate_trace(module: &Module) -> ModuleInfo {
 fn trace_compiles_to_spirv_for_every_combination_of_effects() {
     let module = parse_trace();
     let info = validate_trace(&module);
-    for bits in 0..16u32 {
+    for bits in 0..32u32 {
         let c = crate::TraceConstants {
             highlights: bits & 1 != 0,
             secondary: bits & 2 != 0,
             smooth: bits & 4 != 0,
             count_rays: bits & 8 != 0,
+            direct: bits & 16 != 0,
         };
         let mut constants = PipelineConstants::default();
         for (name, value) in c.constants() {
@@ -406,19 +407,37 @@ fn trace_structs_match_the_host_layout() {
         ("Optics", crate::OPTICS_BYTES),
         ("Light", crate::LIGHT_BYTES),
         ("SmoothElement", crate::SMOOTH_ELEMENT_BYTES),
+        ("DirectLight", crate::DIRECT_LIGHT_BYTES),
     ] {
         let (handle, _) = find(name);
         assert_eq!(layouter[handle].size as usize, bytes, "{name}");
     }
-    let (_, ty) = find("SmoothElement");
-    let TypeInner::Struct { members, .. } = &ty.inner else {
-        panic!("SmoothElement is {:?}", ty.inner);
-    };
-    let wgsl: Vec<(&str, usize)> = members
-        .iter()
-        .map(|m| (m.name.as_deref().unwrap_or("?"), m.offset as usize))
-        .collect();
-    assert_eq!(wgsl, crate::SMOOTH_ELEMENT_FIELDS);
+    for (name, fields) in [
+        ("SmoothElement", crate::SMOOTH_ELEMENT_FIELDS),
+        ("DirectLight", crate::DIRECT_LIGHT_FIELDS),
+    ] {
+        let (_, ty) = find(name);
+        let TypeInner::Struct { members, .. } = &ty.inner else {
+            panic!("{name} is {:?}", ty.inner);
+        };
+        let wgsl: Vec<(&str, usize)> = members
+            .iter()
+            .map(|m| (m.name.as_deref().unwrap_or("?"), m.offset as usize))
+            .collect();
+        assert_eq!(wgsl, fields, "{name}");
+    }
+    for kind in [
+        crate::DirectKind::Point,
+        crate::DirectKind::Spot,
+        crate::DirectKind::Sun,
+    ] {
+        let name = match kind {
+            crate::DirectKind::Point => "DIRECT_POINT",
+            crate::DirectKind::Spot => "DIRECT_SPOT",
+            crate::DirectKind::Sun => "DIRECT_SUN",
+        };
+        assert_eq!(constant(&module, name), kind as u32, "{name}");
+    }
 }
 
 // The smooth-vertex pass (`smooth.wgsl`): self-contained, no optional capability.

@@ -15,8 +15,8 @@ pub const TRACE_ENTRY: &str = "trace";
 /// Invocations per workgroup (one per pixel). Mirrored by `TRACE_LANES` in `wgsl/trace.wgsl`.
 pub const TRACE_LANES: u32 = 64;
 
-/// Size of the element of `nodes`, `optics` and `lights` in bytes (`struct Node`, `Optics`,
-/// `Light` of `trace.wgsl`; a naga test checks).
+/// Size of the element of `nodes`, `optics`, `lights` and `direct_lights` in bytes (`struct
+/// Node`, `Optics`, `Light`, `DirectLight` of `trace.wgsl`; a naga test checks).
 pub const NODE_BYTES: usize = 32;
 /// See [`NODE_BYTES`].
 pub const OPTICS_BYTES: usize = 48;
@@ -24,6 +24,75 @@ pub const OPTICS_BYTES: usize = 48;
 pub const LIGHT_BYTES: usize = 32;
 /// See [`NODE_BYTES`] (`struct SmoothElement`: [`smooth_element`]'s 16 words).
 pub const SMOOTH_ELEMENT_BYTES: usize = 64;
+/// See [`NODE_BYTES`] (`struct DirectLight`: [`direct_light`]'s 16 words).
+pub const DIRECT_LIGHT_BYTES: usize = 64;
+
+/// What a [`direct_light`] record is (`DIRECT_POINT`, `DIRECT_SPOT`, `DIRECT_SUN` in
+/// `trace.wgsl`): the runtime's `Light` variants.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DirectKind {
+    /// A point light: `I max(0, n·ω) / d²`.
+    Point = 0,
+    /// A spot light: the point light's irradiance times glTF's cone falloff.
+    Spot = 1,
+    /// A directional light (a sun): `E max(0, n·ω)`, its shadow ray unbounded.
+    Sun = 2,
+}
+
+/// Names and byte offsets of `struct DirectLight` in `trace.wgsl` (a naga test compares).
+pub const DIRECT_LIGHT_FIELDS: &[(&str, usize)] = &[
+    ("position", 0),
+    ("kind", 12),
+    ("direction", 16),
+    ("cos_inner", 28),
+    ("strength", 32),
+    ("cos_outer", 44),
+    ("falloff_scale", 48),
+    ("reserved0", 52),
+    ("reserved1", 56),
+    ("reserved2", 60),
+];
+
+/// One light that is not a surface as the tracer's `DIRECT` variant reads it (`struct
+/// DirectLight`, binding `direct_lights`): the 16 words to upload, at the offsets of
+/// [`DIRECT_LIGHT_FIELDS`]. Everything the CPU twin computes per light rather than per point is
+/// computed by the caller on the host, in the CPU's f32 operations, so that the shader does not
+/// round it otherwise: `direction` is a spot's unit axis (`normalize(direction)`) or, for a sun,
+/// the unit direction towards it (`-normalize(direction)`); a spot's `cos_inner`, `cos_outer`
+/// (the cones' cosines) and `falloff_scale` (`1 / max(cos_inner − cos_outer, 1e-3)`); zero
+/// where a kind has no such value.
+#[allow(clippy::too_many_arguments)]
+pub fn direct_light(
+    kind: DirectKind,
+    position: [f32; 3],
+    direction: [f32; 3],
+    strength: [f32; 3],
+    cos_inner: f32,
+    cos_outer: f32,
+    falloff_scale: f32,
+) -> [u32; 16] {
+    let [p0, p1, p2] = position.map(f32::to_bits);
+    let [d0, d1, d2] = direction.map(f32::to_bits);
+    let [s0, s1, s2] = strength.map(f32::to_bits);
+    [
+        p0,
+        p1,
+        p2,
+        kind as u32,
+        d0,
+        d1,
+        d2,
+        cos_inner.to_bits(),
+        s0,
+        s1,
+        s2,
+        cos_outer.to_bits(),
+        falloff_scale.to_bits(),
+        0,
+        0,
+        0,
+    ]
+}
 
 /// A triangle's unused fourth corner in [`smooth_element`] (`NO_CORNER` in `trace.wgsl`).
 pub const NO_CORNER: u32 = u32::MAX;
@@ -75,6 +144,8 @@ pub const TRACE_BINDINGS: &[Binding] = &[
     bind(11, "counts", ReadWrite),
     bind(12, "smooth_faces", Read),
     bind(13, "vertex_values", Read),
+    bind(14, "direct_lights", Read),
+    bind(15, "reflectance", Read),
 ];
 
 /// The effects a frame simulates, as the `override` constants of `trace.wgsl` (the CPU's
@@ -90,23 +161,29 @@ pub struct TraceConstants {
     pub smooth: bool,
     /// `COUNT_RAYS`: count rays by kind (atomics; off for timed frames).
     pub count_rays: bool,
+    /// `DIRECT`: lights that are not surfaces shaded at every hit, `ρ H(x) / π` added to the
+    /// radiosity's radiance, each light behind its own shadow ray (bindings `direct_lights` and
+    /// `reflectance`); off, a frame without such lights runs none of it.
+    pub direct: bool,
 }
 
 impl TraceConstants {
     /// The pipeline constants by name.
-    pub fn constants(&self) -> [(&'static str, f64); 4] {
+    pub fn constants(&self) -> [(&'static str, f64); 5] {
         let b = |v: bool| if v { 1.0 } else { 0.0 };
         [
             ("HIGHLIGHTS", b(self.highlights)),
             ("SECONDARY", b(self.secondary)),
             ("SMOOTH", b(self.smooth)),
             ("COUNT_RAYS", b(self.count_rays)),
+            ("DIRECT", b(self.direct)),
         ]
     }
 }
 
 /// The per-tile uniform at binding 0 of `trace` (`struct TraceParams` of `trace.wgsl`, its
-/// twin: 80 bytes, each `vec3<f32>` followed by a 4-byte field in its padding). Upload
+/// twin: 96 bytes, each `vec3<f32>` followed by a 4-byte field in its padding, the struct
+/// padded to 16 bytes). Upload
 /// [`TraceParams::to_bytes`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct TraceParams {
@@ -134,11 +211,13 @@ pub struct TraceParams {
     pub pixel_count: u32,
     /// Index of this tile's ray counters.
     pub tile: u32,
+    /// Lights that are not surfaces in `direct_lights` (read with `DIRECT` only).
+    pub direct_count: u32,
 }
 
 impl TraceParams {
     /// Size in bytes, on the host and in WGSL.
-    pub const SIZE: usize = 80;
+    pub const SIZE: usize = 96;
 
     /// Every field's name and byte offset in WGSL, in declaration order (a naga test compares).
     pub const FIELDS: &'static [(&'static str, usize)] = &[
@@ -154,6 +233,7 @@ impl TraceParams {
         ("first_pixel", 68),
         ("pixel_count", 72),
         ("tile", 76),
+        ("direct_count", 80),
     ];
 
     /// The bytes to upload, little-endian, at the [`FIELDS`](Self::FIELDS) offsets.
@@ -184,6 +264,7 @@ impl TraceParams {
             self.first_pixel,
             self.pixel_count,
             self.tile,
+            self.direct_count,
         ];
         let mut bytes = [0; Self::SIZE];
         for (chunk, w) in bytes.chunks_exact_mut(4).zip(words) {
@@ -214,6 +295,43 @@ mod tests {
         assert_eq!(word(56), 2.0f32.to_bits());
         assert_eq!(word(60), 640);
         assert_eq!(word(76), 9);
+        assert_eq!(word(80), 0);
+        let p = TraceParams {
+            direct_count: 3,
+            ..p
+        };
+        assert_eq!(p.to_bytes()[80..84], 3u32.to_le_bytes());
+        assert!(p.to_bytes()[84..].iter().all(|&b| b == 0));
+    }
+
+    #[test]
+    fn direct_lights_sit_at_their_offsets() {
+        let words = direct_light(
+            DirectKind::Spot,
+            [1.0, 2.0, 3.0],
+            [0.0, -1.0, 0.0],
+            [4.0, 5.0, 6.0],
+            0.9,
+            0.8,
+            10.0,
+        );
+        assert_eq!(4 * words.len(), DIRECT_LIGHT_BYTES);
+        let at = |name: &str| {
+            let (_, offset) = DIRECT_LIGHT_FIELDS
+                .iter()
+                .find(|(n, _)| *n == name)
+                .unwrap();
+            words[offset / 4]
+        };
+        assert_eq!(at("position"), 1.0f32.to_bits());
+        assert_eq!(at("kind"), DirectKind::Spot as u32);
+        assert_eq!(at("direction"), 0.0f32.to_bits());
+        assert_eq!(words[5], (-1.0f32).to_bits());
+        assert_eq!(at("cos_inner"), 0.9f32.to_bits());
+        assert_eq!(at("strength"), 4.0f32.to_bits());
+        assert_eq!(at("cos_outer"), 0.8f32.to_bits());
+        assert_eq!(at("falloff_scale"), 10.0f32.to_bits());
+        assert_eq!(words[13..], [0, 0, 0]);
     }
 
     #[test]
@@ -246,7 +364,8 @@ mod tests {
                 ("HIGHLIGHTS", 0.0),
                 ("SECONDARY", 1.0),
                 ("SMOOTH", 0.0),
-                ("COUNT_RAYS", 0.0)
+                ("COUNT_RAYS", 0.0),
+                ("DIRECT", 0.0)
             ]
         );
     }

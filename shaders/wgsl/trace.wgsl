@@ -25,7 +25,9 @@
 // - smooth_faces: F entries; a face's used corners (3, or 4 when c3 != NO_CORNER) name
 //   smooth vertices < the vertex count (Reconstruction::from_parts), and vertex_values holds 3
 //   f32 per smooth vertex (written by smooth.wgsl before the tiles). Without SMOOTH both are
-//   bound but unread.
+//   bound but unread;
+// - direct_lights: at least direct_count entries; reflectance: at least 3 n f32 (the host
+//   checks both per frame). Without DIRECT both are bound but unread.
 
 // Effects, set per frame by the host exactly as the CPU's `Effects` decide
 // (runtime/src/trace/effects.rs): a switched-off effect's code is removed at pipeline creation.
@@ -38,6 +40,10 @@ override SECONDARY: bool = false;
 override SMOOTH: bool = false;
 // Count rays by kind into `counts` (benchmarks and reports; atomics, off for timed frames).
 override COUNT_RAYS: bool = false;
+// Lights that are not surfaces (the CPU's Lighting::direct): at every hit, rho H(p) / pi added
+// to the radiosity's radiance, each light of direct_lights behind its own shadow ray. Off, a
+// frame without such lights runs none of it.
+override DIRECT: bool = false;
 
 // Invocations per workgroup (lrr_shaders::TRACE_LANES).
 const TRACE_LANES: u32 = 64u;
@@ -55,8 +61,12 @@ const FRAC_1_PI: f32 = 0.318309886183790671537767526745028724;
 const NO_HIT: u32 = 0xFFFFFFFFu;
 // A triangle's unused fourth corner in SmoothElement (lrr_shaders::NO_CORNER).
 const NO_CORNER: u32 = 0xFFFFFFFFu;
+// DirectLight kinds (lrr_shaders::DirectKind).
+const DIRECT_POINT: u32 = 0u;
+const DIRECT_SPOT: u32 = 1u;
+const DIRECT_SUN: u32 = 2u;
 
-// The per-tile uniform. Mirrored by lrr_shaders::TraceParams (shaders/src/trace.rs), 80 bytes;
+// The per-tile uniform. Mirrored by lrr_shaders::TraceParams (shaders/src/trace.rs), 96 bytes;
 // a naga test compares names and offsets.
 struct TraceParams {
     eye: vec3<f32>,
@@ -77,6 +87,8 @@ struct TraceParams {
     pixel_count: u32,
     // Index of this tile's counters.
     tile: u32,
+    // Lights in direct_lights (DIRECT only).
+    direct_count: u32,
 }
 
 // A BVH node as the file stores it, reordered for 16-byte alignment.
@@ -105,6 +117,26 @@ struct Light {
     reserved0: f32,
     intensity: vec3<f32>,
     reserved1: f32,
+}
+
+// A light that is not a surface (direct.rs Light; lrr_shaders::direct_light, 64 bytes; a naga
+// test compares offsets), with what the CPU computes per light rather than per point computed on
+// the host in the CPU's operations: direction is a spot's unit axis (normalize(direction)) or
+// the unit direction towards a sun (-normalize(direction)); a spot's cone cosines and
+// falloff_scale = 1 / max(cos_inner - cos_outer, 1e-3). The host leaves out dark lights (the
+// CPU's at_point skips them before any ray).
+struct DirectLight {
+    position: vec3<f32>,
+    kind: u32,
+    direction: vec3<f32>,
+    cos_inner: f32,
+    // Colour times intensity: W/sr (point, spot) or W/m2 (sun).
+    strength: vec3<f32>,
+    cos_outer: f32,
+    falloff_scale: f32,
+    reserved0: f32,
+    reserved1: f32,
+    reserved2: f32,
 }
 
 // One display face's polygon for smooth shading (lrr_shaders::smooth_element, 64 bytes; a naga
@@ -144,6 +176,10 @@ struct SmoothElement {
 @group(0) @binding(12) var<storage, read> smooth_faces: array<SmoothElement>;
 // This frame's smooth-vertex values, 3 f32 each (smooth.wgsl's output; SMOOTH only).
 @group(0) @binding(13) var<storage, read> vertex_values: array<f32>;
+// This frame's lights that are not surfaces, params.direct_count of them (DIRECT only).
+@group(0) @binding(14) var<storage, read> direct_lights: array<DirectLight>;
+// Reflectance per element, 3 f32 each, original ids (DIRECT only).
+@group(0) @binding(15) var<storage, read> reflectance: array<f32>;
 
 // This invocation's ray counts: primary, shadow, secondary.
 var<private> counted: vec3<u32>;
@@ -540,14 +576,100 @@ fn smooth_radiosity(f: u32, p: vec3<f32>) -> vec3<f32> {
     return sum;
 }
 
-// shade.rs `diffuse`: the radiosity of the hit point on display face f as a radiance, B / pi:
-// smooth (SMOOTH) or the flat value of the face's element.
-fn diffuse(f: u32, p: vec3<f32>) -> vec3<f32> {
-    if SMOOTH {
-        return smooth_radiosity(f, p) * FRAC_1_PI;
+// direct.rs `spot_falloff`: glTF's cone falloff at cos_axis, the cosine of the angle off the
+// spot's axis, from the cosines and the scale the host computed.
+fn spot_falloff(light: DirectLight, cos_axis: f32) -> f32 {
+    if cos_axis < light.cos_outer {
+        return 0.0;
     }
+    if light.cos_inner <= light.cos_outer {
+        return 1.0;
+    }
+    let t = clamp((cos_axis - light.cos_outer) * light.falloff_scale, 0.0, 1.0);
+    return t * t;
+}
+
+// direct.rs Light::towards: a light's irradiance per unit strength at x (front normal n, unit)
+// before visibility, g; the shadow ray's unit direction towards the light, w, and length, dist
+// (a sun's is unbounded and not read); lit false when no light arrives.
+struct Towards {
+    g: f32,
+    w: vec3<f32>,
+    dist: f32,
+    lit: bool,
+}
+
+fn towards(light: DirectLight, x: vec3<f32>, n: vec3<f32>) -> Towards {
+    var out = Towards(0.0, vec3<f32>(0.0), 0.0, false);
+    if light.kind == DIRECT_SUN {
+        let cos = dot3(n, light.direction);
+        if cos > 0.0 {
+            out = Towards(cos, light.direction, FAR, true);
+        }
+        return out;
+    }
+    let to = light.position - x;
+    let d2 = dot3(to, to);
+    if d2 <= 0.0 {
+        return out;
+    }
+    let dist = sqrt(d2);
+    let w = to * (1.0 / dist);
+    let cos = dot3(n, w);
+    if cos <= 0.0 {
+        return out;
+    }
+    if light.kind == DIRECT_SPOT {
+        let falloff = spot_falloff(light, -dot3(light.direction, w));
+        if falloff > 0.0 {
+            out = Towards(cos * falloff / d2, w, dist, true);
+        }
+        return out;
+    }
+    return Towards(cos / d2, w, dist, true);
+}
+
+// direct.rs `at_point`: the direct irradiance of the frame's lights at x (front normal n,
+// unit), each behind its own shadow ray from just off the surface to just short of the light
+// (a sun's to the far end), counted as a shadow ray.
+fn direct_irradiance(x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let origin = mad3(x, n, params.epsilon);
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < params.direct_count; i++) {
+        let light = direct_lights[i];
+        let to = towards(light, x, n);
+        if !to.lit {
+            continue;
+        }
+        counted.y += 1u;
+        var reach = FAR;
+        if light.kind != DIRECT_SUN {
+            reach = to.dist * (1.0 - 1e-5);
+        }
+        if !occluded(make_ray(origin, to.w), 0.0, reach) {
+            sum = sum + light.strength * to.g;
+        }
+    }
+    return sum;
+}
+
+// shade.rs `diffuse`: the radiosity of the hit point on display face f as a radiance, B / pi:
+// smooth (SMOOTH) or the flat value of the face's element; plus (DIRECT) the frame's direct
+// light at p on the face's front, rho H(p) / pi.
+fn diffuse(f: u32, p: vec3<f32>) -> vec3<f32> {
     let at = 3u * face_id[f];
-    let b = vec3<f32>(radiosity[at], radiosity[at + 1u], radiosity[at + 2u]);
+    var b: vec3<f32>;
+    if SMOOTH {
+        b = smooth_radiosity(f, p);
+    } else {
+        b = vec3<f32>(radiosity[at], radiosity[at + 1u], radiosity[at + 2u]);
+    }
+    if DIRECT {
+        let n = vec3<f32>(normals[3u * f], normals[3u * f + 1u], normals[3u * f + 2u]);
+        let h = direct_irradiance(p, n);
+        let rho = vec3<f32>(reflectance[at], reflectance[at + 1u], reflectance[at + 2u]);
+        b = b + rho * h;
+    }
     return b * FRAC_1_PI;
 }
 

@@ -6,8 +6,11 @@
 //! every index the shader follows was checked there) and uploads its scene once: BVH nodes,
 //! leaf-order triangles, per-element ids, normals and materials, optics, and with SMOOTH
 //! weights the smooth reconstruction (`super::smooth`). A frame writes the point lights'
-//! intensities (their group's factor applied), decides the effects exactly as the CPU twin does
-//! and builds (once per combination) the pipeline specialised by them; shading smooth, it first
+//! intensities (their group's factor applied) and, when it has lights that are not surfaces
+//! ([`DirectShading`]), their records and the reflectance per element (uploaded again only when
+//! it changed), decides the effects exactly as the CPU twin does and builds (once per
+//! combination, the lights' `DIRECT` variant included) the pipeline specialised by them; shading
+//! smooth, it first
 //! runs `smooth.wgsl` over the radiosity buffer (the smooth-vertex values, once per frame, left
 //! on the GPU), then renders the image in tiles of at most [`GpuTracer::tile_pixels`] pixels,
 //! one dispatch and one submission each, so that no dispatch runs long enough for a driver's
@@ -33,8 +36,8 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use lrr_shaders::{
-    LIGHT_BYTES, NODE_BYTES, OPTICS_BYTES, TRACE, TRACE_ENTRY, TRACE_LANES, TraceConstants,
-    TraceParams,
+    DIRECT_LIGHT_BYTES, LIGHT_BYTES, NODE_BYTES, OPTICS_BYTES, TRACE, TRACE_ENTRY, TRACE_LANES,
+    TraceConstants, TraceParams,
 };
 
 use super::buffers::storage;
@@ -42,7 +45,9 @@ use super::common::{GpuError, bytes_of};
 use super::device::Gpu;
 use super::smooth::SmoothPass;
 use crate::error::input;
-use crate::trace::{Decision, Effects, Image, Lighting, RayCounts, Tracer, V3, View};
+use crate::trace::{
+    Decision, DirectShading, Effects, Image, Lighting, RayCounts, Tracer, V3, View,
+};
 
 /// Default pixels per dispatch: 2¹⁸ (a 1920 × 1080 frame in 8 tiles). A diffuse tile is
 /// 2¹⁸ closest hits, well under a millisecond on a datacenter GPU; a deep ray tree on a
@@ -90,8 +95,16 @@ pub struct GpuTracer {
     host_radiosity: Option<wgpu::Buffer>,
     /// The smooth reconstruction (files with SMOOTH weights).
     smooth: Option<SmoothPass>,
-    /// Bound as `smooth_faces` and `vertex_values` when the file has no SMOOTH (unread).
+    /// Bound as `smooth_faces` and `vertex_values` when the file has no SMOOTH, and as
+    /// `reflectance` in a frame without lights that are not surfaces (unread).
     no_smooth: wgpu::Buffer,
+    /// The frame's lights that are not surfaces (`DirectLight` records), and how many it holds
+    /// (made again, larger, when a frame has more; one zero record until then).
+    direct_lights: wgpu::Buffer,
+    direct_capacity: usize,
+    /// The reflectance per element the last frame with such lights shaded with, on the GPU and
+    /// on the host (uploaded again only when a frame's differs).
+    reflectance: Option<(wgpu::Buffer, Vec<[f32; 3]>)>,
     tile_pixels: u32,
 }
 
@@ -195,6 +208,14 @@ impl GpuTracer {
                 wgpu::BufferUsages::COPY_DST,
             ),
             host_radiosity: None,
+            direct_lights: storage(
+                gpu,
+                "direct lights",
+                &[0u32; DIRECT_LIGHT_BYTES / 4],
+                wgpu::BufferUsages::COPY_DST,
+            ),
+            direct_capacity: 1,
+            reflectance: None,
             smooth,
             no_smooth: storage(gpu, "no smooth", &[0u32; 16], none),
             tile_pixels: DEFAULT_TILE_PIXELS,
@@ -234,6 +255,7 @@ impl GpuTracer {
     /// ids, a storage buffer of this tracer's device: [`GpuEvaluator::radiosity_buffer`]) and
     /// the light groups' intensities, simulating what the scene needs (the CPU twin's
     /// decision). Rays are counted (atomics); [`render_with`](Self::render_with) can skip that.
+    /// No lights that are not surfaces: [`render_direct`](Self::render_direct) adds them.
     ///
     /// [`GpuEvaluator::radiosity_buffer`]: super::GpuEvaluator::radiosity_buffer
     pub fn render(
@@ -244,12 +266,33 @@ impl GpuTracer {
         width: u32,
         height: u32,
     ) -> Result<(Image, GpuRenderReport), GpuError> {
+        self.render_direct(view, radiosity, group_intensities, None, width, height)
+    }
+
+    /// [`render`](Self::render) with lights that are not surfaces shaded at every hit, as the
+    /// CPU twin's [`Lighting::direct`]: `ρ H(x) / π` added to the radiosity's radiance, each
+    /// light behind its own shadow ray (counted with the shadow rays). `radiosity` is then the
+    /// bounced light, `B − ρ ⊙ H` per element with `H` the lights' direct irradiance per element
+    /// ([`DirectLighting::irradiance`](crate::trace::DirectLighting::irradiance)), as
+    /// [`Lighting::radiosity`] says. `None`, or no lights: [`render`](Self::render), the
+    /// pipeline without the lights' code. Errors name a light whose values are bad, or a
+    /// reflectance of the wrong length (the CPU twin's messages).
+    pub fn render_direct(
+        &mut self,
+        view: &View,
+        radiosity: &wgpu::Buffer,
+        group_intensities: &[f32],
+        direct: Option<DirectShading<'_>>,
+        width: u32,
+        height: u32,
+    ) -> Result<(Image, GpuRenderReport), GpuError> {
         let (intensities, decision) = self.tracer.frame_lights(view, group_intensities)?;
         let effects = decision.effects;
         self.frame(
             view,
             radiosity,
             &intensities,
+            direct,
             decision,
             effects,
             true,
@@ -257,8 +300,8 @@ impl GpuTracer {
         )
     }
 
-    /// [`render`](Self::render) with the radiosity on the host (uploaded first; the CPU twin's
-    /// [`Lighting`]).
+    /// [`render_direct`](Self::render_direct) with the radiosity on the host (uploaded first;
+    /// the CPU twin's [`Lighting`], its lights that are not surfaces included).
     pub fn render_lighting(
         &mut self,
         view: &View,
@@ -266,18 +309,19 @@ impl GpuTracer {
         width: u32,
         height: u32,
     ) -> Result<(Image, GpuRenderReport), GpuError> {
-        if lighting.direct.is_some_and(|d| !d.lights.is_empty()) {
-            return Err(GpuError::Runtime(crate::error::input(
-                "the GPU tracer does not shade lights that are not surfaces (point lights of no \
-                 group, spots, suns) per point yet; render on the CPU",
-            )));
-        }
         let buffer = self.upload_radiosity(lighting.radiosity)?;
-        self.render(view, &buffer, lighting.group_intensities, width, height)
+        self.render_direct(
+            view,
+            &buffer,
+            lighting.group_intensities,
+            lighting.direct,
+            width,
+            height,
+        )
     }
 
     /// [`render`](Self::render) with the effects forced (as [`Tracer::render_with`]) and ray
-    /// counting on or off (off: the frame a benchmark times).
+    /// counting on or off (off: the frame a benchmark times); no lights that are not surfaces.
     #[allow(clippy::too_many_arguments)]
     pub fn render_with(
         &mut self,
@@ -302,6 +346,7 @@ impl GpuTracer {
             view,
             radiosity,
             &intensities,
+            None,
             decision,
             effects,
             count_rays,
@@ -367,12 +412,91 @@ impl GpuTracer {
             .clone()
     }
 
+    /// Checks a frame's lights that are not surfaces as the CPU twin does and uploads them
+    /// (their records, and the reflectance where it changed); the number of lights the shader
+    /// loops over, 0 when the frame has none that shines (no `DIRECT` variant then). Dark lights
+    /// are left out: the CPU's `at_point` skips them before any ray.
+    fn upload_direct(&mut self, direct: Option<DirectShading<'_>>) -> Result<u32, GpuError> {
+        let Some(direct) = direct else {
+            return Ok(0);
+        };
+        let n = self.n as usize;
+        if direct.reflectance.len() != n {
+            return Err(input(format!(
+                "direct shading: {} reflectances for {n} elements",
+                direct.reflectance.len()
+            ))
+            .into());
+        }
+        for (i, light) in direct.lights.iter().enumerate() {
+            light
+                .check()
+                .map_err(|p| input(format!("light {i} ({light:?}): {p}")))?;
+        }
+        let records: Vec<u32> = direct
+            .lights
+            .iter()
+            .filter(|l| l.strength() != [0.0; 3])
+            .flat_map(|l| l.gpu_record())
+            .collect();
+        let count = records.len() / (DIRECT_LIGHT_BYTES / 4);
+        if count == 0 {
+            return Ok(0);
+        }
+        check_fits(
+            &self.gpu,
+            &[("direct lights", (count * DIRECT_LIGHT_BYTES) as u64)],
+        )?;
+        if count > self.direct_capacity {
+            self.direct_lights = storage(
+                &self.gpu,
+                "direct lights",
+                &records,
+                wgpu::BufferUsages::COPY_DST,
+            );
+            self.direct_capacity = count;
+        } else {
+            self.gpu
+                .queue
+                .write_buffer(&self.direct_lights, 0, bytes_of(&records));
+        }
+        // Compared bit for bit, so that a zero's new sign or a NaN reaches the GPU too.
+        let same = |held: &[[f32; 3]]| {
+            held.len() == direct.reflectance.len()
+                && held
+                    .iter()
+                    .flatten()
+                    .zip(direct.reflectance.iter().flatten())
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
+        };
+        match &mut self.reflectance {
+            Some((_, held)) if same(held) => {}
+            Some((buffer, held)) => {
+                let flat: Vec<f32> = direct.reflectance.iter().flatten().copied().collect();
+                self.gpu.queue.write_buffer(buffer, 0, bytes_of(&flat));
+                held.copy_from_slice(direct.reflectance);
+            }
+            None => {
+                let flat: Vec<f32> = direct.reflectance.iter().flatten().copied().collect();
+                let buffer = storage(
+                    &self.gpu,
+                    "reflectance",
+                    &flat,
+                    wgpu::BufferUsages::COPY_DST,
+                );
+                self.reflectance = Some((buffer, direct.reflectance.to_vec()));
+            }
+        }
+        Ok(count as u32)
+    }
+
     #[allow(clippy::too_many_arguments)]
     fn frame(
         &mut self,
         view: &View,
         radiosity: &wgpu::Buffer,
         intensities: &[V3],
+        direct: Option<DirectShading<'_>>,
         decision: Decision,
         effects: Effects,
         count_rays: bool,
@@ -395,6 +519,7 @@ impl GpuTracer {
                 self.gpu.adapter_name()
             )));
         }
+        let direct_count = self.upload_direct(direct)?;
         if self.tracer.scene().nodes.is_empty() {
             // No triangles: every ray misses (a binding cannot be empty; nothing to trace).
             let image = Image {
@@ -448,6 +573,7 @@ impl GpuTracer {
             secondary: effects.secondary,
             smooth,
             count_rays,
+            direct: direct_count > 0,
         });
         let tile = u64::from(self.tile_pixels);
         let tiles = pixels.div_ceil(tile) as u32;
@@ -492,6 +618,7 @@ impl GpuTracer {
             up,
             width,
             height,
+            direct_count,
             ..TraceParams::default()
         };
         if smooth && let Some(pass) = &self.smooth {
@@ -577,7 +704,11 @@ impl GpuTracer {
             Some(pass) => (&pass.elements, &pass.values),
             None => (&self.no_smooth, &self.no_smooth),
         };
-        let buffers: [&wgpu::Buffer; 14] = [
+        let reflectance = self
+            .reflectance
+            .as_ref()
+            .map_or(&self.no_smooth, |(b, _)| b);
+        let buffers: [&wgpu::Buffer; 16] = [
             &self.params,
             &self.nodes,
             &self.tris,
@@ -592,6 +723,8 @@ impl GpuTracer {
             counts,
             elements,
             values,
+            &self.direct_lights,
+            reflectance,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -611,7 +744,7 @@ impl GpuTracer {
     }
 }
 
-/// The fourteen bindings of `trace.wgsl` (`lrr_shaders::TRACE_BINDINGS`), explicit so that
+/// The sixteen bindings of `trace.wgsl` (`lrr_shaders::TRACE_BINDINGS`), explicit so that
 /// every specialisation (whatever its overrides leave unused) shares one layout.
 fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     let entries: Vec<wgpu::BindGroupLayoutEntry> = lrr_shaders::TRACE_BINDINGS
@@ -638,9 +771,10 @@ fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
     // children and leaf ranges, its depth against the fixed stacks, the display faces' element
     // ids and materials, light groups, the SMOOTH corners of the display faces through
     // `Reconstruction::from_parts`) and by `GpuTracer::frame` (the radiosity buffer's size, the
-    // tile against the tile buffer, the counters per tile) and `SmoothPass::new` (3 f32 per
-    // smooth vertex, one face record per display face); the argument is in the header of
-    // trace.wgsl.
+    // tile against the tile buffer, the counters per tile), `GpuTracer::upload_direct` (the
+    // direct lights' count against their buffer, 3 f32 of reflectance per element) and
+    // `SmoothPass::new` (3 f32 per smooth vertex, one face record per display face); the
+    // argument is in the header of trace.wgsl.
     // Its loops end: the traversal visits each node at most once (children after parents) and
     // the ray tree's depth grows by one per push up to a limit of at most 16.
     unsafe {

@@ -185,6 +185,63 @@ impl Light {
     }
 }
 
+// What the GPU twin (runtime/src/gpu/trace.rs) uploads per light.
+#[cfg(feature = "gpu")]
+impl Light {
+    /// The light as `trace.wgsl`'s `DirectLight` record (`lrr_shaders::direct_light`): what
+    /// [`Light::towards`] and [`spot_falloff`] compute from the light alone (a spot's unit axis,
+    /// a sun's unit direction towards it, the cones' cosines and the falloff's scale), computed
+    /// here by the same operations, so that the shader rounds only what depends on the point.
+    pub(crate) fn gpu_record(&self) -> [u32; 16] {
+        use lrr_shaders::{DirectKind, direct_light};
+        match *self {
+            Light::Point {
+                position,
+                intensity,
+            } => direct_light(
+                DirectKind::Point,
+                position,
+                [0.0; 3],
+                intensity,
+                0.0,
+                0.0,
+                0.0,
+            ),
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                inner,
+                outer,
+            } => {
+                let (cos_inner, cos_outer) = (inner.cos(), outer.cos());
+                let falloff_scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
+                direct_light(
+                    DirectKind::Spot,
+                    position,
+                    normalize(direction),
+                    intensity,
+                    cos_inner,
+                    cos_outer,
+                    falloff_scale,
+                )
+            }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => direct_light(
+                DirectKind::Sun,
+                [0.0; 3],
+                scale(normalize(direction), -1.0),
+                irradiance,
+                0.0,
+                0.0,
+                0.0,
+            ),
+        }
+    }
+}
+
 /// glTF's spot falloff at `cos_axis`, the cosine of the angle off the spot's axis: a smooth
 /// square from 1 at the inner cone to 0 at the outer (`KHR_lights_punctual`'s
 /// `lightAngleScale`/`lightAngleOffset`, the divisor at least 1e-3; equal cones give a hard edge).
