@@ -10,9 +10,10 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use lrr_runtime::gpu::{Gpu, GpuError, GpuEvaluator, GpuOptions, GpuTracer};
 use lrr_runtime::trace::{
-    Decision, Image, Lighting as TraceLighting, MAX_DEPTH_LIMIT, RayCounts, Tracer, View,
+    Decision, DirectShading, Image, Lighting as TraceLighting, MAX_DEPTH_LIMIT, RayCounts, Tracer,
+    View,
 };
-use lrr_runtime::{Operator, Rgb};
+use lrr_runtime::{Operator, Rgb, RgbMut};
 
 use crate::emission::{self, EmissionArgs, Lighting, Reconstruct};
 use crate::exr_image::ExrSamples;
@@ -88,48 +89,51 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
         _ => vec![1.0; op.light_groups().len()],
     };
     let lights = a.emission.lights.lights(&op)?;
-    if a.device == TraceDevice::Gpu && !lights.is_empty() {
-        bail!(
-            "--device gpu: the GPU tracer does not shade lights that are not surfaces yet (this \
-             frame has {} and {}); render on the CPU, or leave them out with --no-file-lights",
-            plural(lights.lights.len(), "light"),
-            if lights.sky.is_some() {
-                "a sky"
-            } else {
-                "no sky"
-            }
-        );
-    }
-    if a.explain && lights.is_empty() {
-        writeln!(
-            out,
-            "direct pass: none (no point light of no group, spot, sun or sky): no shadow rays \
-             for it"
-        )?;
+    // Lights that are not surfaces: their direct pass on the CPU (either device), the frame's
+    // emission plus rho * H; the tracer adds their direct light at each hit.
+    let mut lit = emission::Frame::new(&op);
+    let lit_emission = if lights.is_empty() {
+        None
+    } else {
+        Some(lit.light(&op, emission::emission_of(&op, &lighting)?, &lights)?)
+    };
+    if a.explain {
+        if lights.is_empty() {
+            writeln!(
+                out,
+                "direct pass: none (no point light of no group, spot, sun or sky): no shadow \
+                 rays for it"
+            )?;
+        } else {
+            writeln!(
+                out,
+                "direct pass: {} and {}, {} samples per element: {} shadow rays",
+                plural(lights.lights.len(), "light"),
+                if lights.sky.is_some() {
+                    "a sky"
+                } else {
+                    "no sky"
+                },
+                lights.samples,
+                lit.report.rays
+            )?;
+        }
     }
     let (image, decision, rays, seconds) = match a.device {
         TraceDevice::Cpu => {
-            let frame = emission::frame(&op, &lighting, &lights, emission::Device::Cpu)?;
-            if a.explain && !lights.is_empty() {
-                writeln!(
-                    out,
-                    "direct pass: {} and {}, {} samples per element: {} shadow rays",
-                    plural(lights.lights.len(), "light"),
-                    if lights.sky.is_some() {
-                        "a sky"
-                    } else {
-                        "no sky"
-                    },
-                    lights.samples,
-                    frame.report.rays
-                )?;
-            }
+            let b = match &lit_emission {
+                None => emission::radiosity(&op, &lighting, emission::Device::Cpu)?,
+                Some(e) => {
+                    emission::radiosity(&op, &Lighting::Emission(e.clone()), emission::Device::Cpu)?
+                }
+            };
+            lit.set_radiosity(b);
             let frame = TraceLighting {
-                radiosity: &frame.shown,
+                radiosity: &lit.shown,
                 group_intensities: &groups,
-                direct: Some(lrr_runtime::trace::DirectShading {
-                    lights: &frame.lights,
-                    reflectance: &frame.reflectance,
+                direct: Some(DirectShading {
+                    lights: &lit.lights,
+                    reflectance: &lit.reflectance,
                 }),
             };
             let start = Instant::now();
@@ -137,8 +141,11 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
             let seconds = start.elapsed().as_secs_f64();
             (image, report.decision, report.rays, seconds)
         }
-        TraceDevice::Gpu => render_gpu(&op, &tracer, &view, &lighting, &groups, (w, h))
-            .map_err(|e| anyhow::anyhow!("--device gpu: {}", emission::one_line(&e)))?,
+        TraceDevice::Gpu => {
+            let lit = lit_emission.map(|e| (e, &mut lit));
+            render_gpu(&op, &tracer, &view, &lighting, &groups, (w, h), lit)
+                .map_err(|e| anyhow::anyhow!("--device gpu: {}", emission::one_line(&e)))?
+        }
     };
     if a.explain {
         write!(out, "{}", decision.text())?;
@@ -168,7 +175,10 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
 }
 
 /// A frame relit by the wgpu evaluator and traced by the WGSL tracer, the radiosity left on
-/// the GPU between the two; the seconds cover both, the image's readback included.
+/// the GPU between the two; the seconds cover both, the image's readback included. With lights
+/// that are not surfaces (`lit`: the emission with their `ρ H` and the frame that made it), the
+/// radiosity is read back once to take their part out (`Frame::set_radiosity`) and the tracer
+/// shades them per hit.
 fn render_gpu(
     op: &Operator,
     tracer: &Tracer,
@@ -176,18 +186,37 @@ fn render_gpu(
     lighting: &Lighting,
     groups: &[f32],
     (w, h): (u32, u32),
+    lit: Option<(Vec<[f32; 3]>, &mut emission::Frame)>,
 ) -> std::result::Result<(Image, Decision, RayCounts, f64), GpuError> {
     let gpu = Gpu::new(&GpuOptions::default())?;
     eprintln!("lrr: note: relighting and tracing on {}", gpu.describe());
     let mut eval = GpuEvaluator::new(&gpu, op)?;
     let mut gpu_tracer = GpuTracer::new(&gpu, tracer)?;
     let start = Instant::now();
-    match lighting {
-        Lighting::Baked => eval.submit(Rgb::triples(&op.baked_emission()))?,
-        Lighting::Groups(g) => eval.submit_groups(g)?,
-        Lighting::Emission(e) => eval.submit(Rgb::triples(e))?,
-    }
-    let (image, report) = gpu_tracer.render(view, eval.radiosity_buffer(), groups, w, h)?;
+    let (image, report) = match lit {
+        Some((e, frame)) => {
+            let mut b = vec![[0.0f32; 3]; op.n()];
+            eval.evaluate(Rgb::triples(&e), RgbMut::triples(&mut b))?;
+            frame.set_radiosity(b);
+            let lighting = TraceLighting {
+                radiosity: &frame.shown,
+                group_intensities: groups,
+                direct: Some(DirectShading {
+                    lights: &frame.lights,
+                    reflectance: &frame.reflectance,
+                }),
+            };
+            gpu_tracer.render_lighting(view, &lighting, w, h)?
+        }
+        None => {
+            match lighting {
+                Lighting::Baked => eval.submit(Rgb::triples(&op.baked_emission()))?,
+                Lighting::Groups(g) => eval.submit_groups(g)?,
+                Lighting::Emission(e) => eval.submit(Rgb::triples(e))?,
+            }
+            gpu_tracer.render(view, eval.radiosity_buffer(), groups, w, h)?
+        }
+    };
     let seconds = start.elapsed().as_secs_f64();
     let rays = report.rays.unwrap_or_default();
     Ok((image, report.decision, rays, seconds))
