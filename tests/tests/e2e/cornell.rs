@@ -70,10 +70,11 @@ fn low_rank_against_exact_on_the_same_fine_mesh() {
     );
     // Bound: the only approximation is F(e, e') ≈ F(e, P(e')) A_e'/A_P(e') (an element sees all of
     // a patch alike). It errs most for elements next to a patch, where the view of the patch
-    // changes fastest; those elements carry a small share of the energy. Measured: 0.0009 with
-    // the default 2MSC patches (k = 333 on n = 2116; 0.0026 with 2MF's k = 242). 1% leaves room for sampling noise and
-    // fails if the operator is wrong (a missing channel, a wrong weight or core gives > 10%).
-    assert!(error < 0.01, "relative L2 error {error}");
+    // changes fastest; those elements carry a small share of the energy. README: 0.0011 with
+    // the default 2MSC patches (k = 167 on n = 2116; 0.0026 with 2MF's k = 242). The bake is
+    // deterministic, so the error moves only when the code does: held to 2x the printed
+    // figure (a missing channel, a wrong weight or core gives > 10%).
+    assert!(error < 0.0022, "relative L2 error {error}");
 }
 
 fn probe(file: &std::path::Path, points: &[([f64; 3], [f64; 3])]) -> Vec<[f64; 3]> {

@@ -30,7 +30,8 @@ fn furnace_radiosity_is_emission_over_one_minus_rho() {
             "rho {rho}: worst relative error {worst:.2e} over {} elements",
             op.n()
         );
-        assert!(worst < 1e-3, "rho {rho}: worst relative error {worst}");
+        // README: worst 1.4e-7 (ρ = 0.9; 4.8e-8 and 7.8e-8 at 0.5 and 0.99); held within 10x.
+        assert!(worst < 1.4e-6, "rho {rho}: worst relative error {worst}");
     }
 }
 
