@@ -432,6 +432,19 @@ impl Frame {
         self.radiosity = b;
     }
 
+    /// What the tracer shades: the bounced light (`shown`) and the lights per hit, with the
+    /// light groups' intensities `groups` (their point lights' highlights).
+    pub fn trace_lighting<'a>(&'a self, groups: &'a [f32]) -> lrr_runtime::trace::Lighting<'a> {
+        lrr_runtime::trace::Lighting {
+            radiosity: &self.shown,
+            group_intensities: groups,
+            direct: Some(lrr_runtime::trace::DirectShading {
+                lights: &self.lights,
+                reflectance: &self.reflectance,
+            }),
+        }
+    }
+
     /// The direct irradiance times the reflectance of `element` at point `x` of a face with
     /// front normal `normal` (zero without point-shaded lights).
     pub fn at(&self, element: usize, x: [f32; 3], normal: [f32; 3]) -> [f32; 3] {

@@ -9,10 +9,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lrr_runtime::gpu::{Gpu, GpuError, GpuEvaluator, GpuOptions, GpuTracer};
-use lrr_runtime::trace::{
-    Decision, DirectShading, Image, Lighting as TraceLighting, MAX_DEPTH_LIMIT, RayCounts, Tracer,
-    View,
-};
+use lrr_runtime::trace::{Decision, Image, MAX_DEPTH_LIMIT, RayCounts, Tracer, View};
 use lrr_runtime::{Operator, Rgb, RgbMut};
 
 use crate::emission::{self, EmissionArgs, Lighting, Reconstruct};
@@ -128,14 +125,7 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
                 }
             };
             lit.set_radiosity(b);
-            let frame = TraceLighting {
-                radiosity: &lit.shown,
-                group_intensities: &groups,
-                direct: Some(DirectShading {
-                    lights: &lit.lights,
-                    reflectance: &lit.reflectance,
-                }),
-            };
+            let frame = lit.trace_lighting(&groups);
             let start = Instant::now();
             let (image, report) = tracer.render(&view, &frame, w, h, a.threads.unwrap_or(0))?;
             let seconds = start.elapsed().as_secs_f64();
@@ -198,15 +188,7 @@ fn render_gpu(
             let mut b = vec![[0.0f32; 3]; op.n()];
             eval.evaluate(Rgb::triples(&e), RgbMut::triples(&mut b))?;
             frame.set_radiosity(b);
-            let lighting = TraceLighting {
-                radiosity: &frame.shown,
-                group_intensities: groups,
-                direct: Some(DirectShading {
-                    lights: &frame.lights,
-                    reflectance: &frame.reflectance,
-                }),
-            };
-            gpu_tracer.render_lighting(view, &lighting, w, h)?
+            gpu_tracer.render_lighting(view, &frame.trace_lighting(groups), w, h)?
         }
         None => {
             match lighting {

@@ -16,7 +16,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lrr_runtime::trace::{DirectShading, Image, Lighting as TraceLighting, Tracer, View};
+use lrr_runtime::trace::{Image, Tracer, View};
 use lrr_runtime::{Operator, Reconstruction, Rgb, RgbMut};
 
 use crate::emission::{Frame, FrameLights, Reconstruct, reconstruction};
@@ -334,14 +334,7 @@ impl Images {
         out: &mut dyn Write,
     ) -> Result<()> {
         let timer = Instant::now();
-        let lighting = TraceLighting {
-            radiosity: &frame.shown,
-            group_intensities: groups,
-            direct: Some(DirectShading {
-                lights: &frame.lights,
-                reflectance: &frame.reflectance,
-            }),
-        };
+        let lighting = frame.trace_lighting(groups);
         let (w, h) = self.size;
         let (image, _) = self
             .tracer

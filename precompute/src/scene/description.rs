@@ -848,7 +848,8 @@ impl SceneDescription {
             let (inner, outer) = (l.inner_cone_deg, l.outer_cone_deg);
             if !(inner >= 0.0 && inner <= outer && outer <= 90.0) {
                 return Err(bad(format!(
-                    "{what}: need 0 <= inner_cone_deg <= outer_cone_deg <= 90, got {inner} and                      {outer}"
+                    "{what}: need 0 <= inner_cone_deg <= outer_cone_deg <= 90, got {inner} and \
+                     {outer}"
                 )));
             }
             scene.direct_lights.push(DirectLight {
@@ -864,7 +865,8 @@ impl SceneDescription {
             let what = format!("directional_light '{}'", l.name);
             if !direction(&l.direction) || !radiometric(&l.irradiance) {
                 return Err(bad(format!(
-                    "{what}: direction must be finite and not zero, irradiance finite and >= 0                      per channel"
+                    "{what}: direction must be finite and not zero, irradiance finite and >= 0 \
+                     per channel"
                 )));
             }
             scene.direct_lights.push(DirectLight {
@@ -896,7 +898,8 @@ impl SceneDescription {
                 },
                 _ => {
                     return Err(bad(
-                        "[sky]: give radiance = [r, g, b] (a uniform sky), or zenith and horizon                          (a gradient, with an optional up)"
+                        "[sky]: give radiance = [r, g, b] (a uniform sky), or zenith and horizon \
+                         (a gradient, with an optional up)"
                             .into(),
                     ));
                 }
@@ -906,7 +909,8 @@ impl SceneDescription {
                 || (light.kind == Kind::GradientSky && !direction(&light.direction))
             {
                 return Err(bad(
-                    "[sky]: radiances must be finite and >= 0 per channel, up finite and not                      zero"
+                    "[sky]: radiances must be finite and >= 0 per channel, up finite and not \
+                     zero"
                         .into(),
                 ));
             }

@@ -585,6 +585,12 @@ impl<'a> Importer<'a> {
             .map(str::to_string)
             .unwrap_or_else(|| format!("light {}", light.index()));
         use gltf::khr_lights_punctual::Kind;
+        // Colour × intensity per channel (candela read as W/sr, lux as W/m²).
+        let strength = |light: &gltf::khr_lights_punctual::Light| {
+            light
+                .color()
+                .map(|c| f64::from(c) * f64::from(light.intensity()))
+        };
         match light.kind() {
             Kind::Point => {
                 let intensity = light
@@ -608,14 +614,13 @@ impl<'a> Importer<'a> {
                 inner_cone_angle,
                 outer_cone_angle,
             } => {
-                let strength = light
-                    .color()
-                    .map(|c| f64::from(c) * f64::from(light.intensity()));
+                let strength = strength(light);
                 let (inner, outer) = (f64::from(inner_cone_angle), f64::from(outer_cone_angle));
                 let cones = inner >= 0.0 && inner <= outer && outer <= std::f64::consts::FRAC_PI_2;
                 if strength.iter().any(|i| !(i.is_finite() && *i >= 0.0)) || !cones {
                     self.scene.warnings.push(format!(
-                        "{}: spot light '{name}' has intensity {strength:?} and cone angles                          {inner} and {outer} rad (need 0 <= inner <= outer <= pi/2); skipped",
+                        "{}: spot light '{name}' has intensity {strength:?} and cone angles \
+                         {inner} and {outer} rad (need 0 <= inner <= outer <= pi/2); skipped",
                         self.origin
                     ));
                     return;
@@ -633,9 +638,7 @@ impl<'a> Importer<'a> {
                 });
             }
             Kind::Directional => {
-                let strength = light
-                    .color()
-                    .map(|c| f64::from(c) * f64::from(light.intensity()));
+                let strength = strength(light);
                 if strength.iter().any(|i| !(i.is_finite() && *i >= 0.0)) {
                     self.scene.warnings.push(format!(
                         "{}: directional light '{name}' has irradiance {strength:?}; skipped",

@@ -143,17 +143,23 @@ impl Light {
     /// directional light); `None` when no light arrives.
     #[inline]
     pub(crate) fn towards(&self, x: V3, n: V3) -> Option<(f32, V3, f32)> {
+        // A light at `position`: the cosine, the unit direction, the distance and its square,
+        // when it is in front of the surface (the GPU twin, trace.wgsl's `towards`, divides by
+        // d² last, as here).
+        let at = |position: V3| {
+            let to = sub(position, x);
+            let d2 = dot(to, to);
+            if d2 <= 0.0 {
+                return None;
+            }
+            let dist = d2.sqrt();
+            let w = scale(to, 1.0 / dist);
+            let cos = dot(n, w);
+            (cos > 0.0).then_some((cos, w, dist, d2))
+        };
         match *self {
             Light::Point { position, .. } => {
-                let to = sub(position, x);
-                let d2 = dot(to, to);
-                if d2 <= 0.0 {
-                    return None;
-                }
-                let dist = d2.sqrt();
-                let w = scale(to, 1.0 / dist);
-                let cos = dot(n, w);
-                (cos > 0.0).then(|| (cos / d2, w, dist))
+                at(position).map(|(cos, w, dist, d2)| (cos / d2, w, dist))
             }
             Light::Spot {
                 position,
@@ -162,17 +168,7 @@ impl Light {
                 outer,
                 ..
             } => {
-                let to = sub(position, x);
-                let d2 = dot(to, to);
-                if d2 <= 0.0 {
-                    return None;
-                }
-                let dist = d2.sqrt();
-                let w = scale(to, 1.0 / dist);
-                let cos = dot(n, w);
-                if cos <= 0.0 {
-                    return None;
-                }
+                let (cos, w, dist, d2) = at(position)?;
                 let falloff = spot_falloff(-dot(normalize(direction), w), inner, outer);
                 (falloff > 0.0).then(|| (cos * falloff / d2, w, dist))
             }

@@ -106,7 +106,8 @@ impl Tracer {
     pub fn set_smooth(&mut self, smooth: bool) -> Result<(), RuntimeError> {
         if smooth && !self.scene.has_smooth {
             return Err(input(
-                "smooth shading needs the smooth weights (section SMOOTH, format 1.2) that                  this file lacks; re-bake it with this lrr, or shade flat",
+                "smooth shading needs the smooth weights (section SMOOTH, format 1.2) that \
+                 this file lacks; re-bake it with this lrr, or shade flat",
             ));
         }
         self.smooth = smooth;
