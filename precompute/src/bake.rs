@@ -193,7 +193,11 @@ impl<'s> Prepared<'s> {
             crate::patches::refinement(sizes, threshold, min_patch_area, rule)?;
         }
         let stage = progress.stage("visibility", 0);
-        let occluder = if nothing_occludes(scene) {
+        // The convexity shortcut holds for pairs of faces only: a sky, a sun or a point light
+        // is blocked by faces that never see each other (the back of a shade over a floor, the
+        // walls of a closed box), so a scene with such lights always gets its occluder.
+        let lit = !crate::lights::LightsOwned::of(scene).is_empty();
+        let occluder = if nothing_occludes(scene) && !lit {
             None
         } else {
             Some(visibility.build(scene)?)

@@ -217,7 +217,8 @@ fn mutation_bases_are_valid_operator_files() {
 
 /// Rewrites the operator seeds: the mutation bases and a real bake of a seed scene. Run by hand
 /// after a format change: `cargo test --release -p lrr-tests -- --ignored write_operator_seeds`
-/// (bake-lightmap.lrr: a glTF floor with TEXCOORD_1, format 1.3).
+/// (bake-lightmap.lrr: a glTF floor with TEXCOORD_1, format 1.3; bake-lights.lrr: spot,
+/// directional lights and a sky, format 1.5).
 #[test]
 #[ignore = "writes fuzz/seeds/operator_bytes/"]
 fn write_operator_seeds() {
@@ -239,4 +240,8 @@ fn write_operator_seeds() {
     let out = dir.join("bake-lightmap.lrr");
     let coarse = ["--element-size", "1", "--patch-size", "2"];
     crate::util::bake(&gltf, &out, &coarse).unwrap();
+    // Format 1.5: lights that are not surfaces (DIRECT_LIGHTS) and the sky's transfer
+    // (SKY_TRANSFER).
+    let scene = root().join("fuzz/seeds/scene_description/lights.toml");
+    crate::util::bake(&scene, &dir.join("bake-lights.lrr"), &[]).unwrap();
 }

@@ -201,3 +201,56 @@ fn a_frame_without_lights_casts_no_shadow_ray_and_with_them_it_does() {
         "{e}"
     );
 }
+
+/// DESIGN.md §9: a uniform sky over an open plane gives `π L`, inside a closed box nothing; a
+/// sun outside the box nothing either. The closed box is convex, where pairs of faces need no
+/// visibility test (`visibility::nothing_occludes`): lights still do (the walls block the sky),
+/// so the bake builds its occluder for them, and its stored sky transfer is zero.
+#[test]
+fn a_closed_box_sees_no_sky_and_no_sun() {
+    let dir = temp_dir("lights-closed");
+    let scene = crate::util::generated_scene(&dir, "box", &["furnace", "--reflectance", "0.5"]);
+    let mut text = std::fs::read_to_string(&scene).unwrap();
+    text += "\n[[directional_light]]\nname = \"sun\"\ndirection = [0.2, -1, 0.3]\nirradiance = [5, 5, 5]\n\
+             [sky]\nradiance = [1, 1, 1]\n";
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.join("box.lrr");
+    let report = bake(&scene, &out, &[]).unwrap();
+    let op = lrr_runtime::Operator::load(&out).unwrap();
+    let t = op
+        .file()
+        .display
+        .sky_transfer
+        .as_ref()
+        .expect("a sky's transfer");
+    assert!(
+        t.iter().all(|&x| x == 0.0),
+        "every sky ray is blocked: {report}"
+    );
+    // The frame: only the furnace's own emission, as without the lights.
+    let lit = lrr_json(&["info", out.to_str().unwrap(), "--json"]);
+    assert_eq!(lit["display"]["sky_transfer"], true, "{lit}");
+    let points = dir.join("p.json");
+    std::fs::write(
+        &points,
+        r#"[{"position": [0.5, 0.5, 0.0], "normal": [0, 0, 1]}]"#,
+    )
+    .unwrap();
+    let probe = |extra: &[&str]| {
+        let mut args = vec![
+            "probe",
+            out.to_str().unwrap(),
+            "--points",
+            points.to_str().unwrap(),
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        lrr_json(&args)[0]["radiosity"][0].as_f64().unwrap()
+    };
+    let with = probe(&[]);
+    let without = probe(&["--no-file-lights"]);
+    assert!(
+        (with - without).abs() <= 1e-6 * without,
+        "{with} vs {without}: the box's walls block the sky and the sun"
+    );
+}
