@@ -191,6 +191,7 @@ pub fn run(a: &AccuracyArgs, out: &mut dyn Write) -> Result<()> {
         bail!("--rounds must be at least 1 and --frame-seconds positive");
     }
     let scene = load_scene(&a.scene)?;
+    crate::solve::lights_left_out(&scene, "lrr accuracy");
     let plan = a.options(&scene).plan()?;
     let truth = match &a.reference {
         Some(path) => Some(Truth::load(path, &scene)?),

@@ -394,7 +394,11 @@ impl Frame {
             return Ok(base);
         }
         let n = op.n();
-        if self.pass.is_none() {
+        if self
+            .pass
+            .as_ref()
+            .is_none_or(|p| p.samples_per_element() != lights.samples)
+        {
             self.pass = Some(
                 DirectLighting::new(op.file(), lights.samples, 0)
                     .map_err(|e| anyhow::anyhow!("the direct pass of the frame's lights: {e}"))?,

@@ -131,6 +131,7 @@ pub fn solve(scene: &Scene, a: &MeshArgs, exact: bool) -> Result<Solution> {
 
 pub fn run(a: &SolveArgs, out: &mut dyn Write) -> Result<()> {
     let scene = load_scene_with(&a.scene, a.mesh.verbose)?;
+    lights_left_out(&scene, "lrr solve");
     let sol = solve(&scene, &a.mesh, a.exact)?;
     if a.json {
         writeln!(out, "{}", serde_json::to_string(&sol)?)?;
@@ -155,4 +156,23 @@ pub fn run(a: &SolveArgs, out: &mut dyn Write) -> Result<()> {
         )?;
     }
     Ok(())
+}
+
+/// A note on stderr when `scene` has lights that are not surfaces: `what` solves the baked
+/// emission alone (their light comes from the runtime's direct pass: `lrr probe`, `render`,
+/// `export`, `relight`).
+pub(crate) fn lights_left_out(scene: &lrr_precompute::scene::Scene, what: &str) {
+    let count = scene
+        .point_lights
+        .iter()
+        .filter(|l| l.group.is_none())
+        .count()
+        + scene.direct_lights.len();
+    if count > 0 {
+        eprintln!(
+            "lrr: note: {what} solves the emitting surfaces alone: the scene's {count} light(s) \
+             that are not surfaces (point lights of no group, spots, suns, a sky) light frames \
+             of lrr probe, render, export and relight, not this"
+        );
+    }
 }

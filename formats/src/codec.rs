@@ -601,7 +601,8 @@ mod tests {
             assert_eq!(OperatorFile::from_bytes(&bytes).unwrap(), file);
             // The sky's transfer: 9 floats per element, optional, 1.5; a wrong length or a
             // non-finite value is refused.
-            file.display.sky_transfer = Some((0..9 * file.n).map(|i| i as f32 * 0.5).collect());
+            file.display.sky_transfer =
+                Some((0..9 * file.n).map(|i| (i % 9) as f32 * 0.25).collect());
             let bytes = encode(&file);
             let c = Container::parse(&bytes).unwrap();
             assert_eq!(c.version(), (1, 5));

@@ -40,6 +40,12 @@ pub(crate) fn decode(payload: &[u8]) -> Result<Vec<DirectLight>, FormatError> {
         .zip(table.names)
         .enumerate()
         .map(|(i, (r, name))| {
+            if u32_at(r, 44) != Some(0) || u32_at(r, 60) != Some(0) {
+                return Err(FormatError::corrupt(format!(
+                    "section DIRECT_LIGHTS: light {i} {name:?}: its reserved words (bytes 44 and \
+                     60 of the record) are not zero"
+                )));
+            }
             let code = u32_at(r, 12).unwrap_or_default();
             let kind = DirectLightKind::from_code(code).ok_or_else(|| {
                 FormatError::corrupt(format!(
@@ -101,10 +107,15 @@ fn check_values(l: &DirectLight) -> Result<(), String> {
             )),
             None => Ok(()),
         };
+    // A direction is normalised by its readers: its f32 length must be finite and above zero
+    // (`[1e-30, 0, 0]` underflows to length 0, `[3e38, 3e38, 0]` overflows).
     let direction = |what: &str, v: [f32; 3]| {
         finite(what, v)?;
-        if v.iter().all(|&c| c == 0.0) {
-            return Err(format!("{what} is zero; it must point somewhere"));
+        let l2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+        if !(l2.is_finite() && l2 > 0.0) {
+            return Err(format!(
+                "{what} {v:?} has no usable length in f32; it must point somewhere"
+            ));
         }
         Ok(())
     };
@@ -225,12 +236,13 @@ mod tests {
     #[test]
     fn invariants_name_light_and_field() {
         type Edit = fn(&mut Vec<DirectLight>);
-        let cases: [(Edit, &str); 7] = [
+        let cases: [(Edit, &str); 8] = [
             (
                 |l| l[0].position[1] = f32::NAN,
                 "light 0: \"spot\": position",
             ),
-            (|l| l[0].direction = [0.0; 3], "direction is zero"),
+            (|l| l[0].direction = [0.0; 3], "no usable length"),
+            (|l| l[1].direction = [1e-30, 0.0, 0.0], "no usable length"),
             (|l| l[0].extra = [0.6, 0.5, 0.0], "cone angles"),
             (|l| l[0].strength[2] = -1.0, "intensity channel b"),
             (|l| l[1].position = [1.0; 3], "light 1: \"sun\": position"),

@@ -109,8 +109,13 @@ pub struct Materials {
     pub element_material: Vec<u32>,
 }
 
-/// A point light for highlights and shadow rays (the radiosity carries the diffuse light of the
-/// scene's emitting surfaces; a point light adds only the Phong term, so nothing is counted twice).
+/// A point light. One that follows a light group is the highlight of that group's emitting
+/// surface: the radiosity carries the surface's diffuse light, the tracer adds only the Phong
+/// term, so nothing is counted twice. One of no group ([`PointLight::FIXED`]) is a light of its
+/// own: since format 1.5's runtime the direct pass lights the elements with it every frame
+/// (`lrr_runtime::trace::file_lights`), besides its highlights. A file baked before, whose
+/// fixed point light stood for an emitting surface, now gets that light too; give it a group
+/// (or leave it out with `--no-file-lights`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PointLight {
     /// Name (UTF-8, may be empty).

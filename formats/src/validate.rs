@@ -132,11 +132,14 @@ fn check_display(f: &OperatorFile) -> Result<(), FormatError> {
                 f.n
             )));
         }
-        if let Some(i) = t.iter().position(|v| !v.is_finite()) {
+        // |T_lm| ≤ ∫ |Y_lm| cos ≤ π max|Y_lm| < 3.5: anything larger is no projection.
+        if let Some(i) = t.iter().position(|v| !(v.is_finite() && v.abs() <= 4.0)) {
             return Err(FormatError::invalid(format!(
-                "section SKY_TRANSFER: element {} coefficient {} is not finite",
+                "section SKY_TRANSFER: element {} coefficient {} is {}, not a transfer \
+                 coefficient (finite, at most 4 in magnitude)",
                 i / 9,
-                i % 9
+                i % 9,
+                t[i]
             )));
         }
     }

@@ -122,6 +122,15 @@ impl MeshFrom {
 }
 
 /// The file metadata's `visibility`: the backend's name, or none when nothing occludes.
+/// Whether a bake of `scene` needs its occluder: unless nothing occludes pairs of faces (a
+/// convex enclosure) and no light that is not a surface shines. The convexity shortcut holds
+/// for pairs of faces only: a sky, a sun or a point light is blocked by faces that never see
+/// each other (the back of a shade over a floor, the walls of a closed box). Bakes, shards and
+/// plans decide with this one test, so they name the same visibility.
+pub(crate) fn needs_occluder(scene: &Scene) -> bool {
+    !nothing_occludes(scene) || !crate::lights::LightsOwned::of(scene).is_empty()
+}
+
 fn visibility_name(visibility: Backend, occludes: bool) -> &'static str {
     if occludes {
         visibility.name()
@@ -193,11 +202,7 @@ impl<'s> Prepared<'s> {
             crate::patches::refinement(sizes, threshold, min_patch_area, rule)?;
         }
         let stage = progress.stage("visibility", 0);
-        // The convexity shortcut holds for pairs of faces only: a sky, a sun or a point light
-        // is blocked by faces that never see each other (the back of a shade over a floor, the
-        // walls of a closed box), so a scene with such lights always gets its occluder.
-        let lit = !crate::lights::LightsOwned::of(scene).is_empty();
-        let occluder = if nothing_occludes(scene) && !lit {
+        let occluder = if !needs_occluder(scene) {
             None
         } else {
             Some(visibility.build(scene)?)

@@ -368,6 +368,29 @@ fn a_light_that_did_not_move_is_not_traced_again() {
 }
 
 #[test]
+fn a_dark_light_that_turns_on_is_traced() {
+    // Slot 0 dark, slot 1 lit at the same place: slot 0 holds no traced term. When it turns
+    // on it must be traced, not taken for cached because its place matches.
+    let file = file_of(&floor(3));
+    let mut pass = DirectLighting::new(&file, 4, 1).unwrap();
+    let at = |intensity: f32| Light::Point {
+        position: [1.5, 1.5, 1.0],
+        intensity: [intensity; 3],
+    };
+    let mut h = vec![[0.0f32; 3]; 9];
+    pass.irradiance(&[at(0.0), at(1.0)], &mut h).unwrap();
+    let one = h.clone();
+    let r = pass.irradiance(&[at(1.0), at(1.0)], &mut h).unwrap();
+    assert_eq!((r.traced, r.cached), (1, 1));
+    for (two, one) in h.iter().zip(&one) {
+        assert!(
+            (two[0] - 2.0 * one[0]).abs() <= 1e-6 * two[0],
+            "{two:?} vs 2 x {one:?}"
+        );
+    }
+}
+
+#[test]
 fn the_direct_pass_does_not_depend_on_the_thread_count() {
     let mut quads = floor(6);
     quads.push([

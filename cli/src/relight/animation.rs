@@ -1,6 +1,7 @@
 //! The animation file of `lrr relight`: light-group intensities and colours, and lights that
 //! are not surfaces (their place, direction and strength), keyframed over time, interpolated
-//! linearly (a direction normalised after), held before the first key and after the last.
+//! linearly (a direction component by component; the light normalises it), held before the
+//! first key and after the last.
 //!
 //! ```toml
 //! fps = 24.0          # frames per second of the sequence
@@ -256,7 +257,8 @@ impl LightTrack {
         Ok(())
     }
 
-    /// The light at time `t`, interpolated linearly (a direction normalised), held before the
+    /// The light at time `t`, interpolated linearly (a direction component by component: a light
+    /// normalises its direction), held before the
     /// first key and after the last.
     pub fn at(&self, t: f64) -> Light {
         let keys = &self.keys;

@@ -330,7 +330,8 @@ fn display_bytes(d: &Display) -> u128 {
     let faces = d.faces.as_ref().map_or(0, |f| {
         4 * f.element.len() + f.geometry.vertex_count.len() * 61
     });
-    (smooth + materials + lights + cameras + bvh + faces) as u128
+    let sky = d.sky_transfer.as_ref().map_or(0, |t| 4 * t.len());
+    (smooth + materials + lights + cameras + bvh + faces + sky) as u128
 }
 
 /// Rows per streaming buffer and the bytes planned, refused when even one row does not fit.

@@ -268,10 +268,10 @@ fn plan_identity<'a>(scene: &Scene, settings: &'a str) -> plan::PlanIdentity<'a>
 
 /// The visibility name a bake of `scene` records (as `Prepared::visibility_name`).
 fn visibility_name(scene: &Scene, backend: crate::visibility::Backend) -> &'static str {
-    if crate::visibility::nothing_occludes(scene) {
-        "none (nothing occludes)"
-    } else {
+    if crate::bake::needs_occluder(scene) {
         backend.name()
+    } else {
+        "none (nothing occludes)"
     }
 }
 
@@ -310,7 +310,7 @@ fn shard_rows(
     checkpoint::resume_or_replace(&path, "this shard", run)
 }
 
-/// Hash of everything of the scene a bake reads: name, surfaces, materials, faces.
+/// Hash of everything of the scene a bake reads: name, surfaces, materials, faces, lights.
 pub(crate) fn scene_hash(scene: &Scene) -> u64 {
     let mut h = Xxh64::new();
     let text = |h: &mut Xxh64, s: &str| {
@@ -333,6 +333,25 @@ pub(crate) fn scene_hash(scene: &Scene) -> u64 {
             for c in v.to_array() {
                 h.update(&c.to_le_bytes());
             }
+        }
+    }
+    // The lights that are not surfaces steer 2MSC and the refinement, and the sky's transfer.
+    for l in &scene.point_lights {
+        text(&mut h, l.group.as_deref().unwrap_or("\0"));
+        for c in l.position.iter().chain(&l.intensity) {
+            h.update(&c.to_le_bytes());
+        }
+    }
+    for l in &scene.direct_lights {
+        h.update(&l.kind.code().to_le_bytes());
+        for c in l
+            .position
+            .iter()
+            .chain(&l.direction)
+            .chain(&l.strength)
+            .chain(&l.extra)
+        {
+            h.update(&c.to_le_bytes());
         }
     }
     h.finish()

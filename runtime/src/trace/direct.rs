@@ -92,6 +92,8 @@ impl Light {
     /// order); the message names the field.
     pub fn check(&self) -> Result<(), String> {
         let finite = |v: [f32; 3]| v.iter().all(|c| c.is_finite());
+        // A direction normalises to a unit vector: its f32 length finite and above zero.
+        let usable = |v: [f32; 3]| finite(v) && length(v).is_finite() && length(v) > 0.0;
         let strength = self.strength();
         if !strength.iter().all(|c| c.is_finite() && *c >= 0.0) {
             return Err(format!(
@@ -112,9 +114,10 @@ impl Light {
                 if !finite(position) {
                     return Err(format!("its position {position:?} is not finite"));
                 }
-                if !finite(direction) || length(direction) == 0.0 {
+                if !usable(direction) {
                     return Err(format!(
-                        "its direction {direction:?} must be finite and not zero"
+                        "its direction {direction:?} must be finite and not zero, its length \
+                         finite in f32"
                     ));
                 }
                 if !(inner >= 0.0 && inner <= outer && outer <= std::f32::consts::FRAC_PI_2) {
@@ -127,13 +130,9 @@ impl Light {
                 }
                 Ok(())
             }
-            Light::Directional { direction, .. }
-                if !finite(direction) || length(direction) == 0.0 =>
-            {
-                Err(format!(
-                    "its direction {direction:?} must be finite and not zero"
-                ))
-            }
+            Light::Directional { direction, .. } if !usable(direction) => Err(format!(
+                "its direction {direction:?} must be finite and not zero"
+            )),
             _ => Ok(()),
         }
     }
@@ -293,7 +292,7 @@ impl Sky {
                          finite and >= 0 per channel"
                     ));
                 }
-                if !up.iter().all(|c| c.is_finite()) || length(up) == 0.0 {
+                if !(length(up).is_finite() && length(up) > 0.0) {
                     return Err(format!(
                         "its up direction {up:?} must be finite and not zero"
                     ));
@@ -595,7 +594,12 @@ impl DirectLighting {
         let mut todo: Vec<(usize, Light)> = Vec::new();
         for (i, light) in lights.iter().enumerate() {
             let shape = light.shape();
-            if light.strength() == [0.0; 3] || self.cache.get(i).is_some_and(|(s, _)| *s == shape) {
+            // A slot's cached term counts only when it was traced (a placeholder is empty).
+            let cached = self
+                .cache
+                .get(i)
+                .is_some_and(|(s, term)| *s == shape && !term.is_empty());
+            if light.strength() == [0.0; 3] || cached {
                 report.cached += 1;
             } else {
                 todo.push((i, shape));
@@ -779,64 +783,86 @@ impl DirectLighting {
     /// point (fixed, rotated per point by a hash of its index: no pattern shared by
     /// neighbours); a direction counts when its ray leaves the scene.
     fn project_sky(&self) -> (Vec<[f32; 9]>, u64) {
-        let n = self.n();
         let s = self.per_element;
-        let mut transfer = vec![[0.0f32; 9]; n];
-        let chunk = n.div_ceil(self.threads * 8).max(16);
         let eps = self.scene.epsilon;
         let m = SKY_DIRECTIONS;
-        let rays: u64 = std::thread::scope(|scope| {
-            let handles: Vec<_> = transfer
-                .chunks_mut(chunk)
-                .enumerate()
-                .map(|(c, out)| {
-                    scope.spawn(move || {
-                        let mut rays = 0u64;
-                        for (k, value) in out.iter_mut().enumerate() {
-                            let e = c * chunk + k;
-                            let mut sum = [0.0f32; 9];
-                            for (j, smp) in self.samples[e * s..(e + 1) * s].iter().enumerate() {
-                                if !smp.point[0].is_finite() {
-                                    continue;
-                                }
-                                let (t, b) = basis(smp.normal);
-                                let origin = mad(smp.point, smp.normal, eps);
-                                let rotation = unit_hash((e * s + j) as u64);
-                                for d in 0..m {
-                                    // Cosine-weighted: a stratified disc point lifted.
-                                    let u1 = (d as f32 + 0.5) / m as f32;
-                                    let u2 = (d as f32 * 0.618_034 + rotation).fract();
-                                    let r = u1.sqrt();
-                                    let phi = 2.0 * PI * u2;
-                                    let z = (1.0 - u1).max(0.0).sqrt();
-                                    let w = add(
-                                        add(scale(t, r * phi.cos()), scale(b, r * phi.sin())),
-                                        scale(smp.normal, z),
-                                    );
-                                    rays += 1;
-                                    let ray = Ray::new(origin, w);
-                                    if !self.scene.occluded(&ray, 0.0, f32::INFINITY) {
-                                        let y = sh9(w);
-                                        for (acc, yl) in sum.iter_mut().zip(y) {
-                                            *acc += yl;
-                                        }
-                                    }
-                                }
-                            }
-                            // pdf cos/π: each unoccluded direction adds π/M · Y; mean over points.
-                            let w = PI / (m as f32 * s as f32);
-                            *value = sum.map(|x| x * w);
+        self.par_map(|e, rays| {
+            let mut sum = [0.0f32; 9];
+            for (j, smp) in self.samples[e * s..(e + 1) * s].iter().enumerate() {
+                if !smp.point[0].is_finite() {
+                    continue;
+                }
+                let (t, b) = basis(smp.normal);
+                let origin = mad(smp.point, smp.normal, eps);
+                let rotation = unit_hash((e * s + j) as u64);
+                for d in 0..m {
+                    // Cosine-weighted: a stratified disc point lifted.
+                    let u1 = (d as f32 + 0.5) / m as f32;
+                    let u2 = (d as f32 * 0.618_034 + rotation).fract();
+                    let r = u1.sqrt();
+                    let phi = 2.0 * PI * u2;
+                    let z = (1.0 - u1).max(0.0).sqrt();
+                    let w = add(
+                        add(scale(t, r * phi.cos()), scale(b, r * phi.sin())),
+                        scale(smp.normal, z),
+                    );
+                    *rays += 1;
+                    if !self
+                        .scene
+                        .occluded(&Ray::new(origin, w), 0.0, f32::INFINITY)
+                    {
+                        for (acc, yl) in sum.iter_mut().zip(sh9(w)) {
+                            *acc += yl;
                         }
-                        rays
-                    })
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().expect("no panic"))
-                .sum()
+                    }
+                }
+            }
+            // pdf cos/π: each unoccluded direction adds π/M · Y; mean over points.
+            let w = PI / (m as f32 * s as f32);
+            sum.map(|x| x * w)
+        })
+    }
+
+    /// `f(element, rays)` for every element (original ids) on as many workers as threads,
+    /// chunks of elements taken from a shared counter; the values and the rays counted.
+    fn par_map<T: Copy + Default + Send>(
+        &self,
+        f: impl Fn(usize, &mut u64) -> T + Sync,
+    ) -> (Vec<T>, u64) {
+        let n = self.n();
+        let chunk = n.div_ceil(self.threads * 8).clamp(1, 256);
+        let chunks = n.div_ceil(chunk);
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let work = || {
+            let mut done: Vec<(usize, Vec<T>)> = Vec::new();
+            let mut rays = 0u64;
+            loop {
+                let c = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                if c >= chunks {
+                    return (done, rays);
+                }
+                let values = (c * chunk..((c + 1) * chunk).min(n))
+                    .map(|e| f(e, &mut rays))
+                    .collect();
+                done.push((c, values));
+            }
+        };
+        let workers = self.threads.min(chunks).max(1);
+        let results: Vec<_> = std::thread::scope(|scope| {
+            let handles: Vec<_> = (1..workers).map(|_| scope.spawn(work)).collect();
+            let mut all = vec![work()];
+            all.extend(handles.into_iter().map(|h| h.join().expect("no panic")));
+            all
         });
-        (transfer, rays)
+        let mut out = vec![T::default(); n];
+        let mut rays = 0u64;
+        for (done, r) in results {
+            rays += r;
+            for (c, values) in done {
+                out[c * chunk..c * chunk + values.len()].copy_from_slice(&values);
+            }
+        }
+        (out, rays)
     }
 }
 
