@@ -3,6 +3,13 @@
 //! `E = ρ ⊙ H`; shadow rays per second beside frames per second, the parts timed apart, and
 //! the same frames with the lights standing still (only their intensity changing: the cache
 //! traces nothing) for comparison, alternated over rounds.
+//!
+//! `--device gpu`: the same frames through the GPU direct pass (`lrr_runtime::gpu::GpuDirect`:
+//! the shadow rays on the GPU, `E = ρ ⊙ H` written where the GPU evaluator reads it, no readback)
+//! and the GPU evaluator's frame, each frame waited for; the pass traces every light every frame
+//! (it has no cache), so moving and still frames cost alike. The evaluator's frame alone is timed
+//! beside it, alternated, and the pass's share is the difference. On a CPU adapter (lavapipe)
+//! these numbers say nothing about a GPU.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -13,6 +20,8 @@ use clap::Args;
 use lrr_runtime::trace::{DirectLighting, Light, reflected};
 use lrr_runtime::{Operator, Rgb, RgbMut};
 use serde::Serialize;
+
+use crate::emission::Device;
 
 #[derive(Debug, Args)]
 pub struct LightsBench {
@@ -34,6 +43,11 @@ pub struct LightsBench {
     /// Threads of the direct pass and the evaluator [default: all cores].
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Where the direct pass and the frame run: the CPU (the pass on std threads, its cache of
+    /// still lights), or the GPU (the pass and the evaluator's frame in WGSL, no readback; on a
+    /// CPU adapter such as lavapipe the numbers mean nothing); auto: the GPU when one is usable.
+    #[arg(long, value_enum, default_value_t = Device::Cpu)]
+    pub device: Device,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -47,9 +61,13 @@ pub struct LightsRow {
     pub lights: usize,
     pub samples: u32,
     pub threads: usize,
+    /// `cpu`, or `gpu: ` and the adapter.
+    pub device: String,
     /// Frames per second with every light moving: direct pass and operator together.
     pub fps_moving: f64,
-    /// Of a moving frame: seconds of the direct pass, of `ρ ⊙ H`, of the operator's frame.
+    /// Of a moving frame: seconds of the direct pass, of `ρ ⊙ H`, of the operator's frame (GPU:
+    /// `ρ ⊙ H` is part of the pass, 0 here; the pass is the whole frame's time less the
+    /// evaluator's frame alone, timed beside it).
     pub direct_s: f64,
     pub reflect_s: f64,
     pub evaluate_s: f64,
@@ -68,17 +86,9 @@ pub fn run(b: &LightsBench, out: &mut dyn Write) -> Result<()> {
     let threads = b
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |p| p.get()));
-    let mut pass = DirectLighting::new(op.file(), b.samples, threads)
+    let pass = DirectLighting::new(op.file(), b.samples, threads)
         .map_err(|e| anyhow::anyhow!("{}: {e}", b.file.display()))?;
-    let mut eval = op.evaluator(threads)?;
     let (centres, radius) = places(&op, b.lights);
-    let rho = op.reflectance();
-    let base = vec![[0.0f32; 3]; op.n()];
-    let (mut h, mut e, mut bb) = (
-        vec![[0.0f32; 3]; op.n()],
-        vec![[0.0f32; 3]; op.n()],
-        vec![[0.0f32; 3]; op.n()],
-    );
     let lights_at = |frame: usize, moving: bool| -> Vec<Light> {
         centres
             .iter()
@@ -99,31 +109,28 @@ pub fn run(b: &LightsBench, out: &mut dyn Write) -> Result<()> {
             })
             .collect()
     };
+    let mut runner = Runner::new(b.device, &op, pass, threads)?;
+    // GPU: the shadow rays of one frame counted once (a counted frame reads them back).
+    let gpu_rays = runner.count_rays(&lights_at(0, true))?;
     let mut moving_rounds = Vec::new();
     let mut still_rounds = Vec::new();
     let mut frame_no = 0usize;
     for _ in 0..b.rounds {
         for moving in [true, false] {
-            let (mut direct, mut reflect, mut evaluate, mut rays) = (0.0, 0.0, 0.0, 0u64);
-            let start = Instant::now();
+            let (mut total, mut direct, mut reflect, mut evaluate, mut rays) =
+                (0.0, 0.0, 0.0, 0.0, 0u64);
             for _ in 0..b.frames {
                 frame_no += 1;
                 let lights = lights_at(frame_no, moving);
-                let t0 = Instant::now();
-                let report = pass.irradiance(&lights, &mut h)?;
-                let t1 = Instant::now();
-                reflected(&rho, &h, &base, &mut e)?;
-                let t2 = Instant::now();
-                eval.evaluate(Rgb::triples(&e), RgbMut::triples(&mut bb))?;
-                let t3 = Instant::now();
-                direct += (t1 - t0).as_secs_f64();
-                reflect += (t2 - t1).as_secs_f64();
-                evaluate += (t3 - t2).as_secs_f64();
-                rays += report.rays;
+                let t = runner.frame(&lights)?;
+                total += t.total;
+                direct += t.direct;
+                reflect += t.reflect;
+                evaluate += t.evaluate;
+                rays += t.rays;
             }
-            let seconds = start.elapsed().as_secs_f64();
             let f = b.frames as f64;
-            let row = (f / seconds, direct / f, reflect / f, evaluate / f, rays);
+            let row = (f / total, direct / f, reflect / f, evaluate / f, rays);
             if moving {
                 moving_rounds.push(row);
             } else {
@@ -138,7 +145,7 @@ pub fn run(b: &LightsBench, out: &mut dyn Write) -> Result<()> {
     let pick = |rows: &[(f64, f64, f64, f64, u64)], f: fn(&(f64, f64, f64, f64, u64)) -> f64| {
         median(rows.iter().map(f).collect())
     };
-    let rays_per_frame = moving_rounds[0].4 / b.frames as u64;
+    let rays_per_frame = gpu_rays.unwrap_or(moving_rounds[0].4 / b.frames as u64);
     let direct_s = pick(&moving_rounds, |r| r.1);
     let row = LightsRow {
         n: op.n(),
@@ -146,6 +153,7 @@ pub fn run(b: &LightsBench, out: &mut dyn Write) -> Result<()> {
         lights: b.lights,
         samples: b.samples,
         threads,
+        device: runner.describe(),
         fps_moving: pick(&moving_rounds, |r| r.0),
         direct_s,
         reflect_s: pick(&moving_rounds, |r| r.2),
@@ -160,13 +168,17 @@ pub fn run(b: &LightsBench, out: &mut dyn Write) -> Result<()> {
     }
     writeln!(
         out,
-        "{}: n = {}, k = {}; {} moving point light(s), {} samples per element, {} thread(s)",
+        "{}: n = {}, k = {}; {} moving point light(s), {} samples per element, {}",
         b.file.display(),
         row.n,
         row.k,
         row.lights,
         row.samples,
-        row.threads
+        if runner.is_gpu() {
+            row.device.clone()
+        } else {
+            format!("{} thread(s)", row.threads)
+        }
     )?;
     writeln!(
         out,
@@ -179,12 +191,182 @@ pub fn run(b: &LightsBench, out: &mut dyn Write) -> Result<()> {
         1e3 * row.reflect_s,
         1e3 * row.evaluate_s
     )?;
-    writeln!(
-        out,
-        "still (intensity changing, nothing traced): {:.1} frames/s",
-        row.fps_still
-    )?;
+    if runner.is_gpu() {
+        writeln!(
+            out,
+            "still (intensity changing; the GPU pass has no cache and traces every light): \
+             {:.1} frames/s",
+            row.fps_still
+        )?;
+        if runner.on_cpu_adapter() {
+            writeln!(
+                out,
+                "note: the adapter is a CPU (lavapipe or similar): these times say nothing about \
+                 a GPU"
+            )?;
+        }
+    } else {
+        writeln!(
+            out,
+            "still (intensity changing, nothing traced): {:.1} frames/s",
+            row.fps_still
+        )?;
+    }
     Ok(())
+}
+
+/// What one frame cost, in seconds, and its shadow rays (the CPU pass's count; 0 on the GPU,
+/// whose rays are counted once).
+struct FrameTimes {
+    total: f64,
+    direct: f64,
+    reflect: f64,
+    evaluate: f64,
+    rays: u64,
+}
+
+/// Where the frames run.
+enum Runner {
+    /// The CPU pass (its cache of still lights), `ρ ⊙ H` and the CPU evaluator.
+    Cpu(Box<CpuRunner>),
+    /// The GPU pass feeding the GPU evaluator, each frame waited for.
+    Gpu(Box<GpuRunner>),
+}
+
+/// [`Runner::Cpu`]'s pass, evaluator, reflectance and buffers.
+struct CpuRunner {
+    pass: DirectLighting,
+    eval: lrr_runtime::Evaluator,
+    rho: Vec<[f32; 3]>,
+    base: Vec<[f32; 3]>,
+    h: Vec<[f32; 3]>,
+    e: Vec<[f32; 3]>,
+    b: Vec<[f32; 3]>,
+}
+
+/// [`Runner::Gpu`]'s device, pass, evaluator and base emission.
+struct GpuRunner {
+    gpu: lrr_runtime::gpu::Gpu,
+    direct: lrr_runtime::gpu::GpuDirect,
+    eval: lrr_runtime::gpu::GpuEvaluator,
+    base: Vec<[f32; 3]>,
+}
+
+impl Runner {
+    fn new(device: Device, op: &Operator, pass: DirectLighting, threads: usize) -> Result<Self> {
+        use lrr_runtime::gpu::{Gpu, GpuDirect, GpuEvaluator, GpuOptions};
+        let n = op.n();
+        let gpu = match device {
+            Device::Cpu => None,
+            Device::Gpu => Some(Gpu::new(&GpuOptions::default())?),
+            Device::Auto => match Gpu::new(&GpuOptions::default()) {
+                Ok(gpu) => Some(gpu),
+                Err(e) => {
+                    eprintln!("lrr: note: no usable GPU ({e}); benchmarking the CPU");
+                    None
+                }
+            },
+        };
+        let rho = op.reflectance();
+        Ok(match gpu {
+            None => Runner::Cpu(Box::new(CpuRunner {
+                pass,
+                eval: op.evaluator(threads)?,
+                rho,
+                base: vec![[0.0; 3]; n],
+                h: vec![[0.0; 3]; n],
+                e: vec![[0.0; 3]; n],
+                b: vec![[0.0; 3]; n],
+            })),
+            Some(gpu) => Runner::Gpu(Box::new(GpuRunner {
+                direct: GpuDirect::new(&gpu, &pass, &rho)?,
+                eval: GpuEvaluator::new(&gpu, op)?,
+                gpu,
+                base: vec![[0.0; 3]; n],
+            })),
+        })
+    }
+
+    fn is_gpu(&self) -> bool {
+        matches!(self, Runner::Gpu(_))
+    }
+
+    fn on_cpu_adapter(&self) -> bool {
+        matches!(self, Runner::Gpu(g) if g.gpu.is_cpu())
+    }
+
+    fn describe(&self) -> String {
+        match self {
+            Runner::Cpu(_) => "cpu".to_owned(),
+            Runner::Gpu(g) => format!("gpu: {}", g.gpu.adapter_name()),
+        }
+    }
+
+    /// GPU: the shadow rays of a frame lit by `lights`, from one counted frame read back.
+    fn count_rays(&mut self, lights: &[Light]) -> Result<Option<u64>> {
+        let Runner::Gpu(g) = self else {
+            return Ok(None);
+        };
+        let GpuRunner {
+            direct, eval, base, ..
+        } = &mut **g;
+        let mut b = vec![[0.0f32; 3]; base.len()];
+        direct.set_count_rays(true);
+        let report = direct.evaluate(eval, lights, Rgb::triples(base), RgbMut::triples(&mut b));
+        direct.set_count_rays(false);
+        Ok(report?.rays)
+    }
+
+    fn frame(&mut self, lights: &[Light]) -> Result<FrameTimes> {
+        match self {
+            Runner::Cpu(c) => {
+                let CpuRunner {
+                    pass,
+                    eval,
+                    rho,
+                    base,
+                    h,
+                    e,
+                    b,
+                } = &mut **c;
+                let t0 = Instant::now();
+                let report = pass.irradiance(lights, h)?;
+                let t1 = Instant::now();
+                reflected(rho, h, base, e)?;
+                let t2 = Instant::now();
+                eval.evaluate(Rgb::triples(e), RgbMut::triples(b))?;
+                let t3 = Instant::now();
+                Ok(FrameTimes {
+                    total: (t3 - t0).as_secs_f64(),
+                    direct: (t1 - t0).as_secs_f64(),
+                    reflect: (t2 - t1).as_secs_f64(),
+                    evaluate: (t3 - t2).as_secs_f64(),
+                    rays: report.rays,
+                })
+            }
+            Runner::Gpu(g) => {
+                let GpuRunner {
+                    direct, eval, base, ..
+                } = &mut **g;
+                let t0 = Instant::now();
+                direct.submit(eval, lights, Rgb::triples(base))?;
+                eval.wait()?;
+                let t1 = Instant::now();
+                // The evaluator's frame alone, beside it: the pass's share is the difference.
+                eval.submit(Rgb::triples(base))?;
+                eval.wait()?;
+                let t2 = Instant::now();
+                let (total, evaluate) = ((t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64());
+                Ok(FrameTimes {
+                    total,
+                    direct: (total - evaluate).max(0.0),
+                    reflect: 0.0,
+                    evaluate,
+                    rays: 0,
+                })
+            }
+        }
+    }
 }
 
 /// Where the lights circle: near each light group's emitting elements (their area-weighted

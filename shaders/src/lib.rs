@@ -19,13 +19,20 @@
 //! | [`Pass::Gather`] | `gather.wgsl` + a loader `fk_*.wgsl` + a reduction `reduce_*.wgsl` | `W = F_k Z`, `B = E + ρ ⊙ W` (plain: `B = E - Y X`) | O(nk) |
 //!
 //! The ray tracer's pass (`trace.wgsl`, [`TRACE`], [`TraceParams`], [`TraceConstants`]) shades
-//! with the radiosity `B` these passes leave on the GPU; it is self-contained (no `common.wgsl`)
-//! and its CPU mirror is the runtime's CPU tracer (`lrr_runtime::trace`). Smooth shading adds
+//! with the radiosity `B` these passes leave on the GPU; it does not use `common.wgsl` (its
+//! source is `bvh.wgsl`, the file's BVH with its traversal and watertight test, and
+//! `direct_light.wgsl`, lights that are not surfaces, joined with its own file) and its CPU
+//! mirror is the runtime's CPU tracer (`lrr_runtime::trace`). Smooth shading adds
 //! one pass before it, `smooth.wgsl` ([`SMOOTH_VERTICES`], mirror [`cpu::smooth_vertices`]):
 //! the smooth-vertex values from `B`, which `trace.wgsl` interpolates by mean value coordinates
 //! at each hit (mirror [`cpu::mean_value_weights`]). Lights that are not surfaces (point, spot,
 //! sun) are shaded per hit by its `DIRECT` variant ([`direct_light`] records, the reflectance
-//! per element), as the CPU twin's `Lighting::direct` does.
+//! per element), as the CPU twin's `Lighting::direct` does. The same lights enter a frame's
+//! emission through the direct pass (`direct_pass.wgsl`, [`DIRECT_PASS`], [`DirectParams`],
+//! [`direct_sample`]; it shares `bvh.wgsl` and `direct_light.wgsl` with the tracer): per element,
+//! each light's irradiance averaged over fixed sample points behind any-hit shadow rays, `E =
+//! base + ρ ⊙ H` written where the passes above read the emission; its CPU mirror is the
+//! runtime's `DirectLighting`.
 //!
 //! [`Pass::Read`] (`read.wgsl`) is not a step of a frame: it reads the gather's bytes and
 //! nothing else, the roofline the benchmark compares the gather with.
@@ -100,6 +107,7 @@
 #![forbid(unsafe_code)]
 
 pub mod cpu;
+mod direct;
 mod params;
 mod smooth;
 mod trace;
@@ -107,6 +115,10 @@ mod trace;
 #[cfg(test)]
 mod naga_tests;
 
+pub use direct::{
+    DIRECT_BINDINGS, DIRECT_ENTRY, DIRECT_LANES, DIRECT_PASS, DIRECT_SAMPLE_BYTES,
+    DIRECT_SAMPLE_FIELDS, DirectConstants, DirectParams, direct_sample,
+};
 pub use params::{GatherConstants, Params};
 pub use smooth::{SMOOTH_BINDINGS, SMOOTH_ENTRY, SMOOTH_LANES, SMOOTH_VERTICES, SmoothParams};
 pub use trace::{

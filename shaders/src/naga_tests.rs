@@ -510,3 +510,154 @@ fn smooth_pass_compiles_and_matches_the_host() {
     assert_eq!(wgsl, crate::SmoothParams::FIELDS);
     assert_eq!(layouter[handle].size as usize, crate::SmoothParams::SIZE);
 }
+
+// The direct pass (`direct_pass.wgsl` after `bvh.wgsl` and `direct_light.wgsl`): no optional
+// capability.
+
+fn parse_direct() -> Module {
+    naga::front::wgsl::parse_str(crate::DIRECT_PASS).unwrap_or_else(|e| {
+        panic!(
+            "direct_pass.wgsl does not parse:\n{}",
+            e.emit_to_string(crate::DIRECT_PASS)
+        )
+    })
+}
+
+fn validate_direct(module: &Module) -> ModuleInfo {
+    validator(Capabilities::empty())
+        .validate(module)
+        .unwrap_or_else(|e| {
+            panic!(
+                "direct_pass.wgsl does not validate:\n{}",
+                e.emit_to_string(crate::DIRECT_PASS)
+            )
+        })
+}
+
+/// Both values of every override specialised and compiled to SPIR-V, as the runtime builds them;
+/// the overrides declared are the host's; the entry point, workgroup size and bindings (against
+/// [`crate::DIRECT_BINDINGS`]) are the host's.
+#[test]
+fn direct_pass_compiles_and_matches_the_host() {
+    let module = parse_direct();
+    let info = validate_direct(&module);
+    for count_rays in [false, true] {
+        let c = crate::DirectConstants { count_rays };
+        let mut constants = PipelineConstants::default();
+        for (name, value) in c.constants() {
+            constants.insert(name.to_owned(), value);
+        }
+        let entry = Some((ShaderStage::Compute, crate::DIRECT_ENTRY));
+        let (module, info) =
+            naga::back::pipeline_constants::process_overrides(&module, &info, entry, &constants)
+                .unwrap_or_else(|e| panic!("{c:?}: {e:?}"));
+        let options = naga::back::spv::Options {
+            capabilities: None,
+            ..Default::default()
+        };
+        let pipeline = naga::back::spv::PipelineOptions {
+            shader_stage: ShaderStage::Compute,
+            entry_point: crate::DIRECT_ENTRY.to_owned(),
+        };
+        naga::back::spv::write_vec(&module, &info, &options, Some(&pipeline))
+            .unwrap_or_else(|e| panic!("{c:?}: {e:?}"));
+    }
+    let mut declared: Vec<String> = module
+        .overrides
+        .iter()
+        .filter_map(|(_, o)| o.name.clone())
+        .collect();
+    declared.sort();
+    let set: Vec<String> = crate::DirectConstants::default()
+        .constants()
+        .iter()
+        .map(|(n, _)| (*n).to_owned())
+        .collect();
+    assert_eq!(declared, set);
+    assert_eq!(constant(&module, "DIRECT_LANES"), crate::DIRECT_LANES);
+    let index = module
+        .entry_points
+        .iter()
+        .position(|e| e.name == crate::DIRECT_ENTRY)
+        .expect("direct_pass.wgsl has its entry point");
+    let entry = &module.entry_points[index];
+    assert_eq!(entry.stage, ShaderStage::Compute);
+    assert_eq!(entry.workgroup_size, [crate::DIRECT_LANES, 1, 1]);
+    assert_eq!(
+        used_bindings(&module, &info, index),
+        expected_bindings(crate::DIRECT_BINDINGS)
+    );
+}
+
+/// `struct DirectParams` against [`crate::DirectParams::FIELDS`], `struct Sample` against
+/// [`crate::DIRECT_SAMPLE_FIELDS`], and the records shared with the tracer at the tracer's sizes.
+#[test]
+fn direct_pass_structs_match_the_host_layout() {
+    let module = parse_direct();
+    let mut layouter = Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let find = |name: &str| {
+        module
+            .types
+            .iter()
+            .find(|(_, ty)| ty.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("the direct pass declares {name}"))
+    };
+    let members_of = |name: &str| -> Vec<(String, usize)> {
+        let (_, ty) = find(name);
+        let TypeInner::Struct { members, .. } = &ty.inner else {
+            panic!("{name} is {:?}", ty.inner);
+        };
+        members
+            .iter()
+            .map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize))
+            .collect()
+    };
+    let owned = |fields: &[(&str, usize)]| -> Vec<(String, usize)> {
+        fields.iter().map(|(n, o)| ((*n).to_owned(), *o)).collect()
+    };
+    assert_eq!(
+        members_of("DirectParams"),
+        owned(crate::DirectParams::FIELDS)
+    );
+    assert_eq!(members_of("Sample"), owned(crate::DIRECT_SAMPLE_FIELDS));
+    assert_eq!(members_of("DirectLight"), owned(crate::DIRECT_LIGHT_FIELDS));
+    for (name, bytes) in [
+        ("DirectParams", crate::DirectParams::SIZE),
+        ("Sample", crate::DIRECT_SAMPLE_BYTES),
+        ("DirectLight", crate::DIRECT_LIGHT_BYTES),
+        ("Node", crate::NODE_BYTES),
+    ] {
+        let (handle, _) = find(name);
+        assert_eq!(layouter[handle].size as usize, bytes, "{name}");
+    }
+}
+
+/// The shared parts declare no binding but the BVH's two, which both passes bind at the same
+/// numbers, and no uniform: each pass's own bindings are in its own file.
+#[test]
+fn shared_parts_bind_only_the_bvh() {
+    let shared = [
+        include_str!("../wgsl/bvh.wgsl"),
+        include_str!("../wgsl/direct_light.wgsl"),
+    ]
+    .join("\n");
+    let module = naga::front::wgsl::parse_str(&shared)
+        .unwrap_or_else(|e| panic!("the shared parts:\n{}", e.emit_to_string(&shared)));
+    validator(Capabilities::empty())
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("the shared parts:\n{}", e.emit_to_string(&shared)));
+    let mut bound: Vec<(u32, String)> = module
+        .global_variables
+        .iter()
+        .filter_map(|(_, v)| Some((v.binding.as_ref()?.binding, v.name.clone()?)))
+        .collect();
+    bound.sort();
+    assert_eq!(bound, [(1, "nodes".to_owned()), (2, "tris".to_owned())]);
+    for bindings in [crate::TRACE_BINDINGS, crate::DIRECT_BINDINGS] {
+        assert_eq!((bindings[1].binding, bindings[1].name), (1, "nodes"));
+        assert_eq!((bindings[2].binding, bindings[2].name), (2, "tris"));
+    }
+    assert!(crate::TRACE.starts_with(&shared));
+    assert!(crate::DIRECT_PASS.starts_with(&shared));
+}

@@ -1,13 +1,22 @@
 //! The ray tracer's pass (`wgsl/trace.wgsl`): the GPU twin of the CPU tracer
 //! (`lrr_runtime::trace`), its per-tile uniform [`TraceParams`], its bindings and its pipeline
-//! constants [`TraceConstants`]. Its CPU mirror is the CPU tracer itself (the runtime's
+//! constants [`TraceConstants`], and the records of lights that are not surfaces
+//! ([`direct_light`]) it shares with the direct pass. Its CPU mirror is the CPU tracer itself (the runtime's
 //! `tests/gpu_trace.rs` compares the images); this crate's naga tests parse, validate, specialise
 //! and compile it for every combination of effects.
 
 use crate::{Access, Binding, bind};
 
-/// The source (self-contained: no `common.wgsl`).
-pub const TRACE: &str = include_str!("../wgsl/trace.wgsl");
+/// The source: `bvh.wgsl` (the BVH, its traversal and watertight test), `direct_light.wgsl`
+/// (lights that are not surfaces) and `trace.wgsl` joined, no `common.wgsl`; the first two are
+/// shared with the direct pass ([`DIRECT_PASS`](crate::DIRECT_PASS)).
+pub const TRACE: &str = concat!(
+    include_str!("../wgsl/bvh.wgsl"),
+    "\n",
+    include_str!("../wgsl/direct_light.wgsl"),
+    "\n",
+    include_str!("../wgsl/trace.wgsl"),
+);
 
 /// The entry point.
 pub const TRACE_ENTRY: &str = "trace";

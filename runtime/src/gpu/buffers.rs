@@ -345,7 +345,13 @@ fn groups(gpu: &Gpu, file: &OperatorFile, kp: usize) -> Groups {
         starts: storage(gpu, "group starts", &starts, none),
         members: storage(gpu, "group members", &members, none),
         member_emission: storage(gpu, "group emission", &emission, none),
-        emission: zeros(gpu, "emission of the groups", 3 * file.n as usize, none),
+        // Copied into an upload slot when the direct pass adds to a group frame's emission.
+        emission: zeros(
+            gpu,
+            "emission of the groups",
+            3 * file.n as usize,
+            wgpu::BufferUsages::COPY_SRC,
+        ),
     }
 }
 

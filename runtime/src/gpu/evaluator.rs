@@ -656,6 +656,11 @@ impl GpuEvaluator {
     }
 
     fn upload_groups(&mut self, intensities: &[f32]) -> Result<Source, GpuError> {
+        Ok(Source::Groups(self.write_groups(intensities)?))
+    }
+
+    /// Checks the intensities and writes them into the next upload slot, which it returns.
+    fn write_groups(&mut self, intensities: &[f32]) -> Result<usize, GpuError> {
         crate::frame::check_intensities(&self.file, intensities)?;
         let slot = self.take_slot();
         if !intensities.is_empty() {
@@ -663,7 +668,7 @@ impl GpuEvaluator {
                 .queue
                 .write_buffer(&self.slots[slot].intensities, 0, bytes_of(intensities));
         }
-        Ok(Source::Groups(slot))
+        Ok(slot)
     }
 
     fn take_slot(&mut self) -> usize {
@@ -780,6 +785,75 @@ impl GpuEvaluator {
             return Ok(None);
         };
         Ok(t.read_pairs(&self.gpu, 1)?.first().copied())
+    }
+}
+
+// What the direct pass (`super::direct::GpuDirect`) needs of an evaluator: a frame's base
+// emission staged in an upload slot, that slot's emission buffer (which the pass rewrites as
+// `E = base + ρ ⊙ H`), and the frame run from it.
+impl GpuEvaluator {
+    /// The device the evaluator's buffers live on.
+    pub(super) fn gpu(&self) -> &Gpu {
+        &self.gpu
+    }
+
+    /// Elements.
+    pub(super) fn n(&self) -> u32 {
+        self.buffers.n
+    }
+
+    /// Checks `emission` (as [`submit`](Self::submit)) and writes it into the next upload slot,
+    /// which it returns.
+    pub(super) fn stage_emission(&mut self, emission: &Rgb<'_>) -> Result<usize, GpuError> {
+        self.write_emission(emission, true)
+    }
+
+    /// Checks `intensities` (as [`submit_groups`](Self::submit_groups)), writes them into the
+    /// next upload slot and records into `encoder` the groups' emission on the GPU
+    /// (`group_emission`) and its copy into that slot's emission buffer, so that the slot holds
+    /// the whole frame's base emission; returns the slot.
+    pub(super) fn stage_groups(
+        &mut self,
+        intensities: &[f32],
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Result<usize, GpuError> {
+        let slot = self.write_groups(intensities)?;
+        let b = &self.buffers;
+        if b.groups.positions > 0 {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("group emission"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.pipelines.group_emission);
+            pass.set_bind_group(0, &self.slots[slot].group_emission, &[]);
+            let [x, y, z] = workgroups(b.groups.positions.div_ceil(LANES));
+            pass.dispatch_workgroups(x, y, z);
+        }
+        encoder.copy_buffer_to_buffer(
+            &b.groups.emission,
+            0,
+            &self.slots[slot].emission,
+            0,
+            12 * u64::from(b.n),
+        );
+        Ok(slot)
+    }
+
+    /// The emission buffer of upload slot `slot` (3 f32 per element, original ids).
+    pub(super) fn slot_emission(&self, slot: usize) -> &wgpu::Buffer {
+        &self.slots[slot].emission
+    }
+
+    /// Submits the frame from the emission in upload slot `slot` (segment sums, core product,
+    /// gather); with `readback`, also the copy of `B` that [`finish`](Self::finish) reads.
+    pub(super) fn run_slot(&mut self, slot: usize, readback: bool) {
+        self.run(Source::Slot(slot), readback);
+    }
+
+    /// Waits for a frame submitted by [`run_slot`](Self::run_slot) with `readback`, copies `B`
+    /// into `out` (checked by the caller) and records its timing from `start`.
+    pub(super) fn finish(&mut self, out: &mut RgbMut<'_>, start: Instant) -> Result<(), GpuError> {
+        self.read_back(out, start)
     }
 }
 

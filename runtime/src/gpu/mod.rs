@@ -70,6 +70,7 @@ mod bench;
 mod buffers;
 mod common;
 mod device;
+mod direct;
 mod evaluator;
 mod pipelines;
 mod smooth;
@@ -77,6 +78,7 @@ mod trace;
 
 pub use bench::{GpuBench, bench_operator, bounds_check_cost};
 pub use device::{AdapterSummary, Gpu, GpuOptions, adapters};
+pub use direct::{DEFAULT_CHUNK_RAYS, GpuDirect, GpuDirectReport};
 pub use evaluator::{BurstTiming, FrameTiming, GpuEvaluator};
 pub use lrr_shaders::{Reduce, Storage};
 pub use trace::{DEFAULT_TILE_PIXELS, GpuRenderReport, GpuTracer};

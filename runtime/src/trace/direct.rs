@@ -567,6 +567,21 @@ impl DirectLighting {
         self.per_element as u32
     }
 
+    /// The fixed sample points, each with its element's front normal (unit): element `e`'s
+    /// (original id) `j`-th at `e · samples_per_element() + j`, the points
+    /// [`irradiance`](Self::irradiance) shades, chosen when the pass was made. An element drawn
+    /// by no triangle of area has points that are not finite (NaN) with a zero normal: they see
+    /// no light. For a twin of the pass that must use the same points (the GPU's, `gpu::GpuDirect`).
+    pub fn sample_points(&self) -> impl ExactSizeIterator<Item = ([f32; 3], [f32; 3])> + '_ {
+        self.samples.iter().map(|s| (s.point, s.normal))
+    }
+
+    /// The checked scene whose BVH the shadow rays traverse (the GPU twin uploads it).
+    #[cfg(feature = "gpu")]
+    pub(crate) fn scene(&self) -> &TraceScene {
+        &self.scene
+    }
+
     /// The direct irradiance `H` per element (original ids) of `lights`, written to `h` (n
     /// values): each element's mean over its sample points, each behind a shadow ray. Lights
     /// whose shape (all but the strength) matches the same slot of the last call are not traced
