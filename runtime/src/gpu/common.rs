@@ -97,3 +97,42 @@ pub(super) fn layout_entry(b: &lrr_shaders::Binding) -> wgpu::BindGroupLayoutEnt
         count: None,
     }
 }
+
+/// The bind group layout of a pass's `bindings` (its `lrr_shaders::*_BINDINGS`), explicit so
+/// that every specialisation of the pass (whatever its overrides leave unused) shares it.
+pub(super) fn bind_group_layout(
+    device: &wgpu::Device,
+    label: &str,
+    bindings: &[lrr_shaders::Binding],
+) -> wgpu::BindGroupLayout {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings.iter().map(layout_entry).collect();
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &entries,
+    })
+}
+
+/// The module of a pass's WGSL: with naga's bounds checks when `checked`, else without.
+///
+/// # Safety
+/// Unless `checked`, every index `wgsl` follows must be proven in bounds for the buffers its
+/// host binds, and its loops must end; each caller states its argument.
+#[allow(unsafe_code)]
+pub(super) unsafe fn shader_module(
+    device: &wgpu::Device,
+    label: &str,
+    wgsl: &'static str,
+    checked: bool,
+) -> wgpu::ShaderModule {
+    let descriptor = wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(wgsl.into()),
+    };
+    if checked {
+        return device.create_shader_module(descriptor);
+    }
+    // SAFETY: the caller's promise (this function's contract).
+    unsafe {
+        device.create_shader_module_trusted(descriptor, wgpu::ShaderRuntimeChecks::unchecked())
+    }
+}

@@ -583,25 +583,10 @@ fn check_reflectance(reflectance: &[[f32; 3]], n: usize) -> Result<(), GpuError>
 /// The nine bindings of `direct_pass.wgsl` (`lrr_shaders::DIRECT_BINDINGS`), explicit so that
 /// both specialisations share one layout.
 fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
-    let entries: Vec<wgpu::BindGroupLayoutEntry> = lrr_shaders::DIRECT_BINDINGS
-        .iter()
-        .map(super::common::layout_entry)
-        .collect();
-    gpu.device
-        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some(DIRECT_ENTRY),
-            entries: &entries,
-        })
+    super::common::bind_group_layout(&gpu.device, DIRECT_ENTRY, lrr_shaders::DIRECT_BINDINGS)
 }
 
 fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
-    let descriptor = wgpu::ShaderModuleDescriptor {
-        label: Some(DIRECT_ENTRY),
-        source: wgpu::ShaderSource::Wgsl(DIRECT_PASS.into()),
-    };
-    if gpu.options.bounds_checks {
-        return gpu.device.create_shader_module(descriptor);
-    }
     #[allow(unsafe_code)]
     // SAFETY: every index direct_pass.wgsl follows was checked by `TraceScene::new` (through
     // `DirectLighting::new`: the BVH's children and leaf ranges, its depth against the fixed
@@ -612,8 +597,12 @@ fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
     // header of direct_pass.wgsl and bvh.wgsl. Its loops end: samples_per_element <= 64,
     // light_count records, and the traversal visits each node at most once.
     unsafe {
-        gpu.device
-            .create_shader_module_trusted(descriptor, wgpu::ShaderRuntimeChecks::unchecked())
+        super::common::shader_module(
+            &gpu.device,
+            DIRECT_ENTRY,
+            DIRECT_PASS,
+            gpu.options.bounds_checks,
+        )
     }
 }
 

@@ -155,25 +155,10 @@ impl SmoothPass {
 
 /// The bindings of `smooth.wgsl` (`lrr_shaders::SMOOTH_BINDINGS`), explicit.
 fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
-    let entries: Vec<wgpu::BindGroupLayoutEntry> = lrr_shaders::SMOOTH_BINDINGS
-        .iter()
-        .map(super::common::layout_entry)
-        .collect();
-    gpu.device
-        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some(SMOOTH_ENTRY),
-            entries: &entries,
-        })
+    super::common::bind_group_layout(&gpu.device, SMOOTH_ENTRY, lrr_shaders::SMOOTH_BINDINGS)
 }
 
 fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
-    let descriptor = wgpu::ShaderModuleDescriptor {
-        label: Some(SMOOTH_ENTRY),
-        source: wgpu::ShaderSource::Wgsl(SMOOTH_VERTICES.into()),
-    };
-    if gpu.options.bounds_checks {
-        return gpu.device.create_shader_module(descriptor);
-    }
     #[allow(unsafe_code)]
     // SAFETY: every index smooth.wgsl follows was checked by `Reconstruction::from_parts` when
     // the tracer's scene was made (offsets non-decreasing from 0 to the number of positions and
@@ -181,7 +166,11 @@ fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
     // per smooth vertex) and in `GpuTracer::frame` (the radiosity buffer's size); the argument
     // is in the header of smooth.wgsl. Its loop ends: j runs up to offsets[v + 1].
     unsafe {
-        gpu.device
-            .create_shader_module_trusted(descriptor, wgpu::ShaderRuntimeChecks::unchecked())
+        super::common::shader_module(
+            &gpu.device,
+            SMOOTH_ENTRY,
+            SMOOTH_VERTICES,
+            gpu.options.bounds_checks,
+        )
     }
 }

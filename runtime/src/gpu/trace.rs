@@ -747,25 +747,10 @@ impl GpuTracer {
 /// The sixteen bindings of `trace.wgsl` (`lrr_shaders::TRACE_BINDINGS`), explicit so that
 /// every specialisation (whatever its overrides leave unused) shares one layout.
 fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
-    let entries: Vec<wgpu::BindGroupLayoutEntry> = lrr_shaders::TRACE_BINDINGS
-        .iter()
-        .map(super::common::layout_entry)
-        .collect();
-    gpu.device
-        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("trace"),
-            entries: &entries,
-        })
+    super::common::bind_group_layout(&gpu.device, "trace", lrr_shaders::TRACE_BINDINGS)
 }
 
 fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
-    let descriptor = wgpu::ShaderModuleDescriptor {
-        label: Some("trace"),
-        source: wgpu::ShaderSource::Wgsl(TRACE.into()),
-    };
-    if gpu.options.bounds_checks {
-        return gpu.device.create_shader_module(descriptor);
-    }
     #[allow(unsafe_code)]
     // SAFETY: every index trace.wgsl follows was checked by `TraceScene::new` (the BVH's
     // children and leaf ranges, its depth against the fixed stacks, the display faces' element
@@ -778,8 +763,7 @@ fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
     // Its loops end: the traversal visits each node at most once (children after parents) and
     // the ray tree's depth grows by one per push up to a limit of at most 16.
     unsafe {
-        gpu.device
-            .create_shader_module_trusted(descriptor, wgpu::ShaderRuntimeChecks::unchecked())
+        super::common::shader_module(&gpu.device, "trace", TRACE, gpu.options.bounds_checks)
     }
 }
 
