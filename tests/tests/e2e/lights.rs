@@ -11,29 +11,10 @@
 //!   through the open side, (d) a uniform sky: issue #32's goal, median ≤ 2 % and p90 ≤ 5 %
 //!   relative error at the reference points, default bake and `lrr probe`.
 //! - A reference records the SHA-256 of the scene it was made from; a changed scene fails with
-//!   how to remake it.
-
-use sha2::{Digest, Sha256};
+//!   how to remake it (`load_reference` checks it, `reference::assert_fresh`).
 
 use crate::reference::{RefPoint, errors, l1, load_reference, quantile, scene_path, sub};
 use crate::util::{bake, lrr, lrr_json, temp_dir};
-
-/// Refuses a reference made from other bytes than the scene file now holds.
-fn assert_fresh(name: &str, doc: &serde_json::Value) {
-    let path = scene_path(doc);
-    let bytes = std::fs::read(&path).unwrap();
-    let hash: String = Sha256::digest(&bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect();
-    assert_eq!(
-        doc["scene_sha256"].as_str(),
-        Some(hash.as_str()),
-        "{name}: {} changed since its reference was made; remake it with \
-         `python3 scripts/reference/run.py --only {name}` (scripts/setup-reference.sh first)",
-        path.display()
-    );
-}
 
 /// Bakes the reference scene `name` with the default flags and probes it at the reference's
 /// points (`lrr probe --json`, smooth by default): the values and the operator's n and k.
@@ -77,7 +58,6 @@ fn a_square_under_each_light_meets_its_closed_form() {
         ("sky-square", 1e-2),
     ] {
         let (doc, points) = load_reference(name);
-        assert_fresh(name, &doc);
         let values = bake_and_probe(name, &points, &scene_path(&doc));
         let mut worst = 0.0f64;
         for (p, v) in points.iter().zip(&values) {
@@ -114,7 +94,6 @@ fn the_cornell_box_lit_by_each_light_meets_issue_32s_goal() {
         "cornell-sky",
     ] {
         let (doc, points) = load_reference(name);
-        assert_fresh(name, &doc);
         let values = bake_and_probe(name, &points, &scene_path(&doc));
         let e = errors(&points, &values);
         let rel: Vec<f64> = points

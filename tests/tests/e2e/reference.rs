@@ -14,6 +14,7 @@ use std::time::Instant;
 
 use lrr_runtime::{Operator, Reconstruction};
 use serde_json::Value;
+use sha2::{Digest, Sha256};
 
 use crate::util::{bake, cornell, root, temp_dir};
 
@@ -35,12 +36,14 @@ fn triple(v: &Value) -> [f64; 3] {
     [0, 1, 2].map(|i| a[i].as_f64().expect("a number"))
 }
 
-/// The committed reference `NAME.json`: its document and its points.
+/// The committed reference `NAME.json`: its document and its points. Refuses a reference made
+/// from another version of its scene file ([`assert_fresh`]).
 pub(super) fn load_reference(name: &str) -> (Value, Vec<RefPoint>) {
     let path = data_dir().join(format!("{name}.json"));
     let text = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("{}: {e} (made by scripts/reference/run.py)", path.display()));
     let doc: Value = serde_json::from_str(&text).unwrap();
+    assert_fresh(name, &doc);
     let points = doc["points"]
         .as_array()
         .unwrap()
@@ -58,6 +61,25 @@ pub(super) fn load_reference(name: &str) -> (Value, Vec<RefPoint>) {
 
 pub(super) fn scene_path(doc: &Value) -> PathBuf {
     root().join(doc["scene"].as_str().unwrap())
+}
+
+/// Refuses a reference made from other bytes than its scene file now holds: its
+/// `scene_sha256` (written by `scripts/reference/run.py`) must be the file's SHA-256.
+pub(super) fn assert_fresh(name: &str, doc: &Value) {
+    let path = scene_path(doc);
+    let bytes = std::fs::read(&path)
+        .unwrap_or_else(|e| panic!("{name}: its scene {}: {e}", path.display()));
+    let hash: String = Sha256::digest(&bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    assert_eq!(
+        doc["scene_sha256"].as_str(),
+        Some(hash.as_str()),
+        "{name}: {} changed since its reference was made; remake it with \
+         `python3 scripts/reference/run.py --only {name}` (scripts/setup-reference.sh first)",
+        path.display()
+    );
 }
 
 pub(super) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
