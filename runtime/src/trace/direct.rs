@@ -697,46 +697,21 @@ impl DirectLighting {
     /// rays to one light go as a packet of four (`occluded4`) when four samples face it.
     fn trace_lights(&self, lights: &[Light]) -> (Vec<Vec<f32>>, u64) {
         let n = self.n();
-        let chunk = n.div_ceil(self.threads * 8).clamp(1, 256);
-        let chunks = n.div_ceil(chunk);
-        let next = std::sync::atomic::AtomicUsize::new(0);
-        type Done = Vec<(usize, Vec<Vec<f32>>)>;
-        let work = || -> (Done, u64) {
-            let mut done = Vec::new();
-            let mut rays = 0u64;
-            loop {
-                let c = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                if c >= chunks {
-                    return (done, rays);
-                }
-                let range = c * chunk..((c + 1) * chunk).min(n);
-                let values: Vec<Vec<f32>> = lights
-                    .iter()
-                    .map(|light| {
-                        range
-                            .clone()
-                            .map(|e| self.element_term(light, e, &mut rays))
-                            .collect()
-                    })
-                    .collect();
-                done.push((c, values));
-            }
-        };
-        let workers = self.threads.min(chunks).max(1);
-        let results: Vec<(Done, u64)> = std::thread::scope(|scope| {
-            let handles: Vec<_> = (1..workers).map(|_| scope.spawn(work)).collect();
-            let mut all = vec![work()];
-            all.extend(handles.into_iter().map(|h| h.join().expect("no panic")));
-            all
+        let (done, rays) = self.par_chunks(|range, rays| -> Vec<Vec<f32>> {
+            lights
+                .iter()
+                .map(|light| {
+                    range
+                        .clone()
+                        .map(|e| self.element_term(light, e, rays))
+                        .collect()
+                })
+                .collect()
         });
         let mut terms = vec![vec![0.0f32; n]; lights.len()];
-        let mut rays = 0u64;
-        for (done, r) in results {
-            rays += r;
-            for (c, values) in done {
-                for (term, v) in terms.iter_mut().zip(values) {
-                    term[c * chunk..c * chunk + v.len()].copy_from_slice(&v);
-                }
+        for (start, values) in done {
+            for (term, v) in terms.iter_mut().zip(values) {
+                term[start..start + v.len()].copy_from_slice(&v);
             }
         }
         (terms, rays)
@@ -838,28 +813,43 @@ impl DirectLighting {
         })
     }
 
-    /// `f(element, rays)` for every element (original ids) on as many workers as threads,
-    /// chunks of elements taken from a shared counter; the values and the rays counted.
+    /// `f(element, rays)` for every element (original ids), on [`Self::par_chunks`]; the
+    /// values and the rays counted.
     fn par_map<T: Copy + Default + Send>(
         &self,
         f: impl Fn(usize, &mut u64) -> T + Sync,
     ) -> (Vec<T>, u64) {
+        let (done, rays) =
+            self.par_chunks(|range, rays| -> Vec<T> { range.map(|e| f(e, rays)).collect() });
+        let mut out = vec![T::default(); self.n()];
+        for (start, values) in done {
+            out[start..start + values.len()].copy_from_slice(&values);
+        }
+        (out, rays)
+    }
+
+    /// `f(elements, rays)` for chunks of the elements (original ids) on as many workers as
+    /// threads, each taking the next chunk from a shared counter (not a thread per chunk): each
+    /// chunk's first element and result, and the rays counted. The results do not depend on
+    /// which worker took which chunk.
+    fn par_chunks<R: Send>(
+        &self,
+        f: impl Fn(std::ops::Range<usize>, &mut u64) -> R + Sync,
+    ) -> (Vec<(usize, R)>, u64) {
         let n = self.n();
         let chunk = n.div_ceil(self.threads * 8).clamp(1, 256);
         let chunks = n.div_ceil(chunk);
         let next = std::sync::atomic::AtomicUsize::new(0);
         let work = || {
-            let mut done: Vec<(usize, Vec<T>)> = Vec::new();
+            let mut done = Vec::new();
             let mut rays = 0u64;
             loop {
                 let c = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 if c >= chunks {
                     return (done, rays);
                 }
-                let values = (c * chunk..((c + 1) * chunk).min(n))
-                    .map(|e| f(e, &mut rays))
-                    .collect();
-                done.push((c, values));
+                let start = c * chunk;
+                done.push((start, f(start..(start + chunk).min(n), &mut rays)));
             }
         };
         let workers = self.threads.min(chunks).max(1);
@@ -869,15 +859,13 @@ impl DirectLighting {
             all.extend(handles.into_iter().map(|h| h.join().expect("no panic")));
             all
         });
-        let mut out = vec![T::default(); n];
         let mut rays = 0u64;
-        for (done, r) in results {
+        let mut done = Vec::with_capacity(chunks);
+        for (d, r) in results {
             rays += r;
-            for (c, values) in done {
-                out[c * chunk..c * chunk + values.len()].copy_from_slice(&values);
-            }
+            done.extend(d);
         }
-        (out, rays)
+        (done, rays)
     }
 }
 
