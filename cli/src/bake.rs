@@ -168,7 +168,8 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     let start = Instant::now();
     let progress = a.mesh.progress();
     let stage = progress.stage("import", 0);
-    let scene = load_scene_with(&a.scene, a.mesh.verbose)?;
+    let mut scene = load_scene_with(&a.scene, a.mesh.verbose)?;
+    a.mesh.apply_lightmap(&mut scene)?;
     stage.finish();
     let output = output_path(a, &scene.bake)?;
     let mut settings = a.mesh.settings_for(&scene)?;

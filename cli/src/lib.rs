@@ -139,6 +139,14 @@ pub struct MeshArgs {
     /// [default: 80% of the memory available].
     #[arg(long, value_name = "BYTES", value_parser = parse_bytes)]
     pub max_memory: Option<u64>,
+    /// Texels per scene unit of the lightmap charts a bake packs when the scene has no
+    /// TEXCOORD_1 on every mesh [default: `[bake] lightmap_texel_density`, else the largest
+    /// density that fits a 1024² atlas].
+    #[arg(long, value_name = "T")]
+    pub lightmap_texel_density: Option<f64>,
+    /// Texels dilated around the lightmap's charts [default: `[bake] lightmap_padding`, else 2].
+    #[arg(long, value_name = "P")]
+    pub lightmap_padding: Option<u32>,
     /// No progress bars.
     #[arg(long, short)]
     pub quiet: bool,
@@ -305,6 +313,31 @@ pub fn load_scene(path: &std::path::Path) -> Result<lrr_precompute::scene::Scene
 
 /// Loads a scene, printing its import warnings to stderr: every one with `verbose`, else a
 /// summary per kind ([`warning_lines`]).
+impl MeshArgs {
+    /// The lightmap flags over the scene's `[bake]` defaults, checked.
+    pub fn apply_lightmap(&self, scene: &mut lrr_precompute::scene::Scene) -> Result<()> {
+        if let Some(t) = self.lightmap_texel_density {
+            if !(t.is_finite() && t > 0.0) {
+                anyhow::bail!(
+                    "--lightmap-texel-density {t}: must be a finite number > 0 (texels per \
+                     scene unit)"
+                );
+            }
+            scene.bake.lightmap_texel_density = Some(t);
+        }
+        if let Some(p) = self.lightmap_padding {
+            if p > lrr_formats::MAX_ATLAS_PADDING {
+                anyhow::bail!(
+                    "--lightmap-padding {p}: at most {} texels",
+                    lrr_formats::MAX_ATLAS_PADDING
+                );
+            }
+            scene.bake.lightmap_padding = Some(p);
+        }
+        Ok(())
+    }
+}
+
 pub fn load_scene_with(
     path: &std::path::Path,
     verbose: bool,

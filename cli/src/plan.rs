@@ -33,7 +33,8 @@ pub struct PlanArgs {
 pub fn run(a: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let start = Instant::now();
     let progress = a.mesh.progress();
-    let scene = load_scene_with(&a.scene, a.mesh.verbose)?;
+    let mut scene = load_scene_with(&a.scene, a.mesh.verbose)?;
+    a.mesh.apply_lightmap(&mut scene)?;
     let mut settings = a.mesh.settings_for(&scene)?;
     settings.refine = Some(a.refine);
     let (n, k) = write_plan(&scene, &settings, &a.output, &progress)?;

@@ -55,7 +55,8 @@ pub fn run(a: &ShardArgs, out: &mut dyn Write) -> Result<()> {
     let output = part_path(a.output, spec.index);
     let progress = a.mesh.progress();
     let stage = progress.stage("import", 0);
-    let scene = load_scene_with(a.scene, a.mesh.verbose)?;
+    let mut scene = load_scene_with(a.scene, a.mesh.verbose)?;
+    a.mesh.apply_lightmap(&mut scene)?;
     stage.finish();
     let mut settings = a.mesh.settings_for(&scene)?;
     settings.refine = a.refine;

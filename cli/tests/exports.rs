@@ -10,10 +10,28 @@ use std::path::{Path, PathBuf};
 
 use exr::prelude::*;
 use glam::{DVec2, DVec3};
-use lrr_cli::export::atlas::{self, Sizing};
-use lrr_cli::export::field::Field;
-use lrr_cli::export::{charts, radiance_atlas, raster::Texel};
-use lrr_runtime::{Operator, Reconstruction};
+use lrr_precompute::display::atlas::{self, Layout, Sizing};
+use lrr_precompute::display::charts::{self, Chart};
+use lrr_runtime::{Lightmap, LightmapValues, Operator, Reconstruction};
+
+/// The runtime's lightmap of `b` over `charts` packed as `layout` (what `lrr export` fills
+/// when its flags pack charts again) and the texels it fills.
+fn filled(
+    op: &Operator,
+    b: &[[f32; 3]],
+    charts: &[Chart],
+    layout: &Layout,
+    values: LightmapValues,
+) -> (Lightmap, Vec<[f32; 3]>) {
+    let g = op.file().faces().geometry;
+    let uv = lrr_precompute::display::chart_uvs(g, charts, layout);
+    let (w, h) = (layout.width, layout.height);
+    let mut map =
+        Lightmap::with_coordinates(op.file(), &uv, w, h, layout.padding, Some(values)).unwrap();
+    let mut texels = vec![[0.0f32; 3]; w * h];
+    map.fill(b, &mut texels).unwrap();
+    (map, texels)
+}
 
 fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("lrr-exports-{}-{name}", std::process::id()));
@@ -227,18 +245,43 @@ fn the_lightmap_of_a_lit_quad_matches_the_runtime_texel_by_texel() {
         "flat",
     ]);
     let flat = &read_exr(&flat_path)[0].3;
+    // Each sample is its face's element's value; the sample's point is the texel centre's
+    // point of the floor, and (away from element edges, where a centre is a tie) that
+    // element is the one the runtime locates there.
+    let (map, texels) = filled(&op, &b, &charts, &layout, LightmapValues::Flat);
+    assert_eq!(&texels, flat);
+    let file = op.file();
     let mut flat_differs = 0;
-    for y in r[1] + 2..r[3] - 2 {
-        for x in r[0] + 2..r[2] - 2 {
-            let q = layout.chart_point(floor, DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
-            let p = charts[floor].lift(q);
-            let p32 = [p.x as f32, p.y as f32, p.z as f32];
-            let e = op.locate(p32, [0.0, 1.0, 0.0]).unwrap() as usize;
-            let want = b[e].map(|v| v / std::f32::consts::PI);
-            assert_eq!(flat[y * w + x], want, "flat texel ({x}, {y})");
-            flat_differs += usize::from(flat[y * w + x] != pixels[y * w + x]);
+    let mut located = 0;
+    for sample in map.samples() {
+        let (x, y) = (sample.texel % w, sample.texel / w);
+        if !(x >= r[0] && x < r[2] && y >= r[1] && y < r[3]) {
+            continue;
         }
+        let e = file.order[file.faces().element(sample.face)] as usize;
+        let want = b[e].map(|v| v / std::f32::consts::PI);
+        assert_eq!(flat[sample.texel], want, "flat texel ({x}, {y})");
+        let q = layout.chart_point(floor, DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
+        let p = charts[floor].lift(q);
+        let point = DVec3::from_array(sample.point.map(f64::from));
+        assert!(
+            point.distance(p) < 1e-5,
+            "texel ({x}, {y}): {point} against {p}"
+        );
+        let p32 = [p.x as f32, p.y as f32, p.z as f32];
+        let at = |q: [f32; 3]| op.locate(q, [0.0, 1.0, 0.0]).unwrap() as usize;
+        let here = at(p32);
+        let d = 1e-4;
+        let on_edge = [[d, 0.0], [-d, 0.0], [0.0, d], [0.0, -d]]
+            .iter()
+            .any(|[dx, dz]| at([p32[0] + dx, p32[1], p32[2] + dz]) != here);
+        if !on_edge {
+            assert_eq!(here, e, "texel ({x}, {y})");
+            located += 1;
+        }
+        flat_differs += usize::from(flat[sample.texel] != pixels[sample.texel]);
     }
+    assert!(located > 1000, "{located}");
     assert!(
         flat_differs > 1000,
         "smooth and flat differ: {flat_differs}"
@@ -260,43 +303,53 @@ fn the_lightmap_of_a_lit_quad_matches_the_runtime_texel_by_texel() {
 }
 
 #[test]
-fn no_texel_of_any_chart_of_the_cornell_box_is_black_and_inside_texels_match_the_runtime() {
+fn no_texel_the_cornell_box_shows_is_black_and_samples_match_the_runtime() {
     let d = dir("cornell");
     let file = cornell(&d);
     let op = Operator::load(&file).unwrap();
     let b = op.evaluate_baked();
     let charts = charts::charts(op.file().faces().geometry);
     let layout = atlas::pack(&charts, Sizing::Size(256), 2).unwrap();
-    let field = Field::new(op.file(), &b, Some(Reconstruction::new(op.file()).unwrap())).unwrap();
-    let atlas = radiance_atlas(&op, &field, &charts, &layout);
+    let (map, texels) = filled(&op, &b, &charts, &layout, LightmapValues::Smooth);
     let runtime = Runtime::new(&op, &b);
+    let g = op.file().faces().geometry;
     let mut checked = 0;
-    for (c, r) in layout.rects.iter().enumerate() {
-        let normal = charts[c].u.cross(charts[c].v);
-        for y in r[1]..r[3] {
-            for x in r[0]..r[2] {
-                let i = y * atlas.width + x;
-                let v = atlas.pixels[i];
+    let mut shown = vec![false; texels.len()];
+    for s in map.samples() {
+        shown[s.texel] = true;
+        let v = texels[s.texel];
+        assert!(v.iter().sum::<f32>() > 0.0, "sample {s:?} is black");
+        if s.texel % 3 == 0 {
+            let p = DVec3::from_array(s.point.map(f64::from));
+            let n = DVec3::from_array([0, 1, 2].map(|c| f64::from(g.normals[3 * s.face + c])));
+            let want = runtime.locate(p, n);
+            for k in 0..3 {
                 assert!(
-                    atlas.state[i] != Texel::Empty && v.iter().sum::<f32>() > 0.0,
-                    "chart {c}: texel ({x}, {y}) is black ({:?})",
-                    atlas.state[i]
+                    (v[k] - want[k]).abs() <= 1e-6 * want[k].max(1e-6),
+                    "sample {s:?}: {v:?} against {want:?}"
                 );
-                if atlas.state[i] == Texel::Inside && (x + y) % 3 == 0 {
-                    let t = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
-                    let p = charts[c].lift(layout.chart_point(c, t));
-                    let want = runtime.locate(p, normal);
-                    for k in 0..3 {
-                        assert!(
-                            (v[k] - want[k]).abs() <= 1e-6 * want[k].max(1e-6),
-                            "chart {c} texel ({x}, {y}): {v:?} against {want:?}"
-                        );
-                    }
-                    checked += 1;
+            }
+            checked += 1;
+        }
+    }
+    // Every texel within the padding (2 rings) of a sample is filled.
+    let w = layout.width;
+    for (i, _) in shown.iter().enumerate().filter(|(_, s)| **s) {
+        let (x, y) = ((i % w) as i64, (i / w) as i64);
+        for dy in -2..=2 {
+            for dx in -2..=2 {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx >= 0 && ny >= 0 && nx < w as i64 && ny < layout.height as i64 {
+                    let t = texels[ny as usize * w + nx as usize];
+                    assert!(
+                        t.iter().sum::<f32>() > 0.0,
+                        "({nx}, {ny}) near a sample is black"
+                    );
                 }
             }
         }
     }
+    let atlas_pixels = texels;
     assert!(checked > 5000, "{checked}");
     // Through the command, the same atlas as half floats.
     let exr_path = d.join("cornell.exr");
@@ -304,7 +357,7 @@ fn no_texel_of_any_chart_of_the_cornell_box_is_black_and_inside_texels_match_the
     let layers = read_exr(&exr_path);
     let (_, w, h, pixels) = &layers[0];
     assert_eq!((*w, *h), (256, 256));
-    for (got, want) in pixels.iter().zip(&atlas.pixels) {
+    for (got, want) in pixels.iter().zip(&atlas_pixels) {
         for k in 0..3 {
             assert!(
                 (got[k] - want[k]).abs() <= want[k] * 2f32.powi(-11) + 6e-8,
@@ -740,13 +793,13 @@ fn exports_of_a_file_with_display_faces_follow_the_faces() {
     assert_eq!(charts.len(), 1);
     let layout = atlas::pack(&charts, Sizing::Size(32), 2).unwrap();
     assert_eq!((layout.width, layout.height), (*w, *h));
-    let field = Field::new(op.file(), &b, None).unwrap();
-    let atlas = radiance_atlas(&op, &field, &charts, &layout);
-    assert_eq!(&atlas.pixels, pixels);
-    let (mut inside, mut off_proxy) = (0, 0);
+    let (map, texels) = filled(&op, &b, &charts, &layout, LightmapValues::Flat);
+    assert_eq!(&texels, pixels);
+    let inside: std::collections::HashSet<usize> = map.samples().map(|s| s.texel).collect();
+    let (mut inside_count, mut off_proxy) = (0, 0);
     for y in 0..*h {
         for x in 0..*w {
-            if atlas.state[y * w + x] != Texel::Inside {
+            if !inside.contains(&(y * w + x)) {
                 continue;
             }
             let q = layout.chart_point(0, DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
@@ -758,11 +811,11 @@ fn exports_of_a_file_with_display_faces_follow_the_faces() {
             assert_eq!(pixels[y * w + x], flat_value(p), "texel ({x}, {y}) at {p}");
             let e = element_at(p.x as f32, p.y as f32);
             off_proxy += usize::from(e != usize::from(p.y > 0.5));
-            inside += 1;
+            inside_count += 1;
         }
     }
     assert!(
-        inside > 100 && off_proxy > inside / 8,
-        "{inside} {off_proxy}"
+        inside_count > 100 && off_proxy > inside_count / 8,
+        "{inside_count} {off_proxy}"
     );
 }

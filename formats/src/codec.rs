@@ -73,6 +73,8 @@ pub(crate) const MINOR_WITHOUT_LIGHTMAP: u16 = 2;
 pub(crate) const MINOR_WITHOUT_FACES: u16 = 3;
 /// The minor version of a file with FACES but no DIRECT_LIGHTS (format 1.4).
 pub(crate) const MINOR_WITHOUT_DIRECT_LIGHTS: u16 = 4;
+/// The minor version of a file with DIRECT_LIGHTS or SKY_TRANSFER but no ATLAS (format 1.5).
+pub(crate) const MINOR_WITHOUT_ATLAS: u16 = 5;
 
 /// Sections before FK in a factored file: METADATA, DIMS, ORDER, INDEX, WEIGHTS.
 const SECTIONS_BEFORE_FK: usize = 5;
@@ -179,8 +181,10 @@ fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter {
     let d = &file.display;
     if *d == Display::default() {
         w.set_version(VERSION_MAJOR, MINOR_WITHOUT_DISPLAY);
+    } else if d.lightmap.as_ref().is_some_and(|l| l.atlas.is_some()) {
+        // VERSION_MINOR: 1.6.
     } else if !d.direct_lights.is_empty() || d.sky_transfer.is_some() {
-        // VERSION_MINOR: 1.5.
+        w.set_version(VERSION_MAJOR, MINOR_WITHOUT_ATLAS);
     } else if d.faces.is_none() && d.lightmap.is_none() {
         w.set_version(VERSION_MAJOR, MINOR_WITHOUT_LIGHTMAP);
     } else if d.faces.is_none() {
@@ -232,6 +236,9 @@ fn add_display(w: &mut ContainerWriter, d: &Display) {
         bytes::put_f32s(&mut payload, t);
         w.add(kind::SKY_TRANSFER, false, payload);
     }
+    if let Some(a) = d.lightmap.as_ref().and_then(|l| l.atlas.as_ref()) {
+        w.add(kind::ATLAS, false, lightmap::encode_atlas(a));
+    }
 }
 
 /// The display sections of `c` for `n` elements; lengths are checked, values are not. FACES
@@ -265,10 +272,19 @@ fn decode_display(c: &Container<'_>, n: usize) -> Result<Display, FormatError> {
             None => Vec::new(),
         },
         bvh: c.section(kind::BVH).map(bvh::decode).transpose()?,
-        lightmap: c
-            .section(kind::LIGHTMAP)
-            .map(|p| lightmap::decode(p, face_count))
-            .transpose()?,
+        lightmap: match (c.section(kind::LIGHTMAP), c.section(kind::ATLAS)) {
+            (None, Some(_)) => {
+                return Err(FormatError::corrupt(
+                    "section ATLAS without LIGHTMAP: the atlas of no lightmap coordinates",
+                ));
+            }
+            (None, None) => None,
+            (Some(p), atlas) => {
+                let mut l = lightmap::decode(p, face_count)?;
+                l.atlas = atlas.map(lightmap::decode_atlas).transpose()?;
+                Some(l)
+            }
+        },
         faces,
     })
 }
@@ -550,7 +566,10 @@ mod tests {
         // LIGHTMAP makes a 1.3 file, written last of the optional sections: the lowest minor
         // that describes it (lib.rs, "Compatibility"), so 3, not VERSION_MINOR, since 1.4.
         let mut lit = display_sample();
-        lit.display.lightmap = Some(crate::LightmapUv { uv: lit_uv(&lit) });
+        lit.display.lightmap = Some(crate::LightmapUv {
+            uv: lit_uv(&lit),
+            atlas: None,
+        });
         let bytes = encode(&lit);
         let c = Container::parse(&bytes).unwrap();
         assert_eq!(c.version(), (1, 3));
@@ -559,7 +578,13 @@ mod tests {
         // FACES makes a 1.4 file (the newest), with or without LIGHTMAP; written last, and
         // required (a 1.3 reader would mis-size SMOOTH, LIGHTMAP and the BVH without it).
         let mut faced = faces_sample();
-        for lightmap in [None, Some(crate::LightmapUv { uv: lit_uv(&faced) })] {
+        for lightmap in [
+            None,
+            Some(crate::LightmapUv {
+                uv: lit_uv(&faced),
+                atlas: None,
+            }),
+        ] {
             faced.display.lightmap = lightmap;
             let bytes = encode(&faced);
             let c = Container::parse(&bytes).unwrap();
@@ -591,7 +616,7 @@ mod tests {
             let bytes = encode(&file);
             let c = Container::parse(&bytes).unwrap();
             assert_eq!(c.version(), (1, 5));
-            assert_eq!(crate::VERSION_MINOR, 5);
+            assert_eq!(crate::VERSION_MINOR, 6);
             let section = c
                 .sections()
                 .iter()
@@ -659,7 +684,7 @@ mod tests {
         for (edit, want) in edits {
             let mut uv = good.clone();
             edit(&mut uv);
-            lit.display.lightmap = Some(crate::LightmapUv { uv });
+            lit.display.lightmap = Some(crate::LightmapUv { uv, atlas: None });
             let e = lit
                 .validate()
                 .expect_err("bad lightmap coordinates accepted");
@@ -668,6 +693,73 @@ mod tests {
         // A payload of the wrong length is corrupt, not a panic.
         assert!(crate::lightmap::decode(&[0u8; 31], 1).is_err());
         assert!(crate::lightmap::decode(&[0u8; 32], 1).is_ok());
+    }
+
+    #[test]
+    fn an_atlas_makes_a_1_6_file_is_optional_and_is_checked() {
+        use crate::{LightmapAtlas, LightmapSource};
+        let mut file = faces_sample();
+        let generated = LightmapAtlas {
+            width: 512,
+            height: 256,
+            padding: 2,
+            source: LightmapSource::Generated,
+            density: 12.5,
+        };
+        file.display.lightmap = Some(crate::LightmapUv {
+            uv: lit_uv(&file),
+            atlas: Some(generated),
+        });
+        let bytes = encode(&file);
+        let c = Container::parse(&bytes).unwrap();
+        assert_eq!(c.version(), (1, 6));
+        let section = c.sections().iter().find(|s| s.kind == kind::ATLAS).unwrap();
+        assert!(!section.required(), "a 1.5 reader keeps the coordinates");
+        assert_eq!(OperatorFile::from_bytes(&bytes).unwrap(), file);
+        type Edit = fn(&mut LightmapAtlas);
+        let edits: [(Edit, &str); 5] = [
+            (|a| a.width = 0, "width 0"),
+            (|a| a.height = crate::MAX_ATLAS_SIDE + 1, "height 16385"),
+            (|a| a.padding = 65, "padding 65"),
+            (|a| a.density = f64::NAN, "density NaN"),
+            (
+                |a| a.source = LightmapSource::Scene,
+                "density 12.5; must be 0",
+            ),
+        ];
+        for (edit, want) in edits {
+            let mut bad = file.clone();
+            edit(
+                bad.display
+                    .lightmap
+                    .as_mut()
+                    .unwrap()
+                    .atlas
+                    .as_mut()
+                    .unwrap(),
+            );
+            let e = bad
+                .validate()
+                .expect_err("a bad atlas accepted")
+                .to_string();
+            assert!(e.contains(want), "{e}");
+        }
+        assert!(crate::lightmap::decode_atlas(&[0u8; 23]).is_err());
+        let mut unknown = crate::lightmap::encode_atlas(&generated);
+        unknown[12] = 7;
+        let e = crate::lightmap::decode_atlas(&unknown)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("source 7"), "{e}");
+        // An atlas without coordinates is refused.
+        let mut w = ContainerWriter::new();
+        w.add(
+            kind::ATLAS,
+            false,
+            crate::lightmap::encode_atlas(&generated),
+        );
+        let e = Display::from_container_bytes(&w.to_bytes(), 6).unwrap_err();
+        assert!(e.to_string().contains("ATLAS without LIGHTMAP"), "{e}");
     }
 
     #[test]

@@ -19,7 +19,7 @@ pub const VERSION_MAJOR: u16 = 1;
 /// The newest minor format version this crate writes (files without the display sections of
 /// 1.2 are stamped 1.1, files without LIGHTMAP and FACES 1.2, files without FACES 1.3); files of
 /// any minor version are read.
-pub const VERSION_MINOR: u16 = 5;
+pub const VERSION_MINOR: u16 = 6;
 /// Bytes in the header.
 pub const HEADER_LEN: usize = 64;
 /// Bytes per section table entry.

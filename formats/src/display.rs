@@ -283,4 +283,37 @@ pub struct LightmapUv {
     /// file order as GEOMETRY stores them, without FACES); finite; a triangle's unused fourth
     /// corner is zeros.
     pub uv: Vec<f32>,
+    /// The atlas these coordinates address (section ATLAS, format 1.6); `None` in files made
+    /// before it (a reader then chooses a size).
+    pub atlas: Option<LightmapAtlas>,
 }
+
+/// Where LIGHTMAP's coordinates came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LightmapSource {
+    /// The scene's own (glTF `TEXCOORD_1`): any atlas size addresses them.
+    Scene,
+    /// Charts of the display faces packed by the bake for exactly this atlas size.
+    Generated,
+}
+
+/// The atlas of section ATLAS: its size in texels, the padding the charts were packed with (or,
+/// for the scene's coordinates, the dilation the bake suggests) and the texel density.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightmapAtlas {
+    /// Texels across, 1 to [`MAX_ATLAS_SIDE`].
+    pub width: u32,
+    /// Texels down, 1 to [`MAX_ATLAS_SIDE`].
+    pub height: u32,
+    /// Rings of texels dilated around what the faces cover, at most [`MAX_ATLAS_PADDING`].
+    pub padding: u32,
+    /// Where the coordinates came from.
+    pub source: LightmapSource,
+    /// Texels per scene unit of the generated charts (finite, > 0); 0 for the scene's own.
+    pub density: f64,
+}
+
+/// The largest atlas side a file may name.
+pub const MAX_ATLAS_SIDE: u32 = 16384;
+/// The largest padding a file may name.
+pub const MAX_ATLAS_PADDING: u32 = 64;

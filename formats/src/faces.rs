@@ -275,7 +275,10 @@ mod tests {
         );
         // LIGHTMAP: 4 corners per face.
         let mut f = faces_sample();
-        f.display.lightmap = Some(crate::LightmapUv { uv: vec![0.0; 48] });
+        f.display.lightmap = Some(crate::LightmapUv {
+            uv: vec![0.0; 48],
+            atlas: None,
+        });
         let e = f.validate().unwrap_err();
         assert!(
             e.message
@@ -284,7 +287,7 @@ mod tests {
         );
         let mut uv = vec![0.0; 72];
         uv[8 * 2 + 6] = 0.5;
-        f.display.lightmap = Some(crate::LightmapUv { uv });
+        f.display.lightmap = Some(crate::LightmapUv { uv, atlas: None });
         let e = f.validate().unwrap_err();
         assert!(
             e.message

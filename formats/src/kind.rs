@@ -6,7 +6,8 @@
 //! [`FACES`] (1.4) is required although it is for display: it changes what SMOOTH, LIGHTMAP and
 //! the BVH are defined on, so an older reader must refuse the file rather than misread them;
 //! [`DIRECT_LIGHTS`] and [`SKY_TRANSFER`] (1.5) are optional (a reader that does not know them
-//! loses those lights only). A
+//! loses those lights only), and so is [`ATLAS`] (1.6: a reader that does not know it keeps the
+//! lightmap coordinates without their atlas size). A
 //! reader that meets a required kind it does not know refuses the file, and skips unknown
 //! optional ones. New kinds take new codes; a code is never reused for another meaning.
 
@@ -58,10 +59,14 @@ pub const DIRECT_LIGHTS: u32 = 20;
 /// The sky's order-2 spherical harmonic transfer per element (format 1.5, optional).
 pub const SKY_TRANSFER: u32 = 21;
 
+/// The lightmap atlas that LIGHTMAP's coordinates address: its size in texels, padding and
+/// where the coordinates came from (format 1.6, optional).
+pub const ATLAS: u32 = 22;
+
 /// Every kind this reader knows, by code. The writer stores them in this order, leaving out the
 /// operator sections of the other layout (FK and CORES, or YK), an empty LIGHTS and the display
 /// sections the file lacks.
-pub const KNOWN: [u32; 21] = [
+pub const KNOWN: [u32; 22] = [
     METADATA,
     DIMS,
     ORDER,
@@ -83,6 +88,7 @@ pub const KNOWN: [u32; 21] = [
     FACES,
     DIRECT_LIGHTS,
     SKY_TRANSFER,
+    ATLAS,
 ];
 
 /// The name of a known kind (`"FK"`), `None` for unknown codes.
@@ -105,6 +111,7 @@ pub fn name(kind: u32) -> Option<&'static str> {
         POINT_LIGHTS => "POINT_LIGHTS",
         DIRECT_LIGHTS => "DIRECT_LIGHTS",
         SKY_TRANSFER => "SKY_TRANSFER",
+        ATLAS => "ATLAS",
         CAMERAS => "CAMERAS",
         BVH => "BVH",
         LIGHTMAP => "LIGHTMAP",
@@ -145,6 +152,7 @@ mod tests {
         assert_eq!(describe(FACES), "FACES (kind 19)");
         assert_eq!(describe(DIRECT_LIGHTS), "DIRECT_LIGHTS (kind 20)");
         assert_eq!(describe(SKY_TRANSFER), "SKY_TRANSFER (kind 21)");
-        assert_eq!(KNOWN.last(), Some(&SKY_TRANSFER));
+        assert_eq!(describe(ATLAS), "ATLAS (kind 22)");
+        assert_eq!(KNOWN.last(), Some(&ATLAS));
     }
 }

@@ -70,6 +70,7 @@
 //! | 19 | [`FACES`](kind::FACES) | 1.4, absent when elements are drawn as their GEOMETRY, **required** when present: the display faces ([`Faces`]), see below |
 //! | 20 | [`DIRECT_LIGHTS`](kind::DIRECT_LIGHTS) | optional (1.5), absent when there are none: spot and directional lights and the sky ([`DirectLight`]) |
 //! | 21 | [`SKY_TRANSFER`](kind::SKY_TRANSFER) | optional (1.5), written with a sky: `9 n` × f32 in file order, each element's order-2 spherical harmonic sky transfer ([`Display::sky_transfer`]) |
+//! | 22 | [`ATLAS`](kind::ATLAS) | optional (1.6), only with LIGHTMAP: width, height, padding, source (u32: 0 the scene's coordinates, 1 generated charts), density (f64, texels per scene unit; 0 for the scene's) ([`LightmapAtlas`]) |
 //!
 //! The factored layout stores FK and CORES and no YK; the plain layout stores YK and neither FK
 //! nor CORES. A file holding a section of the other layout is refused.
@@ -172,10 +173,14 @@
 //! ([`ErrorKind::UnsupportedVersion`]) instead of misreading it. A file is stamped with the
 //! lowest minor version that describes it: 1.1 without display sections (the bytes a 1.1 writer
 //! gave), 1.2 with any but LIGHTMAP and FACES, 1.3 with LIGHTMAP but no FACES, 1.4 with FACES,
-//! 1.5 with DIRECT_LIGHTS or SKY_TRANSFER. Version 1.5 added DIRECT_LIGHTS (optional): spot
+//! 1.5 with DIRECT_LIGHTS or SKY_TRANSFER, 1.6 with ATLAS. Version 1.5 added DIRECT_LIGHTS (optional): spot
 //! and directional lights and a sky, which the runtime's direct pass turns into emission every
 //! frame, and SKY_TRANSFER (optional): the sky's visibility per element, projected at bake
-//! time; a 1.4 reader evaluates the file and draws it without them.
+//! time; a 1.4 reader evaluates the file and draws it without them. Version 1.6 added ATLAS
+//! (optional, only beside LIGHTMAP): the atlas size and padding LIGHTMAP's coordinates were
+//! made for, so that a runtime fills the lightmap the bake laid out; since 1.6 every bake
+//! writes LIGHTMAP, the scene's `TEXCOORD_1` or charts packed at bake time. A 1.5 reader
+//! keeps the coordinates and chooses a size itself.
 //!
 //! A reader also refuses ([`ErrorKind`] says which kind of fault): a wrong magic; a table or
 //! payload past the end of the file; a payload offset that is misaligned or inside the table;
@@ -278,8 +283,8 @@ pub use container::{
     Section, VERSION_MAJOR, VERSION_MINOR,
 };
 pub use display::{
-    Bvh, BvhNode, Camera, DirectLight, DirectLightKind, Display, LightmapUv, Material, Materials,
-    PointLight, Smooth,
+    Bvh, BvhNode, Camera, DirectLight, DirectLightKind, Display, LightmapAtlas, LightmapSource,
+    LightmapUv, MAX_ATLAS_PADDING, MAX_ATLAS_SIDE, Material, Materials, PointLight, Smooth,
 };
 pub use error::{ErrorKind, FormatError};
 pub use file::{

@@ -74,6 +74,8 @@
 //!   other steps of a frame).
 //! - [`Reconstruction`] (`smooth.rs`): smooth radiosity at any surface point from a frame's
 //!   element values and the file's SMOOTH weights.
+//! - [`Lightmap`] (`lightmap.rs`): a frame's radiosity as lightmap texels, one pass over a
+//!   sparse table built once from the file's lightmap coordinates.
 //! - [`Evaluator`] (`evaluator.rs`): frames over the pool; the one-call evaluations of
 //!   [`Operator`] stand there too.
 //! - `testkit` (cargo feature `testkit`): synthetic operators, the f64 reference evaluation and
@@ -94,6 +96,7 @@ mod frame;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 mod kernel;
+mod lightmap;
 mod locate;
 mod lu;
 mod operator;
@@ -109,6 +112,7 @@ pub mod trace;
 pub use error::RuntimeError;
 pub use evaluator::Evaluator;
 pub use kernel::SimdLevel;
+pub use lightmap::{Lightmap, LightmapSample, LightmapValues, hidden_elements};
 pub use lrr_formats::{FormatError, Layout, MAX_CONDITION, OperatorFile, Precision};
 pub use operator::Operator;
 pub use rgb::{Rgb, RgbMut};

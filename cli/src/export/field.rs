@@ -15,7 +15,7 @@
 
 use anyhow::Result;
 use glam::DVec3;
-use lrr_formats::{OperatorData, OperatorFile};
+use lrr_formats::OperatorFile;
 use lrr_runtime::Reconstruction;
 
 use crate::emission::Frame;
@@ -44,7 +44,7 @@ impl<'f> Field<'f> {
         smooth: Option<Reconstruction<'f>>,
     ) -> Result<Self> {
         let faces = file.faces();
-        let elements = hidden(file);
+        let elements = lrr_runtime::hidden_elements(file);
         let (values, hidden) = (0..faces.len())
             .map(|f| {
                 let e = faces.element(f);
@@ -77,8 +77,14 @@ impl<'f> Field<'f> {
         self
     }
 
-    /// `ρ H` of the frame's lights at `point` of display face `s`.
-    fn direct_at(&self, s: usize, point: [f32; 3]) -> [f32; 3] {
+    /// Whether the frame has lights that are not surfaces.
+    pub fn has_direct(&self) -> bool {
+        self.direct.is_some()
+    }
+
+    /// `ρ H` of the frame's lights that are not surfaces at `point` of display face `s` (zero
+    /// without them).
+    pub fn direct(&self, s: usize, point: [f32; 3]) -> [f32; 3] {
         let Some((frame, file)) = self.direct else {
             return [0.0; 3];
         };
@@ -101,7 +107,7 @@ impl<'f> Field<'f> {
             Some((r, vertices, _)) => r.at(vertices, s, p),
             None => self.values[s],
         };
-        add(b, self.direct_at(s, p))
+        add(b, self.direct(s, p))
     }
 
     /// `B` at corner `c` of display face `s`.
@@ -114,7 +120,7 @@ impl<'f> Field<'f> {
             return b;
         };
         let v = &file.faces().geometry.vertices[12 * s + 3 * c..12 * s + 3 * c + 3];
-        add(b, self.direct_at(s, [v[0], v[1], v[2]]))
+        add(b, self.direct(s, [v[0], v[1], v[2]]))
     }
 
     /// A key equal for corners that are one vertex of the exported mesh: the smooth vertex, or
@@ -133,25 +139,6 @@ impl<'f> Field<'f> {
             None => "flat (element values)",
         }
     }
-}
-
-/// [`Field::hidden`] of every element, by file position.
-fn hidden(file: &OperatorFile) -> Vec<bool> {
-    let (n, k) = (file.n as usize, file.k as usize);
-    let (matrix, blocks) = match &file.operator {
-        OperatorData::Factored { fk, .. } => (fk, 1),
-        OperatorData::PlainYk { yk } => (yk, file.channels as usize),
-    };
-    (0..n)
-        .map(|s| {
-            let dark = file.emission[3 * s..3 * s + 3].iter().all(|&e| e == 0.0);
-            let sees_nothing = (0..blocks).all(|c| {
-                let row = (c * n + s) * k;
-                (row..row + k).all(|i| matrix.get(i) == Some(0.0))
-            });
-            dark && sees_nothing
-        })
-        .collect()
 }
 
 fn add(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {

@@ -5,31 +5,28 @@
 //! - `.glb` / `.gltf`: the baked scene with `exposure × B/π` per vertex (`COLOR_0`), and with
 //!   `--lightmap` the atlas as a texture with its UVs.
 //!
-//! The pieces, bottom first: [`charts`] (coplanar connected elements, flattened),
-//! [`atlas`] (packing with etagere), [`field`] (the frame's radiosity over the surface),
-//! [`raster`] (texels from the field, dilated), [`scene_uv`] (the same over the scene's own
-//! lightmap coordinates, section LIGHTMAP), [`gltf`] (the glTF document).
+//! The pieces: [`field`] (the frame's radiosity over the surface, for vertex colours and the
+//! direct light at lightmap samples), [`gltf`] (the glTF document). Lightmap texels come from
+//! the runtime's [`Lightmap`] over the file's coordinates (sections LIGHTMAP and ATLAS: the
+//! scene's own, or charts packed by the bake); `--size`, `--texel-density` and `--padding` pack
+//! charts again with the bake's code (`lrr_precompute::display::{charts, atlas}`).
 
-pub mod atlas;
-pub mod charts;
 pub mod field;
 pub mod gltf;
-pub mod raster;
-pub mod scene_uv;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Result, bail};
 use clap::Args;
-use lrr_runtime::{Operator, RgbMut};
+use lrr_formats::{LightmapSource, MAX_ATLAS_PADDING, MAX_ATLAS_SIDE};
+use lrr_precompute::display::{self, atlas, charts};
+use lrr_runtime::{Lightmap, LightmapValues, Operator, RgbMut};
 
 use crate::emission::{self, EmissionArgs, Lighting, Reconstruct, reconstruction};
 use crate::exr_image::{self, ExrSamples, RgbLayer};
-use atlas::{Layout, Sizing};
-use charts::Chart;
+use atlas::Sizing;
 use field::Field;
-use raster::Atlas;
 
 #[derive(Debug, Args)]
 pub struct ExportArgs {
@@ -67,22 +64,23 @@ pub struct ExportArgs {
 /// The lightmap's flags, shared by `lrr export` and `lrr relight`.
 #[derive(Debug, Args)]
 pub struct LightmapArgs {
-    /// Lightmap coordinates: `scene` (the scene's own TEXCOORD_1, kept by the bake; the
-    /// default when the file has them) or `generated` (charts packed here).
+    /// Lightmap coordinates: `scene` (the scene's own TEXCOORD_1, kept by the bake) or
+    /// `generated` (charts packed by the bake, or here when a flag below reshapes them)
+    /// [default: what the file holds].
     #[arg(long, value_enum)]
     pub uv: Option<UvSource>,
-    /// Lightmap: a square atlas of N×N texels, the texel density the largest that packs
-    /// [default: 1024 unless --texel-density is given].
+    /// Lightmap: a square atlas of N×N texels (generated charts are packed again here at the
+    /// largest density that fits) [default: the file's atlas].
     #[arg(long, value_name = "N", conflicts_with = "texel_density")]
     pub size: Option<usize>,
-    /// Lightmap: texels per scene unit; the atlas is the smallest square (a multiple of 4
-    /// texels) that packs.
+    /// Lightmap: texels per scene unit; charts are packed again here into the smallest square
+    /// (a multiple of 4 texels) that holds them.
     #[arg(long, value_name = "T")]
     pub texel_density: Option<f64>,
     /// Lightmap: texels of dilated border around each chart (bilinear filtering needs 1; mip
-    /// levels more).
-    #[arg(long, value_name = "P", default_value_t = 2)]
-    pub padding: usize,
+    /// levels more) [default: the file's atlas, else 2].
+    #[arg(long, value_name = "P")]
+    pub padding: Option<usize>,
 }
 
 impl LightmapArgs {
@@ -93,7 +91,10 @@ impl LightmapArgs {
 
     /// Whether any flag that shapes a lightmap was given.
     fn given(&self) -> bool {
-        self.size.is_some() || self.texel_density.is_some() || self.uv.is_some()
+        self.size.is_some()
+            || self.texel_density.is_some()
+            || self.uv.is_some()
+            || self.padding.is_some()
     }
 }
 
@@ -102,40 +103,56 @@ impl LightmapArgs {
 pub enum UvSource {
     /// The scene's own lightmap coordinates (glTF TEXCOORD_1; section LIGHTMAP of the file).
     Scene,
-    /// Charts of coplanar elements packed into an atlas here.
+    /// Charts of coplanar faces packed into an atlas (by the bake, or here).
     Generated,
 }
 
-/// Where the texels of a lightmap go.
-pub enum LightmapLayout {
-    /// Charts packed by [`atlas::pack`].
-    Generated { charts: Vec<Chart>, layout: Layout },
-    /// The scene's coordinates over a `size × size` atlas, dilated `padding` rings.
-    Scene { size: usize, padding: usize },
+/// Where the texels of a lightmap go: coordinates at every display face corner over a
+/// `width × height` atlas dilated `padding` rings. The file's own (sections LIGHTMAP and
+/// ATLAS) unless the flags reshape them; the texels themselves come from the runtime's
+/// [`Lightmap`], as an engine fills them.
+pub struct LightmapLayout {
+    /// `F * 8`: `u, v` of each display face corner, as section LIGHTMAP.
+    uv: Vec<f32>,
+    width: usize,
+    height: usize,
+    padding: usize,
+    /// What the layout is, for messages and the files' notes.
+    description: String,
 }
 
 impl LightmapLayout {
-    /// Chooses and lays out the lightmap as the flags ask: the scene's coordinates by default
-    /// when the file has them. `--texel-density` needs generated charts.
+    /// Chooses and lays out the lightmap as the flags ask: the file's atlas by default; the
+    /// scene's coordinates at another `size`; charts packed again at `size` or `density`.
     pub fn new(
         op: &Operator,
         uv: Option<UvSource>,
         size: Option<usize>,
         density: Option<f64>,
-        padding: usize,
+        padding: Option<usize>,
     ) -> Result<Self> {
-        let has_scene_uv = op.file().display.lightmap.is_some();
-        let source = uv.unwrap_or(if has_scene_uv && density.is_none() {
-            UvSource::Scene
-        } else {
-            UvSource::Generated
+        let file = op.file();
+        let stored = file.display.lightmap.as_ref();
+        let stored_source = stored.map(|l| match l.atlas {
+            Some(a) => a.source,
+            // Before format 1.6 LIGHTMAP held only the scene's coordinates.
+            None => LightmapSource::Scene,
         });
+        let source = uv.unwrap_or(match (stored_source, density) {
+            (Some(LightmapSource::Scene), None) => UvSource::Scene,
+            _ => UvSource::Generated,
+        });
+        let atlas = stored.and_then(|l| l.atlas);
+        let padding = padding.unwrap_or(atlas.map_or(2, |a| a.padding as usize));
+        if padding > MAX_ATLAS_PADDING as usize {
+            bail!("--padding {padding}: at most {MAX_ATLAS_PADDING} texels");
+        }
         match source {
             UvSource::Scene => {
-                if !has_scene_uv {
+                if stored_source != Some(LightmapSource::Scene) {
                     bail!(
                         "--uv scene: the file has no lightmap coordinates of the scene (section \
-                         LIGHTMAP: bake a scene whose every mesh has TEXCOORD_1 with this lrr), \
+                         LIGHTMAP from TEXCOORD_1: bake a scene whose every mesh has TEXCOORD_1), \
                          or use --uv generated"
                     );
                 }
@@ -145,101 +162,128 @@ impl LightmapLayout {
                          coordinates fill the whole atlas: give --size N, or --uv generated"
                     );
                 }
-                let size = size.unwrap_or(1024);
-                if !(1..=16384).contains(&size) {
-                    bail!("--size {size}: the atlas must be 1 to 16384 texels a side");
+                let side = atlas.map_or(1024, |a| a.width as usize);
+                let (width, height) = match size {
+                    Some(n) => (n, n),
+                    None => (side, atlas.map_or(1024, |a| a.height as usize)),
+                };
+                if !(1..=MAX_ATLAS_SIDE as usize).contains(&width) {
+                    bail!("--size {width}: the atlas must be 1 to {MAX_ATLAS_SIDE} texels a side");
                 }
-                Ok(Self::Scene { size, padding })
+                Ok(Self {
+                    uv: stored.expect("checked above").uv.clone(),
+                    width,
+                    height,
+                    padding,
+                    description: format!(
+                        "the scene's lightmap coordinates (TEXCOORD_1), dilated {padding} texels"
+                    ),
+                })
             }
             UvSource::Generated => {
-                let charts = charts::charts(op.file().faces().geometry);
+                let reuse = stored_source == Some(LightmapSource::Generated)
+                    && size.is_none()
+                    && density.is_none()
+                    && atlas.is_some_and(|a| a.padding as usize == padding);
+                if let (true, Some(a), Some(l)) = (reuse, atlas, stored) {
+                    return Ok(Self {
+                        uv: l.uv.clone(),
+                        width: a.width as usize,
+                        height: a.height as usize,
+                        padding,
+                        description: format!(
+                            "the bake's generated charts at {:.6} texels per scene unit, padding \
+                             {padding}",
+                            a.density
+                        ),
+                    });
+                }
+                let g = file.faces().geometry;
+                let charts = charts::charts(g);
                 let sizing = match (size, density) {
                     (_, Some(t)) => Sizing::Density(t),
                     (Some(n), None) => Sizing::Size(n),
                     (None, None) => Sizing::Size(1024),
                 };
-                let layout = atlas::pack(&charts, sizing, padding)?;
-                Ok(Self::Generated { charts, layout })
+                let layout = atlas::pack(&charts, sizing, padding).map_err(|e| {
+                    anyhow::anyhow!("the lightmap (--size, --texel-density, --padding): {e}")
+                })?;
+                Ok(Self {
+                    uv: display::chart_uvs(g, &charts, &layout),
+                    width: layout.width,
+                    height: layout.height,
+                    padding,
+                    description: format!(
+                        "{} generated charts packed here at {:.6} texels per scene unit, padding \
+                         {padding}",
+                        charts.len(),
+                        layout.density
+                    ),
+                })
             }
         }
     }
 
     /// Width and height in texels.
     pub fn size(&self) -> (usize, usize) {
-        match self {
-            Self::Generated { layout, .. } => (layout.width, layout.height),
-            Self::Scene { size, .. } => (*size, *size),
-        }
+        (self.width, self.height)
     }
 
     /// What the layout is, for messages and the files' notes.
     pub fn describe(&self) -> String {
-        match self {
-            Self::Generated { charts, layout } => format!(
-                "{} generated charts at {:.6} texels per scene unit, padding {}",
-                charts.len(),
-                layout.density,
-                layout.padding
-            ),
-            Self::Scene { padding, .. } => {
-                format!("the scene's lightmap coordinates (TEXCOORD_1), dilated {padding} texels")
-            }
-        }
+        self.description.clone()
     }
 
-    /// The lightmap UV of every display face corner (`4 s + c`) and its seam key.
-    pub fn corner_uvs(&self, op: &Operator) -> (Vec<[f32; 2]>, Vec<u64>) {
-        let g = op.file().faces().geometry;
-        let n = g.vertex_count.len();
-        let mut uvs = vec![[0.0; 2]; 4 * n];
-        let mut seams = vec![0; 4 * n];
-        match self {
-            Self::Generated { charts, layout } => {
-                for (c, chart) in charts.iter().enumerate() {
-                    for &s in &chart.faces {
-                        let s = s as usize;
-                        for (k, p) in charts::corners(g, s).iter().enumerate() {
-                            uvs[4 * s + k] = layout.uv(c, chart.flatten(*p));
-                            seams[4 * s + k] = c as u64;
-                        }
-                    }
-                }
-            }
-            Self::Scene { .. } => {
-                let uv = &op
-                    .file()
-                    .display
-                    .lightmap
-                    .as_ref()
-                    .expect("Scene needs LIGHTMAP")
-                    .uv;
-                for (i, (out, seam)) in uvs.iter_mut().zip(&mut seams).enumerate() {
-                    *out = [uv[2 * i], uv[2 * i + 1]];
-                    *seam =
-                        u64::from(uv[2 * i].to_bits()) << 32 | u64::from(uv[2 * i + 1].to_bits());
-                }
-            }
-        }
+    /// The runtime's lightmap over this layout, reconstructed smooth or flat.
+    pub fn lightmap(&self, op: &Operator, smooth: bool) -> Result<Lightmap> {
+        let values = match smooth {
+            true => LightmapValues::Smooth,
+            false => LightmapValues::Flat,
+        };
+        let mut map = Lightmap::with_coordinates(
+            op.file(),
+            &self.uv,
+            self.width,
+            self.height,
+            self.padding,
+            Some(values),
+        )?;
+        map.set_threads(0);
+        Ok(map)
+    }
+
+    /// The lightmap UV of every display face corner (`4 s + c`) and its seam key (corners
+    /// with the same coordinates may be one exported vertex).
+    pub fn corner_uvs(&self) -> (Vec<[f32; 2]>, Vec<u64>) {
+        let uvs: Vec<[f32; 2]> = self.uv.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
+        let seams = uvs
+            .iter()
+            .map(|[u, v]| u64::from(u.to_bits()) << 32 | u64::from(v.to_bits()))
+            .collect();
         (uvs, seams)
     }
 }
 
-/// The atlas of the exitant radiance `B/π` of `field` over `op`'s surfaces, laid out by `lay`.
-pub fn lightmap_atlas(op: &Operator, field: &Field, lay: &LightmapLayout) -> Atlas {
-    match lay {
-        LightmapLayout::Generated { charts, layout } => radiance_atlas(op, field, charts, layout),
-        LightmapLayout::Scene { size, padding } => {
-            let file = op.file();
-            let uv = &file
-                .display
-                .lightmap
-                .as_ref()
-                .expect("Scene needs LIGHTMAP")
-                .uv;
-            let value = |s, p| radiance(field, s, p);
-            scene_uv::rasterise(file.faces().geometry, uv, *size, *size, *padding, &value)
+/// The atlas of the exitant radiance `B/π` of a frame over `op`'s surfaces, filled by `map`:
+/// the bounced light `shown` reconstructed, plus (with `field` of a frame with lights) their
+/// direct light at each sample, then dilated.
+pub fn lightmap_atlas(
+    map: &mut Lightmap,
+    shown: &[[f32; 3]],
+    field: Option<&Field>,
+) -> Result<Vec<[f32; 3]>> {
+    let mut texels = vec![[0.0f32; 3]; map.width() * map.height()];
+    map.fill_samples(shown, &mut texels)?;
+    if let Some(field) = field.filter(|f| f.has_direct()) {
+        for s in map.samples() {
+            let d = field.direct(s.face, s.point);
+            for c in 0..3 {
+                texels[s.texel][c] += d[c] * std::f32::consts::FRAC_1_PI;
+            }
         }
     }
+    map.dilate(&mut texels)?;
+    Ok(texels)
 }
 
 /// `--layers`: what the EXR holds.
@@ -312,30 +356,13 @@ fn check_flags(a: &ExportArgs, format: Format) -> Result<()> {
     Ok(())
 }
 
-/// The lightmap's layout as the flags ask.
-fn lay_out(a: &ExportArgs, op: &Operator) -> Result<LightmapLayout> {
-    a.lightmap_args.layout(op)
-}
-
-/// The exitant radiance `B/π` of `field` at point `p` of display face `s`; None for a face whose
-/// element is hidden in every frame (left to dilation).
-fn radiance(field: &Field, s: usize, p: glam::DVec3) -> Option<[f32; 3]> {
-    (!field.hidden(s)).then(|| field.at(s, p).map(|v| v / std::f32::consts::PI))
-}
-
-/// The atlas of the exitant radiance `B/π` of `field` over the charts of `op`'s display faces.
-pub fn radiance_atlas(op: &Operator, field: &Field, charts: &[Chart], layout: &Layout) -> Atlas {
-    let value = |s, p| radiance(field, s, p);
-    raster::rasterise(op.file().faces().geometry, charts, layout, &value)
-}
-
 fn export_exr(
     a: &ExportArgs,
     op: &Operator,
     lighting: &Lighting,
     out: &mut dyn Write,
 ) -> Result<()> {
-    let lay = lay_out(a, op)?;
+    let lay = a.lightmap_args.layout(op)?;
     let (width, height) = lay.size();
     let smooth = reconstruction(op, a.reconstruct, &a.file)?;
     let lights = a.emission.lights.lights(op)?;
@@ -359,21 +386,24 @@ fn export_exr(
             frames
         }
     };
-    let mut atlases: Vec<(Option<String>, Atlas)> = Vec::new();
+    let mut map = lay.lightmap(op, smooth.is_some())?;
+    let mut atlases: Vec<(Option<String>, Vec<[f32; 3]>)> = Vec::new();
     for (i, (name, b)) in frames.iter().enumerate() {
-        let field = match &lit {
+        let texels = match &lit {
             Some((j, frame)) if *j == i => {
-                Field::new(op.file(), &frame.shown, smooth)?.with_direct(frame, op.file())
+                let field =
+                    Field::new(op.file(), &frame.shown, smooth)?.with_direct(frame, op.file());
+                lightmap_atlas(&mut map, &frame.shown, Some(&field))?
             }
-            _ => Field::new(op.file(), b, smooth)?,
+            _ => lightmap_atlas(&mut map, b, None)?,
         };
-        atlases.push((name.clone(), lightmap_atlas(op, &field, &lay)));
+        atlases.push((name.clone(), texels));
     }
     let layers: Vec<RgbLayer> = atlases
         .iter()
-        .map(|(name, atlas)| RgbLayer {
+        .map(|(name, texels)| RgbLayer {
             name: name.as_deref(),
-            pixels: &atlas.pixels,
+            pixels: texels,
         })
         .collect();
     let note = format!(
@@ -464,21 +494,18 @@ fn export_gltf(
         .exposure
         .unwrap_or_else(|| gltf::auto_exposure(op.file(), &field));
     let laid_out = if a.lightmap {
-        Some(lay_out(a, op)?)
+        Some(a.lightmap_args.layout(op)?)
     } else {
         None
     };
     let lightmap = match &laid_out {
         Some(lay) => {
-            let atlas = lightmap_atlas(op, &field, lay);
+            let mut map = lay.lightmap(op, smooth.is_some())?;
+            let texels = lightmap_atlas(&mut map, &frame.shown, Some(&field))?;
             // The atlas holds B/π; the PNG is exposure × that.
-            let png = gltf::png(
-                atlas.width,
-                atlas.height,
-                &atlas.pixels,
-                exposure * std::f32::consts::PI,
-            )?;
-            let (uvs, seams) = lay.corner_uvs(op);
+            let (width, height) = lay.size();
+            let png = gltf::png(width, height, &texels, exposure * std::f32::consts::PI)?;
+            let (uvs, seams) = lay.corner_uvs();
             Some(gltf::Lightmap { uvs, seams, png })
         }
         None => None,

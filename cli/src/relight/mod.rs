@@ -17,7 +17,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lrr_runtime::trace::{Image, Tracer, View};
-use lrr_runtime::{Operator, Reconstruction, Rgb, RgbMut};
+use lrr_runtime::{Lightmap, Operator, Reconstruction, Rgb, RgbMut};
 
 use crate::emission::{Frame, FrameLights, Reconstruct, reconstruction};
 use crate::export::field::Field;
@@ -85,8 +85,8 @@ pub fn run(a: &RelightArgs, out: &mut dyn Write) -> Result<()> {
     let anim = Animation::read(&a.animation)?;
     let tracks = anim.tracks(&op, &a.animation)?;
     let smooth = reconstruction(&op, a.reconstruct, &a.file)?;
-    let lightmaps = match a.images.is_none() || a.lightmaps {
-        true => Some(Lightmaps::new(a, &op)?),
+    let mut lightmaps = match a.images.is_none() || a.lightmaps {
+        true => Some(Lightmaps::new(a, &op, smooth.is_some())?),
         false => None,
     };
     let mut images = match a.images {
@@ -141,7 +141,7 @@ pub fn run(a: &RelightArgs, out: &mut dyn Write) -> Result<()> {
         lit.set_radiosity(b.clone());
         time.evaluating += timer.elapsed().as_secs_f64();
         let note = format!("frame {f} at t = {t:.6} s of {}", a.animation.display());
-        if let Some(l) = &lightmaps {
+        if let Some(l) = lightmaps.as_mut() {
             let timer = Instant::now();
             let path = a.output.join(format!("lightmap-{f:05}.exr"));
             l.write(&op, &lit, smooth, &path, &note)?;
@@ -237,26 +237,28 @@ fn group_emission(op: &Operator) -> Vec<Vec<(usize, [f32; 3])>> {
         .collect()
 }
 
-/// The lightmap output: the atlas laid out once (`lrr export`'s: the scene's coordinates when
-/// the file has them, else generated charts).
+/// The lightmap output: the atlas laid out once (`lrr export`'s: the file's atlas unless the
+/// flags reshape it) and the runtime's lightmap over it, filled every frame.
 struct Lightmaps {
     layout: LightmapLayout,
+    map: Lightmap,
     samples: ExrSamples,
 }
 
 impl Lightmaps {
-    fn new(a: &RelightArgs, op: &Operator) -> Result<Self> {
+    fn new(a: &RelightArgs, op: &Operator, smooth: bool) -> Result<Self> {
         let layout = a.lightmap.layout(op)?;
+        let map = layout.lightmap(op, smooth)?;
         Ok(Self {
             layout,
+            map,
             samples: a.samples,
         })
     }
 
-    /// Rasterises the frame's `B/π` (its lights' direct light per texel) and writes it to
-    /// `path`.
+    /// Fills the frame's `B/π` (its lights' direct light per sample) and writes it to `path`.
     fn write(
-        &self,
+        &mut self,
         op: &Operator,
         frame: &Frame,
         smooth: Option<Reconstruction>,
@@ -264,10 +266,10 @@ impl Lightmaps {
         note: &str,
     ) -> Result<()> {
         let field = Field::new(op.file(), &frame.shown, smooth)?.with_direct(frame, op.file());
-        let atlas = lightmap_atlas(op, &field, &self.layout);
+        let texels = lightmap_atlas(&mut self.map, &frame.shown, Some(&field))?;
         let layer = [RgbLayer {
             name: None,
-            pixels: &atlas.pixels,
+            pixels: &texels,
         }];
         let (w, h) = self.layout.size();
         let note = format!("{note}: exitant radiance B/pi");

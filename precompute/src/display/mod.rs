@@ -1,16 +1,21 @@
 //! What the bake stores for display (format 1.2, [`lrr_formats::Display`]): the display
 //! geometry, the material of every element, the scene's point lights (each following the
 //! light group of its emitter) and cameras, the BVH over the display triangles (`bvh`), and
-//! (format 1.3) the scene's own lightmap coordinates at every element corner.
+//! the lightmap coordinates of every display face corner (format 1.3) with the atlas they
+//! address (1.6): the scene's own (`TEXCOORD_1`) when every face has them, else charts of
+//! coplanar faces packed here ([`charts`], [`atlas`]).
 //!
 //! Built once the fine mesh exists, before the form factors, so that a bad point light or
 //! camera is refused before hours of work; `write::Skeleton` carries the result into the file
 //! (and a sharded bake's parts into the merged file) unchanged.
 
+pub mod atlas;
 mod bvh;
+pub mod charts;
 
 use lrr_formats::{
-    Bvh, Camera, Display, Faces, Geometry, LightmapUv, Material, Materials, PointLight,
+    Bvh, Camera, Display, Faces, Geometry, LightmapAtlas, LightmapSource, LightmapUv, Material,
+    Materials, PointLight,
 };
 
 use crate::error::{Error, Result};
@@ -46,7 +51,9 @@ pub fn build(
         smooth = crate::mesh::smooth::per_element(&smooth, &shown.element);
     }
     stage.finish();
-    let lightmap = lightmap(scene, &shown.faces);
+    let stage = progress.stage("lightmap", 0);
+    let lightmap = lightmap(scene, &shown)?;
+    stage.finish();
     let sky_transfer = scene
         .direct_lights
         .iter()
@@ -67,7 +74,7 @@ pub fn build(
         direct_lights,
         cameras,
         bvh: Some(bvh),
-        lightmap,
+        lightmap: Some(lightmap),
         faces: shown.grouped.then_some(Faces {
             element: shown.element,
             geometry: shown.geometry,
@@ -108,9 +115,106 @@ pub fn bvh(geometry: &Geometry) -> Bvh {
     bvh::build(geometry)
 }
 
-/// The scene's lightmap coordinates (`TEXCOORD_1`) at every corner of the display `faces`
-/// (section LIGHTMAP); None unless every face has them (`scene::load` warns when only some do).
-fn lightmap(scene: &Scene, faces: &[Element]) -> Option<LightmapUv> {
+/// The side of a generated atlas when no texel density is set; larger (doubling) when the
+/// charts do not fit at their smallest.
+pub const DEFAULT_LIGHTMAP_SIDE: usize = 1024;
+
+/// Texels dilated around the charts when no padding is set (bilinear filtering needs 1).
+pub const DEFAULT_LIGHTMAP_PADDING: u32 = 2;
+
+/// The lightmap coordinates of every corner of the display faces (section LIGHTMAP) and their
+/// atlas (ATLAS): the scene's `TEXCOORD_1` when every face has them (`scene::load` warns when
+/// only some do), in a [`DEFAULT_LIGHTMAP_SIDE`]² atlas; else charts of coplanar connected
+/// faces packed at `[bake] lightmap_texel_density` (`--lightmap-texel-density`), or at the
+/// largest density that fits [`DEFAULT_LIGHTMAP_SIDE`]² texels.
+fn lightmap(scene: &Scene, shown: &Shown) -> Result<LightmapUv> {
+    let padding = scene
+        .bake
+        .lightmap_padding
+        .unwrap_or(DEFAULT_LIGHTMAP_PADDING);
+    if let Some(uv) = scene_lightmap(scene, &shown.faces) {
+        let side = DEFAULT_LIGHTMAP_SIDE as u32;
+        return Ok(LightmapUv {
+            uv,
+            atlas: Some(LightmapAtlas {
+                width: side,
+                height: side,
+                padding,
+                source: LightmapSource::Scene,
+                density: 0.0,
+            }),
+        });
+    }
+    generated_lightmap(&shown.geometry, scene.bake.lightmap_texel_density, padding)
+}
+
+/// Charts of `geometry`'s faces packed at `density` texels per unit, or (None) into the
+/// smallest of [`DEFAULT_LIGHTMAP_SIDE`]², twice that, … that holds them; their coordinates at
+/// every face corner and the atlas.
+pub fn generated_lightmap(
+    geometry: &Geometry,
+    density: Option<f64>,
+    padding: u32,
+) -> Result<LightmapUv> {
+    let charts = charts::charts(geometry);
+    let pad = padding as usize;
+    let layout = match density {
+        Some(t) => atlas::pack(&charts, atlas::Sizing::Density(t), pad).map_err(|e| {
+            Error::Settings(format!(
+                "the lightmap (--lightmap-texel-density, [bake] lightmap_texel_density): {e}"
+            ))
+        })?,
+        None => {
+            let mut side = DEFAULT_LIGHTMAP_SIDE;
+            loop {
+                match atlas::pack(&charts, atlas::Sizing::Size(side), pad) {
+                    Ok(layout) => break layout,
+                    Err(_) if side < atlas::MAX_SIZE => side *= 2,
+                    Err(e) => {
+                        return Err(Error::Settings(format!(
+                            "the lightmap: {e}; set a smaller --lightmap-padding"
+                        )));
+                    }
+                }
+            }
+        }
+    };
+    Ok(LightmapUv {
+        uv: chart_uvs(geometry, &charts, &layout),
+        atlas: Some(LightmapAtlas {
+            width: layout.width as u32,
+            height: layout.height as u32,
+            padding,
+            source: LightmapSource::Generated,
+            density: layout.density,
+        }),
+    })
+}
+
+/// The atlas coordinates of every corner of `geometry`'s faces laid out as `charts` in
+/// `layout` (a triangle's fourth zero).
+pub fn chart_uvs(
+    geometry: &Geometry,
+    charts: &[charts::Chart],
+    layout: &atlas::Layout,
+) -> Vec<f32> {
+    let mut uv = vec![0.0f32; 8 * geometry.vertex_count.len()];
+    for (c, chart) in charts.iter().enumerate() {
+        for &s in &chart.faces {
+            let s = s as usize;
+            for (k, p) in charts::corners(geometry, s).iter().enumerate() {
+                let [u, v] = layout.uv(c, chart.flatten(*p));
+                uv[8 * s + 2 * k] = u;
+                uv[8 * s + 2 * k + 1] = v;
+            }
+        }
+    }
+    uv
+}
+
+/// The scene's lightmap coordinates (`TEXCOORD_1`) at every corner of the display `faces`;
+/// None unless every face has them.
+fn scene_lightmap(scene: &Scene, faces: &[Element]) -> Option<Vec<f32>> {
     let mut uv = Vec::with_capacity(8 * faces.len());
     for e in faces {
         let map = scene.faces[e.face as usize].uv[1].as_ref()?;
@@ -123,7 +227,7 @@ fn lightmap(scene: &Scene, faces: &[Element]) -> Option<LightmapUv> {
             uv.extend([a as f32, b as f32]);
         }
     }
-    Some(LightmapUv { uv })
+    Some(uv)
 }
 
 /// The fine mesh's elements in file order and f32 (section GEOMETRY): a dense mesh's element

@@ -71,6 +71,8 @@
 //! method = "2msc"                   # "2mf", "2msc" (default) or "2msc-split"; threshold; min_patch_area (2msc-split)
 //! samples = 16
 //! precision = "f16"                 # "f32" (default) or "f16"; layout = "factored" | "plain"
+//! lightmap_texel_density = 32       # texels per unit of the generated lightmap charts
+//! lightmap_padding = 2              # texels dilated around them (default 2)
 //! ```
 
 use std::path::Path;
@@ -361,6 +363,12 @@ pub struct BakeDesc {
     /// `factored` or `plain`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub layout: Option<String>,
+    /// Texels per description unit of the lightmap charts the bake packs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lightmap_texel_density: Option<f64>,
+    /// Texels of padding dilated around the lightmap's charts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lightmap_padding: Option<u32>,
 }
 
 impl BakeDesc {
@@ -966,6 +974,27 @@ impl SceneDescription {
                 "[bake] output is empty; name the operator file",
             ));
         }
+        if let Some(t) = b
+            .lightmap_texel_density
+            .filter(|t| !(t.is_finite() && *t > 0.0))
+        {
+            return Err(Error::scene(
+                origin,
+                format!("[bake] lightmap_texel_density {t} must be a finite number > 0"),
+            ));
+        }
+        if let Some(p) = b
+            .lightmap_padding
+            .filter(|&p| p > lrr_formats::MAX_ATLAS_PADDING)
+        {
+            return Err(Error::scene(
+                origin,
+                format!(
+                    "[bake] lightmap_padding {p} is more than {} texels",
+                    lrr_formats::MAX_ATLAS_PADDING
+                ),
+            ));
+        }
         Ok(BakeDefaults {
             method: b.method.clone(),
             threshold: b.threshold,
@@ -974,6 +1003,8 @@ impl SceneDescription {
             precision: b.precision.clone(),
             layout: b.layout.clone(),
             output: b.output.as_ref().map(|o| base.join(o)),
+            lightmap_texel_density: b.lightmap_texel_density.map(|t| t / self.scale),
+            lightmap_padding: b.lightmap_padding,
         })
     }
 }

@@ -189,6 +189,11 @@ pub struct BakeDefaults {
     pub layout: Option<String>,
     /// Operator file to write (resolved against the description's folder).
     pub output: Option<std::path::PathBuf>,
+    /// Texels per scene unit of the lightmap charts the bake packs (after `scale`); `None`:
+    /// the largest density that fits the default atlas.
+    pub lightmap_texel_density: Option<f64>,
+    /// Rings of texels dilated around the lightmap's charts.
+    pub lightmap_padding: Option<u32>,
 }
 
 /// What the import repaired, counted (the warnings name each case).
@@ -415,7 +420,7 @@ impl Scene {
     }
 
     /// A warning when some faces but not all have lightmap coordinates (`TEXCOORD_1`): the
-    /// file then stores none and exports generate their own.
+    /// file then stores none of them and the bake packs lightmap charts of its own.
     pub(crate) fn partial_lightmap_warning(&self) -> Option<String> {
         let with = self.faces.iter().filter(|f| f.uv[1].is_some()).count();
         if with == 0 || with == self.faces.len() {
@@ -430,8 +435,8 @@ impl Scene {
         missing.dedup();
         missing.truncate(5);
         Some(format!(
-            "{with} of {} faces have lightmap coordinates (TEXCOORD_1), so the bake stores none \
-             and lightmap exports generate their own; surfaces without them include {missing:?}",
+            "{with} of {} faces have lightmap coordinates (TEXCOORD_1), so the bake keeps none \
+             and packs lightmap charts of its own; surfaces without them include {missing:?}",
             self.faces.len()
         ))
     }

@@ -4,11 +4,8 @@
 
 use std::path::PathBuf;
 
-use lrr_cli::export::atlas::{self, Sizing};
-use lrr_cli::export::field::Field;
-use lrr_cli::export::{charts, radiance_atlas, raster::Texel};
 use lrr_precompute::scene::Scene;
-use lrr_runtime::{Operator, Reconstruction};
+use lrr_runtime::Operator;
 
 use crate::util::{bake, lrr, root, temp_dir};
 
@@ -134,32 +131,33 @@ fn a_coarse_bake_lights_every_lightmap_chart_and_relights_through_the_animation(
     let op = Operator::load(&file).unwrap();
     let groups: Vec<&str> = op.light_groups().collect();
     assert_eq!(groups.len(), 9, "{groups:?}");
-    // Every texel of every chart is filled and lit (every lamp on, as baked).
+    // The bake packed the lightmap (the building has no TEXCOORD_1); every sample of it and
+    // every texel dilation fills is lit (every lamp on, as baked).
     let b = op.evaluate_baked();
-    let charts = charts::charts(op.file().faces().geometry);
-    let layout = atlas::pack(&charts, Sizing::Size(512), 2).unwrap();
-    let field = Field::new(op.file(), &b, Some(Reconstruction::new(op.file()).unwrap())).unwrap();
-    let atlas = radiance_atlas(&op, &field, &charts, &layout);
+    let atlas = op.file().display.lightmap.as_ref().unwrap().atlas.unwrap();
+    assert_eq!(atlas.source, lrr_formats::LightmapSource::Generated);
+    let mut map = lrr_runtime::Lightmap::new(op.file(), None).unwrap();
+    assert_eq!(map.values(), lrr_runtime::LightmapValues::Smooth);
+    let mut texels = vec![[0.0f32; 3]; map.width() * map.height()];
+    map.fill(&b, &mut texels).unwrap();
     let mut lit = 0;
-    for (c, r) in layout.rects.iter().enumerate() {
-        for y in r[1]..r[3] {
-            for x in r[0]..r[2] {
-                let i = y * atlas.width + x;
-                assert!(
-                    atlas.state[i] != Texel::Empty && atlas.pixels[i].iter().sum::<f32>() > 0.0,
-                    "chart {c} of {}: texel ({x}, {y}) is black ({:?})",
-                    charts.len(),
-                    atlas.state[i]
-                );
-                lit += 1;
-            }
-        }
+    for s in map.samples() {
+        assert!(
+            texels[s.texel].iter().sum::<f32>() > 0.0,
+            "sample {s:?} is black"
+        );
+        lit += 1;
     }
-    assert!(
-        charts.len() > 200 && lit > 100_000,
-        "{} charts, {lit} texels",
-        charts.len()
+    let filled = texels
+        .iter()
+        .filter(|t| t.iter().sum::<f32>() > 0.0)
+        .count();
+    assert_eq!(
+        filled,
+        lit + map.dilated_count(),
+        "a dilated texel is black"
     );
+    assert!(lit > 100_000, "{lit} texels");
     // The committed animation names the file's groups; its frames render from a camera.
     let anim = root().join("scenes/building/building-animation.toml");
     let frames = dir.join("frames");

@@ -1,9 +1,9 @@
 //! Packing charts into a lightmap atlas with etagere's shelf allocator: each chart gets a
 //! rectangle of `ceil(size × density)` texels plus `padding` on every side. Either the atlas
 //! size is given (the largest density that packs, by bisection) or the density is (the
-//! smallest square atlas, a multiple of 4 texels, that packs).
+//! smallest square atlas, a multiple of 4 texels, that packs). Errors are messages without
+//! flag names: the bake and `lrr export` say which of their flags set the size.
 
-use anyhow::{Result, bail};
 use etagere::{AllocatorOptions, AtlasAllocator, size2};
 use glam::DVec2;
 
@@ -15,8 +15,9 @@ pub const MAX_SIZE: usize = 16384;
 /// Where the charts lie in the atlas.
 #[derive(Debug, Clone)]
 pub struct Layout {
-    /// Atlas width and height in texels.
+    /// Atlas width in texels.
     pub width: usize,
+    /// Atlas height in texels.
     pub height: usize,
     /// Texels per scene unit.
     pub density: f64,
@@ -25,6 +26,7 @@ pub struct Layout {
     /// Per chart: the texel coordinates of its origin (chart point (0, 0)), and its rectangle
     /// (padding included) as `[x0, y0, x1, y1]`, exclusive upper bounds.
     pub origins: Vec<DVec2>,
+    /// See `origins`.
     pub rects: Vec<[usize; 4]>,
 }
 
@@ -58,10 +60,19 @@ pub enum Sizing {
     Density(f64),
 }
 
+/// An error of [`pack`]: what does not fit and how to make it fit.
+type Result<T> = std::result::Result<T, String>;
+
+macro_rules! bail {
+    ($($t:tt)*) => {
+        return Err(format!($($t)*))
+    };
+}
+
 /// Packs `charts` as `sizing` asks.
 pub fn pack(charts: &[Chart], sizing: Sizing, padding: usize) -> Result<Layout> {
     if charts.is_empty() {
-        bail!("no charts to pack (the file has no elements)");
+        bail!("no charts to pack (no display faces)");
     }
     match sizing {
         Sizing::Size(side) => pack_size(charts, side, padding),
@@ -71,7 +82,7 @@ pub fn pack(charts: &[Chart], sizing: Sizing, padding: usize) -> Result<Layout> 
 
 fn pack_size(charts: &[Chart], side: usize, padding: usize) -> Result<Layout> {
     if !(1..=MAX_SIZE).contains(&side) {
-        bail!("--size {side}: the atlas side must be 1 to {MAX_SIZE} texels");
+        bail!("an atlas of {side} texels a side: the side must be 1 to {MAX_SIZE} texels");
     }
     // Densities are bisected on a log scale between one that surely fits nothing larger than a
     // texel per chart and one that surely does not fit.
@@ -83,8 +94,8 @@ fn pack_size(charts: &[Chart], side: usize, padding: usize) -> Result<Layout> {
     let Some(mut best) = try_pack(charts, side, side, lo, padding) else {
         let tiny = 1 + 2 * padding;
         bail!(
-            "--size {side}: {} charts of at least {tiny}×{tiny} texels (padding {padding}) do not fit; \
-             use a larger --size or a smaller --padding",
+            "an atlas of {side}×{side} texels: {} charts of at least {tiny}×{tiny} texels \
+             (padding {padding}) do not fit; use a larger atlas or a smaller padding",
             charts.len()
         );
     };
@@ -107,7 +118,7 @@ fn pack_size(charts: &[Chart], side: usize, padding: usize) -> Result<Layout> {
 
 fn pack_density(charts: &[Chart], density: f64, padding: usize) -> Result<Layout> {
     if !(density.is_finite() && density > 0.0) {
-        bail!("--texel-density {density}: must be a finite number > 0 (texels per scene unit)");
+        bail!("texel density {density}: must be a finite number > 0 (texels per scene unit)");
     }
     let area: f64 = charts
         .iter()
@@ -124,7 +135,7 @@ fn pack_density(charts: &[Chart], density: f64, padding: usize) -> Result<Layout
         side = ((side as f64 * 1.05).ceil() as usize).next_multiple_of(4);
     }
     bail!(
-        "--texel-density {density}: the charts need an atlas larger than {MAX_SIZE}² texels; \
+        "texel density {density}: the charts need an atlas larger than {MAX_SIZE}² texels; \
          use a smaller density"
     )
 }
@@ -238,10 +249,10 @@ mod tests {
     fn too_small_an_atlas_is_an_error_naming_the_flags() {
         let charts: Vec<Chart> = (0..100).map(|_| chart(1.0, 1.0)).collect();
         let e = pack(&charts, Sizing::Size(8), 2).unwrap_err().to_string();
-        assert!(e.contains("--size 8") && e.contains("100 charts"), "{e}");
+        assert!(e.contains("8×8 texels") && e.contains("100 charts"), "{e}");
         let e = pack(&charts, Sizing::Density(f64::NAN), 2)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("--texel-density"), "{e}");
+        assert!(e.contains("texel density NaN"), "{e}");
     }
 }

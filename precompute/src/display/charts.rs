@@ -21,7 +21,9 @@ pub struct Chart {
     pub faces: Vec<u32>,
     /// The plane's frame: `point = origin + x u + y v`, with `u × v` the elements' normal.
     pub origin: DVec3,
+    /// The plane's first axis (see `origin`).
     pub u: DVec3,
+    /// The plane's second axis (see `origin`).
     pub v: DVec3,
     /// Extent of the flattened elements: `x` in `[0, size.x]`, `y` in `[0, size.y]`.
     pub size: DVec2,

@@ -1,0 +1,921 @@
+//! Lightmaps filled every frame: the way an engine that rasterises the scene takes the light.
+//!
+//! A [`Lightmap`] is built once from an operator file's lightmap coordinates (section LIGHTMAP,
+//! with the atlas of section ATLAS: the scene's own `TEXCOORD_1` or the charts the bake packed)
+//! and then turns each frame's radiosity into texels with [`Lightmap::fill`]: one pass over a
+//! sparse table, no allocation.
+//!
+//! What a texel holds is the exitant radiance `B/π` of the surface under its centre (the
+//! operator's emission units per steradian, linear RGB), as `lrr export`'s EXR holds it:
+//! 1. **Samples.** A texel whose centre lies inside a display face's image in the atlas (the
+//!    face's corners mapped to their coordinates: a convex polygon, either orientation, within
+//!    1e-9 texels) is a sample of the first such face in file order, at the point of the face
+//!    with the same barycentric coordinates (the first non-degenerate corner triangle's). A
+//!    face too small to hold a texel centre samples its centroid into the texel under it, if
+//!    that texel is still empty. Faces of elements that are black in every frame (they see no
+//!    patch and emit nothing: the floor under a block) take no texels.
+//! 2. **Reconstruction.** Smooth (the default when the file has SMOOTH weights): the sample's
+//!    mean value coordinates over its face's corners, each corner a smooth vertex whose value
+//!    is a weighted sum of element values ([`Reconstruction`](crate::Reconstruction)); a frame
+//!    computes the vertex values once, then each sample is at most four products. Flat: the
+//!    element's value.
+//! 3. **Dilation.** `padding` rings around what the samples cover: each empty texel with a
+//!    filled 8-neighbour takes the mean of those neighbours, ring by ring, so that bilinear
+//!    filtering at a chart's edge never reads black. The bake packs charts `2 × padding` texels
+//!    apart, so rings never cross from one chart into another.
+//!
+//! Every other texel is zero. [`Lightmap::fill_samples`] and [`Lightmap::dilate`] are the two
+//! halves of [`Lightmap::fill`], for callers that add light of their own at the samples
+//! ([`Lightmap::samples`]: the direct light of point lights, sharper than the elements) before
+//! dilating.
+//!
+//! ```
+//! # use lrr_runtime::{Operator, Lightmap};
+//! # fn show(op: &Operator) -> Result<(), lrr_runtime::RuntimeError> {
+//! let mut lightmap = Lightmap::new(op.file(), None)?; // once: the file's atlas
+//! let mut texels = vec![[0.0f32; 3]; lightmap.width() * lightmap.height()];
+//! let b = op.evaluate_baked(); // per frame: radiosity per element, original ids
+//! lightmap.fill(&b, &mut texels)?; // rows top to bottom (v = 0 the first row)
+//! # Ok(()) }
+//! ```
+
+use lrr_formats::{OperatorData, OperatorFile};
+
+use crate::error::{RuntimeError, input};
+use crate::smooth::mean_value_weights;
+
+/// How a lightmap reconstructs values inside elements.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LightmapValues {
+    /// Smooth-vertex values interpolated by mean value coordinates (needs SMOOTH).
+    Smooth,
+    /// The element's value over each of its faces.
+    Flat,
+}
+
+/// One sample of a [`Lightmap`]: a texel whose value comes from a point of a display face.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightmapSample {
+    /// Texel index, `y * width + x`.
+    pub texel: usize,
+    /// The display face ([`OperatorFile::faces`]).
+    pub face: usize,
+    /// The point of the face the texel shows.
+    pub point: [f32; 3],
+}
+
+/// A lightmap of one operator file: built once, filled every frame. See the module docs.
+#[derive(Debug, Clone)]
+pub struct Lightmap {
+    width: usize,
+    height: usize,
+    padding: usize,
+    values: LightmapValues,
+    /// Per sample, in increasing texel order: its texel, face and point.
+    texel: Vec<u32>,
+    face: Vec<u32>,
+    point: Vec<[f32; 3]>,
+    /// Smooth: 4 per sample, smooth vertex and weight (times 1/π; unused corners weight 0).
+    /// Flat: 1 per sample, the element's original id, and no weights (1/π).
+    index: Vec<u32>,
+    weight: Vec<f32>,
+    /// The smooth vertices' weights over elements (original ids), SMOOTH's rows.
+    vertex_offsets: Vec<u32>,
+    vertex_elements: Vec<u32>,
+    vertex_weights: Vec<f32>,
+    /// This frame's smooth-vertex values.
+    vertices: Vec<[f32; 3]>,
+    /// Dilation: `ring_ends[r]` ends ring `r` in `dilated`; each dilated texel's filled
+    /// neighbours are `neighbours[neighbour_ends[i - 1]..neighbour_ends[i]]`.
+    ring_ends: Vec<u32>,
+    dilated: Vec<u32>,
+    neighbour_ends: Vec<u32>,
+    neighbours: Vec<u32>,
+    /// A ring's values before they are written.
+    ring_values: Vec<[f32; 3]>,
+    threads: usize,
+}
+
+impl Lightmap {
+    /// The lightmap of `file` over the atlas its section ATLAS names (size and padding), with
+    /// `values` (None: smooth when the file has SMOOTH weights, else flat). An error when the
+    /// file has no lightmap coordinates, or none with an atlas (files of format 1.5 and
+    /// before: [`with_size`](Self::with_size) chooses one).
+    pub fn new(file: &OperatorFile, values: Option<LightmapValues>) -> Result<Self, RuntimeError> {
+        let atlas = file
+            .display
+            .lightmap
+            .as_ref()
+            .and_then(|l| l.atlas)
+            .ok_or_else(|| {
+                input(
+                    "the operator file names no lightmap atlas (sections LIGHTMAP and ATLAS, \
+                     format 1.6): re-bake it with this lrr",
+                )
+            })?;
+        Self::with_size(
+            file,
+            atlas.width as usize,
+            atlas.height as usize,
+            atlas.padding as usize,
+            values,
+        )
+    }
+
+    /// The lightmap of `file`'s coordinates over a `width × height` atlas dilated `padding`
+    /// rings. The bake's generated charts were packed for the size section ATLAS names; at
+    /// another size they may touch or blur. An error when the file has no coordinates, the
+    /// size is not 1 to 16384 texels a side, `padding` is over 64, or smooth values are asked
+    /// of a file without SMOOTH.
+    pub fn with_size(
+        file: &OperatorFile,
+        width: usize,
+        height: usize,
+        padding: usize,
+        values: Option<LightmapValues>,
+    ) -> Result<Self, RuntimeError> {
+        let uv = file.display.lightmap.as_ref().ok_or_else(|| {
+            input(
+                "the operator file has no lightmap coordinates (section LIGHTMAP): re-bake it \
+                 with this lrr",
+            )
+        })?;
+        Self::with_coordinates(file, &uv.uv, width, height, padding, values)
+    }
+
+    /// The lightmap of coordinates `uv` of `file`'s display faces (`F * 8` values, as section
+    /// LIGHTMAP: `u, v` per corner, four corners per face) over a `width × height` atlas
+    /// dilated `padding` rings: another layout than the file's (charts packed again).
+    pub fn with_coordinates(
+        file: &OperatorFile,
+        uv: &[f32],
+        width: usize,
+        height: usize,
+        padding: usize,
+        values: Option<LightmapValues>,
+    ) -> Result<Self, RuntimeError> {
+        let side = 1..=lrr_formats::MAX_ATLAS_SIDE as usize;
+        if !side.contains(&width) || !side.contains(&height) {
+            return Err(input(format!(
+                "a lightmap of {width}×{height} texels: each side must be 1 to {}",
+                lrr_formats::MAX_ATLAS_SIDE
+            )));
+        }
+        if padding > lrr_formats::MAX_ATLAS_PADDING as usize {
+            return Err(input(format!(
+                "lightmap padding {padding}: at most {} texels",
+                lrr_formats::MAX_ATLAS_PADDING
+            )));
+        }
+        let values = match values {
+            Some(v) => v,
+            None if file.display.smooth.is_some() => LightmapValues::Smooth,
+            None => LightmapValues::Flat,
+        };
+        let faces = file.faces();
+        if uv.len() != 8 * faces.len() {
+            return Err(input(format!(
+                "lightmap: {} coordinates for {} display faces (8 each)",
+                uv.len(),
+                faces.len()
+            )));
+        }
+        if let Some(i) = uv.iter().position(|x| !x.is_finite()) {
+            return Err(input(format!(
+                "lightmap: coordinate {} of display face {} is {}, not finite",
+                i % 8,
+                i / 8,
+                uv[i]
+            )));
+        }
+        let mut map = Self {
+            width,
+            height,
+            padding,
+            values,
+            texel: Vec::new(),
+            face: Vec::new(),
+            point: Vec::new(),
+            index: Vec::new(),
+            weight: Vec::new(),
+            vertex_offsets: Vec::new(),
+            vertex_elements: Vec::new(),
+            vertex_weights: Vec::new(),
+            vertices: Vec::new(),
+            ring_ends: Vec::new(),
+            dilated: Vec::new(),
+            neighbour_ends: Vec::new(),
+            neighbours: Vec::new(),
+            ring_values: Vec::new(),
+            threads: 1,
+        };
+        if values == LightmapValues::Smooth {
+            // Checks SMOOTH's shape against the faces, so that no index below is out of range.
+            let r = crate::Reconstruction::new(file)?;
+            let s = file
+                .display
+                .smooth
+                .as_ref()
+                .expect("Reconstruction::new checked it");
+            map.vertex_offsets = s.offsets.clone();
+            map.vertex_elements = s
+                .positions
+                .iter()
+                .map(|&p| file.order[p as usize])
+                .collect();
+            map.vertex_weights = s.weights.clone();
+            map.vertices = vec![[0.0; 3]; r.vertex_count()];
+        }
+        let hidden = hidden_elements(file);
+        let mut raster = Raster::new(width, height);
+        raster.samples(file, uv, &hidden);
+        map.weigh(file, &raster.samples);
+        map.rings(&mut raster.filled);
+        Ok(map)
+    }
+
+    /// Uses `threads` threads in [`fill`](Self::fill) (0: all the machine has; default 1).
+    pub fn set_threads(&mut self, threads: usize) {
+        self.threads = match threads {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            t => t,
+        };
+    }
+
+    /// Texels across.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Texels down.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Rings of dilation.
+    pub fn padding(&self) -> usize {
+        self.padding
+    }
+
+    /// How values inside elements are reconstructed.
+    pub fn values(&self) -> LightmapValues {
+        self.values
+    }
+
+    /// Number of samples (texels a face covers).
+    pub fn sample_count(&self) -> usize {
+        self.texel.len()
+    }
+
+    /// Number of texels dilation fills.
+    pub fn dilated_count(&self) -> usize {
+        self.dilated.len()
+    }
+
+    /// The samples in increasing texel order.
+    pub fn samples(&self) -> impl ExactSizeIterator<Item = LightmapSample> + '_ {
+        (0..self.texel.len()).map(|i| LightmapSample {
+            texel: self.texel[i] as usize,
+            face: self.face[i] as usize,
+            point: self.point[i],
+        })
+    }
+
+    /// Bytes one [`fill`](Self::fill) must at least move: the sample table it reads (texel,
+    /// indices, weights), the dilation table, the smooth vertices' rows, and the texels it
+    /// writes. What a roofline compares a fill's time with.
+    pub fn fill_bytes(&self) -> usize {
+        4 * (self.texel.len() + self.index.len() + self.weight.len())
+            + 4 * (self.dilated.len() + self.neighbour_ends.len() + self.neighbours.len())
+            + 4 * (self.vertex_offsets.len()
+                + self.vertex_elements.len()
+                + self.vertex_weights.len())
+            + 12 * self.width * self.height
+    }
+
+    /// Fills `out` (`width × height` texels, rows top to bottom) with the exitant radiance
+    /// `B/π` of `radiosity`, the radiosity per element in original ids (what the evaluators
+    /// write): [`fill_samples`](Self::fill_samples), then [`dilate`](Self::dilate).
+    pub fn fill(
+        &mut self,
+        radiosity: &[[f32; 3]],
+        out: &mut [[f32; 3]],
+    ) -> Result<(), RuntimeError> {
+        self.fill_samples(radiosity, out)?;
+        self.dilate(out)
+    }
+
+    /// Writes every texel of `out`: the samples' `B/π`, zero elsewhere (dilation not done).
+    pub fn fill_samples(
+        &mut self,
+        radiosity: &[[f32; 3]],
+        out: &mut [[f32; 3]],
+    ) -> Result<(), RuntimeError> {
+        self.check_out(out)?;
+        if self.values == LightmapValues::Smooth {
+            self.vertex_values(radiosity)?;
+        } else if let Some(bad) = self.index.iter().find(|&&e| e as usize >= radiosity.len()) {
+            return Err(input(format!(
+                "lightmap: {} element values, but element {bad} is sampled; pass the frame's \
+                 radiosity of every element",
+                radiosity.len()
+            )));
+        }
+        let threads = self.threads.max(1).min(self.texel.len().max(1));
+        let chunk = self.texel.len().div_ceil(threads).max(1);
+        let this = &*self;
+        let table: &[[f32; 3]] = match self.values {
+            LightmapValues::Smooth => &self.vertices,
+            LightmapValues::Flat => radiosity,
+        };
+        // Chunk c takes samples c·chunk.. and the texels from its first sample's up to the
+        // next chunk's first sample's (the first from 0, the last to the end).
+        let mut rest = out;
+        let mut start = 0usize;
+        let mut parts = Vec::with_capacity(threads);
+        for c in 0..threads {
+            let samples =
+                (c * chunk).min(this.texel.len())..((c + 1) * chunk).min(this.texel.len());
+            let end = match samples.end < this.texel.len() && c + 1 < threads {
+                true => this.texel[samples.end] as usize,
+                false => this.width * this.height,
+            };
+            let (mine, tail) = rest.split_at_mut(end - start);
+            parts.push((samples, start, mine));
+            rest = tail;
+            start = end;
+        }
+        if threads == 1 {
+            for (samples, first, texels) in parts {
+                this.fill_range(table, samples, first, texels);
+            }
+        } else {
+            std::thread::scope(|s| {
+                for (samples, first, texels) in parts {
+                    s.spawn(move || this.fill_range(table, samples, first, texels));
+                }
+            });
+        }
+        Ok(())
+    }
+
+    /// Samples `samples` into `texels` (texel `first` onwards), zeroing the texels between.
+    fn fill_range(
+        &self,
+        table: &[[f32; 3]],
+        samples: std::ops::Range<usize>,
+        first: usize,
+        texels: &mut [[f32; 3]],
+    ) {
+        let mut next = 0usize;
+        for i in samples {
+            let t = self.texel[i] as usize - first;
+            texels[next..t].fill([0.0; 3]);
+            texels[t] = match self.values {
+                LightmapValues::Smooth => {
+                    let (idx, w) = (
+                        &self.index[4 * i..4 * i + 4],
+                        &self.weight[4 * i..4 * i + 4],
+                    );
+                    // In f64, as `Reconstruction::at`: within half an f32 ulp of the exact sum
+                    // of the stored terms, so a frame scaled by s gives texels scaled by s.
+                    let mut v = [0.0f64; 3];
+                    for k in 0..4 {
+                        let x = table[idx[k] as usize];
+                        for c in 0..3 {
+                            v[c] += f64::from(w[k]) * f64::from(x[c]);
+                        }
+                    }
+                    v.map(|x| x as f32)
+                }
+                LightmapValues::Flat => table[self.index[i] as usize].map(|x| x / PI_F32),
+            };
+            next = t + 1;
+        }
+        texels[next..].fill([0.0; 3]);
+    }
+
+    /// Dilates `out` (filled by [`fill_samples`](Self::fill_samples), perhaps with light added
+    /// at the samples) `padding` rings deep.
+    pub fn dilate(&mut self, out: &mut [[f32; 3]]) -> Result<(), RuntimeError> {
+        self.check_out(out)?;
+        let mut begin = 0;
+        for &end in &self.ring_ends {
+            let ring = begin..end as usize;
+            self.ring_values.clear();
+            for i in ring.clone() {
+                let from = if i == 0 {
+                    0
+                } else {
+                    self.neighbour_ends[i - 1] as usize
+                };
+                let around = &self.neighbours[from..self.neighbour_ends[i] as usize];
+                let mut sum = [0.0f32; 3];
+                for &j in around {
+                    for c in 0..3 {
+                        sum[c] += out[j as usize][c];
+                    }
+                }
+                let scale = 1.0 / around.len() as f32;
+                self.ring_values.push(sum.map(|x| x * scale));
+            }
+            for (i, v) in ring.zip(&self.ring_values) {
+                out[self.dilated[i] as usize] = *v;
+            }
+            begin = end as usize;
+        }
+        Ok(())
+    }
+
+    fn check_out(&self, out: &[[f32; 3]]) -> Result<(), RuntimeError> {
+        if out.len() != self.width * self.height {
+            return Err(input(format!(
+                "lightmap: {} texels given for a {}×{} atlas",
+                out.len(),
+                self.width,
+                self.height
+            )));
+        }
+        Ok(())
+    }
+
+    /// This frame's smooth-vertex values from the element values, clamped at zero (a vertex on
+    /// a surface's boundary extrapolates, with negative weights), as
+    /// [`Reconstruction::vertex_values`](crate::Reconstruction::vertex_values).
+    fn vertex_values(&mut self, b: &[[f32; 3]]) -> Result<(), RuntimeError> {
+        if let Some(bad) = self
+            .vertex_elements
+            .iter()
+            .find(|&&e| e as usize >= b.len())
+        {
+            return Err(input(format!(
+                "lightmap: {} element values, but element {bad} is sampled; pass the frame's \
+                 radiosity of every element",
+                b.len()
+            )));
+        }
+        for (v, value) in self.vertices.iter_mut().enumerate() {
+            let mut sum = [0.0f64; 3];
+            for j in self.vertex_offsets[v] as usize..self.vertex_offsets[v + 1] as usize {
+                let e = b[self.vertex_elements[j] as usize];
+                let w = f64::from(self.vertex_weights[j]);
+                for c in 0..3 {
+                    sum[c] += w * f64::from(e[c]);
+                }
+            }
+            *value = sum.map(|x| x.max(0.0) as f32);
+        }
+        Ok(())
+    }
+
+    /// The samples' reconstruction weights (times 1/π).
+    fn weigh(&mut self, file: &OperatorFile, samples: &[Sample]) {
+        let faces = file.faces();
+        let g = faces.geometry;
+        for s in samples {
+            self.texel.push(s.texel);
+            self.face.push(s.face);
+            self.point.push(s.point);
+            let f = s.face as usize;
+            match self.values {
+                LightmapValues::Flat => {
+                    self.index.push(file.order[faces.element(f)]);
+                }
+                LightmapValues::Smooth => {
+                    let corners = &file.display.smooth.as_ref().expect("smooth").corners;
+                    let count = usize::from(g.vertex_count[f]);
+                    let mut v = [[0.0f64; 3]; 4];
+                    for (i, vi) in v.iter_mut().enumerate().take(count) {
+                        *vi = [0, 1, 2].map(|c| f64::from(g.vertices[12 * f + 3 * i + c]));
+                    }
+                    let normal = [0, 1, 2].map(|c| f64::from(g.normals[3 * f + c]));
+                    let w = mean_value_weights(&v[..count], normal, s.point.map(f64::from));
+                    for k in 0..4 {
+                        let used = k < count;
+                        self.index.push(if used { corners[4 * f + k] } else { 0 });
+                        self.weight
+                            .push(if used { (w[k] / PI) as f32 } else { 0.0 });
+                    }
+                }
+            }
+        }
+    }
+
+    /// The dilation rings from the texels the samples fill.
+    fn rings(&mut self, filled: &mut [bool]) {
+        let (w, h) = (self.width, self.height);
+        let mut ring = Vec::new();
+        for _ in 0..self.padding {
+            ring.clear();
+            for y in 0..h {
+                for x in 0..w {
+                    if filled[y * w + x] {
+                        continue;
+                    }
+                    let before = self.neighbours.len();
+                    for (dx, dy) in NEIGHBOURS {
+                        let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                        if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                            continue;
+                        }
+                        let j = ny as usize * w + nx as usize;
+                        if filled[j] {
+                            self.neighbours.push(j as u32);
+                        }
+                    }
+                    if self.neighbours.len() > before {
+                        ring.push((y * w + x) as u32);
+                        self.dilated.push((y * w + x) as u32);
+                        self.neighbour_ends.push(self.neighbours.len() as u32);
+                    }
+                }
+            }
+            if ring.is_empty() {
+                break;
+            }
+            for &t in &ring {
+                filled[t as usize] = true;
+            }
+            self.ring_ends.push(self.dilated.len() as u32);
+        }
+    }
+}
+
+const PI: f64 = std::f64::consts::PI;
+const PI_F32: f32 = std::f32::consts::PI;
+
+const NEIGHBOURS: [(i64, i64); 8] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (-1, 0),
+    (1, 0),
+    (-1, 1),
+    (0, 1),
+    (1, 1),
+];
+
+/// Per element, by file position: black in every frame, because it sees no patch (its row of
+/// `F_k`, or of every `Y_c`, is zero) and emits nothing. Lightmaps leave such elements to
+/// dilation and exports hide them.
+pub fn hidden_elements(file: &OperatorFile) -> Vec<bool> {
+    let (n, k) = (file.n as usize, file.k as usize);
+    let (matrix, blocks) = match &file.operator {
+        OperatorData::Factored { fk, .. } => (fk, 1),
+        OperatorData::PlainYk { yk } => (yk, file.channels as usize),
+    };
+    (0..n)
+        .map(|s| {
+            let dark = file.emission[3 * s..3 * s + 3].iter().all(|&e| e == 0.0);
+            let sees_nothing = (0..blocks).all(|c| {
+                let row = (c * n + s) * k;
+                (row..row + k).all(|i| matrix.get(i) == Some(0.0))
+            });
+            dark && sees_nothing
+        })
+        .collect()
+}
+
+/// A sample while building.
+struct Sample {
+    texel: u32,
+    face: u32,
+    point: [f32; 3],
+}
+
+/// Rasterisation of the display faces in atlas space.
+struct Raster {
+    width: usize,
+    height: usize,
+    filled: Vec<bool>,
+    samples: Vec<Sample>,
+}
+
+impl Raster {
+    fn new(width: usize, height: usize) -> Self {
+        Self {
+            width,
+            height,
+            filled: vec![false; width * height],
+            samples: Vec::new(),
+        }
+    }
+
+    /// The samples of every face not `hidden`, then of faces too small to hold a texel
+    /// centre; sorted by texel.
+    fn samples(&mut self, file: &OperatorFile, uv: &[f32], hidden: &[bool]) {
+        let faces = file.faces();
+        let g = faces.geometry;
+        let mut unfilled = Vec::new();
+        for f in 0..faces.len() {
+            if hidden[faces.element(f)] {
+                continue;
+            }
+            let count = usize::from(g.vertex_count[f]);
+            let pts: Vec<[f64; 3]> = (0..count)
+                .map(|i| [0, 1, 2].map(|c| f64::from(g.vertices[12 * f + 3 * i + c])))
+                .collect();
+            let t: Vec<[f64; 2]> = (0..count)
+                .map(|i| {
+                    [
+                        f64::from(uv[8 * f + 2 * i]) * self.width as f64,
+                        f64::from(uv[8 * f + 2 * i + 1]) * self.height as f64,
+                    ]
+                })
+                .collect();
+            if !self.face(f, &t, &pts) {
+                unfilled.push((f, t, pts));
+            }
+        }
+        for (f, t, pts) in unfilled {
+            let n = pts.len() as f64;
+            let centroid = [0, 1, 2].map(|c| pts.iter().map(|p| p[c]).sum::<f64>() / n);
+            let at = [0, 1].map(|c| t.iter().map(|p| p[c]).sum::<f64>() / n);
+            let (x, y) = (at[0].floor(), at[1].floor());
+            if x < 0.0 || y < 0.0 || x >= self.width as f64 || y >= self.height as f64 {
+                continue;
+            }
+            let i = y as usize * self.width + x as usize;
+            if !self.filled[i] {
+                self.take(i, f, centroid);
+            }
+        }
+        self.samples.sort_unstable_by_key(|s| s.texel);
+    }
+
+    fn take(&mut self, texel: usize, face: usize, point: [f64; 3]) {
+        self.filled[texel] = true;
+        self.samples.push(Sample {
+            texel: texel as u32,
+            face: face as u32,
+            point: point.map(|x| x as f32),
+        });
+    }
+
+    /// Texels whose centres lie in face `f`'s atlas polygon `t` that no earlier face took;
+    /// false when it holds no texel centre.
+    fn face(&mut self, f: usize, t: &[[f64; 2]], pts: &[[f64; 3]]) -> bool {
+        let lo = [0, 1].map(|c| t.iter().map(|p| p[c]).fold(f64::INFINITY, f64::min));
+        let hi = [0, 1].map(|c| t.iter().map(|p| p[c]).fold(f64::NEG_INFINITY, f64::max));
+        let span = |lo: f64, hi: f64, n: usize| {
+            let first = (lo - 0.5).ceil().max(0.0);
+            let last = (hi - 0.5).floor().min(n as f64 - 1.0);
+            (first as i64)..(last as i64 + 1)
+        };
+        let (xs, ys) = (
+            span(lo[0], hi[0], self.width),
+            span(lo[1], hi[1], self.height),
+        );
+        let mut any = false;
+        for y in ys {
+            for x in xs.clone() {
+                let p = [x as f64 + 0.5, y as f64 + 0.5];
+                if !inside(t, p) {
+                    continue;
+                }
+                any = true;
+                let i = y as usize * self.width + x as usize;
+                if self.filled[i] {
+                    continue;
+                }
+                if let Some(q) = lift(t, pts, p) {
+                    self.take(i, f, q);
+                }
+            }
+        }
+        any
+    }
+}
+
+fn perp_dot(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+
+fn sub2(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+/// Whether `p` lies in the convex polygon `t` (either orientation), within 1e-9 texels.
+fn inside(t: &[[f64; 2]], p: [f64; 2]) -> bool {
+    let side = |k: usize| {
+        let (a, b) = (t[k], t[(k + 1) % t.len()]);
+        let e = sub2(b, a);
+        perp_dot(e, sub2(p, a)) / (e[0] * e[0] + e[1] * e[1]).sqrt().max(f64::MIN_POSITIVE)
+    };
+    let tolerance = 1e-9;
+    (0..t.len()).all(|k| side(k) >= -tolerance) || (0..t.len()).all(|k| side(k) <= tolerance)
+}
+
+/// Barycentric coordinates of `p` in triangle `t`, None when it is degenerate.
+fn barycentric(t: [[f64; 2]; 3], p: [f64; 2]) -> Option<[f64; 3]> {
+    let (e1, e2) = (sub2(t[1], t[0]), sub2(t[2], t[0]));
+    let d = perp_dot(e1, e2);
+    let len2 = |e: [f64; 2]| e[0] * e[0] + e[1] * e[1];
+    if d.abs() <= 1e-12 * len2(e1).max(len2(e2)) {
+        return None;
+    }
+    let q = sub2(p, t[0]);
+    let b1 = perp_dot(q, e2) / d;
+    let b2 = perp_dot(e1, q) / d;
+    Some([1.0 - b1 - b2, b1, b2])
+}
+
+/// The point of the face at atlas position `p`: the affine map of the face's first
+/// non-degenerate corner triangle in the atlas onto the same corners in space.
+fn lift(t: &[[f64; 2]], pts: &[[f64; 3]], p: [f64; 2]) -> Option<[f64; 3]> {
+    (1..t.len() - 1).find_map(|i| {
+        let w = barycentric([t[0], t[i], t[i + 1]], p)?;
+        Some([0, 1, 2].map(|c| w[0] * pts[0][c] + w[1] * pts[i][c] + w[2] * pts[i + 1][c]))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testkit::faces::{EMISSION, ORDER, element_at, interleaved};
+    use lrr_formats::{LightmapAtlas, LightmapSource, LightmapUv};
+
+    /// The strip of `testkit::faces` with lightmap coordinates `uv(x, y)` at every face corner
+    /// over a `width × height` atlas dilated `padding` rings.
+    fn strip(
+        uv: impl Fn(f32, f32) -> [f32; 2],
+        width: u32,
+        height: u32,
+        padding: u32,
+    ) -> OperatorFile {
+        let mut file = interleaved();
+        let g = file.faces().geometry.clone();
+        let mut coords = vec![0.0; 8 * g.len()];
+        for f in 0..g.len() {
+            for c in 0..3 {
+                let [x, y, _] = g.vertex(f, c);
+                coords[8 * f + 2 * c..8 * f + 2 * c + 2].copy_from_slice(&uv(x, y));
+            }
+        }
+        file.display.lightmap = Some(LightmapUv {
+            uv: coords,
+            atlas: Some(LightmapAtlas {
+                width,
+                height,
+                padding,
+                source: LightmapSource::Scene,
+                density: 0.0,
+            }),
+        });
+        file.validate().unwrap();
+        file
+    }
+
+    /// Radiosity per element in original ids: the emission (one patch, `F_k = 0`).
+    fn radiosity() -> Vec<[f32; 3]> {
+        let mut b = vec![[0.0; 3]; 2];
+        for (s, &id) in ORDER.iter().enumerate() {
+            b[id as usize] = EMISSION[s];
+        }
+        b
+    }
+
+    #[test]
+    fn flat_texels_are_the_element_under_their_centre_over_pi() {
+        // 16 × 7 texels over the strip [0, 2] × [0, 1]: no texel centre on a diagonal.
+        let file = strip(|x, y| [x / 2.0, y], 16, 7, 1);
+        let mut map = Lightmap::new(&file, Some(LightmapValues::Flat)).unwrap();
+        assert_eq!((map.width(), map.height(), map.padding()), (16, 7, 1));
+        assert_eq!(map.sample_count(), 16 * 7);
+        assert_eq!(map.dilated_count(), 0, "the strip covers the atlas");
+        let mut texels = vec![[f32::NAN; 3]; 16 * 7];
+        map.fill(&radiosity(), &mut texels).unwrap();
+        for (i, s) in map.samples().enumerate() {
+            assert_eq!(s.texel, i, "samples in texel order");
+            let (x, y) = ((i % 16) as f32 + 0.5, (i / 16) as f32 + 0.5);
+            let (px, py) = (x / 8.0, y / 7.0);
+            assert!((s.point[0] - px).abs() < 1e-6 && (s.point[1] - py).abs() < 1e-6);
+            let e = element_at(px, py);
+            assert_eq!(
+                texels[i],
+                EMISSION[e].map(|v| v / std::f32::consts::PI),
+                "{s:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn smooth_texels_are_the_reconstruction_at_the_sample_over_pi() {
+        let file = strip(|x, y| [x / 2.0, y], 16, 7, 1);
+        let mut map = Lightmap::new(&file, None).unwrap();
+        assert_eq!(map.values(), LightmapValues::Smooth);
+        let b = radiosity();
+        let mut texels = vec![[0.0; 3]; 16 * 7];
+        map.fill(&b, &mut texels).unwrap();
+        let r = crate::Reconstruction::new(&file).unwrap();
+        let mut vertices = vec![[0.0; 3]; r.vertex_count()];
+        r.vertex_values(&b, &mut vertices).unwrap();
+        let mut varies = false;
+        for s in map.samples() {
+            let want = r.at(&vertices, s.face, s.point);
+            for c in 0..3 {
+                let want = want[c] / std::f32::consts::PI;
+                assert!(
+                    (texels[s.texel][c] - want).abs() <= 1e-6 * want.max(1e-6),
+                    "{s:?}"
+                );
+            }
+            varies |= texels[s.texel] != texels[0];
+        }
+        assert!(varies);
+    }
+
+    #[test]
+    fn dilation_fills_padding_rings_with_the_mean_of_filled_neighbours() {
+        // The strip over texels x 4..12, y 2..6 of a 16 × 8 atlas, dilated 2 rings.
+        let file = strip(|x, y| [0.25 + x / 4.0, 0.25 + y / 2.0], 16, 8, 2);
+        let mut map = Lightmap::new(&file, Some(LightmapValues::Flat)).unwrap();
+        assert_eq!(map.sample_count(), 8 * 4);
+        assert_eq!(map.dilated_count(), (10 * 6 - 8 * 4) + (12 * 8 - 10 * 6));
+        let mut texels = vec![[f32::NAN; 3]; 16 * 8];
+        map.fill(&radiosity(), &mut texels).unwrap();
+        let at = |x: usize, y: usize| texels[y * 16 + x];
+        // A corner of ring 1 has one filled neighbour, the chart's corner.
+        assert_eq!(at(3, 1), at(4, 2));
+        // Beside an edge: the mean of the three texels along it.
+        let mean = |v: [[f32; 3]; 3]| {
+            let mut m = [0.0f32; 3];
+            for c in 0..3 {
+                m[c] = (v[0][c] + v[1][c] + v[2][c]) / 3.0;
+            }
+            m
+        };
+        assert_eq!(at(6, 1), mean([at(5, 2), at(6, 2), at(7, 2)]));
+        // Ring 2 takes ring 1's values; beyond it every texel is zero.
+        assert_eq!(at(2, 0), at(3, 1));
+        for y in 0..8 {
+            for x in 0..16 {
+                let ring = (4i64 - x as i64)
+                    .max(x as i64 - 11)
+                    .max(2 - y as i64)
+                    .max(y as i64 - 5);
+                if ring > 2 {
+                    assert_eq!(at(x, y), [0.0; 3], "({x}, {y})");
+                } else {
+                    assert!(at(x, y).iter().sum::<f32>() > 0.0, "({x}, {y})");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn threads_give_the_same_texels() {
+        let file = strip(|x, y| [0.1 + x / 2.5, 0.05 + y * 0.7], 97, 61, 3);
+        let b = radiosity();
+        let mut one = Lightmap::new(&file, None).unwrap();
+        let mut texels = vec![[0.0; 3]; 97 * 61];
+        one.fill(&b, &mut texels).unwrap();
+        for threads in [2, 3, 7, 64] {
+            let mut many = one.clone();
+            many.set_threads(threads);
+            let mut got = vec![[f32::NAN; 3]; 97 * 61];
+            many.fill(&b, &mut got).unwrap();
+            assert_eq!(got, texels, "{threads} threads");
+        }
+        assert!(one.fill_bytes() >= 12 * 97 * 61 + 36 * one.sample_count());
+    }
+
+    #[test]
+    fn bad_calls_are_errors_that_say_what_is_wrong() {
+        let mut file = strip(|x, y| [x / 2.0, y], 16, 7, 1);
+        let mut map = Lightmap::new(&file, None).unwrap();
+        let e = map.fill(&radiosity(), &mut [[0.0; 3]; 5]).unwrap_err();
+        assert!(
+            e.to_string().contains("5 texels given for a 16×7 atlas"),
+            "{e}"
+        );
+        let e = map
+            .fill(&radiosity()[..1], &mut vec![[0.0; 3]; 16 * 7])
+            .unwrap_err();
+        assert!(e.to_string().contains("1 element values"), "{e}");
+        let e = Lightmap::with_size(&file, 0, 4, 1, None).unwrap_err();
+        assert!(e.to_string().contains("0×4 texels"), "{e}");
+        let e = Lightmap::with_size(&file, 4, 4, 65, None).unwrap_err();
+        assert!(e.to_string().contains("padding 65"), "{e}");
+        let e = Lightmap::with_coordinates(&file, &[0.0; 7], 4, 4, 1, None).unwrap_err();
+        assert!(
+            e.to_string().contains("7 coordinates for 4 display faces"),
+            "{e}"
+        );
+        file.display.lightmap.as_mut().unwrap().atlas = None;
+        let e = Lightmap::new(&file, None).unwrap_err();
+        assert!(e.to_string().contains("re-bake"), "{e}");
+        assert!(Lightmap::with_size(&file, 8, 8, 1, None).is_ok());
+        file.display.lightmap = None;
+        let e = Lightmap::with_size(&file, 8, 8, 1, None).unwrap_err();
+        assert!(e.to_string().contains("no lightmap coordinates"), "{e}");
+        let mut file = strip(|x, y| [x / 2.0, y], 16, 7, 1);
+        file.display.smooth = None;
+        let e = Lightmap::new(&file, Some(LightmapValues::Smooth)).unwrap_err();
+        assert!(e.to_string().contains("SMOOTH"), "{e}");
+        assert_eq!(
+            Lightmap::new(&file, None).unwrap().values(),
+            LightmapValues::Flat
+        );
+    }
+}
