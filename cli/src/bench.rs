@@ -35,6 +35,9 @@ pub enum BenchKind {
     /// Relit frames per second with moving point lights: the direct pass (shadow rays per
     /// second) and the operator's frame, each timed, against the same lights standing still.
     Lights(crate::bench_lights::LightsBench),
+    /// The runtime's lightmap fill (samples and dilation) against a plain pass over the bytes
+    /// it moves, on the same threads.
+    Lightmap(crate::bench_lightmap::LightmapBench),
 }
 
 #[derive(Debug, Args)]
@@ -116,6 +119,7 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
         BenchKind::Visibility(v) => return crate::bench_visibility::run(v, out),
         BenchKind::Render(r) => return crate::bench_render::run(r, out),
         BenchKind::Lights(l) => return crate::bench_lights::run(l, out),
+        BenchKind::Lightmap(l) => return crate::bench_lightmap::run(l, out),
     };
     if b.device != crate::emission::Device::Cpu {
         let operators = Operators {

@@ -14,6 +14,7 @@ mod accuracy;
 mod bake;
 mod bench;
 mod bench_gpu;
+mod bench_lightmap;
 mod bench_lights;
 mod bench_operators;
 mod bench_render;

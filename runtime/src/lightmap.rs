@@ -732,36 +732,16 @@ fn lift(t: &[[f64; 2]], pts: &[[f64; 3]], p: [f64; 2]) -> Option<[f64; 3]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testkit::faces::{EMISSION, ORDER, element_at, interleaved};
-    use lrr_formats::{LightmapAtlas, LightmapSource, LightmapUv};
+    use crate::testkit::faces::{EMISSION, ORDER, element_at, lightmapped};
 
-    /// The strip of `testkit::faces` with lightmap coordinates `uv(x, y)` at every face corner
-    /// over a `width × height` atlas dilated `padding` rings.
+    /// The strip of `testkit::faces` with lightmap coordinates `uv(x, y)`.
     fn strip(
         uv: impl Fn(f32, f32) -> [f32; 2],
         width: u32,
         height: u32,
         padding: u32,
     ) -> OperatorFile {
-        let mut file = interleaved();
-        let g = file.faces().geometry.clone();
-        let mut coords = vec![0.0; 8 * g.len()];
-        for f in 0..g.len() {
-            for c in 0..3 {
-                let [x, y, _] = g.vertex(f, c);
-                coords[8 * f + 2 * c..8 * f + 2 * c + 2].copy_from_slice(&uv(x, y));
-            }
-        }
-        file.display.lightmap = Some(LightmapUv {
-            uv: coords,
-            atlas: Some(LightmapAtlas {
-                width,
-                height,
-                padding,
-                source: LightmapSource::Scene,
-                density: 0.0,
-            }),
-        });
+        let file = lightmapped(uv, width, height, padding);
         file.validate().unwrap();
         file
     }

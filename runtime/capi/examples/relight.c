@@ -1,7 +1,7 @@
 /*
  * relight: radiosity at surface points of a baked scene, through the lrr C interface.
  *
- *   relight FILE.lrr [--scale S] [--points FILE] [X Y Z NX NY NZ]...
+ *   relight FILE.lrr [--scale S] [--points FILE] [--lightmap OUT.pfm] [X Y Z NX NY NZ]...
  *
  * Loads the operator, scales the baked emission by S (default 1), evaluates the radiosity of
  * every element once, then prints for each probe point (a position and a normal, from the
@@ -11,6 +11,11 @@
  *
  * with 9 significant digits, enough to read back the exact float. With S = 1 the numbers are
  * those of `lrr probe FILE.lrr --points P.json` (tests/tests/e2e/capi.rs checks it).
+ *
+ * With --lightmap, the frame also fills the file's lightmap atlas (lrr_lightmap_*: B/pi per
+ * texel) and writes it to OUT.pfm (Portable Float Map: "PF", width height, -1 for little-endian
+ * floats, then RGB rows bottom to top); the texels are those of
+ * `lrr export FILE.lrr -o OUT.exr --samples float` (tests/tests/e2e/capi.rs checks it).
  *
  * Build (see runtime/capi/include/lrr.h):
  *   cc relight.c -I runtime/capi/include target/release/liblrr_capi.a -lpthread -ldl -lm
@@ -34,7 +39,8 @@ static void die(const char *what) {
 }
 
 static void usage(void) {
-    fprintf(stderr, "usage: relight FILE.lrr [--scale S] [--points FILE] [X Y Z NX NY NZ]...\n");
+    fprintf(stderr, "usage: relight FILE.lrr [--scale S] [--points FILE] [--lightmap OUT.pfm] "
+                    "[X Y Z NX NY NZ]...\n");
     exit(2);
 }
 
@@ -92,6 +98,44 @@ static void read_points(const char *path, points *p) {
     fclose(f);
 }
 
+/* Fills the lightmap of `op` from `radiosity` and writes it to `path` as a PFM. */
+static void write_lightmap(const lrr_operator *op, const float *radiosity, size_t n,
+                           const char *path) {
+    lrr_lightmap *map = NULL;
+    uint32_t w = 0, h = 0;
+    if (lrr_lightmap_new(op, &map) != LRR_OK || lrr_lightmap_size(map, &w, &h) != LRR_OK) {
+        die("lightmap");
+    }
+    size_t len = 3 * (size_t)w * h;
+    float *texels = malloc(len * sizeof(float));
+    if (!texels) {
+        perror("relight");
+        exit(1);
+    }
+    if (lrr_lightmap_fill(map, radiosity, 3 * n, texels, len) != LRR_OK) {
+        die("lightmap fill");
+    }
+    FILE *f = fopen(path, "wb");
+    if (!f) {
+        fprintf(stderr, "relight: cannot create %s: %s\n", path, strerror(errno));
+        exit(1);
+    }
+    /* PFM rows run bottom to top; the lightmap's top to bottom. Little-endian hosts assumed. */
+    fprintf(f, "PF\n%u %u\n-1.0\n", (unsigned)w, (unsigned)h);
+    for (uint32_t y = h; y-- > 0;) {
+        if (fwrite(&texels[3 * (size_t)w * y], sizeof(float), 3 * (size_t)w, f) != 3 * (size_t)w) {
+            fprintf(stderr, "relight: writing %s failed\n", path);
+            exit(1);
+        }
+    }
+    if (fclose(f) != 0) {
+        fprintf(stderr, "relight: writing %s failed\n", path);
+        exit(1);
+    }
+    free(texels);
+    lrr_lightmap_free(map);
+}
+
 int main(int argc, char **argv) {
     if (argc < 2) {
         usage();
@@ -99,12 +143,15 @@ int main(int argc, char **argv) {
     const char *file = argv[1];
     float scale = 1.0f;
     points p = {NULL, 0, 0};
+    const char *lightmap = NULL;
     for (int i = 2; i < argc; i++) {
         if (strcmp(argv[i], "--scale") == 0 && i + 1 < argc) {
             if (!parse_float(argv[++i], &scale) || !(scale >= 0.0f)) {
                 fprintf(stderr, "relight: --scale needs a non-negative number\n");
                 return 2;
             }
+        } else if (strcmp(argv[i], "--lightmap") == 0 && i + 1 < argc) {
+            lightmap = argv[++i];
         } else if (strcmp(argv[i], "--points") == 0 && i + 1 < argc) {
             read_points(argv[++i], &p);
         } else {
@@ -148,6 +195,9 @@ int main(int argc, char **argv) {
         }
         const float *b = &radiosity[3 * (size_t)e];
         printf("%u %.9g %.9g %.9g\n", (unsigned)e, b[0], b[1], b[2]);
+    }
+    if (lightmap) {
+        write_lightmap(op, radiosity, n, lightmap);
     }
     lrr_free(op);
     free(emission);

@@ -149,6 +149,37 @@ int32_t lrr_direct_at(const lrr_direct *direct, const float *lights, size_t ligh
 void lrr_direct_free(lrr_direct *direct);
 
 /*
+ * Lightmaps filled every frame: the texels of the lightmap atlas the bake laid out (the scene's
+ * TEXCOORD_1, or charts the bake packed; every file of this lrr has one), each the exitant
+ * radiance B/pi of the surface under it, RGB, rows top to bottom (v = 0 the first row),
+ * smooth when the file has smooth weights, dilated the atlas's padding around the charts.
+ */
+typedef struct lrr_lightmap lrr_lightmap;
+
+/*
+ * Makes the lightmap of `op` into *out_lightmap, freed with lrr_lightmap_free; NULL there on
+ * failure. Built once (it rasterises the display faces); the operator may be freed afterwards.
+ * Errors: LRR_ERROR_NULL, LRR_ERROR_BUFFER, LRR_ERROR_INPUT (a file without an atlas).
+ */
+int32_t lrr_lightmap_new(const lrr_operator *op, lrr_lightmap **out_lightmap);
+
+/* The atlas's width and height in texels. Errors: LRR_ERROR_NULL, LRR_ERROR_BUFFER. */
+int32_t lrr_lightmap_size(const lrr_lightmap *lightmap, uint32_t *out_width,
+                          uint32_t *out_height);
+
+/*
+ * Fills `texels` (3 * width * height floats) from `radiosity` (3 * n floats, interleaved RGB
+ * by element id, what lrr_evaluate writes); the buffers must not overlap. One pass over a
+ * sparse table, no allocation, on every core. One thread at a time per lightmap. Errors:
+ * LRR_ERROR_NULL, LRR_ERROR_LENGTH, LRR_ERROR_BUFFER.
+ */
+int32_t lrr_lightmap_fill(lrr_lightmap *lightmap, const float *radiosity, size_t radiosity_len,
+                          float *texels, size_t texels_len);
+
+/* Frees a lightmap from lrr_lightmap_new. NULL does nothing. */
+void lrr_lightmap_free(lrr_lightmap *lightmap);
+
+/*
  * The message of the last call that failed on the calling thread (NUL-terminated UTF-8), or ""
  * if none has. The string belongs to the library: do not free it. It stays valid until the next
  * failing lrr_ call on the same thread; successful calls leave it unchanged.

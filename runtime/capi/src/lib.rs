@@ -42,6 +42,7 @@
 #![deny(clippy::undocumented_unsafe_blocks)]
 
 mod args;
+mod lightmap;
 mod lights;
 mod status;
 
@@ -50,6 +51,9 @@ use std::path::Path;
 
 use lrr_runtime::Operator;
 
+pub use lightmap::{
+    LrrLightmap, lrr_lightmap_fill, lrr_lightmap_free, lrr_lightmap_new, lrr_lightmap_size,
+};
 pub use lights::{
     LRR_LIGHT_FLOATS, LrrDirect, lrr_direct_at, lrr_direct_emission, lrr_direct_free,
     lrr_direct_new,

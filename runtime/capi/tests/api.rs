@@ -404,3 +404,67 @@ fn lights_give_the_runtimes_emission_and_point_values() {
         lrr_free(op);
     }
 }
+
+#[test]
+fn a_lightmap_fills_the_runtimes_texels_and_refuses_bad_buffers() {
+    use lrr_runtime::testkit::faces::lightmapped;
+    let bytes = lightmapped(|x, y| [0.1 + x / 2.5, 0.05 + y * 0.7], 37, 23, 2)
+        .to_bytes()
+        .unwrap();
+    let op = load(&bytes);
+    let rust = Operator::from_bytes(&bytes).unwrap();
+    let b: Vec<[f32; 3]> = vec![[1.0, 0.5, 0.25], [0.0, 0.25, 2.0]];
+    let mut want = vec![[0.0f32; 3]; 37 * 23];
+    lrr_runtime::Lightmap::new(rust.file(), None)
+        .unwrap()
+        .fill(&b, &mut want)
+        .unwrap();
+    let flat: Vec<f32> = b.concat();
+    let mut map = null_mut();
+    let (mut w, mut h) = (0u32, 0u32);
+    let mut texels = vec![f32::NAN; 3 * 37 * 23];
+    // SAFETY: live handles until freed below; every buffer has the length passed.
+    unsafe {
+        assert_eq!(lrr_lightmap_new(op, &mut map), LRR_OK, "{}", last_error());
+        // The operator may go first: the lightmap keeps what it needs.
+        lrr_free(op);
+        assert_eq!(lrr_lightmap_size(map, &mut w, &mut h), LRR_OK);
+        assert_eq!((w, h), (37, 23));
+        let code = lrr_lightmap_fill(map, flat.as_ptr(), 6, texels.as_mut_ptr(), texels.len());
+        assert_eq!(code, LRR_OK, "{}", last_error());
+        let got: Vec<[f32; 3]> = texels.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
+        assert_eq!(got, want);
+        // A short texel buffer, a missing one, a short radiosity: errors that say so.
+        let before = texels.clone();
+        let code = lrr_lightmap_fill(map, flat.as_ptr(), 6, texels.as_mut_ptr(), 30);
+        assert_eq!(code, LRR_ERROR_LENGTH);
+        assert!(
+            last_error().contains("37×23 atlas needs 3 × 851"),
+            "{}",
+            last_error()
+        );
+        let code = lrr_lightmap_fill(map, flat.as_ptr(), 6, null_mut(), 0);
+        assert_eq!(code, LRR_ERROR_NULL);
+        let code = lrr_lightmap_fill(map, flat.as_ptr(), 3, texels.as_mut_ptr(), texels.len());
+        assert_eq!(code, LRR_ERROR_LENGTH);
+        // The radiosity inside the texels: overlapping buffers.
+        let code = lrr_lightmap_fill(map, texels.as_ptr(), 6, texels.as_mut_ptr(), texels.len());
+        assert_eq!(code, LRR_ERROR_BUFFER, "{}", last_error());
+        assert_eq!(texels.len(), before.len());
+        assert_eq!(lrr_lightmap_size(null(), &mut w, &mut h), LRR_ERROR_NULL);
+        lrr_lightmap_free(map);
+        lrr_lightmap_free(null_mut());
+    }
+    // A file without an atlas is refused in one line that says how to get one.
+    let mut file = lightmapped(|x, y| [x / 2.0, y], 8, 8, 1);
+    file.display.lightmap = None;
+    let op = load(&file.to_bytes().unwrap());
+    let mut map = null_mut();
+    // SAFETY: a live handle, freed below.
+    unsafe {
+        assert_eq!(lrr_lightmap_new(op, &mut map), LRR_ERROR_INPUT);
+        assert!(map.is_null());
+        lrr_free(op);
+    }
+    assert!(last_error().contains("re-bake"), "{}", last_error());
+}

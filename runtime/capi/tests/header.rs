@@ -57,6 +57,7 @@ fn rust_type_to_c(ty: &str) -> String {
         "f32" => "float",
         "LrrOperator" => "lrr_operator",
         "LrrDirect" => "lrr_direct",
+        "LrrLightmap" => "lrr_lightmap",
         other => panic!("no C spelling known for the Rust type `{other}`: extend rust_type_to_c"),
     }
     .to_string()

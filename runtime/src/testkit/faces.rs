@@ -22,8 +22,8 @@
 //! over the faces' 4 triangles, one diffuse material, a camera `"top"` looking down at the strip.
 
 use lrr_formats::{
-    Camera, Display, Faces, Geometry, Material, Materials, OperatorData, OperatorFile, Precision,
-    Smooth, StoredMatrix,
+    Camera, Display, Faces, Geometry, LightmapAtlas, LightmapSource, LightmapUv, Material,
+    Materials, OperatorData, OperatorFile, Precision, Smooth, StoredMatrix,
 };
 
 /// The emitted exitance of elements 0 and 1 (file positions).
@@ -107,6 +107,37 @@ pub fn interleaved() -> OperatorFile {
             ..Display::default()
         },
     };
+    debug_assert!(file.validate().is_ok());
+    file
+}
+
+/// [`interleaved`] with lightmap coordinates `uv(x, y)` at every face corner (section
+/// LIGHTMAP) over a `width × height` atlas dilated `padding` rings (ATLAS, the scene's own).
+pub fn lightmapped(
+    uv: impl Fn(f32, f32) -> [f32; 2],
+    width: u32,
+    height: u32,
+    padding: u32,
+) -> OperatorFile {
+    let mut file = interleaved();
+    let g = file.faces().geometry.clone();
+    let mut coords = vec![0.0; 8 * g.len()];
+    for f in 0..g.len() {
+        for c in 0..usize::from(g.vertex_count[f]) {
+            let [x, y, _] = g.vertex(f, c);
+            coords[8 * f + 2 * c..8 * f + 2 * c + 2].copy_from_slice(&uv(x, y));
+        }
+    }
+    file.display.lightmap = Some(LightmapUv {
+        uv: coords,
+        atlas: Some(LightmapAtlas {
+            width,
+            height,
+            padding,
+            source: LightmapSource::Scene,
+            density: 0.0,
+        }),
+    });
     debug_assert!(file.validate().is_ok());
     file
 }

@@ -117,6 +117,32 @@ fn relight(exe: &Path, args: &[&str]) -> Vec<(u32, [f32; 3])> {
         .collect()
 }
 
+/// A Portable Float Map as the C example writes it (RGB, little-endian, rows bottom to top),
+/// rows top to bottom.
+fn read_pfm(path: &Path) -> (usize, usize, Vec<[f32; 3]>) {
+    let bytes = std::fs::read(path).unwrap();
+    let mut lines = bytes.splitn(4, |&b| b == b'\n');
+    assert_eq!(lines.next(), Some(&b"PF"[..]));
+    let size = std::str::from_utf8(lines.next().unwrap()).unwrap();
+    let (w, h) = size.split_once(' ').unwrap();
+    let (w, h): (usize, usize) = (w.parse().unwrap(), h.parse().unwrap());
+    assert_eq!(lines.next(), Some(&b"-1.0"[..]));
+    let data = lines.next().unwrap();
+    assert_eq!(data.len(), 12 * w * h);
+    let floats: Vec<f32> = data
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    let mut rows = Vec::with_capacity(w * h);
+    for y in (0..h).rev() {
+        for x in 0..w {
+            let i = 3 * (y * w + x);
+            rows.push([floats[i], floats[i + 1], floats[i + 2]]);
+        }
+    }
+    (w, h, rows)
+}
+
 /// Floats equal to f32 precision: within 2 units of the last place (both sides run the same
 /// evaluation; the margin only allows a future reordering of one sum).
 fn same(a: f32, b: f32) -> bool {
@@ -204,6 +230,37 @@ fn c_program_prints_what_lrr_probe_prints() {
     let mut scaled = args.clone();
     scaled.extend(["--scale", "2"]);
     check(&relight(&exe, &scaled), 2.0, "static library, emission × 2");
+
+    // The lightmap the C program fills is `lrr export`'s EXR, texel for texel (the radiosity
+    // of both sides agrees to 2 ulps, see `same`).
+    let pfm = dir.join("lightmap.pfm");
+    let mut with_map = args.clone();
+    with_map.extend(["--lightmap", pfm.to_str().unwrap()]);
+    relight(&exe, &with_map);
+    let (w, h, c_texels) = read_pfm(&pfm);
+    let exr = dir.join("lightmap.exr");
+    crate::util::lrr(&[
+        "export",
+        baked.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--samples",
+        "float",
+    ])
+    .unwrap();
+    let (ew, eh, exported) = crate::scene_lightmap::read_rgb(&exr);
+    assert_eq!((w, h), (ew, eh));
+    let mut lit = 0;
+    for (i, (c, e)) in c_texels.iter().zip(&exported).enumerate() {
+        for k in 0..3 {
+            assert!(
+                (c[k] - e[k]).abs() <= 4.0 * f32::EPSILON * e[k].abs(),
+                "texel {i}: C {c:?} against lrr export {e:?}"
+            );
+        }
+        lit += usize::from(e[0] > 0.0);
+    }
+    assert!(lit > w * h / 4, "{lit} of {} texels lit", w * h);
 
     // The shared library, found at run time through the rpath.
     let libdir = dir.join("lib");

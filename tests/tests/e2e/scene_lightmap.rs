@@ -111,7 +111,7 @@ fn baked(dir: &Path) -> std::path::PathBuf {
 }
 
 /// The RGB float pixels of a one-layer EXR.
-fn read_rgb(path: &Path) -> (usize, usize, Vec<[f32; 3]>) {
+pub(crate) fn read_rgb(path: &Path) -> (usize, usize, Vec<[f32; 3]>) {
     use exr::prelude::*;
     let image = read_all_flat_layers_from_file(path).unwrap();
     let layer = &image.layer_data[0];

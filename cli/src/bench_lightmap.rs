@@ -1,0 +1,186 @@
+//! `lrr bench lightmap`: the runtime's lightmap fill (`lrr_runtime::Lightmap`, issue #34)
+//! against its memory roofline. A fill reads the sample table (texel, four smooth vertices and
+//! weights per sample), the dilation table and the smooth vertices' rows, and writes every
+//! texel: [`Lightmap::fill_bytes`]. The roofline is a plain pass over as many bytes on the same
+//! threads, split the same way (each thread reads its share of a table of the table's size and
+//! writes its share of an atlas of the atlas's size), so the ratio says how close the fill comes
+//! to what moving its bytes costs on this machine. Fill and roofline are alternated over rounds;
+//! medians are reported.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Result, bail};
+use clap::Args;
+use lrr_runtime::{Lightmap, Operator};
+use serde::Serialize;
+
+#[derive(Debug, Args)]
+pub struct LightmapBench {
+    /// Operator file (with lightmap coordinates: baked by this version).
+    pub file: PathBuf,
+    /// A square atlas of N×N texels over the file's coordinates [default: the file's atlas].
+    #[arg(long, value_name = "N")]
+    pub size: Option<usize>,
+    /// Threads of the fill [default: all cores].
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Fills per round.
+    #[arg(long, default_value_t = 20)]
+    pub frames: usize,
+    /// Rounds (fill, roofline, fill, … alternated).
+    #[arg(long, default_value_t = 5)]
+    pub rounds: usize,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// What one run measured (medians over rounds of the per-frame time).
+#[derive(Debug, Clone, Serialize)]
+pub struct LightmapRow {
+    pub width: usize,
+    pub height: usize,
+    pub samples: usize,
+    pub dilated: usize,
+    pub threads: usize,
+    /// Bytes a fill moves at least ([`Lightmap::fill_bytes`]).
+    pub bytes: usize,
+    /// Seconds of a whole fill, of its samples' pass and of its dilation.
+    pub fill_s: f64,
+    pub samples_s: f64,
+    pub dilate_s: f64,
+    /// Seconds of the roofline's pass over the same bytes.
+    pub roofline_s: f64,
+    /// `bytes / fill_s` and `bytes / roofline_s`, GB/s.
+    pub fill_gbps: f64,
+    pub roofline_gbps: f64,
+    /// `roofline_s / fill_s`: the share of the roofline the fill reaches.
+    pub of_roofline: f64,
+}
+
+pub fn run(a: &LightmapBench, out: &mut dyn Write) -> Result<()> {
+    if a.frames == 0 || a.rounds == 0 {
+        bail!("--frames and --rounds must be at least 1");
+    }
+    let op = Operator::load(&a.file).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
+    let mut map = match a.size {
+        Some(n) => {
+            let padding = op
+                .file()
+                .display
+                .lightmap
+                .as_ref()
+                .and_then(|l| l.atlas)
+                .map_or(2, |atlas| atlas.padding as usize);
+            Lightmap::with_size(op.file(), n, n, padding, None)?
+        }
+        None => Lightmap::new(op.file(), None)?,
+    };
+    let threads = match a.threads {
+        Some(0) | None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        Some(t) => t,
+    };
+    map.set_threads(threads);
+    let b = op.evaluate_baked();
+    let texels = map.width() * map.height();
+    let mut atlas = vec![[0.0f32; 3]; texels];
+    let table = vec![1u32; (map.fill_bytes() - 12 * texels).div_ceil(4)];
+    let mut plain = vec![[0.0f32; 3]; texels];
+    // One untimed fill and pass: pages touched, caches warm.
+    map.fill(&b, &mut atlas)?;
+    roofline(&table, &mut plain, threads);
+    let (mut fill, mut samples, mut dilate, mut line) = (vec![], vec![], vec![], vec![]);
+    for _ in 0..a.rounds {
+        let t = Instant::now();
+        for _ in 0..a.frames {
+            map.fill(&b, &mut atlas)?;
+        }
+        fill.push(t.elapsed().as_secs_f64() / a.frames as f64);
+        let t = Instant::now();
+        for _ in 0..a.frames {
+            roofline(&table, &mut plain, threads);
+        }
+        line.push(t.elapsed().as_secs_f64() / a.frames as f64);
+        let (mut s, mut d) = (0.0, 0.0);
+        for _ in 0..a.frames {
+            let t = Instant::now();
+            map.fill_samples(&b, &mut atlas)?;
+            s += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            map.dilate(&mut atlas)?;
+            d += t.elapsed().as_secs_f64();
+        }
+        samples.push(s / a.frames as f64);
+        dilate.push(d / a.frames as f64);
+    }
+    let bytes = map.fill_bytes();
+    let (fill_s, roofline_s) = (median(&mut fill), median(&mut line));
+    let row = LightmapRow {
+        width: map.width(),
+        height: map.height(),
+        samples: map.sample_count(),
+        dilated: map.dilated_count(),
+        threads,
+        bytes,
+        fill_s,
+        samples_s: median(&mut samples),
+        dilate_s: median(&mut dilate),
+        roofline_s,
+        fill_gbps: bytes as f64 / fill_s / 1e9,
+        roofline_gbps: bytes as f64 / roofline_s / 1e9,
+        of_roofline: roofline_s / fill_s,
+    };
+    if a.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&row)?)?;
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "lightmap {}×{}: {} samples, {} dilated texels, {:.1} MB per fill, {} threads",
+        row.width,
+        row.height,
+        row.samples,
+        row.dilated,
+        row.bytes as f64 / 1e6,
+        row.threads
+    )?;
+    writeln!(
+        out,
+        "fill      {:8.3} ms  {:6.2} GB/s  (samples {:.3} ms, dilation {:.3} ms)",
+        1e3 * row.fill_s,
+        row.fill_gbps,
+        1e3 * row.samples_s,
+        1e3 * row.dilate_s
+    )?;
+    writeln!(
+        out,
+        "roofline  {:8.3} ms  {:6.2} GB/s  (a plain pass over the same bytes)",
+        1e3 * row.roofline_s,
+        row.roofline_gbps
+    )?;
+    writeln!(out, "fill / roofline: {:.2}", row.of_roofline)?;
+    Ok(())
+}
+
+/// Each of `threads` threads reads its share of `table` and writes its share of `texels`.
+fn roofline(table: &[u32], texels: &mut [[f32; 3]], threads: usize) {
+    let read = table.len().div_ceil(threads).max(1);
+    let write = texels.len().div_ceil(threads).max(1);
+    std::thread::scope(|s| {
+        for (part, out) in table.chunks(read).zip(texels.chunks_mut(write)) {
+            s.spawn(move || {
+                let sum = part.iter().fold(0u32, |a, &x| a.wrapping_add(x));
+                let v = std::hint::black_box(sum) as f32;
+                out.fill([v; 3]);
+            });
+        }
+    });
+    std::hint::black_box(texels);
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
