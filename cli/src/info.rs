@@ -102,6 +102,16 @@ fn display_json(f: &lrr_formats::OperatorFile) -> serde_json::Value {
         "cameras": d.cameras.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(),
         "bvh_nodes": d.bvh.as_ref().map(|b| b.nodes.len()),
         "lightmap_uv": d.lightmap.is_some(),
+        "lightmap_atlas": d.lightmap.as_ref().and_then(|l| l.atlas).map(|a| serde_json::json!({
+            "width": a.width,
+            "height": a.height,
+            "padding": a.padding,
+            "source": match a.source {
+                lrr_formats::LightmapSource::Scene => "scene",
+                lrr_formats::LightmapSource::Generated => "generated",
+            },
+            "density": a.density,
+        })),
         "faces": d.faces.as_ref().map(|faces| faces.element.len()),
     })
 }
@@ -140,8 +150,21 @@ fn display_line(f: &lrr_formats::OperatorFile) -> String {
     if let Some(b) = &d.bvh {
         parts.push(format!("BVH ({} nodes; lrr render)", b.nodes.len()));
     }
-    if d.lightmap.is_some() {
-        parts.push("the scene's lightmap coordinates (lrr export --uv scene)".into());
+    if let Some(l) = &d.lightmap {
+        parts.push(match l.atlas {
+            Some(a) => match a.source {
+                lrr_formats::LightmapSource::Scene => format!(
+                    "the scene's lightmap coordinates in a {}×{} atlas, padding {} (lrr export)",
+                    a.width, a.height, a.padding
+                ),
+                lrr_formats::LightmapSource::Generated => format!(
+                    "a {}×{} lightmap atlas of generated charts, {:.4} texels per unit, padding \
+                     {} (lrr export)",
+                    a.width, a.height, a.density, a.padding
+                ),
+            },
+            None => "the scene's lightmap coordinates (lrr export --uv scene)".into(),
+        });
     }
     if let Some(faces) = &d.faces {
         parts.push(format!(

@@ -399,32 +399,54 @@ impl Lightmap {
     /// at the samples) `padding` rings deep.
     pub fn dilate(&mut self, out: &mut [[f32; 3]]) -> Result<(), RuntimeError> {
         self.check_out(out)?;
+        let mut values = std::mem::take(&mut self.ring_values);
         let mut begin = 0;
         for &end in &self.ring_ends {
             let ring = begin..end as usize;
-            self.ring_values.clear();
-            for i in ring.clone() {
-                let from = if i == 0 {
-                    0
-                } else {
-                    self.neighbour_ends[i - 1] as usize
-                };
-                let around = &self.neighbours[from..self.neighbour_ends[i] as usize];
-                let mut sum = [0.0f32; 3];
-                for &j in around {
-                    for c in 0..3 {
-                        sum[c] += out[j as usize][c];
+            values.clear();
+            values.resize(ring.len(), [0.0; 3]);
+            // Each thread takes a share of the ring's texels, reading the texels of the rings
+            // before; the values are written once all are known.
+            let threads = self.threads.max(1).min(ring.len().div_ceil(4096)).max(1);
+            let chunk = ring.len().div_ceil(threads).max(1);
+            let this = &*self;
+            let shown = &*out;
+            if threads == 1 {
+                this.ring_means(ring.start, &mut values, shown);
+            } else {
+                std::thread::scope(|s| {
+                    for (c, part) in values.chunks_mut(chunk).enumerate() {
+                        s.spawn(move || this.ring_means(ring.start + c * chunk, part, shown));
                     }
-                }
-                let scale = 1.0 / around.len() as f32;
-                self.ring_values.push(sum.map(|x| x * scale));
+                });
             }
-            for (i, v) in ring.zip(&self.ring_values) {
+            for (i, v) in ring.zip(&values) {
                 out[self.dilated[i] as usize] = *v;
             }
             begin = end as usize;
         }
+        self.ring_values = values;
         Ok(())
+    }
+
+    /// The means of the filled neighbours of dilated texels `first..first + values.len()`.
+    fn ring_means(&self, first: usize, values: &mut [[f32; 3]], out: &[[f32; 3]]) {
+        for (i, value) in (first..).zip(values) {
+            let from = if i == 0 {
+                0
+            } else {
+                self.neighbour_ends[i - 1] as usize
+            };
+            let around = &self.neighbours[from..self.neighbour_ends[i] as usize];
+            let mut sum = [0.0f32; 3];
+            for &j in around {
+                for c in 0..3 {
+                    sum[c] += out[j as usize][c];
+                }
+            }
+            let scale = 1.0 / around.len() as f32;
+            *value = sum.map(|x| x * scale);
+        }
     }
 
     fn check_out(&self, out: &[[f32; 3]]) -> Result<(), RuntimeError> {

@@ -23,8 +23,8 @@ use json::validation::Checked::Valid;
 use json::validation::USize64;
 use lrr_formats::{Geometry, OperatorFile};
 
-use super::charts::{corners, normal};
 use super::field::Field;
+use lrr_precompute::display::charts::{corners, normal};
 
 /// The exported triangles with their vertex attributes.
 #[derive(Debug, Clone, Default)]
