@@ -67,18 +67,18 @@ pub struct LightmapSample {
 /// A lightmap of one operator file: built once, filled every frame. See the module docs.
 #[derive(Debug, Clone)]
 pub struct Lightmap {
-    width: usize,
-    height: usize,
-    padding: usize,
-    values: LightmapValues,
+    pub(crate) width: usize,
+    pub(crate) height: usize,
+    pub(crate) padding: usize,
+    pub(crate) values: LightmapValues,
     /// Per sample, in increasing texel order: its texel, face and point.
-    texel: Vec<u32>,
-    face: Vec<u32>,
+    pub(crate) texel: Vec<u32>,
+    pub(crate) face: Vec<u32>,
     point: Vec<[f32; 3]>,
     /// Smooth: 4 per sample, smooth vertex and weight (times 1/π; unused corners weight 0).
     /// Flat: 1 per sample, the element's original id, and no weights (1/π).
-    index: Vec<u32>,
-    weight: Vec<f32>,
+    pub(crate) index: Vec<u32>,
+    pub(crate) weight: Vec<f32>,
     /// The smooth vertices' weights over elements (original ids), SMOOTH's rows.
     vertex_offsets: Vec<u32>,
     vertex_elements: Vec<u32>,
@@ -87,10 +87,10 @@ pub struct Lightmap {
     vertices: Vec<[f32; 3]>,
     /// Dilation: `ring_ends[r]` ends ring `r` in `dilated`; each dilated texel's filled
     /// neighbours are `neighbours[neighbour_ends[i - 1]..neighbour_ends[i]]`.
-    ring_ends: Vec<u32>,
-    dilated: Vec<u32>,
-    neighbour_ends: Vec<u32>,
-    neighbours: Vec<u32>,
+    pub(crate) ring_ends: Vec<u32>,
+    pub(crate) dilated: Vec<u32>,
+    pub(crate) neighbour_ends: Vec<u32>,
+    pub(crate) neighbours: Vec<u32>,
     /// A ring's values before they are written.
     ring_values: Vec<[f32; 3]>,
     threads: usize,

@@ -34,6 +34,11 @@
 //! base + ρ ⊙ H` written where the passes above read the emission; its CPU mirror is the
 //! runtime's `DirectLighting`.
 //!
+//! An engine that rasterises the scene takes the light as a lightmap: `lightmap.wgsl`
+//! ([`LIGHTMAP_FILL`], [`LightmapParams`]) fills an `rgba16float` storage texture from `B` (smooth:
+//! after `smooth.wgsl`, four smooth-vertex values per texel; flat: the element's value), then
+//! dilates it ring by ring; its CPU twin is the runtime's `Lightmap`.
+//!
 //! [`Pass::Read`] (`read.wgsl`) is not a step of a frame: it reads the gather's bytes and
 //! nothing else, the roofline the benchmark compares the gather with.
 //!
@@ -108,6 +113,7 @@
 
 pub mod cpu;
 mod direct;
+mod lightmap;
 mod params;
 mod smooth;
 mod trace;
@@ -118,6 +124,10 @@ mod naga_tests;
 pub use direct::{
     DIRECT_BINDINGS, DIRECT_ENTRY, DIRECT_LANES, DIRECT_PASS, DIRECT_SAMPLE_BYTES,
     DIRECT_SAMPLE_FIELDS, DirectConstants, DirectParams, direct_sample,
+};
+pub use lightmap::{
+    LIGHTMAP_BINDINGS, LIGHTMAP_ENTRY, LIGHTMAP_FILL, LIGHTMAP_FLAT, LIGHTMAP_LANES, LIGHTMAP_RING,
+    LIGHTMAP_SMOOTH, LightmapParams,
 };
 pub use params::{GatherConstants, Params};
 pub use smooth::{SMOOTH_BINDINGS, SMOOTH_ENTRY, SMOOTH_LANES, SMOOTH_VERTICES, SmoothParams};
@@ -217,6 +227,8 @@ pub enum Access {
     Read,
     /// `var<storage, read_write>`.
     ReadWrite,
+    /// `texture_storage_2d<rgba16float, write>`: a 2D storage texture the pass writes.
+    WriteTexture,
 }
 
 /// One binding of a pass, in group 0.

@@ -190,6 +190,7 @@ fn bindings_are_as_documented() {
                     {
                         Access::ReadWrite
                     }
+                    AddressSpace::Handle => write_texture(&module, var.ty),
                     space => panic!("{pass:?}: {space:?}"),
                 };
                 Some((binding.binding, var.name.clone()?, access))
@@ -276,6 +277,7 @@ fn used_bindings(module: &Module, info: &ModuleInfo, index: usize) -> Vec<(u32, 
                 AddressSpace::Storage { access } if access.contains(StorageAccess::STORE) => {
                     Access::ReadWrite
                 }
+                AddressSpace::Handle => write_texture(module, var.ty),
                 space => panic!("{space:?}"),
             };
             Some((binding.binding, var.name.clone()?, access))
@@ -283,6 +285,25 @@ fn used_bindings(module: &Module, info: &ModuleInfo, index: usize) -> Vec<(u32, 
         .collect();
     found.sort_by_key(|b| b.0);
     found
+}
+
+/// [`Access::WriteTexture`] for a `texture_storage_2d<rgba16float, write>`; anything else of
+/// the handle space is a panic (no pass binds one).
+fn write_texture(module: &Module, ty: naga::Handle<naga::Type>) -> Access {
+    match module.types[ty].inner {
+        TypeInner::Image {
+            dim: naga::ImageDimension::D2,
+            arrayed: false,
+            class:
+                naga::ImageClass::Storage {
+                    format: naga::StorageFormat::Rgba16Float,
+                    access,
+                },
+        } if access == StorageAccess::STORE => Access::WriteTexture,
+        ref other => {
+            panic!("a handle binding that is no write-only rgba16float 2D texture: {other:?}")
+        }
+    }
 }
 
 fn expected_bindings(bindings: &[crate::Binding]) -> Vec<(u32, String, Access)> {
@@ -660,4 +681,73 @@ fn shared_parts_bind_only_the_bvh() {
     }
     assert!(crate::TRACE.starts_with(&shared));
     assert!(crate::DIRECT_PASS.starts_with(&shared));
+}
+
+// The lightmap fill (`lightmap.wgsl`): self-contained, no optional capability.
+
+/// Parsed, validated with no capability, compiled to SPIR-V; its entry point, workgroup size,
+/// bindings (against [`crate::LIGHTMAP_BINDINGS`]), modes and uniform (against
+/// [`crate::LightmapParams::FIELDS`], all `u32`) are the host's.
+#[test]
+fn lightmap_pass_compiles_and_matches_the_host() {
+    let module = naga::front::wgsl::parse_str(crate::LIGHTMAP_FILL).unwrap_or_else(|e| {
+        panic!(
+            "lightmap.wgsl does not parse:\n{}",
+            e.emit_to_string(crate::LIGHTMAP_FILL)
+        )
+    });
+    let info = validator(Capabilities::empty())
+        .validate(&module)
+        .unwrap_or_else(|e| {
+            panic!(
+                "lightmap.wgsl does not validate:\n{}",
+                e.emit_to_string(crate::LIGHTMAP_FILL)
+            )
+        });
+    let options = naga::back::spv::Options {
+        capabilities: None,
+        ..Default::default()
+    };
+    let pipeline = naga::back::spv::PipelineOptions {
+        shader_stage: ShaderStage::Compute,
+        entry_point: crate::LIGHTMAP_ENTRY.to_owned(),
+    };
+    naga::back::spv::write_vec(&module, &info, &options, Some(&pipeline))
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    assert_eq!(constant(&module, "LIGHTMAP_LANES"), crate::LIGHTMAP_LANES);
+    assert_eq!(constant(&module, "MODE_SMOOTH"), crate::LIGHTMAP_SMOOTH);
+    assert_eq!(constant(&module, "MODE_FLAT"), crate::LIGHTMAP_FLAT);
+    assert_eq!(constant(&module, "MODE_RING"), crate::LIGHTMAP_RING);
+    let index = module
+        .entry_points
+        .iter()
+        .position(|e| e.name == crate::LIGHTMAP_ENTRY)
+        .expect("lightmap.wgsl has its entry point");
+    let entry = &module.entry_points[index];
+    assert_eq!(entry.stage, ShaderStage::Compute);
+    assert_eq!(entry.workgroup_size, [crate::LIGHTMAP_LANES, 1, 1]);
+    assert_eq!(
+        used_bindings(&module, &info, index),
+        expected_bindings(crate::LIGHTMAP_BINDINGS)
+    );
+    let mut layouter = Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let (handle, ty) = module
+        .types
+        .iter()
+        .find(|(_, ty)| ty.name.as_deref() == Some("LightmapParams"))
+        .expect("lightmap.wgsl declares LightmapParams");
+    let TypeInner::Struct { members, .. } = &ty.inner else {
+        panic!("LightmapParams is {:?}", ty.inner);
+    };
+    let wgsl: Vec<(&str, usize)> = members
+        .iter()
+        .map(|m| {
+            let inner = &module.types[m.ty].inner;
+            assert_eq!(*inner, TypeInner::Scalar(naga::Scalar::U32), "{:?}", m.name);
+            (m.name.as_deref().unwrap_or("?"), m.offset as usize)
+        })
+        .collect();
+    assert_eq!(wgsl, crate::LightmapParams::FIELDS);
+    assert_eq!(layouter[handle].size as usize, crate::LightmapParams::SIZE);
 }

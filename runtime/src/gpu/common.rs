@@ -80,6 +80,18 @@ pub(super) fn bytes_of_mut(v: &mut [f32]) -> &mut [u8] {
 
 /// A compute binding of a buffer, as `b` declares it.
 pub(super) fn layout_entry(b: &lrr_shaders::Binding) -> wgpu::BindGroupLayoutEntry {
+    if b.access == lrr_shaders::Access::WriteTexture {
+        return wgpu::BindGroupLayoutEntry {
+            binding: b.binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::StorageTexture {
+                access: wgpu::StorageTextureAccess::WriteOnly,
+                format: wgpu::TextureFormat::Rgba16Float,
+                view_dimension: wgpu::TextureViewDimension::D2,
+            },
+            count: None,
+        };
+    }
     wgpu::BindGroupLayoutEntry {
         binding: b.binding,
         visibility: wgpu::ShaderStages::COMPUTE,
@@ -90,6 +102,7 @@ pub(super) fn layout_entry(b: &lrr_shaders::Binding) -> wgpu::BindGroupLayoutEnt
                 lrr_shaders::Access::ReadWrite => {
                     wgpu::BufferBindingType::Storage { read_only: false }
                 }
+                lrr_shaders::Access::WriteTexture => unreachable!("returned above"),
             },
             has_dynamic_offset: false,
             min_binding_size: None,

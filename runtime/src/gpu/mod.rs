@@ -72,6 +72,7 @@ mod common;
 mod device;
 mod direct;
 mod evaluator;
+mod lightmap;
 mod pipelines;
 mod smooth;
 mod trace;
@@ -80,6 +81,7 @@ pub use bench::{GpuBench, bench_operator, bounds_check_cost};
 pub use device::{AdapterSummary, Gpu, GpuOptions, adapters};
 pub use direct::{DEFAULT_CHUNK_RAYS, GpuDirect, GpuDirectReport};
 pub use evaluator::{BurstTiming, FrameTiming, GpuEvaluator};
+pub use lightmap::{GpuLightmap, LIGHTMAP_FORMAT};
 pub use lrr_shaders::{Reduce, Storage};
 pub use trace::{DEFAULT_TILE_PIXELS, GpuRenderReport, GpuTracer};
 /// The wgpu this module was built with, for a renderer binding [`GpuEvaluator::radiosity_buffer`].

@@ -1,0 +1,99 @@
+//! The GPU lightmap fill (`lrr_runtime::gpu::GpuLightmap`, `lightmap.wgsl`) against the CPU's
+//! (`Lightmap::fill`) of the same frame, on whatever adapter wgpu finds (CI: lavapipe, with
+//! `LRR_EXPECT_ADAPTER=llvmpipe`; no adapter is a failure, never a skip).
+//!
+//! Tolerance: the texture holds binary16 (relative rounding 2⁻¹¹ ≈ 4.9e-4, what [`REL`] allows
+//! with a margin for the f32 sums the GPU makes where the CPU sums in f64, a few 1e-7). The
+//! coverage is exact: alpha 1 on every texel the CPU writes (samples and dilation rings), 0
+//! and black on every other.
+
+#![cfg(feature = "gpu")]
+
+use lrr_runtime::gpu::{Gpu, GpuEvaluator, GpuLightmap, GpuOptions};
+use lrr_runtime::testkit::faces::lightmapped;
+use lrr_runtime::{Lightmap, LightmapValues, Operator, Rgb, RgbMut};
+
+const REL: f32 = 1e-3;
+
+fn gpu() -> Gpu {
+    let gpu = Gpu::new(&GpuOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    if let Ok(want) = std::env::var("LRR_EXPECT_ADAPTER") {
+        assert!(
+            gpu.adapter_name()
+                .to_lowercase()
+                .contains(&want.to_lowercase()),
+            "LRR_EXPECT_ADAPTER={want}, but the adapter is {}",
+            gpu.describe()
+        );
+    }
+    gpu
+}
+
+#[test]
+fn the_gpu_fill_is_the_cpu_fill_in_half_floats() {
+    let gpu = gpu();
+    // The strip over part of a 97 × 61 atlas, 3 rings of dilation.
+    let file = lightmapped(|x, y| [0.1 + x / 2.5, 0.05 + y * 0.7], 97, 61, 3);
+    let op = Operator::from_file(file.clone()).unwrap();
+    let mut eval = GpuEvaluator::new(&gpu, &op).unwrap();
+    let emission = [[1.0f32, 0.5, 0.25], [0.0, 0.25, 2.0]];
+    let mut b = vec![[0.0f32; 3]; 2];
+    eval.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut b))
+        .unwrap();
+    for values in [LightmapValues::Smooth, LightmapValues::Flat] {
+        let mut cpu = Lightmap::new(&file, Some(values)).unwrap();
+        let mut want = vec![[f32::NAN; 3]; 97 * 61];
+        cpu.fill(&b, &mut want).unwrap();
+        let map = GpuLightmap::new(&gpu, &file, &cpu).unwrap();
+        assert_eq!(map.size(), (97, 61));
+        map.fill(eval.radiosity_buffer()).unwrap();
+        let got = map.read_texels().unwrap();
+        let mut written = vec![false; 97 * 61];
+        for s in cpu.samples() {
+            written[s.texel] = true;
+        }
+        let mut covered = 0;
+        for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+            let is_written = written[i] || w.iter().any(|&v| v != 0.0);
+            if is_written {
+                covered += 1;
+                assert_eq!(g[3], 1.0, "{values:?} texel {i}: alpha");
+                for c in 0..3 {
+                    assert!(
+                        (g[c] - w[c]).abs() <= REL * w[c].abs() + 1e-7,
+                        "{values:?} texel {i}: GPU {g:?} against CPU {w:?}"
+                    );
+                }
+            } else {
+                assert_eq!(*g, [0.0; 4], "{values:?} texel {i} is not the lightmap's");
+            }
+        }
+        assert_eq!(
+            covered,
+            cpu.sample_count() + cpu.dilated_count(),
+            "{values:?}"
+        );
+        assert!(cpu.dilated_count() > 0 && cpu.sample_count() > 1000);
+    }
+}
+
+#[test]
+fn a_radiosity_buffer_too_small_is_an_error() {
+    let gpu = gpu();
+    let file = lightmapped(|x, y| [x / 2.0, y], 16, 8, 1);
+    let cpu = Lightmap::new(&file, None).unwrap();
+    let map = GpuLightmap::new(&gpu, &file, &cpu).unwrap();
+    let small = gpu
+        .device()
+        .create_buffer(&lrr_runtime::gpu::wgpu::BufferDescriptor {
+            label: None,
+            size: 16,
+            usage: lrr_runtime::gpu::wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+    let e = map.fill(&small).unwrap_err().to_string();
+    assert!(
+        e.contains("holds 16 bytes") && e.contains("24 it needs"),
+        "{e}"
+    );
+}
