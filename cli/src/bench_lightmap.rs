@@ -6,6 +6,12 @@
 //! writes its share of an atlas of the atlas's size), so the ratio says how close the fill comes
 //! to what moving its bytes costs on this machine. Fill and roofline are alternated over rounds;
 //! medians are reported.
+//!
+//! `--device gpu`: the GPU fill (`lrr_runtime::gpu::GpuLightmap`, into an `rgba16float` texture
+//! from the evaluator's radiosity buffer, no readback) against the frame it follows: frames of
+//! the GPU evaluator alone and frames with the fill, each submitted back to back and waited for
+//! at the end, alternated over rounds; the fill's share of the frame is the difference. On a CPU
+//! adapter (lavapipe) these numbers say nothing about a GPU.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -15,6 +21,8 @@ use anyhow::{Result, bail};
 use clap::Args;
 use lrr_runtime::{Lightmap, Operator};
 use serde::Serialize;
+
+use crate::emission::Device;
 
 #[derive(Debug, Args)]
 pub struct LightmapBench {
@@ -32,9 +40,28 @@ pub struct LightmapBench {
     /// Rounds (fill, roofline, fill, … alternated).
     #[arg(long, default_value_t = 5)]
     pub rounds: usize,
+    /// Where the fill runs: the CPU (the runtime's threads) or the GPU (after the GPU
+    /// evaluator's frame; meaningless on lavapipe); auto: the GPU when one is usable.
+    #[arg(long, value_enum, default_value_t = Device::Cpu)]
+    pub device: Device,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
+}
+
+/// What a GPU run measured (medians over rounds of the per-frame time).
+#[derive(Debug, Clone, Serialize)]
+pub struct GpuLightmapRow {
+    pub width: usize,
+    pub height: usize,
+    pub samples: usize,
+    pub dilated: usize,
+    pub adapter: String,
+    /// Seconds of the evaluator's frame alone, and with the lightmap fill after it.
+    pub frame_s: f64,
+    pub frame_fill_s: f64,
+    /// `(frame_fill_s - frame_s) / frame_s`: what the fill adds to the frame.
+    pub fill_share: f64,
 }
 
 /// What one run measured (medians over rounds of the per-frame time).
@@ -83,6 +110,9 @@ pub fn run(a: &LightmapBench, out: &mut dyn Write) -> Result<()> {
         Some(t) => t,
     };
     map.set_threads(threads);
+    if a.device != Device::Cpu {
+        return run_gpu(a, &op, &map, out);
+    }
     let b = op.evaluate_baked();
     let texels = map.width() * map.height();
     let mut atlas = vec![[0.0f32; 3]; texels];
@@ -183,4 +213,82 @@ fn roofline(table: &[u32], texels: &mut [[f32; 3]], threads: usize) {
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
+}
+
+/// The GPU fill against the frame it follows (see the module docs).
+fn run_gpu(a: &LightmapBench, op: &Operator, map: &Lightmap, out: &mut dyn Write) -> Result<()> {
+    use lrr_runtime::gpu::{Gpu, GpuEvaluator, GpuLightmap, GpuOptions};
+    use lrr_runtime::{Rgb, RgbMut};
+    let gpu = match (a.device, Gpu::new(&GpuOptions::default())) {
+        (_, Ok(gpu)) => gpu,
+        (Device::Auto, Err(e)) => {
+            eprintln!("lrr: note: no usable GPU ({e}); benchmarking the CPU");
+            let cpu = LightmapBench {
+                file: a.file.clone(),
+                device: Device::Cpu,
+                ..*a
+            };
+            return run(&cpu, out);
+        }
+        (_, Err(e)) => return Err(e.into()),
+    };
+    let mut eval = GpuEvaluator::new(&gpu, op)?;
+    let fill = GpuLightmap::new(&gpu, op.file(), map)?;
+    let emission = op.baked_emission();
+    let mut b = vec![[0.0f32; 3]; op.n()];
+    // One frame of each, waited for: pipelines made, pages touched.
+    eval.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut b))?;
+    fill.fill(eval.radiosity_buffer())?;
+    eval.wait()?;
+    let (mut alone, mut with) = (vec![], vec![]);
+    for _ in 0..a.rounds {
+        let t = Instant::now();
+        for _ in 0..a.frames {
+            eval.submit(Rgb::triples(&emission))?;
+        }
+        eval.wait()?;
+        alone.push(t.elapsed().as_secs_f64() / a.frames as f64);
+        let t = Instant::now();
+        for _ in 0..a.frames {
+            eval.submit(Rgb::triples(&emission))?;
+            fill.fill(eval.radiosity_buffer())?;
+        }
+        eval.wait()?;
+        with.push(t.elapsed().as_secs_f64() / a.frames as f64);
+    }
+    let (frame_s, frame_fill_s) = (median(&mut alone), median(&mut with));
+    let row = GpuLightmapRow {
+        width: map.width(),
+        height: map.height(),
+        samples: map.sample_count(),
+        dilated: map.dilated_count(),
+        adapter: gpu.describe(),
+        frame_s,
+        frame_fill_s,
+        fill_share: (frame_fill_s - frame_s) / frame_s,
+    };
+    if a.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&row)?)?;
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "lightmap {}×{} on {}: {} samples, {} dilated texels",
+        row.width, row.height, row.adapter, row.samples, row.dilated
+    )?;
+    writeln!(out, "frame          {:8.3} ms", 1e3 * row.frame_s)?;
+    writeln!(
+        out,
+        "frame + fill   {:8.3} ms  (the fill adds {:.1}%)",
+        1e3 * row.frame_fill_s,
+        100.0 * row.fill_share
+    )?;
+    if gpu.is_cpu() {
+        writeln!(
+            out,
+            "note: {} is a CPU adapter: these times say nothing about a GPU",
+            gpu.adapter_name()
+        )?;
+    }
+    Ok(())
 }
