@@ -29,6 +29,16 @@ if ! have_lavapipe; then
   have_lavapipe || { say "error: lavapipe still missing after the install"; exit 1; }
 fi
 say "lavapipe ICD: $(ls /usr/share/vulkan/icd.d/lvp_icd*.json | head -n 1)"
+# `lrr view`'s window under a virtual X server (the windowed test runs it through xvfb-run);
+# lavapipe presents to X11 surfaces. libxkbcommon-x11 and libxcursor are what winit loads.
+if ! command -v xvfb-run >/dev/null; then
+  command -v apt-get >/dev/null || { say "error: no xvfb-run and no apt-get; install Xvfb"; exit 1; }
+  say "installing xvfb libxkbcommon-x11-0 libxcursor1 libxi6 libxrandr2"
+  as_root apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive as_root apt-get install -y -qq xvfb xauth libxkbcommon-x11-0 \
+    libxcursor1 libxi6 libxrandr2 >/dev/null
+fi
+say "xvfb-run: $(command -v xvfb-run)"
 # The adapter as wgpu sees it, and one tiny GPU benchmark through it (builds `lrr` once;
 # cargo's cache makes later runs quick): fails here, not in the tests, when wgpu finds none.
 WGPU_BACKEND=vulkan cargo run --release --locked -q --bin lrr -- bench runtime --device gpu \

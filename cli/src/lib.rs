@@ -37,6 +37,7 @@ mod shard;
 mod solve;
 mod summary;
 pub mod sweep;
+mod view;
 mod view_factors;
 
 use std::ffi::OsString;
@@ -84,6 +85,11 @@ pub enum Command {
     /// Light groups animated by keyframes (intensity, colour): an EXR lightmap and/or a ray
     /// traced image (PNG or EXR) per frame, with the achieved frame rates.
     Relight(relight::RelightArgs),
+    /// The relit scene in a window, the way an engine draws it: the GPU evaluator's frame, the
+    /// runtime's lightmap filled on the GPU, the display triangles rasterised with it; a slider
+    /// per light group, the exposure, the file's cameras, orbit/fly, timings, screenshots
+    /// (`--headless --screenshot F` draws offscreen).
+    View(view::ViewArgs),
     /// Ray trace a frame of an operator file (B/π, highlights, mirrors, glass) into a PNG or EXR.
     Render(render::RenderArgs),
     /// Form factors between the scene's named surfaces (visibility included).
@@ -298,6 +304,7 @@ where
         Command::Probe(a) => probe::run(&a, out),
         Command::Export(a) => export::run(&a, out),
         Command::Relight(a) => relight::run(&a, out),
+        Command::View(a) => view::run(&a, out),
         Command::Render(a) => render::run(&a, out),
         Command::ViewFactors(a) => view_factors::run(&a, out),
         Command::Solve(a) => solve::run(&a, out),

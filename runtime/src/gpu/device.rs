@@ -66,7 +66,9 @@ impl std::fmt::Display for AdapterSummary {
     }
 }
 
-fn instance() -> wgpu::Instance {
+/// The wgpu instance [`Gpu::new`] opens adapters from (backends from `WGPU_BACKEND`): a caller
+/// that presents to a window makes its surface with it, then opens [`Gpu::with_surface`].
+pub fn instance() -> wgpu::Instance {
     wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
 }
 
@@ -96,6 +98,7 @@ pub fn adapters() -> Vec<AdapterSummary> {
 /// evaluators keep a clone.
 #[derive(Debug, Clone)]
 pub struct Gpu {
+    pub(super) adapter: wgpu::Adapter,
     pub(super) device: wgpu::Device,
     pub(super) queue: wgpu::Queue,
     pub(super) info: wgpu::AdapterInfo,
@@ -112,6 +115,23 @@ impl Gpu {
     /// With none usable: [`GpuError::NoAdapter`], naming every adapter found and how to install
     /// a driver.
     pub fn new(options: &GpuOptions) -> Result<Gpu, GpuError> {
+        Self::open(options, &instance(), None)
+    }
+
+    /// [`Gpu::new`] on an adapter of `instance` ([`instance`]) that can present to `surface`.
+    pub fn with_surface(
+        options: &GpuOptions,
+        instance: &wgpu::Instance,
+        surface: &wgpu::Surface<'_>,
+    ) -> Result<Gpu, GpuError> {
+        Self::open(options, instance, Some(surface))
+    }
+
+    fn open(
+        options: &GpuOptions,
+        instance: &wgpu::Instance,
+        surface: Option<&wgpu::Surface<'_>>,
+    ) -> Result<Gpu, GpuError> {
         if let Some(lanes) = options.row_lanes
             && !(lanes.is_power_of_two() && lanes <= 32)
         {
@@ -138,7 +158,6 @@ impl Gpu {
             ))
             .into());
         }
-        let instance = instance();
         let found = block_on(instance.enumerate_adapters(wgpu::Backends::all().with_env()));
         let wanted = options.adapter.as_deref().map(str::to_lowercase);
         let rank = |t: wgpu::DeviceType| match t {
@@ -151,6 +170,7 @@ impl Gpu {
         let adapter = found
             .iter()
             .filter(|a| summary(a).usable)
+            .filter(|a| surface.is_none_or(|s| a.is_surface_supported(s)))
             .filter(|a| {
                 let name = a.get_info().name.to_lowercase();
                 wanted.as_ref().is_none_or(|w| name.contains(w))
@@ -174,6 +194,7 @@ impl Gpu {
             ))
         })?;
         Ok(Gpu {
+            adapter: adapter.clone(),
             limits: device.limits(),
             device,
             queue,
@@ -186,6 +207,11 @@ impl Gpu {
     /// The options this device was opened with.
     pub fn options(&self) -> &GpuOptions {
         &self.options
+    }
+
+    /// The adapter the device was opened on (e.g. for a surface's capabilities).
+    pub fn adapter(&self) -> &wgpu::Adapter {
+        &self.adapter
     }
 
     /// The adapter's name.
@@ -276,8 +302,8 @@ impl Gpu {
         self.options.max_chunk_bytes.map_or(limit, |m| m.min(limit)) & !3
     }
 
-    /// Waits for every submitted frame.
-    pub(super) fn wait(&self) -> Result<(), GpuError> {
+    /// Waits for all work submitted to the device (frames, fills, draws).
+    pub fn wait(&self) -> Result<(), GpuError> {
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
             .map(|_| ())

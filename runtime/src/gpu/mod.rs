@@ -78,7 +78,7 @@ mod smooth;
 mod trace;
 
 pub use bench::{GpuBench, bench_operator, bounds_check_cost};
-pub use device::{AdapterSummary, Gpu, GpuOptions, adapters};
+pub use device::{AdapterSummary, Gpu, GpuOptions, adapters, instance};
 pub use direct::{DEFAULT_CHUNK_RAYS, GpuDirect, GpuDirectReport};
 pub use evaluator::{BurstTiming, FrameTiming, GpuEvaluator};
 pub use lightmap::{GpuLightmap, LIGHTMAP_FORMAT};
