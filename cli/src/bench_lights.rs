@@ -17,7 +17,7 @@ use std::time::Instant;
 
 use anyhow::{Result, bail};
 use clap::Args;
-use lrr_runtime::trace::{DirectLighting, Light, reflected};
+use lrr_runtime::lights::{DirectLighting, Light, reflected};
 use lrr_runtime::{Operator, Rgb, RgbMut};
 use serde::Serialize;
 
@@ -32,7 +32,7 @@ pub struct LightsBench {
     #[arg(long, default_value_t = 4)]
     pub lights: usize,
     /// Sample points per element of the direct pass.
-    #[arg(long, default_value_t = lrr_runtime::trace::DEFAULT_SAMPLES)]
+    #[arg(long, default_value_t = lrr_runtime::lights::DEFAULT_SAMPLES)]
     pub samples: u32,
     /// Frames per variant and round.
     #[arg(long, default_value_t = 30)]

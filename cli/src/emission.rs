@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lrr_runtime::gpu::{Gpu, GpuError, GpuEvaluator, GpuOptions};
-use lrr_runtime::trace::{DirectLighting, DirectReport, Light, Sky, file_lights, reflected};
+use lrr_runtime::lights::{DirectLighting, DirectReport, Light, Sky, file_lights, reflected};
 use lrr_runtime::{Operator, Reconstruction, Rgb, RgbMut};
 
 /// The emission flags.
@@ -47,7 +47,7 @@ pub struct LightArgs {
     #[arg(long)]
     pub no_file_lights: bool,
     /// Sample points per element for the direct pass's irradiance (1 to 64).
-    #[arg(long, value_name = "N", default_value_t = lrr_runtime::trace::DEFAULT_SAMPLES)]
+    #[arg(long, value_name = "N", default_value_t = lrr_runtime::lights::DEFAULT_SAMPLES)]
     pub light_samples: u32,
 }
 

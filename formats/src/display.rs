@@ -113,7 +113,7 @@ pub struct Materials {
 /// surface: the radiosity carries the surface's diffuse light, the tracer adds only the Phong
 /// term, so nothing is counted twice. One of no group ([`PointLight::FIXED`]) is a light of its
 /// own: since format 1.5's runtime the direct pass lights the elements with it every frame
-/// (`lrr_runtime::trace::file_lights`), besides its highlights. A file baked before, whose
+/// (`lrr_runtime::lights::file_lights`), besides its highlights. A file baked before, whose
 /// fixed point light stood for an emitting surface, now gets that light too; give it a group
 /// (or leave it out with `--no-file-lights`).
 #[derive(Debug, Clone, PartialEq)]

@@ -7,7 +7,7 @@
 //!
 //! [`SceneLights::irradiance`] is the direct irradiance at a point with a normal, each light
 //! behind one ray of the bake's occluder (the same formulas as the runtime's
-//! `lrr_runtime::trace::Light`; glTF's spot falloff); the sky by [`SKY_RAYS`] cosine-weighted
+//! `lrr_runtime::lights::Light`; glTF's spot falloff); the sky by [`SKY_RAYS`] cosine-weighted
 //! directions in the point's frame (fixed: the same answer for the same point, any thread
 //! count). Its reflected part `ρ H` is the emission the estimates add.
 
@@ -250,7 +250,7 @@ pub const SKY_DIRECTIONS: usize = 64;
 /// [`SKY_DIRECTIONS`] cosine-weighted directions (stratified, turned per point by a hash of
 /// the polygon's index and the point's: fixed, the same bytes for any thread count); a
 /// direction counts when nothing of the scene blocks it within 4 extents. What section
-/// SKY_TRANSFER stores (`lrr_runtime::trace::DirectLighting` reads it).
+/// SKY_TRANSFER stores (`lrr_runtime::lights::DirectLighting` reads it).
 pub fn sky_transfer(
     polygons: &[&crate::geometry::Polygon],
     occluder: Option<&dyn Occluder>,
@@ -290,7 +290,7 @@ pub fn sky_transfer(
 }
 
 /// The nine real orthonormal spherical harmonics of order ≤ 2 at unit `w`, in SKY_TRANSFER's
-/// order (`lrr_formats::Display::sky_transfer`; the runtime's `trace::sh9` in f32).
+/// order (`lrr_formats::Display::sky_transfer`; the runtime's `lights::sh9` in f32).
 fn sh9(w: DVec3) -> [f64; 9] {
     let (x, y, z) = (w.x, w.y, w.z);
     let c1 = 0.5 * (3.0 / std::f64::consts::PI).sqrt();

@@ -13,9 +13,21 @@
 //! `n·k·2` (f16, widened on the fly) and is the floor of a frame's cost.
 //!
 //! No third-party dependencies. The only `unsafe` code on the CPU is the AVX2/FMA/F16C kernel
-//! (`kernel/avx2.rs`) and the tracer's one call of its packet traversal compiled for AVX2
-//! (`trace/bvh4/packet8.rs`), used when the CPU has those features and checked against their
-//! safe twins.
+//! (`kernel/avx2.rs`) and, with the feature `trace`, the tracer's one call of its packet
+//! traversal compiled for AVX2 (`rays/bvh4/packet8.rs`), used when the CPU has those features
+//! and checked against their safe twins.
+//!
+//! # Cargo features
+//!
+//! The default build is what an application calls every frame: load, evaluate (light groups,
+//! albedo edits), the smooth reconstruction, lightmaps ([`Lightmap`]), and the direct pass of
+//! lights that are not surfaces ([`lights`], shadow rays through the file's BVH). It compiles
+//! no ray tracer.
+//! - `trace`: the ray tracer that renders pictures (module `trace`: cameras, the ray
+//!   tree, closest-hit traversal; `lrr render`), and with `gpu` its WGSL twin.
+//! - `gpu`: the same frames on a GPU through wgpu (the only third-party dependency).
+//! - `testkit`: synthetic operators, the f64 reference and the dense-`V_k` baseline, for tests
+//!   and benchmarks.
 //!
 //! # Embedding
 //!
@@ -78,11 +90,15 @@
 //!   sparse table built once from the file's lightmap coordinates.
 //! - [`Evaluator`] (`evaluator.rs`): frames over the pool; the one-call evaluations of
 //!   [`Operator`] stand there too.
+//! - `rays/`: the file's display triangles and BVH checked once, rays and the 4-wide traversal
+//!   (any hits always; closest hits with `trace`).
+//! - [`lights`]: lights that are not surfaces, the per-frame direct pass whose `ρ ⊙ H` the
+//!   operator bounces, and the direct light at a point.
 //! - `testkit` (cargo feature `testkit`): synthetic operators, the f64 reference evaluation and
 //!   the papers' dense-`V_k` baseline, for tests and benchmarks.
 //! - `gpu` (cargo feature `gpu`): the same frames on a GPU through wgpu.
-//! - [`trace`]: the CPU ray tracer over the file's display data, shaded with a frame's
-//!   radiosity.
+//! - `trace` (cargo feature `trace`): the CPU ray tracer over the file's display data, shaded
+//!   with a frame's radiosity.
 
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
@@ -97,16 +113,19 @@ mod frame;
 pub mod gpu;
 mod kernel;
 mod lightmap;
+pub mod lights;
 mod locate;
 mod lu;
 mod operator;
 mod pass;
 mod pool;
+mod rays;
 mod rgb;
 mod runs;
 mod smooth;
 #[cfg(feature = "testkit")]
 pub mod testkit;
+#[cfg(feature = "trace")]
 pub mod trace;
 
 pub use error::RuntimeError;

@@ -1,11 +1,11 @@
-//! The direct pass of lights that are not surfaces (`trace::DirectLighting`, DESIGN.md §9),
+//! The direct pass of lights that are not surfaces (`lights::DirectLighting`, DESIGN.md §9),
 //! against closed forms: a point light over a plane (`I cos θ / r²`), a spot's glTF falloff, a
 //! directional light at an angle (`E⊥ cos θ`), a uniform sky over a plane (`π L`) and inside a
 //! closed box (0), a gradient sky; shadows, the cache, thread counts.
 
 use lrr_formats::{Geometry, OperatorFile};
+use lrr_runtime::lights::{DirectLighting, Light, Sky, reflected, spot_falloff};
 use lrr_runtime::testkit::{bvh, synthetic};
-use lrr_runtime::trace::{DirectLighting, Light, Sky, reflected, spot_falloff};
 use lrr_runtime::{Layout, Precision};
 
 /// A file whose display is `quads` (each `[corner; 4]`, counter-clockwise seen from its front),

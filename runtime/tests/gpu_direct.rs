@@ -23,8 +23,8 @@ use std::sync::OnceLock;
 
 use lrr_formats::{Display, Geometry, Layout, Material, Materials, OperatorFile, Precision};
 use lrr_runtime::gpu::{self, Gpu, GpuDirect, GpuEvaluator, GpuOptions};
+use lrr_runtime::lights::{DirectLighting, Light, reflected};
 use lrr_runtime::testkit;
-use lrr_runtime::trace::{DirectLighting, Light, reflected};
 use lrr_runtime::{Operator, Rgb, RgbMut};
 
 /// Per-element relative agreement of `H` where every shadow ray is decided alike.

@@ -27,8 +27,9 @@ use lrr_formats::{
     Camera, Display, Geometry, Layout, Material, Materials, OperatorFile, PointLight, Precision,
 };
 use lrr_runtime::gpu::{self, Gpu, GpuEvaluator, GpuOptions, GpuTracer};
+use lrr_runtime::lights::{DirectLighting, Light};
 use lrr_runtime::testkit;
-use lrr_runtime::trace::{DirectLighting, DirectShading, Image, Light, Lighting, Tracer, View};
+use lrr_runtime::trace::{DirectShading, Image, Lighting, Tracer, View};
 use lrr_runtime::{Operator, Rgb};
 
 /// Per-pixel relative agreement of a pixel whose rays hit what the CPU's hit.

@@ -3,7 +3,7 @@
 //! through the file's BVH, reflected into the emission the evaluator bounces next. Its uniform
 //! [`DirectParams`], its bindings, its per-sample record [`direct_sample`] and its pipeline
 //! constants [`DirectConstants`]. Its CPU mirror is the runtime's CPU pass itself
-//! (`lrr_runtime::trace::DirectLighting::irradiance` and `reflected`; the runtime's
+//! (`lrr_runtime::lights::DirectLighting::irradiance` and `reflected`; the runtime's
 //! `tests/gpu_direct.rs` compares them); this crate's naga tests parse, validate, specialise and
 //! compile it.
 //!

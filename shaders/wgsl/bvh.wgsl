@@ -1,25 +1,25 @@
 // bvh.wgsl: the file's binary BVH on the GPU, shared by the passes that trace rays through it
 // (lrr_shaders::TRACE = bvh.wgsl + direct_light.wgsl + trace.wgsl; lrr_shaders::DIRECT_PASS =
 // bvh.wgsl + direct_light.wgsl + direct_pass.wgsl; naga validates whole modules, so the parts are
-// joined into each pass's source): the CPU tracer's ray (runtime/src/trace/bvh.rs), its
+// joined into each pass's source): the CPU's ray (runtime/src/rays/bvh.rs), its
 // watertight triangle test and its binary traversal, closest hit and any hit, with the same
 // operations in the same order (the CPU's 4-wide traversal, bvh4.rs, finds the same hits). It
 // declares the two bindings every such pass shares, nodes (1) and tris (2), and reads nothing
 // else: a pass's own bindings and uniform are in its own file.
 //
 // Indices (the argument for building a pass that includes this file without bounds checks; the
-// host checks all of it once, in TraceScene::new): node 0 exists (a host runs no such pass over a
+// host checks all of it once, in RayScene::new): node 0 exists (a host runs no such pass over a
 // scene without triangles); an interior node's children first, first + 1 are after it and in the
 // list; a leaf's first + count <= the triangle count, and tris holds 9 f32 per triangle; depth <
 // MAX_BVH_DEPTH, so the traversal stacks (at most one entry per level) never overflow. The loops
 // end: the traversal visits each node at most once (children after parents).
 
-// runtime/src/trace/scene.rs MAX_BVH_DEPTH.
+// runtime/src/rays/bvh.rs MAX_BVH_DEPTH.
 const MAX_BVH_DEPTH: u32 = 64u;
 // The largest finite f32: the CPU's f32::INFINITY as the far end of unbounded rays (every hit
 // distance the tests accept is finite, so the comparisons agree).
 const FAR: f32 = 3.40282347e+38;
-// 1 + 2 gamma_3 rounded to f32 (runtime/src/trace/bvh.rs FAR_SCALE): 1 + 3 ulp.
+// 1 + 2 gamma_3 rounded to f32 (runtime/src/rays/bvh.rs FAR_SCALE): 1 + 3 ulp.
 const FAR_SCALE_BITS: u32 = 0x3F800003u;
 const NO_HIT: u32 = 0xFFFFFFFFu;
 

@@ -1,7 +1,7 @@
 // direct_light.wgsl: lights that are not surfaces as the GPU passes read them, shared by
 // trace.wgsl (per hit) and direct_pass.wgsl (per element's sample point); after bvh.wgsl (it uses
 // its math). The record the host uploads per light (struct DirectLight) and the geometry of one
-// light at one point, direct.rs's `spot_falloff` and `Light::towards`, with the CPU's operations
+// light at one point, lights.rs's `spot_falloff` and `Light::towards`, with the CPU's operations
 // in the CPU's order. No bindings: each pass binds its records itself.
 
 // DirectLight kinds (lrr_shaders::DirectKind).
@@ -9,7 +9,7 @@ const DIRECT_POINT: u32 = 0u;
 const DIRECT_SPOT: u32 = 1u;
 const DIRECT_SUN: u32 = 2u;
 
-// A light that is not a surface (direct.rs Light; lrr_shaders::direct_light, 64 bytes; a naga
+// A light that is not a surface (lights.rs Light; lrr_shaders::direct_light, 64 bytes; a naga
 // test compares offsets), with what the CPU computes per light rather than per point computed on
 // the host in the CPU's operations: direction is a spot's unit axis (normalize(direction)) or
 // the unit direction towards a sun (-normalize(direction)); a spot's cone cosines and
@@ -29,7 +29,7 @@ struct DirectLight {
     reserved2: f32,
 }
 
-// direct.rs `spot_falloff`: glTF's cone falloff at cos_axis, the cosine of the angle off the
+// lights.rs `spot_falloff`: glTF's cone falloff at cos_axis, the cosine of the angle off the
 // spot's axis, from the cosines and the scale the host computed.
 fn spot_falloff(light: DirectLight, cos_axis: f32) -> f32 {
     if cos_axis < light.cos_outer {
@@ -42,7 +42,7 @@ fn spot_falloff(light: DirectLight, cos_axis: f32) -> f32 {
     return t * t;
 }
 
-// direct.rs Light::towards: a light's irradiance per unit strength at x (front normal n, unit)
+// lights.rs Light::towards: a light's irradiance per unit strength at x (front normal n, unit)
 // before visibility, g; the shadow ray's unit direction towards the light, w, and length, dist
 // (a sun's is unbounded and not read); lit false when no light arrives.
 struct Towards {

@@ -1,6 +1,6 @@
 // direct_pass.wgsl (entry point direct_pass): the per-frame direct pass of lights that are not
 // surfaces on the GPU, the twin of lrr_runtime::trace::DirectLighting::irradiance followed by
-// `reflected` (runtime/src/trace/direct.rs): for every element, each light's irradiance per unit
+// `reflected` (runtime/src/lights.rs): for every element, each light's irradiance per unit
 // strength g (direct_light.wgsl's `towards`) averaged over the element's fixed sample points
 // (the CPU pass's own points, uploaded once), each behind an any-hit shadow ray through the
 // file's BVH (bvh.wgsl's `occluded`); then H = sum over lights of strength * mean, and
@@ -98,7 +98,7 @@ fn direct_pass(
     var shadow_rays = 0u;
     for (var l = 0u; l < params.light_count; l++) {
         let light = direct_lights[l];
-        // direct.rs `element_term`: the mean of g over the samples the light reaches unblocked.
+        // lights.rs `element_term`: the mean of g over the samples the light reaches unblocked.
         var sum = 0.0;
         for (var j = 0u; j < params.samples_per_element; j++) {
             let s = samples[first + j];

@@ -11,8 +11,8 @@
 // groups, whose surplus invocations return at once.
 //
 // Indices (the argument for building this pass without bounds checks; the host checks all of
-// it once, in Reconstruction::from_parts through TraceScene::new, and in
-// runtime/src/gpu/trace.rs):
+// it once, in Reconstruction::from_parts through TraceScene::new or, for the lightmap fill,
+// Reconstruction::new, and in runtime/src/gpu/smooth.rs):
 // - offsets: vertex_count + 1 entries, non-decreasing, the last = the length of positions and
 //   weights, so offsets[v] .. offsets[v + 1] stays inside both for v < vertex_count;
 // - positions: file positions < n; element_id: n entries, each < n (the file's order);

@@ -12,7 +12,7 @@
 // into tiles so that no dispatch runs long enough for a driver's watchdog).
 //
 // Indices (the argument for building this pass without bounds checks; the host checks all of
-// it once, in TraceScene::new and runtime/src/gpu/trace.rs):
+// it once, in TraceScene::new (with RayScene::new) and runtime/src/gpu/trace.rs):
 // - nodes and tris: bvh.wgsl's argument (the host renders a scene without triangles black,
 //   without this pass);
 // - tris, tri_face: one entry per leaf-order triangle; tri_face < F, the number of display
@@ -275,7 +275,7 @@ fn smooth_radiosity(f: u32, p: vec3<f32>) -> vec3<f32> {
     return sum;
 }
 
-// direct.rs `at_point`: the direct irradiance of the frame's lights at x (front normal n,
+// lights.rs `at_point`: the direct irradiance of the frame's lights at x (front normal n,
 // unit), each behind its own shadow ray from just off the surface to just short of the light
 // (a sun's to the far end), counted as a shadow ray.
 fn direct_irradiance(x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {

@@ -25,7 +25,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use lrr_runtime::Operator;
-use lrr_runtime::trace::Light;
+use lrr_runtime::lights::Light;
 use serde::Deserialize;
 
 /// The animation file.

@@ -107,7 +107,7 @@ pub fn run(a: &RelightArgs, out: &mut dyn Write) -> Result<()> {
     let stage = progress.stage("relight", frames as u64);
     let (start, mut time) = (Instant::now(), Timings::default());
     // The lights that are not surfaces: the file's, and the animation's tracks.
-    let (file_lights, sky) = lrr_runtime::trace::file_lights(op.file());
+    let (file_lights, sky) = lrr_runtime::lights::file_lights(op.file());
     let mut lit = Frame::new(&op);
     for f in 0..frames {
         let t = f as f64 / anim.fps;
@@ -120,7 +120,7 @@ pub fn run(a: &RelightArgs, out: &mut dyn Write) -> Result<()> {
                 .chain(anim.light.iter().map(|track| track.at(t)))
                 .collect(),
             sky,
-            samples: lrr_runtime::trace::DEFAULT_SAMPLES,
+            samples: lrr_runtime::lights::DEFAULT_SAMPLES,
         };
         let intensities = match grey(&scales) {
             Some(intensities) if lights.is_empty() => {

@@ -18,6 +18,10 @@
 //! lrr_free(op);
 //! ```
 //!
+//! The libraries hold the runtime's default build: load, evaluate and the direct pass of lights
+//! that are not surfaces (`lrr_direct_*`), no ray tracer (the runtime's feature `trace` stays
+//! off; `tests/tests/e2e/capi.rs` checks the static library for it).
+//!
 //! `examples/relight.c` is a complete program; `tests/tests/e2e/capi.rs` compiles and runs it
 //! against both libraries. Link the static library with `-lpthread -ldl -lm` (what the Rust
 //! standard library needs; `cargo rustc -p lrr-capi --crate-type staticlib -- --print

@@ -1,8 +1,8 @@
-//! Lights that are not surfaces for C: a direct pass (`lrr_runtime::trace::DirectLighting`)
+//! Lights that are not surfaces for C: a direct pass (`lrr_runtime::lights::DirectLighting`)
 //! behind the opaque `lrr_direct *`, taking a frame's lights as [`LRR_LIGHT_FLOATS`] floats each
 //! and giving the emission to evaluate (`base + ρ ⊙ H`) and the direct light at a surface point.
 
-use lrr_runtime::trace::{DirectLighting, Light, reflected};
+use lrr_runtime::lights::{DirectLighting, Light, reflected};
 
 use crate::LrrOperator;
 use crate::args;

@@ -302,7 +302,7 @@ fn lights_give_the_runtimes_emission_and_point_values() {
         );
         assert_eq!(code, LRR_OK, "{}", last_error());
         // The runtime's own direct pass gives the same emission.
-        use lrr_runtime::trace::{DirectLighting, Light, reflected};
+        use lrr_runtime::lights::{DirectLighting, Light, reflected};
         let list = [
             Light::Point {
                 position: [1.5, 1.5, 1.5],

@@ -1,7 +1,7 @@
 //! [`GpuDirect`]: the direct pass of lights that are not surfaces on the GPU
 //! (`direct_pass.wgsl` of `lrr-shaders`), feeding the [`GpuEvaluator`]'s frame without a
 //! readback: the twin of the CPU's [`DirectLighting::irradiance`] followed by
-//! [`reflected`](crate::trace::reflected) and [`Evaluator::evaluate`](crate::Evaluator::evaluate).
+//! [`reflected`](crate::lights::reflected) and [`Evaluator::evaluate`](crate::Evaluator::evaluate).
 //!
 //! [`GpuDirect::new`] takes a CPU [`DirectLighting`] of the file (so both shade the same fixed
 //! sample points, chosen when that pass was made, and every index the shader follows was checked
@@ -36,7 +36,7 @@
 //!
 //! ```no_run
 //! use lrr_runtime::gpu::{Gpu, GpuDirect, GpuEvaluator, GpuOptions};
-//! use lrr_runtime::trace::{DEFAULT_SAMPLES, DirectLighting, Light};
+//! use lrr_runtime::lights::{DEFAULT_SAMPLES, DirectLighting, Light};
 //! use lrr_runtime::{Operator, Rgb};
 //!
 //! let op = Operator::load("cornell.lrr".as_ref())?;
@@ -64,8 +64,8 @@ use super::common::{GpuError, bytes_of, bytes_of_mut};
 use super::device::Gpu;
 use super::evaluator::{GpuEvaluator, map};
 use crate::error::input;
+use crate::lights::{DirectLighting, Light};
 use crate::rgb::{Rgb, RgbMut};
-use crate::trace::{DirectLighting, Light};
 
 /// Default bound on the shadow rays of one dispatch: 2²⁴ (a few milliseconds of any-hit rays
 /// on a datacenter GPU); a frame with more is cut into dispatches of whole workgroups of
@@ -80,7 +80,7 @@ pub struct GpuDirectReport {
     pub lights: u32,
     /// Dispatches of the pass (0 when it did not run).
     pub dispatches: u32,
-    /// Shadow rays cast (the CPU's [`DirectReport::rays`](crate::trace::DirectReport::rays) for
+    /// Shadow rays cast (the CPU's [`DirectReport::rays`](crate::lights::DirectReport::rays) for
     /// a pass that traces every light), when counting is on
     /// ([`set_count_rays`](GpuDirect::set_count_rays)) and the frame was read back
     /// ([`evaluate`](GpuDirect::evaluate), [`evaluate_groups`](GpuDirect::evaluate_groups));
@@ -145,7 +145,7 @@ impl GpuDirect {
     /// Uploads the sample points and the BVH of `pass` (the CPU pass of the file the evaluators
     /// this pass feeds were made from) and `reflectance` (one RGB value per element, original
     /// ids, finite and non-negative: the operator's [`reflectance`](crate::Operator::reflectance)
-    /// for the frame the CPU's [`reflected`](crate::trace::reflected) computes) to `gpu`. Errors
+    /// for the frame the CPU's [`reflected`](crate::lights::reflected) computes) to `gpu`. Errors
     /// name a bad reflectance, or a buffer over the adapter's binding limit.
     pub fn new(
         gpu: &Gpu,
@@ -588,7 +588,7 @@ fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
 
 fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
     #[allow(unsafe_code)]
-    // SAFETY: every index direct_pass.wgsl follows was checked by `TraceScene::new` (through
+    // SAFETY: every index direct_pass.wgsl follows was checked by `RayScene::new` (through
     // `DirectLighting::new`: the BVH's children and leaf ranges, its depth against the fixed
     // stacks) and by `GpuDirect` (the pass runs only over a scene with triangles; a dispatch's
     // elements first_element + element_count <= n; n samples_per_element sample records, 3 f32

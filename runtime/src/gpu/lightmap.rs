@@ -90,7 +90,6 @@ impl GpuLightmap {
         let neighbours: Vec<u32> = map.neighbours.iter().map(|t| compact_of[t]).collect();
         let smooth = match map.values {
             LightmapValues::Smooth => {
-                let faces = file.faces();
                 let s = file.display.smooth.as_ref().ok_or_else(|| {
                     GpuError::Runtime(crate::error::input(
                         "a smooth lightmap of a file without SMOOTH: make both from one file",
@@ -98,7 +97,7 @@ impl GpuLightmap {
                 })?;
                 // The same checks as the CPU's, so that the pass indexes nothing out of range.
                 crate::Reconstruction::new(file)?;
-                Some(SmoothPass::new(gpu, faces.geometry, s, &file.order))
+                Some(SmoothPass::new(gpu, s, &file.order))
             }
             LightmapValues::Flat => None,
         };

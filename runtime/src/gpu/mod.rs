@@ -75,6 +75,7 @@ mod evaluator;
 mod lightmap;
 mod pipelines;
 mod smooth;
+#[cfg(feature = "trace")]
 mod trace;
 
 pub use bench::{GpuBench, bench_operator, bounds_check_cost};
@@ -83,6 +84,7 @@ pub use direct::{DEFAULT_CHUNK_RAYS, GpuDirect, GpuDirectReport};
 pub use evaluator::{BurstTiming, FrameTiming, GpuEvaluator};
 pub use lightmap::{GpuLightmap, LIGHTMAP_FORMAT};
 pub use lrr_shaders::{Reduce, Storage};
+#[cfg(feature = "trace")]
 pub use trace::{DEFAULT_TILE_PIXELS, GpuRenderReport, GpuTracer};
 /// The wgpu this module was built with, for a renderer binding [`GpuEvaluator::radiosity_buffer`].
 pub use wgpu;

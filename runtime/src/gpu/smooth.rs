@@ -1,23 +1,21 @@
 //! The smooth reconstruction's per-frame step on the GPU (`smooth.wgsl` of `lrr-shaders`): each
 //! smooth vertex's value from a radiosity storage buffer, left in [`SmoothPass::values`] for the
-//! tracer's `SMOOTH` variant, with no readback. The twin of
-//! [`Reconstruction::vertex_values`](crate::Reconstruction::vertex_values) (f64 sums; this pass
-//! and its mirror `lrr_shaders::cpu::smooth_vertices` sum in f32).
+//! lightmap fill's smooth samples and the tracer's `SMOOTH` variant, with no readback. The twin
+//! of [`Reconstruction::vertex_values`](crate::Reconstruction::vertex_values) (f64 sums; this
+//! pass and its mirror `lrr_shaders::cpu::smooth_vertices` sum in f32).
 //!
-//! Built by [`GpuTracer`](super::GpuTracer) from its checked scene: SMOOTH's offsets, positions
-//! and weights, the file's order, and per display face (section FACES, else per element) its
-//! corners with their smooth vertices (what `trace.wgsl` reads at a hit). Every index the pass follows was checked by
-//! `Reconstruction::from_parts` when the tracer's scene was made.
+//! Built by [`GpuLightmap`](super::GpuLightmap) and (feature `trace`) the `GpuTracer` from a
+//! checked file: SMOOTH's offsets, positions and weights and the file's order (the tracer
+//! uploads its own per display face records, what `trace.wgsl` reads at a hit). Every index the
+//! pass follows was checked by `Reconstruction::from_parts` when its maker checked the file.
 
-use lrr_formats::{Geometry, Smooth};
-use lrr_shaders::{
-    SMOOTH_ENTRY, SMOOTH_LANES, SMOOTH_VERTICES, SmoothParams, smooth_element, workgroups,
-};
+use lrr_formats::Smooth;
+use lrr_shaders::{SMOOTH_ENTRY, SMOOTH_LANES, SMOOTH_VERTICES, SmoothParams, workgroups};
 
 use super::buffers::storage;
 use super::device::Gpu;
 
-/// The pass, its buffers and the per-face data the tracer binds.
+/// The pass and its buffers.
 pub(super) struct SmoothPass {
     vertex_count: u32,
     layout: wgpu::BindGroupLayout,
@@ -27,40 +25,16 @@ pub(super) struct SmoothPass {
     positions: wgpu::Buffer,
     weights: wgpu::Buffer,
     element_id: wgpu::Buffer,
-    /// Per display face: `lrr_shaders::smooth_element` (binding `smooth_faces` of the tracer).
-    pub elements: wgpu::Buffer,
-    /// This frame's smooth-vertex values, 3 f32 each (binding `vertex_values` of the tracer).
+    /// This frame's smooth-vertex values, 3 f32 each (binding `vertex_values` of the tracer and
+    /// of the lightmap fill).
     pub values: wgpu::Buffer,
 }
 
 impl SmoothPass {
-    /// The bytes of each buffer the pass and the tracer bind, by name (checked against one
-    /// binding's limit before anything is made).
-    pub(super) fn sizes(geometry: &Geometry, smooth: &Smooth) -> [(&'static str, u64); 4] {
-        let faces = geometry.vertex_count.len() as u64;
-        let p = smooth.positions.len() as u64;
-        [
-            ("smooth vertex values", 12 * smooth.vertex_count() as u64),
-            (
-                "smooth faces",
-                lrr_shaders::SMOOTH_ELEMENT_BYTES as u64 * faces,
-            ),
-            ("smooth offsets", 4 * smooth.offsets.len() as u64),
-            ("smooth weights", 4 * p),
-        ]
-    }
-
-    /// Uploads the reconstruction of a checked scene: `geometry` (the display faces' polygons)
-    /// and `smooth` as `Reconstruction::from_parts` accepted them, `element_id` the file's order.
-    pub(super) fn new(gpu: &Gpu, geometry: &Geometry, smooth: &Smooth, element_id: &[u32]) -> Self {
+    /// Uploads the reconstruction of a checked file: `smooth` as `Reconstruction::from_parts`
+    /// accepted it, `element_id` the file's order.
+    pub(super) fn new(gpu: &Gpu, smooth: &Smooth, element_id: &[u32]) -> Self {
         let none = wgpu::BufferUsages::empty();
-        let elements: Vec<u32> = (0..geometry.vertex_count.len())
-            .flat_map(|f| {
-                let corners = std::array::from_fn(|i| geometry.vertex(f, i));
-                let vertices = std::array::from_fn(|i| smooth.corners[4 * f + i]);
-                smooth_element(corners, vertices, geometry.vertex_count[f])
-            })
-            .collect();
         let vertex_count = smooth.vertex_count() as u32;
         let device = &gpu.device;
         let module = shader_module(gpu);
@@ -98,7 +72,6 @@ impl SmoothPass {
             positions: storage(gpu, "smooth positions", &smooth.positions, none),
             weights: storage(gpu, "smooth weights", &smooth.weights, none),
             element_id: storage(gpu, "smooth element ids", element_id, none),
-            elements: storage(gpu, "smooth faces", &elements, none),
             values: storage(
                 gpu,
                 "smooth vertex values",

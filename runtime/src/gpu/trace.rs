@@ -5,7 +5,8 @@
 //! [`GpuTracer::new`] takes a checked CPU [`Tracer`] (so both read the same display data, and
 //! every index the shader follows was checked there) and uploads its scene once: BVH nodes,
 //! leaf-order triangles, per-element ids, normals and materials, optics, and with SMOOTH
-//! weights the smooth reconstruction (`super::smooth`). A frame writes the point lights'
+//! weights the smooth reconstruction (`super::smooth`, and per display face its corners' smooth
+//! vertices, `lrr_shaders::smooth_element`). A frame writes the point lights'
 //! intensities (their group's factor applied) and, when it has lights that are not surfaces
 //! ([`DirectShading`]), their records and the reflectance per element (uploaded again only when
 //! it changed), decides the effects exactly as the CPU twin does and builds (once per
@@ -36,8 +37,8 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use lrr_shaders::{
-    DIRECT_LIGHT_BYTES, LIGHT_BYTES, NODE_BYTES, OPTICS_BYTES, TRACE, TRACE_ENTRY, TRACE_LANES,
-    TraceConstants, TraceParams,
+    DIRECT_LIGHT_BYTES, LIGHT_BYTES, NODE_BYTES, OPTICS_BYTES, SMOOTH_ELEMENT_BYTES, TRACE,
+    TRACE_ENTRY, TRACE_LANES, TraceConstants, TraceParams, smooth_element,
 };
 
 use super::buffers::storage;
@@ -45,9 +46,8 @@ use super::common::{GpuError, bytes_of};
 use super::device::Gpu;
 use super::smooth::SmoothPass;
 use crate::error::input;
-use crate::trace::{
-    Decision, DirectShading, Effects, Image, Lighting, RayCounts, Tracer, V3, View,
-};
+use crate::rays::V3;
+use crate::trace::{Decision, DirectShading, Effects, Image, Lighting, RayCounts, Tracer, View};
 
 /// Default pixels per dispatch: 2¹⁸ (a 1920 × 1080 frame in 8 tiles). A diffuse tile is
 /// 2¹⁸ closest hits, well under a millisecond on a datacenter GPU; a deep ray tree on a
@@ -93,8 +93,9 @@ pub struct GpuTracer {
     lights: wgpu::Buffer,
     /// Radiosity uploaded from the host ([`render_lighting`](Self::render_lighting)).
     host_radiosity: Option<wgpu::Buffer>,
-    /// The smooth reconstruction (files with SMOOTH weights).
-    smooth: Option<SmoothPass>,
+    /// The smooth reconstruction (files with SMOOTH weights), and per display face its
+    /// `lrr_shaders::smooth_element` record (binding `smooth_faces`).
+    smooth: Option<(SmoothPass, wgpu::Buffer)>,
     /// Bound as `smooth_faces` and `vertex_values` when the file has no SMOOTH, and as
     /// `reflectance` in a frame without lights that are not surfaces (unread).
     no_smooth: wgpu::Buffer,
@@ -129,6 +130,7 @@ impl GpuTracer {
         let n = scene.n();
         let none = wgpu::BufferUsages::empty();
         let nodes: Vec<u32> = scene
+            .rays
             .nodes
             .iter()
             .flat_map(|node| {
@@ -137,8 +139,8 @@ impl GpuTracer {
                 [a, b, c, node.count, d, e, f, node.first]
             })
             .collect();
-        let tris: Vec<f32> = scene.tris.iter().flatten().copied().collect();
-        let normals: Vec<f32> = scene.normals.iter().flatten().copied().collect();
+        let tris: Vec<f32> = scene.rays.tris.iter().flatten().copied().collect();
+        let normals: Vec<f32> = scene.rays.normals.iter().flatten().copied().collect();
         let optics: Vec<f32> = scene
             .optics
             .iter()
@@ -149,7 +151,7 @@ impl GpuTracer {
                 [s0, s1, s2, o.shininess, m0, m1, m2, o.ior, t0, t1, t2, 0.0]
             })
             .collect();
-        debug_assert_eq!(nodes.len() * 4, scene.nodes.len() * NODE_BYTES);
+        debug_assert_eq!(nodes.len() * 4, scene.rays.nodes.len() * NODE_BYTES);
         debug_assert_eq!(optics.len() * 4, scene.optics.len() * OPTICS_BYTES);
         let lights = scene.lights.len();
         let bindings = lrr_shaders::TRACE_BINDINGS.len() - 1;
@@ -168,14 +170,29 @@ impl GpuTracer {
             ("point lights", (lights * LIGHT_BYTES) as u64),
             ("tile image", 16 * u64::from(DEFAULT_TILE_PIXELS)),
         ];
-        if let Some((geometry, weights)) = &scene.smooth {
-            sizes.extend(SmoothPass::sizes(geometry, weights));
+        if let Some((geometry, smooth)) = &scene.smooth {
+            let faces = geometry.vertex_count.len() as u64;
+            sizes.extend([
+                ("smooth vertex values", 12 * smooth.vertex_count() as u64),
+                ("smooth faces", SMOOTH_ELEMENT_BYTES as u64 * faces),
+                ("smooth offsets", 4 * smooth.offsets.len() as u64),
+                ("smooth weights", 4 * smooth.positions.len() as u64),
+            ]);
         }
         check_fits(gpu, &sizes)?;
-        let smooth = scene
-            .smooth
-            .as_ref()
-            .map(|(geometry, weights)| SmoothPass::new(gpu, geometry, weights, &scene.element_id));
+        let smooth = scene.smooth.as_ref().map(|(geometry, smooth)| {
+            let faces: Vec<u32> = (0..geometry.vertex_count.len())
+                .flat_map(|f| {
+                    let corners = std::array::from_fn(|i| geometry.vertex(f, i));
+                    let vertices = std::array::from_fn(|i| smooth.corners[4 * f + i]);
+                    smooth_element(corners, vertices, geometry.vertex_count[f])
+                })
+                .collect();
+            (
+                SmoothPass::new(gpu, smooth, &scene.element_id),
+                storage(gpu, "smooth faces", &faces, none),
+            )
+        });
         let layout = bind_group_layout(gpu);
         let pipeline_layout = gpu
             .device
@@ -195,8 +212,8 @@ impl GpuTracer {
             }),
             nodes: storage(gpu, "bvh nodes", &nodes, none),
             tris: storage(gpu, "triangles", &tris, none),
-            tri_face: storage(gpu, "triangle faces", &scene.tri_face, none),
-            face_id: storage(gpu, "face element ids", &scene.face_id, none),
+            tri_face: storage(gpu, "triangle faces", &scene.rays.tri_face, none),
+            face_id: storage(gpu, "face element ids", &scene.rays.face_id, none),
             normals: storage(gpu, "face normals", &normals, none),
             face_material: storage(gpu, "face materials", &scene.face_material, none),
             optics: storage(gpu, "optics", &optics, none),
@@ -273,7 +290,7 @@ impl GpuTracer {
     /// CPU twin's [`Lighting::direct`]: `ρ H(x) / π` added to the radiosity's radiance, each
     /// light behind its own shadow ray (counted with the shadow rays). `radiosity` is then the
     /// bounced light, `B − ρ ⊙ H` per element with `H` the lights' direct irradiance per element
-    /// ([`DirectLighting::irradiance`](crate::trace::DirectLighting::irradiance)), as
+    /// ([`DirectLighting::irradiance`](crate::lights::DirectLighting::irradiance)), as
     /// [`Lighting::radiosity`] says. `None`, or no lights: [`render`](Self::render), the
     /// pipeline without the lights' code. Errors name a light whose values are bad, or a
     /// reflectance of the wrong length (the CPU twin's messages).
@@ -520,7 +537,7 @@ impl GpuTracer {
             )));
         }
         let direct_count = self.upload_direct(direct)?;
-        if self.tracer.scene().nodes.is_empty() {
+        if self.tracer.scene().rays.nodes.is_empty() {
             // No triangles: every ray misses (a binding cannot be empty; nothing to trace).
             let image = Image {
                 width,
@@ -610,7 +627,7 @@ impl GpuTracer {
         let scene = self.tracer.scene();
         let mut params = TraceParams {
             eye,
-            epsilon: scene.epsilon,
+            epsilon: scene.rays.epsilon,
             forward,
             max_depth: effects.max_depth,
             right,
@@ -621,7 +638,7 @@ impl GpuTracer {
             direct_count,
             ..TraceParams::default()
         };
-        if smooth && let Some(pass) = &self.smooth {
+        if smooth && let Some((pass, _)) = &self.smooth {
             // The smooth-vertex values from this frame's radiosity, before every tile.
             let mut encoder =
                 device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
@@ -701,7 +718,7 @@ impl GpuTracer {
         counts: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         let (elements, values) = match &self.smooth {
-            Some(pass) => (&pass.elements, &pass.values),
+            Some((pass, faces)) => (faces, &pass.values),
             None => (&self.no_smooth, &self.no_smooth),
         };
         let reflectance = self
@@ -752,14 +769,14 @@ fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
 
 fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
     #[allow(unsafe_code)]
-    // SAFETY: every index trace.wgsl follows was checked by `TraceScene::new` (the BVH's
-    // children and leaf ranges, its depth against the fixed stacks, the display faces' element
-    // ids and materials, light groups, the SMOOTH corners of the display faces through
-    // `Reconstruction::from_parts`) and by `GpuTracer::frame` (the radiosity buffer's size, the
-    // tile against the tile buffer, the counters per tile), `GpuTracer::upload_direct` (the
-    // direct lights' count against their buffer, 3 f32 of reflectance per element) and
-    // `SmoothPass::new` (3 f32 per smooth vertex, one face record per display face); the
-    // argument is in the header of trace.wgsl.
+    // SAFETY: every index trace.wgsl follows was checked by `TraceScene::new` (through
+    // `RayScene::new`: the BVH's children and leaf ranges, its depth against the fixed stacks,
+    // the display faces' element ids; itself: the materials, light groups, the SMOOTH corners
+    // of the display faces through `Reconstruction::from_parts`) and by `GpuTracer::frame`
+    // (the radiosity buffer's size, the tile against the tile buffer, the counters per tile),
+    // `GpuTracer::upload_direct` (the direct lights' count against their buffer, 3 f32 of
+    // reflectance per element), `SmoothPass::new` (3 f32 per smooth vertex) and `GpuTracer::new`
+    // (one smooth face record per display face); the argument is in the header of trace.wgsl.
     // Its loops end: the traversal visits each node at most once (children after parents) and
     // the ray tree's depth grows by one per push up to a limit of at most 16.
     unsafe {

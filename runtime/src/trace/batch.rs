@@ -2,13 +2,12 @@
 //! hits of a batch, the shadow rays from hits to the point lights and the mirror reflections
 //! of hits, each traced on the calling thread: shadow rays by the renderer's any-hit loop,
 //! closest hits eight consecutive rays at a time as packets where the CPU has AVX2
-//! (`bvh4/packet8.rs`), else four (`bvh4/packet.rs`), as the renderer traces camera rays; the
-//! same answers as ray by ray.
+//! (`rays/bvh4/packet8.rs`), else four (`rays/bvh4/packet.rs`), as the renderer traces camera
+//! rays; the same answers as ray by ray.
 
-use super::bvh::{Hit, Ray};
 use super::camera::View;
-use super::math::{V3, dot, length, mad, normalize, scale, sub};
 use super::scene::TraceScene;
+use crate::rays::{Hit, Ray, V3, dot, length, mad, normalize, scale, sub};
 
 /// Rays: origins, unit directions and the far end of each (`f32::INFINITY`: unbounded).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -94,17 +93,27 @@ pub(crate) fn closest(
         triangle: triangle_ids[h.tri as usize],
         leaf: h.tri,
     };
-    let one = |ray: &Ray, t_max| scene.closest_hit(ray, 0.0, t_max).map(hit);
-    if scene.packets_of_eight() {
+    let one = |ray: &Ray, t_max| scene.rays.closest_hit(ray, 0.0, t_max).map(hit);
+    if scene.rays.packets_of_eight() {
         in_packets(
             batch,
-            |rays: &[Ray; 8], t_max| scene.closest_hit8(rays, 0.0, t_max).map(|h| h.map(hit)),
+            |rays: &[Ray; 8], t_max| {
+                scene
+                    .rays
+                    .closest_hit8(rays, 0.0, t_max)
+                    .map(|h| h.map(hit))
+            },
             one,
         )
     } else {
         in_packets(
             batch,
-            |rays: &[Ray; 4], t_max| scene.closest_hit4(rays, 0.0, t_max).map(|h| h.map(hit)),
+            |rays: &[Ray; 4], t_max| {
+                scene
+                    .rays
+                    .closest_hit4(rays, 0.0, t_max)
+                    .map(|h| h.map(hit))
+            },
             one,
         )
     }
@@ -116,8 +125,8 @@ pub(crate) fn closest(
 pub(crate) fn any(scene: &TraceScene, batch: &RayBatch) -> Vec<bool> {
     in_packets(
         batch,
-        |rays: &[Ray; 4], t_max| scene.occluded4(rays, 0.0, t_max),
-        |ray, t_max| scene.occluded(ray, 0.0, t_max),
+        |rays: &[Ray; 4], t_max| scene.rays.occluded4(rays, 0.0, t_max),
+        |ray, t_max| scene.rays.occluded(ray, 0.0, t_max),
     )
 }
 
@@ -145,7 +154,7 @@ fn in_packets<T, const N: usize>(
 fn surface(scene: &TraceScene, batch: &RayBatch, i: usize, hit: &TraceHit) -> (V3, V3) {
     let d = batch.dirs[i];
     let p = mad(batch.origins[i], d, hit.t);
-    let n = scene.normals[scene.tri_face[hit.leaf as usize] as usize];
+    let n = scene.rays.normals[scene.rays.tri_face[hit.leaf as usize] as usize];
     (p, if dot(d, n) < 0.0 { n } else { scale(n, -1.0) })
 }
 
@@ -158,7 +167,7 @@ pub(crate) fn shadow(scene: &TraceScene, batch: &RayBatch, hits: &[Option<TraceH
         .enumerate()
         .map(|(i, hit)| {
             let (p, n_f) = surface(scene, batch, i, hit.as_ref()?);
-            Some((mad(p, n_f, scene.epsilon), n_f))
+            Some((mad(p, n_f, scene.rays.epsilon), n_f))
         })
         .collect();
     let mut out = RayBatch::default();
@@ -186,7 +195,7 @@ pub(crate) fn reflected(
         let (p, n_f) = surface(scene, batch, i, hit);
         let d = batch.dirs[i];
         let r = normalize(mad(d, n_f, -2.0 * dot(d, n_f)));
-        out.push(mad(p, n_f, scene.epsilon), r, f32::INFINITY);
+        out.push(mad(p, n_f, scene.rays.epsilon), r, f32::INFINITY);
     }
     out
 }

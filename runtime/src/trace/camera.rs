@@ -3,8 +3,8 @@
 
 use lrr_formats::Camera;
 
-use super::math::{V3, cross, dot, length, mad, normalize, scale, sub};
 use crate::error::{RuntimeError, input};
+use crate::rays::{V3, cross, dot, length, mad, normalize, scale, sub};
 
 /// The fields of a camera to trace through, any of them given (`lrr render`'s flags, Python's
 /// keyword arguments); [`CameraFields::choose`] fills the rest from a file's cameras.
@@ -203,7 +203,7 @@ mod tests {
     use lrr_formats::Camera;
 
     use super::{CameraChoiceError, CameraFields, View};
-    use crate::trace::math::{mad, scale, sub};
+    use crate::rays::{mad, scale, sub};
 
     /// A triangle a camera ray through a pixel centre hits is never called unseen, at fields
     /// of view from 1e-4° to 170°, near and far, whatever the scale; one wholly beside the

@@ -111,11 +111,11 @@ fn in_view(scene: &TraceScene, view: &View) -> (bool, bool, bool) {
     }
     let none = seen;
     for &t in &scene.special {
-        let o = scene.optics_of(scene.tri_face[t as usize]);
+        let o = scene.optics_of(scene.rays.tri_face[t as usize]);
         let wanted = (o.has_highlight() && !seen.0)
             || (o.reflects() && !seen.1)
             || (o.transmits() && !seen.2);
-        if wanted && pyramid.may_see(&scene.tris[t as usize]) {
+        if wanted && pyramid.may_see(&scene.rays.tris[t as usize]) {
             seen.0 |= o.has_highlight();
             seen.1 |= o.reflects();
             seen.2 |= o.transmits();

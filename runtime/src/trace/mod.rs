@@ -1,5 +1,7 @@
 //! The CPU ray tracer: a Whitted ray tree over an operator file's display data, shaded with a
-//! frame's radiosity.
+//! frame's radiosity (cargo feature `trace`; the default build, and the C interface's, compile
+//! none of it). Lights that are not surfaces and their per-frame direct pass are
+//! [`lights`](crate::lights), in every build; the tracer shades their direct light at its hits.
 //!
 //! [`Tracer::new`] copies what the file holds for display (format 1.2): the display triangles
 //! (the fan triangulation of the display faces, `OperatorFile::faces`: section FACES of format
@@ -17,18 +19,18 @@
 //!
 //! Only what the scene calls for is simulated ([`Effects`], decided per frame and explained by
 //! [`Decision::text`]); the loop is monomorphised per decision. Closest-hit and any-hit
-//! traversal run over the file's BVH collapsed into 4-wide nodes at load (`bvh4.rs`: four boxes
-//! and four triangles per SIMD test) and use the watertight ray/triangle test (`bvh.rs` says
-//! why); between triangles at the same distance the lower leaf-order index wins. The batch API
-//! ([`Tracer::closest_hits`]) traces eight consecutive rays at a time as a packet where the CPU
-//! has AVX2 (`bvh4/packet8.rs`), four otherwise (`bvh4/packet.rs`; the same answers), the
-//! renderer its camera rays likewise.
+//! traversal run over the file's BVH collapsed into 4-wide nodes at load (`rays/bvh4.rs`: four
+//! boxes and four triangles per SIMD test) and use the watertight ray/triangle test
+//! (`rays/bvh.rs` says why); between triangles at the same distance the lower leaf-order index
+//! wins. The batch API ([`Tracer::closest_hits`]) traces eight consecutive rays at a time as a
+//! packet where the CPU has AVX2 (`rays/bvh4/packet8.rs`), four otherwise
+//! (`rays/bvh4/packet.rs`; the same answers), the renderer its camera rays likewise.
 //! Tiles of rows
 //! go to std threads; the image does not depend on their number.
 //!
 //! The structure is the one a WGSL twin mirrors: flat arrays indexed by `u32`, fixed-size
 //! stacks, no recursion, no trait objects in the hot loop (the twin traverses the binary BVH,
-//! `bvh.rs`'s reference loop, to the same hits).
+//! `rays/bvh.rs`'s reference loop, to the same hits).
 //!
 //! ```
 //! use lrr_runtime::trace::{Lighting, Tracer, View};
@@ -56,26 +58,14 @@
 //! ```
 
 mod batch;
-mod bvh;
-mod bvh4;
 mod camera;
-mod direct;
 mod effects;
-mod math;
 mod scene;
 mod shade;
 mod tracer;
 
 pub use batch::{RayBatch, TraceHit};
 pub use camera::{CameraChoiceError, CameraFields, View};
-pub use direct::{
-    DEFAULT_SAMPLES, DirectLighting, DirectReport, Light, Sky, file_lights, reflected, sh9,
-    spot_falloff,
-};
 pub use effects::{DEFAULT_MAX_DEPTH, Decision, Effects, MAX_DEPTH_LIMIT};
 pub use shade::RayCounts;
 pub use tracer::{DirectShading, Image, Lighting, RenderReport, TILE_ROWS, Tracer};
-
-// For the GPU twin (runtime/src/gpu/trace.rs).
-#[cfg(feature = "gpu")]
-pub(crate) use math::V3;

@@ -26,11 +26,10 @@
 
 use std::f32::consts::FRAC_1_PI;
 
-use super::bvh::{Hit, Ray};
-use super::direct::{Light, at_point};
 use super::effects::MAX_DEPTH_LIMIT;
-use super::math::{V3, add, dot, length, mad, max_component, mul, normalize, scale, sub};
 use super::scene::{Optics, TraceScene};
+use crate::lights::{Light, at_point};
+use crate::rays::{Hit, Ray, V3, add, dot, length, mad, max_component, mul, normalize, scale, sub};
 use crate::smooth::Reconstruction;
 
 /// A frame's lighting as the tracer reads it.
@@ -93,7 +92,7 @@ fn diffuse<const SMOOTH: bool>(
     p: V3,
     counts: &mut RayCounts,
 ) -> V3 {
-    let element = scene.face_id[f as usize] as usize;
+    let element = scene.rays.face_id[f as usize] as usize;
     let b = if SMOOTH && let Some((reconstruction, vertices)) = &frame.smooth {
         reconstruction.at(vertices, f as usize, p)
     } else {
@@ -102,10 +101,10 @@ fn diffuse<const SMOOTH: bool>(
     let mut b = b;
     if let Some((lights, rho)) = frame.direct {
         let h = at_point(
-            scene,
+            &scene.rays,
             lights,
             p,
-            scene.normals[f as usize],
+            scene.rays.normals[f as usize],
             &mut counts.shadow,
         );
         b = add(b, mul(rho[element], h));
@@ -127,7 +126,7 @@ fn highlights(
     let mut sum = [0.0f32; 3];
     let norm = (optics.shininess + 2.0) * (0.5 * FRAC_1_PI);
     let reflected = mad(d, n_f, -2.0 * dot(d, n_f));
-    let origin = mad(p, n_f, scene.epsilon);
+    let origin = mad(p, n_f, scene.rays.epsilon);
     for (light, intensity) in scene.lights.iter().zip(frame.light_intensity) {
         if max_component(*intensity) <= 0.0 {
             continue;
@@ -147,7 +146,7 @@ fn highlights(
         let to_light = sub(light.position, origin);
         let reach = length(to_light);
         let shadow = Ray::new(origin, scale(to_light, 1.0 / reach));
-        if scene.occluded(&shadow, 0.0, reach * (1.0 - 1e-5)) {
+        if scene.rays.occluded(&shadow, 0.0, reach * (1.0 - 1e-5)) {
             continue;
         }
         let lobe = dot(reflected, l).max(0.0).powf(optics.shininess) * norm;
@@ -190,7 +189,7 @@ pub(crate) fn radiance<const HIGHLIGHTS: bool, const SECONDARY: bool, const SMOO
         counts.primary += 1;
         return match primary {
             Some(hit) => {
-                let f = scene.tri_face[hit.tri as usize];
+                let f = scene.rays.tri_face[hit.tri as usize];
                 diffuse::<SMOOTH>(scene, frame, f, mad(origin, dir, hit.t), counts)
             }
             None => [0.0; 3],
@@ -215,16 +214,18 @@ pub(crate) fn radiance<const HIGHLIGHTS: bool, const SECONDARY: bool, const SMOO
         let hit = if ray.depth == 0 {
             primary
         } else {
-            scene.closest_hit(&Ray::new(ray.origin, ray.dir), 0.0, f32::INFINITY)
+            scene
+                .rays
+                .closest_hit(&Ray::new(ray.origin, ray.dir), 0.0, f32::INFINITY)
         };
         let Some(hit) = hit else {
             continue;
         };
-        let f = scene.tri_face[hit.tri as usize];
+        let f = scene.rays.tri_face[hit.tri as usize];
         let p = mad(ray.origin, ray.dir, hit.t);
         let local = diffuse::<SMOOTH>(scene, frame, f, p, counts);
         let optics = scene.optics_of(f);
-        let n = scene.normals[f as usize];
+        let n = scene.rays.normals[f as usize];
         let cos_n = dot(ray.dir, n);
         let n_f = if cos_n < 0.0 { n } else { scale(n, -1.0) };
         let mut local = local;
@@ -254,7 +255,7 @@ pub(crate) fn radiance<const HIGHLIGHTS: bool, const SECONDARY: bool, const SMOO
         let depth = ray.depth + 1;
         if max_component(w_t) > 0.0 {
             stack[sp] = Pending {
-                origin: mad(p, n_f, -scene.epsilon),
+                origin: mad(p, n_f, -scene.rays.epsilon),
                 dir: refracted,
                 weight: w_t,
                 depth,
@@ -263,7 +264,7 @@ pub(crate) fn radiance<const HIGHLIGHTS: bool, const SECONDARY: bool, const SMOO
         }
         if max_component(w_r) > 0.0 {
             stack[sp] = Pending {
-                origin: mad(p, n_f, scene.epsilon),
+                origin: mad(p, n_f, scene.rays.epsilon),
                 dir: normalize(mad(ray.dir, n_f, 2.0 * cos_i)),
                 weight: w_r,
                 depth,

@@ -10,14 +10,13 @@ use std::sync::Mutex;
 use lrr_formats::{Camera, OperatorFile, PointLight};
 
 use super::batch::{self, RayBatch, TraceHit};
-use super::bvh::{Hit, Ray};
 use super::camera::View;
-use super::direct::Light;
 use super::effects::{self, Decision, Effects, MAX_DEPTH_LIMIT};
-use super::math::{V3, scale};
 use super::scene::TraceScene;
 use super::shade::{FrameInput, RayCounts, radiance};
 use crate::error::{RuntimeError, input};
+use crate::lights::Light;
+use crate::rays::{Hit, Ray, V3, scale};
 use crate::smooth::Reconstruction;
 
 /// Rows of pixels per work item.
@@ -48,8 +47,9 @@ impl Image {
 pub struct Lighting<'a> {
     /// Radiosity per element, original ids (what [`Evaluator::evaluate`](crate::Evaluator)
     /// writes); with [`Lighting::direct`], without the lights' reflected direct light (`B − ρ ⊙
-    /// H` per element, `H` from [`DirectLighting::irradiance`](super::DirectLighting)): the
-    /// bounced light, which the shaded point's own direct light completes.
+    /// H` per element, `H` from
+    /// [`DirectLighting::irradiance`](crate::lights::DirectLighting)): the bounced light, which
+    /// the shaded point's own direct light completes.
     pub radiosity: &'a [[f32; 3]],
     /// One intensity per light group of the file (1 = as baked); a point light of group `g`
     /// shines at `intensities[g]` times its intensity.
@@ -62,8 +62,8 @@ pub struct Lighting<'a> {
 /// The lights a frame adds at every shaded point, and the reflectance they are reflected with.
 #[derive(Debug, Clone, Copy)]
 pub struct DirectShading<'a> {
-    /// The lights (the frame's, as [`DirectLighting::irradiance`](super::DirectLighting) took
-    /// them).
+    /// The lights (the frame's, as
+    /// [`DirectLighting::irradiance`](crate::lights::DirectLighting) took them).
     pub lights: &'a [Light],
     /// Reflectance per element, original ids ([`Operator::reflectance`](crate::Operator)).
     pub reflectance: &'a [[f32; 3]],
@@ -138,7 +138,7 @@ impl Tracer {
 
     /// Number of display triangles.
     pub fn triangle_count(&self) -> usize {
-        self.scene.tris.len()
+        self.scene.rays.tris.len()
     }
 
     /// The camera rays of `view` on a `width × height` image, in blocks of 4 × 2 pixels
@@ -149,7 +149,7 @@ impl Tracer {
 
     /// The closest hit of every ray of `rays`, on this thread (the renderer's traversal).
     pub fn closest_hits(&self, rays: &RayBatch) -> Vec<Option<TraceHit>> {
-        batch::closest(&self.scene, &self.scene.tri_id, rays)
+        batch::closest(&self.scene, &self.scene.rays.tri_id, rays)
     }
 
     /// Whether each ray of `rays` is blocked before its far end, on this thread (the shadow
@@ -421,16 +421,18 @@ impl Job<'_> {
         counts: &mut RayCounts,
     ) {
         // Camera rays eight pixels at a time as a packet where the CPU has AVX2
-        // (`bvh4/packet8.rs`), else four (`bvh4/packet.rs`): the same hits as ray by ray, up
-        // to the rounding case `bvh4.rs` names, which depends on the order of visits. The
-        // pixels go in the band's order, a packet running on into the next row: blocks of
-        // 4 × 2 pixels (as `batch.rs` orders camera rays) changed one pixel of
+        // (`rays/bvh4/packet8.rs`), else four (`rays/bvh4/packet.rs`): the same hits as ray by
+        // ray, up to the rounding case `rays/bvh4.rs` names, which depends on the order of
+        // visits. The pixels go in the band's order, a packet running on into the next row:
+        // blocks of 4 × 2 pixels (as `batch.rs` orders camera rays) changed one pixel of
         // `gpu_trace.rs`'s diffuse room against the binary traversal's image, so not here.
-        if self.scene.packets_of_eight() {
-            let packet = |rays: &[Ray; 8]| self.scene.closest_hit8(rays, 0.0, [f32::INFINITY; 8]);
+        if self.scene.rays.packets_of_eight() {
+            let packet =
+                |rays: &[Ray; 8]| self.scene.rays.closest_hit8(rays, 0.0, [f32::INFINITY; 8]);
             self.camera_packets::<8, HIGHLIGHTS, SECONDARY, SMOOTH>(y0, pixels, counts, packet);
         } else {
-            let packet = |rays: &[Ray; 4]| self.scene.closest_hit4(rays, 0.0, [f32::INFINITY; 4]);
+            let packet =
+                |rays: &[Ray; 4]| self.scene.rays.closest_hit4(rays, 0.0, [f32::INFINITY; 4]);
             self.camera_packets::<4, HIGHLIGHTS, SECONDARY, SMOOTH>(y0, pixels, counts, packet);
         }
     }
@@ -462,6 +464,7 @@ impl Job<'_> {
             } else {
                 dirs.map(|d| {
                     self.scene
+                        .rays
                         .closest_hit(&Ray::new(eye, d), 0.0, f32::INFINITY)
                 })
             };

@@ -1,6 +1,7 @@
 //! The C interface end to end: bake the Cornell box, build liblrr_capi (static and shared),
 //! compile `runtime/capi/examples/relight.c` with the system C compiler against each, run it on
-//! probe points and compare with `lrr probe --json`: the same elements, the same floats.
+//! probe points and compare with `lrr probe --json`: the same elements, the same floats. The
+//! library is the C interface's default build, which compiles no ray tracer (checked below).
 
 #![cfg(target_os = "linux")]
 
@@ -312,5 +313,32 @@ fn c_program_reports_errors() {
     assert!(
         stderr.contains("garbage.lrr") && stderr.contains("not an lrr operator file"),
         "{stderr}"
+    );
+}
+
+/// The C interface's default build compiles no ray tracer: lrr-capi leaves the runtime's feature
+/// `trace` off (issue #34), so the static library that `relight.c` links, which holds every
+/// object of the runtime it was built from, names nothing in `lrr_runtime::trace`. It does name
+/// the direct pass in `lrr_runtime::lights` that `lrr_direct_*` call, which shows that the names
+/// are spelled the way this test looks for them. Both of Rust's symbol manglings (legacy
+/// `_ZN11lrr_runtime6lights…`, v0 `…_11lrr_runtime6lights…`) write a path as its identifiers
+/// each after its length. (`cargo build -p lrr-capi --features lrr-runtime/trace` puts
+/// `11lrr_runtime5trace` into the library, and this test fails on it.)
+#[test]
+fn c_library_compiles_no_ray_tracer() {
+    let (static_lib, _) = build_libraries();
+    let bytes = std::fs::read(&static_lib).unwrap();
+    let names = |path: &str| bytes.windows(path.len()).any(|w| w == path.as_bytes());
+    assert!(
+        names("11lrr_runtime6lights"),
+        "{} names nothing in lrr_runtime::lights: the symbols are not spelled as this test \
+         expects, so it cannot tell whether the tracer is in",
+        static_lib.display()
+    );
+    assert!(
+        !names("11lrr_runtime5trace"),
+        "{} holds code of lrr_runtime::trace: the C interface's default build must not turn on \
+         the runtime's feature `trace`",
+        static_lib.display()
     );
 }

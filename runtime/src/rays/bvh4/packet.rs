@@ -20,18 +20,21 @@
 //! Neighbouring camera rays visit mostly the same nodes, and the single-ray traversal spends
 //! its time on the control flow per node: `lrr bench render` measured ×1.2 on primary rays
 //! (four neighbouring pixels of a row) and ×1.35 on their mirror reflections, whole frames
-//! ×0.85–0.89 the time (docs/PERFORMANCE.md). Used by the batch API (`batch.rs`) and for the
-//! renderer's camera rays (`tracer.rs`) on a CPU without AVX2; with it, packets of eight
-//! (`packet8.rs`).
+//! ×0.85–0.89 the time (docs/PERFORMANCE.md). Used by the tracer (feature `trace`): the batch
+//! API (`trace/batch.rs`) and the renderer's camera rays (`trace/tracer.rs`) on a CPU without
+//! AVX2; with it, packets of eight (`packet8.rs`).
 //!
-//! [`Bvh4::occluded4`] is the any-hit twin for shadow rays: the single-ray `any` traversal's
-//! order (children in slot order, leaves tested as they are met, inner nodes pushed), each
-//! stack entry with the rays that entered it; a ray leaves the packet at its first hit, the
-//! packet ends when all four are blocked or the stack is empty. Whether a ray is blocked does
-//! not depend on the order of visits, so the answers are the single ray's exactly.
+//! [`Bvh4::occluded4`] is the any-hit twin for shadow rays (the direct pass's, in every build):
+//! the single-ray `any` traversal's order (children in slot order, leaves tested as they are
+//! met, inner nodes pushed), each stack entry with the rays that entered it; a ray leaves the
+//! packet at its first hit, the packet ends when all four are blocked or the stack is empty.
+//! Whether a ray is blocked does not depend on the order of visits, so the answers are the
+//! single ray's exactly.
 
 use super::super::bvh::FAR_SCALE;
-use super::super::bvh::{Hit, Ray};
+#[cfg(feature = "trace")]
+use super::super::bvh::Hit;
+use super::super::bvh::Ray;
 use super::{Bvh4, F4, INLINE_STACK, LAST, LEAF, Node, octant, triangles};
 
 /// `N` rays (4 or 8) as the slab tests read them, one ray per lane.
@@ -91,6 +94,7 @@ impl<const N: usize> Lanes<N> {
 }
 
 /// A stack entry: a node or leaf slot, the rays that entered it, and their entry distances.
+#[cfg(feature = "trace")]
 #[derive(Clone, Copy)]
 pub(super) struct Entry<const N: usize> {
     at: u32,
@@ -98,6 +102,7 @@ pub(super) struct Entry<const N: usize> {
     t: [f32; N],
 }
 
+#[cfg(feature = "trace")]
 impl<const N: usize> Entry<N> {
     pub(super) const EMPTY: Self = Entry {
         at: 0,
@@ -109,6 +114,7 @@ impl<const N: usize> Entry<N> {
 impl Bvh4 {
     /// The closest hit of each of four rays in `(t_min, t_max[i])`: the same answers as
     /// [`Bvh4::closest_hit`] ray by ray.
+    #[cfg(feature = "trace")]
     pub(crate) fn closest_hit4(&self, rays: &[Ray; 4], t_min: f32, t_max: F4) -> [Option<Hit>; 4] {
         let oct = octant(&rays[0]);
         let kz = rays[0].kz;
@@ -130,6 +136,7 @@ impl Bvh4 {
         }
     }
 
+    #[cfg(feature = "trace")]
     fn closest4_kz<const KZ: usize>(
         &self,
         stack: &mut [Entry<4>],
@@ -151,6 +158,7 @@ impl Bvh4 {
     }
 
     /// [`Bvh4::closest_hit4`] for rays whose dominant axis is `KZ`, in octant `OCT`.
+    #[cfg(feature = "trace")]
     fn closest4<const KZ: usize, const OCT: usize>(
         &self,
         stack: &mut [Entry<4>],
@@ -164,6 +172,7 @@ impl Bvh4 {
     /// The closest hits of `N` rays (4 or 8) whose dominant axis is `KZ`, in octant `OCT`. A
     /// hot loop, kept in one piece and inlined into its callers (`closest4`, and the two
     /// builds of `packet8.rs`'s `closest8`).
+    #[cfg(feature = "trace")]
     #[inline(always)]
     pub(super) fn closest_packet<const N: usize, const KZ: usize, const OCT: usize>(
         &self,

@@ -15,7 +15,8 @@
 //! reflections (`lrr bench render`, docs/PERFORMANCE.md round 4). Shadow rays stay in packets
 //! of four: an any-hit twin on eight lanes with AVX2 measured no faster.
 //!
-//! The batch API's camera rays come in blocks of 4 × 2 pixels (`batch.rs`). Tried and dropped:
+//! Compiled with the feature `trace` only (closest hits are the tracer's). The batch API's
+//! camera rays come in blocks of 4 × 2 pixels (`trace/batch.rs`). Tried and dropped:
 //! the triangles of a leaf tested one at a time against the eight rays in the lanes (fewer
 //! tests when more rays than triangles are active; measured slower).
 

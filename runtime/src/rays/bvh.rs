@@ -1,7 +1,8 @@
 //! Rays and the watertight ray/triangle test (Woop, Benthin and Wald, "Watertight
 //! Ray/Triangle Intersection", JCGT 2013), and the binary traversal of the file's flattened BVH
-//! that `shaders/wgsl/trace.wgsl` runs (the CPU traverses the 4-wide collapse of the same tree,
-//! `bvh4.rs`, to the same answers; the binary loop stays here as the tests' reference).
+//! that `shaders/wgsl/bvh.wgsl` runs for the GPU's tracer and direct pass (the CPU traverses
+//! the 4-wide collapse of the same tree, `bvh4.rs`, to the same answers; the binary loop stays
+//! here as the tests' reference).
 //!
 //! Why watertight and not Möller–Trumbore: the display triangles are the fans of quads that
 //! share edges and diagonals; Möller–Trumbore's barycentric tests round differently on the two
@@ -78,6 +79,7 @@ impl Ray {
 }
 
 /// A closest hit: the distance and the triangle's leaf-order index.
+#[cfg(feature = "trace")]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Hit {
     pub t: f32,

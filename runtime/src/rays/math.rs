@@ -1,5 +1,6 @@
-//! The few vector operations the tracer needs, on plain `[f32; 3]` (the layout a WGSL twin reads
-//! as `vec3<f32>`), so that nothing in the hot loop hides behind a trait.
+//! The few vector operations rays need (the direct pass's and the tracer's), on plain
+//! `[f32; 3]` (the layout a WGSL twin reads as `vec3<f32>`), so that nothing in the hot loop
+//! hides behind a trait.
 
 /// A point or direction.
 pub(crate) type V3 = [f32; 3];
@@ -25,6 +26,7 @@ pub(crate) fn mad(a: V3, b: V3, s: f32) -> V3 {
     [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
 }
 
+#[cfg(feature = "trace")]
 #[inline(always)]
 pub(crate) fn mul(a: V3, b: V3) -> V3 {
     [a[0] * b[0], a[1] * b[1], a[2] * b[2]]
@@ -57,6 +59,7 @@ pub(crate) fn normalize(a: V3) -> V3 {
 }
 
 /// The largest component.
+#[cfg(feature = "trace")]
 #[inline(always)]
 pub(crate) fn max_component(a: V3) -> f32 {
     a[0].max(a[1]).max(a[2])

@@ -26,15 +26,18 @@
 //! Only what a frame calls for is traced: no lights, no rays; a light whose place, direction and
 //! cone did not change since the last frame is not traced again (its colour and intensity scale
 //! a cached geometric term); the sky's transfer is projected on the first frame that has a sky.
+//!
+//! In every build of the runtime (an application runs this pass every frame; the C interface's
+//! `lrr_direct_*`): the shadow rays are any-hit queries through `rays/`, the file's BVH checked
+//! and collapsed once. The ray tracer (feature `trace`) shades its hits with the arithmetic of
+//! [`DirectLighting::at`].
 
 use std::f32::consts::PI;
 
 use lrr_formats::OperatorFile;
 
-use super::bvh::Ray;
-use super::math::{V3, add, cross, dot, length, mad, normalize, scale, sub};
-use super::scene::TraceScene;
 use crate::error::{RuntimeError, input};
+use crate::rays::{Ray, RayScene, V3, add, cross, dot, length, mad, normalize, scale, sub};
 
 /// A light that is not a surface, as a frame gives it. Every field may change every frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -180,7 +183,7 @@ impl Light {
     }
 }
 
-// What the GPU twin (runtime/src/gpu/trace.rs) uploads per light.
+// What the GPU twins upload per light (gpu/direct.rs; with `trace`, gpu/trace.rs).
 #[cfg(feature = "gpu")]
 impl Light {
     /// The light as `trace.wgsl`'s `DirectLight` record (`lrr_shaders::direct_light`): what
@@ -457,7 +460,7 @@ const SKY_DIRECTIONS: u32 = 64;
 /// through the file's BVH, a cache of each light's geometric term. See the [module docs](self).
 #[derive(Debug, Clone)]
 pub struct DirectLighting {
-    scene: TraceScene,
+    scene: RayScene,
     samples: Vec<Sample>,
     per_element: usize,
     threads: usize,
@@ -477,7 +480,7 @@ impl DirectLighting {
                 "direct lighting: {samples} samples per element; use 1 to 64"
             )));
         }
-        let scene = TraceScene::new(file)?;
+        let scene = RayScene::new(file)?;
         let n = scene.n();
         // Each element's display triangles with their areas and front normals.
         let mut tris: Vec<Vec<(usize, f32)>> = vec![Vec::new(); n];
@@ -578,7 +581,7 @@ impl DirectLighting {
 
     /// The checked scene whose BVH the shadow rays traverse (the GPU twin uploads it).
     #[cfg(feature = "gpu")]
-    pub(crate) fn scene(&self) -> &TraceScene {
+    pub(crate) fn scene(&self) -> &RayScene {
         &self.scene
     }
 
@@ -874,7 +877,7 @@ impl DirectLighting {
 /// `rays` counts them. The tracer's shading and [`DirectLighting::at`] share it.
 #[inline]
 pub(crate) fn at_point(
-    scene: &TraceScene,
+    scene: &RayScene,
     lights: &[Light],
     x: V3,
     normal: V3,

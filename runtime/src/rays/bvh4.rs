@@ -1,9 +1,10 @@
-//! The CPU tracer's 4-wide BVH: the file's binary BVH collapsed at load into nodes of four
-//! children (a conversion, not a build: the same leaves, the same triangles in each), child
-//! boxes and leaf triangles stored as structure of arrays in `[f32; 4]` lanes, so that one node
-//! is four slab tests and one group of triangles four watertight tests, in plain safe code the
-//! compiler turns into SSE (the workspace builds for generic x86-64: no AVX2 at compile time;
-//! docs/PERFORMANCE.md has the measurements).
+//! The 4-wide BVH the CPU traverses (the direct pass's shadow rays, the tracer's rays): the
+//! file's binary BVH collapsed at load into nodes of four children (a conversion, not a build:
+//! the same leaves, the same triangles in each), child boxes and leaf triangles stored as
+//! structure of arrays in `[f32; 4]` lanes, so that one node is four slab tests and one group of
+//! triangles four watertight tests, in plain safe code the compiler turns into SSE (the
+//! workspace builds for generic x86-64: no AVX2 at compile time; docs/PERFORMANCE.md has the
+//! measurements).
 //!
 //! - Nodes: per axis the four children's minima and maxima (`bounds[0][axis]`,
 //!   `bounds[1][axis]`, 128 bytes a node). The traversal is monomorphised on the ray's octant
@@ -54,10 +55,13 @@
 //! several comparisons combined lane by lane, or `min(x, min(y, z))`, are scalarised or
 //! interleaved across axes (checked in the assembly; `lrr bench render` measures the result).
 
-use super::bvh::{FAR_SCALE, Hit, MAX_BVH_DEPTH, Ray};
+#[cfg(feature = "trace")]
+use super::bvh::Hit;
+use super::bvh::{FAR_SCALE, MAX_BVH_DEPTH, Ray};
 
 mod collapse;
 mod packet;
+#[cfg(feature = "trace")]
 mod packet8;
 
 /// Four lanes.
@@ -277,6 +281,7 @@ pub(crate) enum NotATree {
 
 impl Bvh4 {
     /// The nearest triangle `ray` hits in `(t_min, t_max)` (ties: the lower leaf-order index).
+    #[cfg(feature = "trace")]
     #[inline]
     pub(crate) fn closest_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         if self.nodes.is_empty() {
@@ -298,6 +303,7 @@ impl Bvh4 {
     }
 
     /// [`Bvh4::closest_hit`] dispatched on the ray's octant.
+    #[cfg(feature = "trace")]
     #[inline(always)]
     fn closest_kz<const KZ: usize>(
         &self,
@@ -361,6 +367,7 @@ impl Bvh4 {
     }
 
     /// [`Bvh4::closest_hit`] for rays whose dominant axis is `KZ`, in octant `OCT`.
+    #[cfg(feature = "trace")]
     fn closest<const KZ: usize, const OCT: usize>(
         &self,
         stack: &mut [(u32, f32)],
