@@ -34,7 +34,7 @@
 //! extent. Everything runs in file order over maps used only for look-ups: the same mesh
 //! gives the same bytes.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use glam::DVec3;
 use lrr_formats::Smooth;
@@ -291,7 +291,7 @@ fn plane_weights(
 /// corner's position index (`elements.len() * 4`, unused corners `usize::MAX`).
 fn positions(elements: &[&Element], tol: f64) -> (Vec<usize>, Vec<DVec3>) {
     let cell = |x: DVec3| (x / tol).floor().as_i64vec3().to_array();
-    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    let mut grid: FxHashMap<[i64; 3], Vec<usize>> = FxHashMap::default();
     let mut positions: Vec<DVec3> = Vec::new();
     let mut corner_pos = vec![usize::MAX; elements.len() * 4];
     for (s, e) in elements.iter().enumerate() {
@@ -361,7 +361,7 @@ impl Incident {
 /// Elements by the grid cells their boxes meet (for T-junction search) and by their corners.
 struct Incidence {
     cell_size: f64,
-    grid: HashMap<[i64; 3], Vec<usize>>,
+    grid: FxHashMap<[i64; 3], Vec<usize>>,
     /// Per position: (element, corner) pairs, in file order.
     by_position: Vec<Vec<(usize, usize)>>,
     tol: f64,
@@ -378,7 +378,7 @@ impl Incidence {
         let mut sizes: Vec<f64> = elements.iter().map(|e| e.polygon.max_edge()).collect();
         sizes.sort_by(f64::total_cmp);
         let cell_size = sizes.get(sizes.len() / 2).copied().unwrap_or(1.0).max(tol);
-        let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+        let mut grid: FxHashMap<[i64; 3], Vec<usize>> = FxHashMap::default();
         for (s, e) in elements.iter().enumerate() {
             let v = e.polygon.vertices();
             let lo = v.iter().fold(v[0], |a, &b| a.min(b)) - DVec3::splat(tol);
@@ -484,8 +484,8 @@ fn components<T>(items: &[T], joined: impl Fn(&T, &T) -> bool) -> Vec<Vec<usize>
 }
 
 /// The contact lines (`imprint`) in the plane of each face that has elements.
-fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> HashMap<u32, Vec<Contact>> {
-    let mut bounds: HashMap<u32, (DVec3, DVec3)> = HashMap::new();
+fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> FxHashMap<u32, Vec<Contact>> {
+    let mut bounds: FxHashMap<u32, (DVec3, DVec3)> = FxHashMap::default();
     let mut faces: Vec<u32> = Vec::new();
     for e in elements {
         let v = e.polygon.vertices();
