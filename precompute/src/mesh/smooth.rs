@@ -38,6 +38,7 @@ use rustc_hash::FxHashMap;
 
 use glam::DVec3;
 use lrr_formats::Smooth;
+use rayon::prelude::*;
 
 use super::element::Element;
 use super::imprint::{Contact, Imprinter};
@@ -84,7 +85,10 @@ pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
                     b,
                     x,
                     [ea.face, eb.face],
-                    [&contacts[&ea.face][..], &contacts[&eb.face][..]],
+                    [
+                        &contacts[ea.face as usize][..],
+                        &contacts[eb.face as usize][..],
+                    ],
                     tol,
                 )
         };
@@ -483,28 +487,24 @@ fn components<T>(items: &[T], joined: impl Fn(&T, &T) -> bool) -> Vec<Vec<usize>
     groups
 }
 
-/// The contact lines (`imprint`) in the plane of each face that has elements.
-fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> FxHashMap<u32, Vec<Contact>> {
-    let mut bounds: FxHashMap<u32, (DVec3, DVec3)> = FxHashMap::default();
-    let mut faces: Vec<u32> = Vec::new();
+/// The contact lines (`imprint`) in the plane of each face that has elements, by face index
+/// (none for the others); the faces are searched in parallel.
+fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> Vec<Vec<Contact>> {
+    let mut bounds: Vec<Option<(DVec3, DVec3)>> = vec![None; scene.faces.len()];
     for e in elements {
         let v = e.polygon.vertices();
         let lo = v.iter().fold(v[0], |a, &b| a.min(b));
         let hi = v.iter().fold(v[0], |a, &b| a.max(b));
-        bounds
-            .entry(e.face)
-            .and_modify(|b| *b = (b.0.min(lo), b.1.max(hi)))
-            .or_insert_with(|| {
-                faces.push(e.face);
-                (lo, hi)
-            });
+        let b = &mut bounds[e.face as usize];
+        *b = Some(b.map_or((lo, hi), |(l, h)| (l.min(lo), h.max(hi))));
     }
     let imprinter = Imprinter::new(&scene.faces);
-    faces
-        .into_iter()
-        .map(|f| {
-            let plane = &scene.faces[f as usize].polygon;
-            (f, imprinter.contacts(plane, bounds[&f], Some(f as usize)))
+    bounds
+        .par_iter()
+        .enumerate()
+        .map(|(f, b)| match b {
+            Some(b) => imprinter.contacts(&scene.faces[f].polygon, *b, Some(f)),
+            None => Vec::new(),
         })
         .collect()
 }
