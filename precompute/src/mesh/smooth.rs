@@ -73,7 +73,10 @@ pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
         positions: Vec::new(),
         weights: Vec::new(),
     };
-    for (p, &x) in positions.iter().enumerate() {
+    // The smooth vertices of each position, found in parallel a chunk of positions at a time
+    // (bounded working memory), numbered in position order.
+    let found_at = |p: usize| -> Vec<Found> {
+        let x = positions[p];
         let around = incidence.around(p, x, elements);
         let joined = |a: &Incident, b: &Incident| {
             let (ea, eb) = (elements[a.element], elements[b.element]);
@@ -92,27 +95,54 @@ pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
                     tol,
                 )
         };
-        for group in components(&around, joined) {
-            if !group.iter().any(|&i| around[i].corner.is_some()) {
-                continue; // only T-junction neighbours: no corner takes this value
-            }
-            let vertex = out.offsets.len() as u32 - 1;
-            let angles: Vec<f64> = group.iter().map(|&i| around[i].weight).collect();
-            let total: f64 = angles.iter().filter(|a| a.is_finite()).sum();
-            let closed = total >= 2.0 * std::f64::consts::PI - BOUNDARY_DEFICIT;
-            boundary.push((!closed).then_some(x));
-            for &i in &group {
-                let a = &around[i];
-                if let Some(c) = a.corner {
-                    out.corners[a.element * 4 + c] = vertex;
+        components(&around, joined)
+            .into_iter()
+            // only T-junction neighbours: no corner takes this value
+            .filter(|group| group.iter().any(|&i| around[i].corner.is_some()))
+            .map(|group| {
+                let angles: Vec<f64> = group.iter().map(|&i| around[i].weight).collect();
+                let total: f64 = angles.iter().filter(|a| a.is_finite()).sum();
+                Found {
+                    members: group
+                        .iter()
+                        .map(|&i| (around[i].element, around[i].corner))
+                        .collect(),
+                    weights: mean_weights(&angles),
+                    closed: total >= 2.0 * std::f64::consts::PI - BOUNDARY_DEFICIT,
                 }
-                out.positions.push(a.element as u32);
+            })
+            .collect()
+    };
+    for start in (0..positions.len()).step_by(CHUNK) {
+        let chunk = start..positions.len().min(start + CHUNK);
+        let found: Vec<Vec<Found>> = chunk.clone().into_par_iter().map(found_at).collect();
+        for (p, vertices) in chunk.zip(found) {
+            for v in vertices {
+                let vertex = out.offsets.len() as u32 - 1;
+                boundary.push((!v.closed).then_some(positions[p]));
+                for (element, corner) in v.members {
+                    if let Some(c) = corner {
+                        out.corners[element * 4 + c] = vertex;
+                    }
+                    out.positions.push(element as u32);
+                }
+                out.weights.extend(v.weights);
+                out.offsets.push(out.positions.len() as u32);
             }
-            out.weights.extend(mean_weights(&angles));
-            out.offsets.push(out.positions.len() as u32);
         }
     }
     extrapolate(&out, elements, &boundary)
+}
+
+/// Positions (smooth vertices) handled in parallel at a time.
+const CHUNK: usize = 1 << 14;
+
+/// A smooth vertex found at a position: its members (element, and its corner there unless the
+/// position lies inside an edge), their weights, and whether their angles make a full turn.
+struct Found {
+    members: Vec<(usize, Option<usize>)>,
+    weights: Vec<f32>,
+    closed: bool,
 }
 
 /// The weights `s` of display faces (its positions index faces) as weights of the elements
