@@ -125,12 +125,22 @@ fn median_split(
             let v = value(&units[u])[axis];
             (l.min(v), h.max(v))
         });
-    let mut sorted = set.to_vec();
-    sorted.sort_by_key(|&u| (quantized(value(&units[u])[axis], lo, hi), u));
-    let mut second = sorted.split_off(sorted.len() / 2);
-    sorted.sort_unstable();
-    second.sort_unstable();
-    [sorted, second]
+    // The keys are distinct (ties by index): selecting the median splits the set as a full
+    // sort would.
+    let mut keyed: Vec<(i64, usize)> = set
+        .iter()
+        .map(|&u| (quantized(value(&units[u])[axis], lo, hi), u))
+        .collect();
+    let mid = keyed.len() / 2;
+    if mid < keyed.len() {
+        keyed.select_nth_unstable(mid);
+    }
+    let half = |k: &[(i64, usize)]| {
+        let mut h: Vec<usize> = k.iter().map(|&(_, u)| u).collect();
+        h.sort_unstable();
+        h
+    };
+    [half(&keyed[..mid]), half(&keyed[mid..])]
 }
 
 /// A set's vertex bounding box and whether its normals lie within the cone of

@@ -4,6 +4,7 @@
 //! Nothing here knows about scenes, meshes, rays or form factors; every later stage (import,
 //! meshing, visibility, form factors, patches) uses these types.
 
+pub(crate) mod boxes;
 pub(crate) mod cluster;
 pub(crate) mod hash;
 mod polygon;

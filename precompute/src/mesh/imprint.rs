@@ -12,6 +12,7 @@
 use glam::DVec3;
 
 use crate::geometry::Polygon;
+use crate::geometry::boxes::BoxGrid;
 use crate::scene::Face;
 
 /// Relative distance under which a vertex counts as lying in a plane.
@@ -19,18 +20,14 @@ const CONTACT_TOLERANCE: f64 = 1e-7;
 /// Pieces smaller than this fraction of their face's area are not cut off.
 const MIN_PIECE_FRACTION: f64 = 1e-9;
 
-/// The faces of a scene indexed for contact searches: bounding boxes, sorted by lower x.
+/// The faces of a scene indexed for contact searches: bounding boxes in a hierarchy of grids,
+/// and each face's place in the sweep order (by the low x of its box) that contacts come in.
 pub(super) struct Imprinter<'f> {
     faces: &'f [Face],
     boxes: Vec<(DVec3, DVec3)>,
-    /// Each face's place in the sweep (faces by the low x of their boxes).
-    rank: Vec<usize>,
-    /// The faces whose boxes are at most `width` wide in x, in sweep order: a query starts
-    /// among them at its low x less `width`, so it does not scan every face left of it.
-    narrow: Vec<usize>,
-    width: f64,
-    /// The wider faces (a room's walls among small details), in sweep order: scanned whole.
-    wide: Vec<usize>,
+    /// Each face's place in the sweep (faces by the low x of their boxes, then by index).
+    rank: Vec<u32>,
+    grid: BoxGrid,
 }
 
 /// A line where another face stands on (or cuts through) a polygon: cut by `plane`'s plane
@@ -48,26 +45,18 @@ pub(super) struct Contact {
 impl<'f> Imprinter<'f> {
     pub(super) fn new(faces: &'f [Face]) -> Self {
         let boxes: Vec<(DVec3, DVec3)> = faces.iter().map(|f| bounds(&f.polygon)).collect();
-        // Sweep on x to find pairs whose (slightly grown) boxes overlap.
         let mut by_x: Vec<usize> = (0..faces.len()).collect();
         by_x.sort_by(|&a, &b| boxes[a].0.x.total_cmp(&boxes[b].0.x));
         let mut rank = vec![0; faces.len()];
         for (r, &g) in by_x.iter().enumerate() {
-            rank[g] = r;
+            rank[g] = r as u32;
         }
-        // Narrow: up to 4 times the 95th percentile of the widths.
-        let wide_x = |g: usize| boxes[g].1.x - boxes[g].0.x;
-        let mut widths: Vec<f64> = (0..faces.len()).map(wide_x).collect();
-        widths.sort_by(f64::total_cmp);
-        let width = 4.0 * widths.get(widths.len() * 19 / 20).copied().unwrap_or(0.0);
-        let (narrow, wide) = by_x.iter().partition(|&&g| wide_x(g) <= width);
+        let grid = BoxGrid::new(&boxes);
         Self {
             faces,
             boxes,
             rank,
-            narrow,
-            width,
-            wide,
+            grid,
         }
     }
 
@@ -81,29 +70,15 @@ impl<'f> Imprinter<'f> {
     ) -> Vec<Contact> {
         let grow = DVec3::splat(CONTACT_TOLERANCE * plane.scale.max(1e-300));
         let (lo, hi) = (lo - grow, hi + grow);
-        // The faces whose boxes start at or before `hi.x`, in sweep order, but for narrow ones
-        // ending before `lo.x` (they start before `lo.x - width`): the same contacts in the
-        // same order as a scan of every face.
-        let start = self
-            .narrow
-            .partition_point(|&g| self.boxes[g].0.x < lo.x - self.width);
-        let starts_before = |g: &&usize| self.boxes[**g].0.x <= hi.x;
-        let mut narrow = self.narrow[start..]
-            .iter()
-            .take_while(starts_before)
-            .peekable();
-        let mut wide = self.wide.iter().take_while(starts_before).peekable();
-        // Both in sweep order: merged by rank.
-        let next = std::iter::from_fn(|| match (narrow.peek(), wide.peek()) {
-            (Some(&&a), Some(&&b)) if self.rank[b] < self.rank[a] => wide.next().copied(),
-            (Some(_), _) => narrow.next().copied(),
-            (None, _) => wide.next().copied(),
-        });
+        // Every face whose box meets the query's, in sweep order (the order a scan of every
+        // face by low x would meet them in: the same contacts in the same order).
+        let mut near = self.grid.candidates((lo, hi));
+        near.retain(|&g| Some(g as usize) != skip && overlaps((lo, hi), self.boxes[g as usize]));
+        near.sort_unstable_by_key(|&g| self.rank[g as usize]);
+        near.dedup();
         let mut out = Vec::new();
-        for g in next {
-            if Some(g) == skip || !overlaps((lo, hi), self.boxes[g]) {
-                continue;
-            }
+        for g in near {
+            let g = g as usize;
             let other = &self.faces[g].polygon;
             if let Some((segment, through)) = crossing(plane, other) {
                 out.push(Contact {

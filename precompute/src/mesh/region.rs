@@ -18,7 +18,7 @@
 //!   at most `A / (c_u c_v)` full cells plus the cells the boundary crosses (about `P / c` for a
 //!   perimeter `P`), whatever the input faces' shapes.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use glam::{DVec2, DVec3};
 
@@ -181,7 +181,7 @@ fn plane_groups(faces: &[Face], tolerance: f64) -> Vec<Vec<usize>> {
             ],
         )
     };
-    let mut buckets: HashMap<Key, Vec<usize>> = HashMap::new();
+    let mut buckets: FxHashMap<Key, Vec<usize>> = FxHashMap::default();
     let mut groups: Vec<Vec<usize>> = Vec::new();
     for (i, f) in faces.iter().enumerate() {
         let (s, m, q) = key(f);
@@ -267,7 +267,7 @@ fn merge_pairwise(polygons: &[Polygon], tolerance: f64) -> Vec<(Polygon, usize)>
 /// edges cancel, what is left must be one loop whose corners (collinear vertices removed) are
 /// 3 or 4, convex, and whose area is the faces' total (no overlaps).
 fn merge_convex(faces: &[Polygon], tolerance: f64) -> Option<Polygon> {
-    let mut ids: HashMap<[i64; 3], usize> = HashMap::new();
+    let mut ids: FxHashMap<[i64; 3], usize> = FxHashMap::default();
     let mut points: Vec<DVec3> = Vec::new();
     let mut id = |p: DVec3| -> usize {
         let q = (p / tolerance).round();
@@ -287,7 +287,7 @@ fn merge_convex(faces: &[Polygon], tolerance: f64) -> Option<Polygon> {
         points.push(p);
         points.len() - 1
     };
-    let mut edges: HashMap<(usize, usize), i32> = HashMap::new();
+    let mut edges: FxHashMap<(usize, usize), i32> = FxHashMap::default();
     let mut order: Vec<(usize, usize)> = Vec::new();
     for f in faces {
         let v = f.vertices();
@@ -306,7 +306,7 @@ fn merge_convex(faces: &[Polygon], tolerance: f64) -> Option<Polygon> {
             order.push((a, b));
         }
     }
-    let mut next: HashMap<usize, usize> = HashMap::new();
+    let mut next: FxHashMap<usize, usize> = FxHashMap::default();
     let mut boundary = 0;
     for &(a, b) in &order {
         let c = edges.get_mut(&(a, b)).expect("recorded");

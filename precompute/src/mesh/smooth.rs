@@ -31,13 +31,15 @@
 //! beat area weights a little: median / p90 on the Cornell
 //! box 2.07% / 11.6% against 2.12% / 12.0%, on the cluttered room 1.69% / 13.6% against
 //! 1.67% / 15.0%, the same on the dense sphere. Positions coincide within `1e-7` of the scene's
-//! extent. Everything runs in file order over maps used only for look-ups: the same mesh
-//! gives the same bytes.
+//! extent. Everything runs in file order over maps used only for look-ups (positions and
+//! faces are searched in parallel, the results taken in order): the same mesh gives the same
+//! bytes whatever the thread count.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use glam::DVec3;
 use lrr_formats::Smooth;
+use rayon::prelude::*;
 
 use super::element::Element;
 use super::imprint::{Contact, Imprinter};
@@ -72,7 +74,10 @@ pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
         positions: Vec::new(),
         weights: Vec::new(),
     };
-    for (p, &x) in positions.iter().enumerate() {
+    // The smooth vertices of each position, found in parallel a chunk of positions at a time
+    // (bounded working memory), numbered in position order.
+    let found_at = |p: usize| -> Vec<Found> {
+        let x = positions[p];
         let around = incidence.around(p, x, elements);
         let joined = |a: &Incident, b: &Incident| {
             let (ea, eb) = (elements[a.element], elements[b.element]);
@@ -84,31 +89,61 @@ pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
                     b,
                     x,
                     [ea.face, eb.face],
-                    [&contacts[&ea.face][..], &contacts[&eb.face][..]],
+                    [
+                        &contacts[ea.face as usize][..],
+                        &contacts[eb.face as usize][..],
+                    ],
                     tol,
                 )
         };
-        for group in components(&around, joined) {
-            if !group.iter().any(|&i| around[i].corner.is_some()) {
-                continue; // only T-junction neighbours: no corner takes this value
-            }
-            let vertex = out.offsets.len() as u32 - 1;
-            let angles: Vec<f64> = group.iter().map(|&i| around[i].weight).collect();
-            let total: f64 = angles.iter().filter(|a| a.is_finite()).sum();
-            let closed = total >= 2.0 * std::f64::consts::PI - BOUNDARY_DEFICIT;
-            boundary.push((!closed).then_some(x));
-            for &i in &group {
-                let a = &around[i];
-                if let Some(c) = a.corner {
-                    out.corners[a.element * 4 + c] = vertex;
+        components(&around, joined)
+            .into_iter()
+            // only T-junction neighbours: no corner takes this value
+            .filter(|group| group.iter().any(|&i| around[i].corner.is_some()))
+            .map(|group| {
+                let angles: Vec<f64> = group.iter().map(|&i| around[i].weight).collect();
+                let total: f64 = angles.iter().filter(|a| a.is_finite()).sum();
+                Found {
+                    members: group
+                        .iter()
+                        .map(|&i| (around[i].element, around[i].corner))
+                        .collect(),
+                    weights: mean_weights(&angles),
+                    closed: total >= 2.0 * std::f64::consts::PI - BOUNDARY_DEFICIT,
                 }
-                out.positions.push(a.element as u32);
+            })
+            .collect()
+    };
+    for start in (0..positions.len()).step_by(CHUNK) {
+        let chunk = start..positions.len().min(start + CHUNK);
+        let found: Vec<Vec<Found>> = chunk.clone().into_par_iter().map(found_at).collect();
+        for (p, vertices) in chunk.zip(found) {
+            for v in vertices {
+                let vertex = out.offsets.len() as u32 - 1;
+                boundary.push((!v.closed).then_some(positions[p]));
+                for (element, corner) in v.members {
+                    if let Some(c) = corner {
+                        out.corners[element * 4 + c] = vertex;
+                    }
+                    out.positions.push(element as u32);
+                }
+                out.weights.extend(v.weights);
+                out.offsets.push(out.positions.len() as u32);
             }
-            out.weights.extend(mean_weights(&angles));
-            out.offsets.push(out.positions.len() as u32);
         }
     }
     extrapolate(&out, elements, &boundary)
+}
+
+/// Positions (smooth vertices) handled in parallel at a time.
+const CHUNK: usize = 1 << 14;
+
+/// A smooth vertex found at a position: its members (element, and its corner there unless the
+/// position lies inside an edge), their weights, and whether their angles make a full turn.
+struct Found {
+    members: Vec<(usize, Option<usize>)>,
+    weights: Vec<f32>,
+    closed: bool,
 }
 
 /// The weights `s` of display faces (its positions index faces) as weights of the elements
@@ -291,7 +326,7 @@ fn plane_weights(
 /// corner's position index (`elements.len() * 4`, unused corners `usize::MAX`).
 fn positions(elements: &[&Element], tol: f64) -> (Vec<usize>, Vec<DVec3>) {
     let cell = |x: DVec3| (x / tol).floor().as_i64vec3().to_array();
-    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    let mut grid: FxHashMap<[i64; 3], Vec<usize>> = FxHashMap::default();
     let mut positions: Vec<DVec3> = Vec::new();
     let mut corner_pos = vec![usize::MAX; elements.len() * 4];
     for (s, e) in elements.iter().enumerate() {
@@ -361,7 +396,7 @@ impl Incident {
 /// Elements by the grid cells their boxes meet (for T-junction search) and by their corners.
 struct Incidence {
     cell_size: f64,
-    grid: HashMap<[i64; 3], Vec<usize>>,
+    grid: FxHashMap<[i64; 3], Vec<usize>>,
     /// Per position: (element, corner) pairs, in file order.
     by_position: Vec<Vec<(usize, usize)>>,
     tol: f64,
@@ -378,7 +413,7 @@ impl Incidence {
         let mut sizes: Vec<f64> = elements.iter().map(|e| e.polygon.max_edge()).collect();
         sizes.sort_by(f64::total_cmp);
         let cell_size = sizes.get(sizes.len() / 2).copied().unwrap_or(1.0).max(tol);
-        let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+        let mut grid: FxHashMap<[i64; 3], Vec<usize>> = FxHashMap::default();
         for (s, e) in elements.iter().enumerate() {
             let v = e.polygon.vertices();
             let lo = v.iter().fold(v[0], |a, &b| a.min(b)) - DVec3::splat(tol);
@@ -483,28 +518,24 @@ fn components<T>(items: &[T], joined: impl Fn(&T, &T) -> bool) -> Vec<Vec<usize>
     groups
 }
 
-/// The contact lines (`imprint`) in the plane of each face that has elements.
-fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> HashMap<u32, Vec<Contact>> {
-    let mut bounds: HashMap<u32, (DVec3, DVec3)> = HashMap::new();
-    let mut faces: Vec<u32> = Vec::new();
+/// The contact lines (`imprint`) in the plane of each face that has elements, by face index
+/// (none for the others); the faces are searched in parallel.
+fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> Vec<Vec<Contact>> {
+    let mut bounds: Vec<Option<(DVec3, DVec3)>> = vec![None; scene.faces.len()];
     for e in elements {
         let v = e.polygon.vertices();
         let lo = v.iter().fold(v[0], |a, &b| a.min(b));
         let hi = v.iter().fold(v[0], |a, &b| a.max(b));
-        bounds
-            .entry(e.face)
-            .and_modify(|b| *b = (b.0.min(lo), b.1.max(hi)))
-            .or_insert_with(|| {
-                faces.push(e.face);
-                (lo, hi)
-            });
+        let b = &mut bounds[e.face as usize];
+        *b = Some(b.map_or((lo, hi), |(l, h)| (l.min(lo), h.max(hi))));
     }
     let imprinter = Imprinter::new(&scene.faces);
-    faces
-        .into_iter()
-        .map(|f| {
-            let plane = &scene.faces[f as usize].polygon;
-            (f, imprinter.contacts(plane, bounds[&f], Some(f as usize)))
+    bounds
+        .par_iter()
+        .enumerate()
+        .map(|(f, b)| match b {
+            Some(b) => imprinter.contacts(&scene.faces[f].polygon, *b, Some(f)),
+            None => Vec::new(),
         })
         .collect()
 }

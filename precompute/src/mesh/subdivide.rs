@@ -1,6 +1,7 @@
 //! Recursive subdivision of faces into the element/patch hierarchy.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use std::time::Instant;
 
@@ -165,13 +166,21 @@ pub(crate) fn fine(
     let (mut t_grid, mut t_imprint, mut t_subdivide) = (0.0, 0.0, 0.0);
     report.min_angle = 180.0;
     report.grid_min_angle = 180.0;
-    for root in roots {
+    // Each face root is cut at its contacts on its own: in parallel, kept in root order.
+    let t = Instant::now();
+    let splits: Vec<Option<(Vec<Polygon>, usize)>> = roots
+        .par_iter()
+        .map(|root| match root {
+            Root::Face(polygon, f) => Some(imprinter.split(*polygon, *f)),
+            Root::Grid(_) => None,
+        })
+        .collect();
+    t_imprint += t.elapsed().as_secs_f64();
+    for (root, split) in roots.into_iter().zip(splits) {
         match root {
-            Root::Face(polygon, f) => {
-                let t = Instant::now();
-                let (cut, through) = imprinter.split(polygon, f);
+            Root::Face(_, f) => {
+                let (cut, through) = split.expect("every face root was split");
                 report.interpenetrations += through;
-                t_imprint += t.elapsed().as_secs_f64();
                 let t = Instant::now();
                 let surface = scene.faces[f].surface as u32;
                 for polygon in cut {

@@ -1,7 +1,7 @@
 //! The scene model: materials, faces (planar convex polygons of 3 or 4 vertices, one-sided)
 //! and named surfaces, built face by face by the importers.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use glam::DVec3;
 
@@ -247,7 +247,7 @@ pub struct Scene {
     /// Base colour textures, indexed by `TextureBinding::texture`.
     pub textures: Vec<Texture>,
     /// Exact-duplicate detection: sorted quantised vertices → face index.
-    seen: HashMap<Vec<[i64; 3]>, usize>,
+    seen: FxHashMap<Vec<[i64; 3]>, usize>,
 }
 
 impl Scene {

@@ -32,7 +32,9 @@
 //! parallel step is a map; joins are taken in order of (cost, smaller id, larger id).
 
 use std::cmp::Ordering;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::BinaryHeap;
+
+use rustc_hash::FxHashMap;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -167,7 +169,7 @@ fn neighbours(elements: &[Element]) -> Vec<Vec<u32>> {
         .unwrap_or(1.0)
         .max(extent * 1e-6);
     let index = |x: DVec3| ((x - lo) / cell).floor().as_i64vec3();
-    let mut grid: HashMap<glam::I64Vec3, Vec<u32>> = HashMap::new();
+    let mut grid: FxHashMap<glam::I64Vec3, Vec<u32>> = FxHashMap::default();
     for (e, &(a, b)) in boxes.iter().enumerate() {
         let (i0, i1) = (index(a - eps), index(b + eps));
         for x in i0.x..=i1.x {
