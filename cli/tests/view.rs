@@ -103,6 +103,28 @@ fn the_headless_screenshot_is_lrr_render_of_the_same_camera_on_the_gpu() {
         one_only <= w * h / 200,
         "{one_only} pixels lit in one image only"
     );
+    // --animate relights every frame: 16 frames in, the lights differ from the baked ones.
+    let animated = d.join("animated.exr");
+    lrr(&[
+        "view",
+        s(&file),
+        "--headless",
+        "--animate",
+        "--frames",
+        "16",
+        "--size",
+        "320x240",
+        "--screenshot",
+        s(&animated),
+    ])
+    .unwrap();
+    let (_, _, moved) = read_rgb(&animated);
+    let changed = moved
+        .iter()
+        .zip(&v)
+        .filter(|(a, b)| (lum(a) - lum(b)).abs() > 0.01 * lum(b))
+        .count();
+    assert!(changed > lit / 2, "{changed} of {lit} lit pixels changed");
     // A PNG too, at the exposure it prints.
     let png = d.join("view.png");
     let said = lrr(&[
@@ -132,6 +154,7 @@ fn the_window_opens_draws_60_frames_and_closes_on_the_gpu() {
         .args([
             "--frames",
             "60",
+            "--animate",
             "--size",
             "320x240",
             "--screenshot",

@@ -68,7 +68,10 @@ fn headless(a: &ViewArgs, op: Operator, gpu: Gpu, out: &mut dyn Write) -> Result
         });
     let view = target.create_view(&Default::default());
     let start = Instant::now();
-    for _ in 0..frames {
+    for frame in 0..frames {
+        if a.animate {
+            viewer.animate(frame);
+        }
         viewer.relight()?;
         let mut encoder = viewer
             .gpu

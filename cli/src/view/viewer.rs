@@ -42,6 +42,11 @@ pub struct ViewArgs {
     /// frame with --headless or --frames, else what F12 writes.
     #[arg(long, value_name = "FILE")]
     pub screenshot: Option<PathBuf>,
+    /// Animate the lights: each light group (or the whole emission) pulses between 0 and 2 in
+    /// turn, one cycle every 60 frames, as a hand on the sliders would (a demo, and what the
+    /// tests use to see the scene relit every frame).
+    #[arg(long)]
+    pub animate: bool,
 }
 
 /// The one-line error of a machine without a usable GPU adapter.
@@ -211,6 +216,19 @@ impl Viewer {
             emission,
             op,
         })
+    }
+
+    /// With `--animate`: the lights at frame `frame` (see [`ViewArgs::animate`]).
+    pub(super) fn animate(&mut self, frame: u64) {
+        let phase = |g: usize, count: usize| {
+            let t = frame as f32 / 60.0 + g as f32 / count.max(1) as f32;
+            1.0 + (std::f32::consts::TAU * t).sin()
+        };
+        let count = self.intensities.len();
+        for (g, a) in self.intensities.iter_mut().enumerate() {
+            *a = phase(g, count);
+        }
+        self.intensity = phase(0, 1);
     }
 
     /// The factor on `B/π` before display.

@@ -285,6 +285,9 @@ impl State {
             self.frame_times.pop_front();
         }
         self.fly(dt);
+        if a.animate {
+            self.viewer.animate(self.frames);
+        }
         let frame = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(t)
             | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
