@@ -125,6 +125,27 @@ fn the_headless_screenshot_is_lrr_render_of_the_same_camera_on_the_gpu() {
         .filter(|(a, b)| (lum(a) - lum(b)).abs() > 0.01 * lum(b))
         .count();
     assert!(changed > lit / 2, "{changed} of {lit} lit pixels changed");
+    // A point light over the boxes: the GPU direct pass lights the elements every frame, so the
+    // picture brightens.
+    let lamp = d.join("lamp.exr");
+    lrr(&[
+        "view",
+        s(&file),
+        "--headless",
+        "--frames",
+        "2",
+        "--size",
+        "320x240",
+        "--point-light",
+        "278,400,280:2e5,2e5,2e5",
+        "--screenshot",
+        s(&lamp),
+    ])
+    .unwrap();
+    let (_, _, lit_by_lamp) = read_rgb(&lamp);
+    let total = |img: &[[f32; 3]]| img.iter().map(lum).sum::<f64>();
+    let (with, without) = (total(&lit_by_lamp), total(&v));
+    assert!(with > 1.05 * without, "{with} against {without}");
     // A PNG too, at the exposure it prints.
     let png = d.join("view.png");
     let said = lrr(&[

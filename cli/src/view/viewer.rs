@@ -6,7 +6,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lrr_runtime::gpu::{Gpu, GpuEvaluator, GpuLightmap, wgpu};
+use lrr_runtime::gpu::{Gpu, GpuDirect, GpuEvaluator, GpuLightmap, wgpu};
+use lrr_runtime::lights::{DirectLighting, Light};
 use lrr_runtime::trace::{CameraFields, Image};
 use lrr_runtime::{Lightmap, Operator, Rgb, RgbMut};
 
@@ -47,6 +48,10 @@ pub struct ViewArgs {
     /// tests use to see the scene relit every frame).
     #[arg(long)]
     pub animate: bool,
+    /// Lights that are not surfaces (the file's, and these flags'): moved in the panel; each
+    /// frame the GPU direct pass lights the elements with them before the operator bounces it.
+    #[command(flatten)]
+    pub lights: crate::emission::LightArgs,
 }
 
 /// The one-line error of a machine without a usable GPU adapter.
@@ -110,6 +115,9 @@ pub struct Viewer {
     pub cameras: Vec<(String, Eye)>,
     emission: Vec<[f32; 3]>,
     scaled: Vec<[f32; 3]>,
+    /// Lights that are not surfaces, as the panel moves them, and the GPU direct pass.
+    pub lights: Vec<Light>,
+    direct: Option<GpuDirect>,
 }
 
 impl Viewer {
@@ -178,14 +186,41 @@ impl Viewer {
             (None, Some((_, eye))) => *eye,
             (None, None) => scene.framing(),
         };
+        let frame_lights = a.lights.lights(&op)?;
+        if frame_lights.sky.is_some() {
+            bail!(
+                "lrr view lights with point, spot and directional lights; the sky (a --sky flag \
+                 or the file's [sky]) needs the CPU direct pass: use lrr render, or \
+                 --no-file-lights"
+            );
+        }
+        let lights = frame_lights.lights;
+        let mut direct = match lights.is_empty() {
+            true => None,
+            false => {
+                let pass = DirectLighting::new(op.file(), frame_lights.samples, 0)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
+                Some(GpuDirect::new(&gpu, &pass, &op.reflectance())?)
+            }
+        };
         let emission = op.baked_emission();
         // The automatic exposure: the 99th percentile of B/π over surfaces that do not emit,
         // of the first frame.
         let mut b = vec![[0.0f32; 3]; op.n()];
-        if groups.is_empty() {
-            eval.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut b))?;
-        } else {
-            eval.evaluate_groups(&intensities, RgbMut::triples(&mut b))?;
+        match (&mut direct, groups.is_empty()) {
+            (None, true) => eval.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut b))?,
+            (None, false) => eval.evaluate_groups(&intensities, RgbMut::triples(&mut b))?,
+            (Some(d), true) => {
+                d.evaluate(
+                    &mut eval,
+                    &lights,
+                    Rgb::triples(&emission),
+                    RgbMut::triples(&mut b),
+                )?;
+            }
+            (Some(d), false) => {
+                d.evaluate_groups(&mut eval, &lights, &intensities, RgbMut::triples(&mut b))?;
+            }
         }
         let mut lum: Vec<f32> = b
             .iter()
@@ -214,6 +249,8 @@ impl Viewer {
             cameras,
             scaled: emission.clone(),
             emission,
+            lights,
+            direct,
             op,
         })
     }
@@ -243,16 +280,36 @@ impl Viewer {
 
     /// Submits a frame's evaluation and lightmap fill.
     pub(super) fn relight(&mut self) -> Result<()> {
+        self.evaluate()?;
+        self.fill.fill(self.eval.radiosity_buffer())?;
+        Ok(())
+    }
+
+    /// Submits a frame's evaluation: the direct pass of the lights first, when there are any.
+    fn evaluate(&mut self) -> Result<()> {
         if self.groups.is_empty() {
             let k = self.intensity;
             for (s, e) in self.scaled.iter_mut().zip(&self.emission) {
                 *s = e.map(|v| v * k);
             }
-            self.eval.submit(Rgb::triples(&self.scaled))?;
-        } else {
-            self.eval.submit_groups(&self.intensities)?;
         }
-        self.fill.fill(self.eval.radiosity_buffer())?;
+        // A light the panel moved to a value the pass refuses (a zero direction) sits out.
+        let shining: Vec<Light> = self
+            .lights
+            .iter()
+            .filter(|l| l.check().is_ok())
+            .cloned()
+            .collect();
+        match (&mut self.direct, self.groups.is_empty()) {
+            (None, true) => self.eval.submit(Rgb::triples(&self.scaled))?,
+            (None, false) => self.eval.submit_groups(&self.intensities)?,
+            (Some(d), true) => {
+                d.submit(&mut self.eval, &shining, Rgb::triples(&self.scaled))?;
+            }
+            (Some(d), false) => {
+                d.submit_groups(&mut self.eval, &shining, &self.intensities)?;
+            }
+        }
         Ok(())
     }
 
@@ -279,15 +336,7 @@ impl Viewer {
     ) -> Result<StageTimes> {
         self.gpu.wait()?;
         let t = Instant::now();
-        if self.groups.is_empty() {
-            let k = self.intensity;
-            for (s, e) in self.scaled.iter_mut().zip(&self.emission) {
-                *s = e.map(|v| v * k);
-            }
-            self.eval.submit(Rgb::triples(&self.scaled))?;
-        } else {
-            self.eval.submit_groups(&self.intensities)?;
-        }
+        self.evaluate()?;
         self.gpu.wait()?;
         let evaluate = t.elapsed();
         let t = Instant::now();

@@ -417,6 +417,28 @@ impl State {
                         ui.add(egui::Slider::new(a, 0.0..=4.0).text(name.as_str()));
                     }
                 }
+                if !viewer.lights.is_empty() {
+                    ui.separator();
+                    ui.label("lights (drag the numbers)");
+                    let speed = f64::from(viewer.scene_diagonal()) / 400.0;
+                    for (i, light) in viewer.lights.iter_mut().enumerate() {
+                        let (label, place) = match light {
+                            lrr_runtime::lights::Light::Point { position, .. } => {
+                                ("point", position)
+                            }
+                            lrr_runtime::lights::Light::Spot { position, .. } => ("spot", position),
+                            lrr_runtime::lights::Light::Directional { direction, .. } => {
+                                ("sun direction", direction)
+                            }
+                        };
+                        ui.horizontal(|ui| {
+                            ui.label(format!("{i}: {label}"));
+                            for v in place.iter_mut() {
+                                ui.add(egui::DragValue::new(v).speed(speed));
+                            }
+                        });
+                    }
+                }
                 ui.separator();
                 if ui.button("screenshot (F12)").clicked() {
                     *want_screenshot = true;
