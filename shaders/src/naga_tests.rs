@@ -461,64 +461,75 @@ fn trace_structs_match_the_host_layout() {
     }
 }
 
-// The smooth-vertex pass (`smooth.wgsl`): self-contained, no optional capability.
+// The self-contained passes (`smooth.wgsl`, `lightmap.wgsl`): no optional capability.
 
-fn parse_smooth() -> Module {
-    naga::front::wgsl::parse_str(crate::SMOOTH_VERTICES).unwrap_or_else(|e| {
-        panic!(
-            "smooth.wgsl does not parse:\n{}",
-            e.emit_to_string(crate::SMOOTH_VERTICES)
-        )
-    })
+/// What the host knows of a self-contained pass: its source, entry point, workgroup size (and
+/// the WGSL constant holding it), bindings and uniform struct.
+struct SelfContained<'a> {
+    file: &'a str,
+    source: &'a str,
+    entry: &'a str,
+    lanes_constant: &'a str,
+    lanes: u32,
+    bindings: &'a [crate::Binding],
+    params: &'a str,
+    fields: &'a [(&'a str, usize)],
+    size: usize,
 }
 
 /// Parsed, validated with no capability, compiled to SPIR-V; its entry point, workgroup size,
-/// bindings (against [`crate::SMOOTH_BINDINGS`]) and uniform (against
-/// [`crate::SmoothParams::FIELDS`], all `u32`) are the host's.
-#[test]
-fn smooth_pass_compiles_and_matches_the_host() {
-    let module = parse_smooth();
+/// bindings and uniform (names and offsets, all `u32`, and size) are the host's. Returns the
+/// module for the caller's own checks.
+fn check_self_contained(pass: &SelfContained<'_>) -> Module {
+    let module = naga::front::wgsl::parse_str(pass.source).unwrap_or_else(|e| {
+        panic!(
+            "{} does not parse:\n{}",
+            pass.file,
+            e.emit_to_string(pass.source)
+        )
+    });
     let info = validator(Capabilities::empty())
         .validate(&module)
         .unwrap_or_else(|e| {
             panic!(
-                "smooth.wgsl does not validate:\n{}",
-                e.emit_to_string(crate::SMOOTH_VERTICES)
+                "{} does not validate:\n{}",
+                pass.file,
+                e.emit_to_string(pass.source)
             )
         });
-    assert!(module.overrides.is_empty());
+    assert!(module.overrides.is_empty(), "{}", pass.file);
     let options = naga::back::spv::Options {
         capabilities: None,
         ..Default::default()
     };
     let pipeline = naga::back::spv::PipelineOptions {
         shader_stage: ShaderStage::Compute,
-        entry_point: crate::SMOOTH_ENTRY.to_owned(),
+        entry_point: pass.entry.to_owned(),
     };
     naga::back::spv::write_vec(&module, &info, &options, Some(&pipeline))
-        .unwrap_or_else(|e| panic!("{e:?}"));
-    assert_eq!(constant(&module, "SMOOTH_LANES"), crate::SMOOTH_LANES);
+        .unwrap_or_else(|e| panic!("{}: {e:?}", pass.file));
+    assert_eq!(constant(&module, pass.lanes_constant), pass.lanes);
     let index = module
         .entry_points
         .iter()
-        .position(|e| e.name == crate::SMOOTH_ENTRY)
-        .expect("smooth.wgsl has its entry point");
+        .position(|e| e.name == pass.entry)
+        .unwrap_or_else(|| panic!("{} has no entry point {}", pass.file, pass.entry));
     let entry = &module.entry_points[index];
     assert_eq!(entry.stage, ShaderStage::Compute);
-    assert_eq!(entry.workgroup_size, [crate::SMOOTH_LANES, 1, 1]);
+    assert_eq!(entry.workgroup_size, [pass.lanes, 1, 1]);
     assert_eq!(
         used_bindings(&module, &info, index),
-        expected_bindings(crate::SMOOTH_BINDINGS)
+        expected_bindings(pass.bindings)
     );
     let mut layouter = Layouter::default();
     layouter.update(module.to_ctx()).unwrap();
     let (handle, ty) = module
         .types
         .iter()
-        .find(|(_, ty)| ty.name.as_deref() == Some("SmoothParams"))
-        .expect("smooth.wgsl declares SmoothParams");
+        .find(|(_, ty)| ty.name.as_deref() == Some(pass.params))
+        .unwrap_or_else(|| panic!("{} declares no {}", pass.file, pass.params));
     let TypeInner::Struct { members, .. } = &ty.inner else {
-        panic!("SmoothParams is {:?}", ty.inner);
+        panic!("{} is {:?}", pass.params, ty.inner);
     };
     let wgsl: Vec<(&str, usize)> = members
         .iter()
@@ -528,8 +539,25 @@ fn smooth_pass_compiles_and_matches_the_host() {
             (m.name.as_deref().unwrap_or("?"), m.offset as usize)
         })
         .collect();
-    assert_eq!(wgsl, crate::SmoothParams::FIELDS);
-    assert_eq!(layouter[handle].size as usize, crate::SmoothParams::SIZE);
+    assert_eq!(wgsl, pass.fields);
+    assert_eq!(layouter[handle].size as usize, pass.size);
+    module
+}
+
+/// `smooth.wgsl` against [`crate::SMOOTH_BINDINGS`] and [`crate::SmoothParams`].
+#[test]
+fn smooth_pass_compiles_and_matches_the_host() {
+    check_self_contained(&SelfContained {
+        file: "smooth.wgsl",
+        source: crate::SMOOTH_VERTICES,
+        entry: crate::SMOOTH_ENTRY,
+        lanes_constant: "SMOOTH_LANES",
+        lanes: crate::SMOOTH_LANES,
+        bindings: crate::SMOOTH_BINDINGS,
+        params: "SmoothParams",
+        fields: crate::SmoothParams::FIELDS,
+        size: crate::SmoothParams::SIZE,
+    });
 }
 
 // The direct pass (`direct_pass.wgsl` after `bvh.wgsl` and `direct_light.wgsl`): no optional
@@ -683,71 +711,22 @@ fn shared_parts_bind_only_the_bvh() {
     assert!(crate::DIRECT_PASS.starts_with(&shared));
 }
 
-// The lightmap fill (`lightmap.wgsl`): self-contained, no optional capability.
-
-/// Parsed, validated with no capability, compiled to SPIR-V; its entry point, workgroup size,
-/// bindings (against [`crate::LIGHTMAP_BINDINGS`]), modes and uniform (against
-/// [`crate::LightmapParams::FIELDS`], all `u32`) are the host's.
+/// `lightmap.wgsl` against [`crate::LIGHTMAP_BINDINGS`] and [`crate::LightmapParams`], and its
+/// modes against the host's.
 #[test]
 fn lightmap_pass_compiles_and_matches_the_host() {
-    let module = naga::front::wgsl::parse_str(crate::LIGHTMAP_FILL).unwrap_or_else(|e| {
-        panic!(
-            "lightmap.wgsl does not parse:\n{}",
-            e.emit_to_string(crate::LIGHTMAP_FILL)
-        )
+    let module = check_self_contained(&SelfContained {
+        file: "lightmap.wgsl",
+        source: crate::LIGHTMAP_FILL,
+        entry: crate::LIGHTMAP_ENTRY,
+        lanes_constant: "LIGHTMAP_LANES",
+        lanes: crate::LIGHTMAP_LANES,
+        bindings: crate::LIGHTMAP_BINDINGS,
+        params: "LightmapParams",
+        fields: crate::LightmapParams::FIELDS,
+        size: crate::LightmapParams::SIZE,
     });
-    let info = validator(Capabilities::empty())
-        .validate(&module)
-        .unwrap_or_else(|e| {
-            panic!(
-                "lightmap.wgsl does not validate:\n{}",
-                e.emit_to_string(crate::LIGHTMAP_FILL)
-            )
-        });
-    let options = naga::back::spv::Options {
-        capabilities: None,
-        ..Default::default()
-    };
-    let pipeline = naga::back::spv::PipelineOptions {
-        shader_stage: ShaderStage::Compute,
-        entry_point: crate::LIGHTMAP_ENTRY.to_owned(),
-    };
-    naga::back::spv::write_vec(&module, &info, &options, Some(&pipeline))
-        .unwrap_or_else(|e| panic!("{e:?}"));
-    assert_eq!(constant(&module, "LIGHTMAP_LANES"), crate::LIGHTMAP_LANES);
     assert_eq!(constant(&module, "MODE_SMOOTH"), crate::LIGHTMAP_SMOOTH);
     assert_eq!(constant(&module, "MODE_FLAT"), crate::LIGHTMAP_FLAT);
     assert_eq!(constant(&module, "MODE_RING"), crate::LIGHTMAP_RING);
-    let index = module
-        .entry_points
-        .iter()
-        .position(|e| e.name == crate::LIGHTMAP_ENTRY)
-        .expect("lightmap.wgsl has its entry point");
-    let entry = &module.entry_points[index];
-    assert_eq!(entry.stage, ShaderStage::Compute);
-    assert_eq!(entry.workgroup_size, [crate::LIGHTMAP_LANES, 1, 1]);
-    assert_eq!(
-        used_bindings(&module, &info, index),
-        expected_bindings(crate::LIGHTMAP_BINDINGS)
-    );
-    let mut layouter = Layouter::default();
-    layouter.update(module.to_ctx()).unwrap();
-    let (handle, ty) = module
-        .types
-        .iter()
-        .find(|(_, ty)| ty.name.as_deref() == Some("LightmapParams"))
-        .expect("lightmap.wgsl declares LightmapParams");
-    let TypeInner::Struct { members, .. } = &ty.inner else {
-        panic!("LightmapParams is {:?}", ty.inner);
-    };
-    let wgsl: Vec<(&str, usize)> = members
-        .iter()
-        .map(|m| {
-            let inner = &module.types[m.ty].inner;
-            assert_eq!(*inner, TypeInner::Scalar(naga::Scalar::U32), "{:?}", m.name);
-            (m.name.as_deref().unwrap_or("?"), m.offset as usize)
-        })
-        .collect();
-    assert_eq!(wgsl, crate::LightmapParams::FIELDS);
-    assert_eq!(layouter[handle].size as usize, crate::LightmapParams::SIZE);
 }

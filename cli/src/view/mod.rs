@@ -49,23 +49,13 @@ fn headless(a: &ViewArgs, op: Operator, gpu: Gpu, out: &mut dyn Write) -> Result
     let mut viewer = Viewer::new(gpu, op, a)?;
     let (width, height) = a.size;
     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
-    let target = viewer
-        .gpu
-        .device()
-        .create_texture(&wgpu::TextureDescriptor {
-            label: Some("view headless"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        });
+    let target = scene::texture(
+        &viewer.gpu,
+        "view headless",
+        a.size,
+        format,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    );
     let view = target.create_view(&Default::default());
     let start = Instant::now();
     for frame in 0..frames {

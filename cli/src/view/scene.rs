@@ -80,21 +80,21 @@ impl Eye {
     }
 }
 
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+pub(super) fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+pub(super) fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+pub(super) fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
         a[0] * b[1] - a[1] * b[0],
     ]
 }
-fn normalize(a: [f32; 3]) -> [f32; 3] {
-    let l = dot(a, a).sqrt();
+pub(super) fn normalize(a: [f32; 3]) -> [f32; 3] {
+    let l = dot(a, a).sqrt().max(f32::MIN_POSITIVE);
     [a[0] / l, a[1] / l, a[2] / l]
 }
 
@@ -107,6 +107,30 @@ fn mul(a: [[f32; 4]; 4], b: [[f32; 4]; 4]) -> [[f32; 4]; 4] {
         }
     }
     out
+}
+
+/// A 2D texture of one mip level and one sample.
+pub(super) fn texture(
+    gpu: &Gpu,
+    label: &str,
+    (width, height): (u32, u32),
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    gpu.device().create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
 }
 
 /// The display triangles with their lightmap coordinates, uploaded once, and a pipeline per
@@ -351,20 +375,13 @@ impl Scene {
             .as_ref()
             .is_none_or(|(w, h, _)| (*w, *h) != (width, height))
         {
-            let texture = gpu.device().create_texture(&wgpu::TextureDescriptor {
-                label: Some("view depth"),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: DEPTH,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                view_formats: &[],
-            });
+            let texture = texture(
+                gpu,
+                "view depth",
+                (width, height),
+                DEPTH,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+            );
             let view = texture.create_view(&Default::default());
             self.depth = Some((width, height, view));
         }

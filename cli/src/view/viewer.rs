@@ -363,20 +363,13 @@ impl Viewer {
     pub(super) fn capture(&mut self, size: (u32, u32)) -> Result<Image> {
         let (width, height) = size;
         let format = wgpu::TextureFormat::Rgba32Float;
-        let texture = self.gpu.device().create_texture(&wgpu::TextureDescriptor {
-            label: Some("view capture"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
+        let texture = super::scene::texture(
+            &self.gpu,
+            "view capture",
+            size,
             format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
         let view = texture.create_view(&Default::default());
         let row = (16 * width).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
         let staging = self.gpu.device().create_buffer(&wgpu::BufferDescriptor {

@@ -19,7 +19,7 @@ use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
-use super::scene::Eye;
+use super::scene::{Eye, cross, dot, normalize, sub};
 use super::viewer::{StageTimes, ViewArgs, Viewer, no_gpu};
 
 /// Runs the window until it is closed (or `--frames` are drawn).
@@ -554,22 +554,4 @@ fn rotate(v: [f32; 3], axis: [f32; 3], angle: f32) -> [f32; 3] {
     let kxv = cross(axis, v);
     let kdv = dot(axis, v);
     [0, 1, 2].map(|i| v[i] * c + kxv[i] * s + axis[i] * kdv * (1.0 - c))
-}
-
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn normalize(a: [f32; 3]) -> [f32; 3] {
-    let l = dot(a, a).sqrt().max(f32::MIN_POSITIVE);
-    [a[0] / l, a[1] / l, a[2] / l]
 }
