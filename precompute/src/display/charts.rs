@@ -99,10 +99,7 @@ pub fn charts(g: &Geometry) -> Vec<Chart> {
 /// origin at the corner of the flattened bounding box.
 fn flatten(polys: &[Vec<DVec3>], normals: &[DVec3], elements: Vec<u32>) -> Chart {
     let first = &polys[elements[0] as usize];
-    let n = normals[elements[0] as usize];
-    let edge = first[1] - first[0];
-    let u = (edge - n * edge.dot(n)).normalize();
-    let v = n.cross(u);
+    let (u, v) = frame(first, normals[elements[0] as usize]);
     let mut lo = DVec2::splat(f64::INFINITY);
     let mut hi = DVec2::splat(f64::NEG_INFINITY);
     for &s in &elements {
@@ -120,6 +117,47 @@ fn flatten(polys: &[Vec<DVec3>], normals: &[DVec3], elements: Vec<u32>) -> Chart
         v,
         size: hi - lo,
     }
+}
+
+/// A chart's axes from its first face: `u` along the face's first edge in its plane (its longest
+/// when the first has no length), `v = n × u`. A face with no usable edge or normal (a needle,
+/// a point: real scenes have them) still gets an orthonormal frame, so no coordinate is ever
+/// NaN.
+fn frame(face: &[DVec3], n: DVec3) -> (DVec3, DVec3) {
+    let edges = (0..face.len())
+        .map(|i| face[(i + 1) % face.len()] - face[i])
+        .map(|e| e - n * e.dot(n));
+    let longest = edges
+        .clone()
+        .max_by(|a, b| a.length_squared().total_cmp(&b.length_squared()))
+        .unwrap_or(DVec3::ZERO);
+    let first = edges.take(1).next().unwrap_or(DVec3::ZERO);
+    let longest = if first.length() > 1e-9 * longest.length() {
+        first
+    } else {
+        longest
+    };
+    let n = if n.is_finite() && n.length_squared() > 0.5 {
+        n
+    } else {
+        let across = (face.len() >= 3)
+            .then(|| {
+                (face[1] - face[0])
+                    .cross(face[2] - face[0])
+                    .normalize_or_zero()
+            })
+            .unwrap_or(DVec3::ZERO);
+        if across == DVec3::ZERO {
+            DVec3::Z
+        } else {
+            across
+        }
+    };
+    let u = match longest.try_normalize() {
+        Some(u) if u.dot(n).abs() < 1e-6 => u,
+        _ => n.any_orthonormal_vector(),
+    };
+    (u, n.cross(u))
 }
 
 fn median_edge(polys: &[Vec<DVec3>]) -> f64 {
@@ -287,6 +325,28 @@ mod tests {
         let p = DVec3::new(2.5, 1.5, 0.0);
         assert!(c[0].lift(c[0].flatten(p)).distance(p) < 1e-9);
         assert!((c[0].u.cross(c[0].v) - DVec3::Z).length() < 1e-9);
+    }
+
+    #[test]
+    fn degenerate_faces_get_finite_frames() {
+        // A needle (two corners at one point, the first edge zero), a point, and a face whose
+        // normal is zero.
+        let mut g = geometry(&[square(0.0, 0.0, 1.0, 0.0)]);
+        g.vertex_count.extend([3, 3]);
+        g.vertices.extend([
+            1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 0.0, //
+            5.0, 5.0, 5.0, 5.0, 5.0, 5.0, 5.0, 5.0, 5.0, 0.0, 0.0, 0.0,
+        ]);
+        g.normals.extend([0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
+        for c in charts(&g) {
+            for w in [c.u, c.v, c.origin] {
+                assert!(w.is_finite(), "{c:?}");
+            }
+            assert!(
+                (c.u.length() - 1.0).abs() < 1e-12 && c.u.dot(c.v).abs() < 1e-12,
+                "{c:?}"
+            );
+        }
     }
 
     #[test]

@@ -52,7 +52,10 @@ pub fn build(
     }
     stage.finish();
     let stage = progress.stage("lightmap", 0);
-    let lightmap = lightmap(scene, &shown)?;
+    let lightmap = match scene.bake.lightmap {
+        Some(false) => None,
+        _ => Some(lightmap(scene, &shown)?),
+    };
     stage.finish();
     let sky_transfer = scene
         .direct_lights
@@ -74,7 +77,7 @@ pub fn build(
         direct_lights,
         cameras,
         bvh: Some(bvh),
-        lightmap: Some(lightmap),
+        lightmap,
         faces: shown.grouped.then_some(Faces {
             element: shown.element,
             geometry: shown.geometry,

@@ -72,7 +72,7 @@
 //! samples = 16
 //! precision = "f16"                 # "f32" (default) or "f16"; layout = "factored" | "plain"
 //! lightmap_texel_density = 32       # texels per unit of the generated lightmap charts
-//! lightmap_padding = 2              # texels dilated around them (default 2)
+//! lightmap_padding = 2              # texels dilated around them (default 2); lightmap = false: none
 //! ```
 
 use std::path::Path;
@@ -369,6 +369,9 @@ pub struct BakeDesc {
     /// Texels of padding dilated around the lightmap's charts.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lightmap_padding: Option<u32>,
+    /// `false`: the file holds no lightmap coordinates.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lightmap: Option<bool>,
 }
 
 impl BakeDesc {
@@ -1005,6 +1008,7 @@ impl SceneDescription {
             output: b.output.as_ref().map(|o| base.join(o)),
             lightmap_texel_density: b.lightmap_texel_density.map(|t| t / self.scale),
             lightmap_padding: b.lightmap_padding,
+            lightmap: b.lightmap,
         })
     }
 }

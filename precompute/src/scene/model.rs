@@ -194,6 +194,9 @@ pub struct BakeDefaults {
     pub lightmap_texel_density: Option<f64>,
     /// Rings of texels dilated around the lightmap's charts.
     pub lightmap_padding: Option<u32>,
+    /// `false`: no lightmap coordinates in the file (a file for evaluation only, smaller by
+    /// 32 bytes per display face).
+    pub lightmap: Option<bool>,
 }
 
 /// What the import repaired, counted (the warnings name each case).
