@@ -140,13 +140,13 @@ fn frame(face: &[DVec3], n: DVec3) -> (DVec3, DVec3) {
     let n = if n.is_finite() && n.length_squared() > 0.5 {
         n
     } else {
-        let across = (face.len() >= 3)
-            .then(|| {
-                (face[1] - face[0])
-                    .cross(face[2] - face[0])
-                    .normalize_or_zero()
-            })
-            .unwrap_or(DVec3::ZERO);
+        let across = if face.len() >= 3 {
+            (face[1] - face[0])
+                .cross(face[2] - face[0])
+                .normalize_or_zero()
+        } else {
+            DVec3::ZERO
+        };
         if across == DVec3::ZERO {
             DVec3::Z
         } else {
