@@ -37,6 +37,7 @@ mod shard;
 mod solve;
 mod summary;
 pub mod sweep;
+#[cfg(feature = "view")]
 mod view;
 mod view_factors;
 
@@ -89,6 +90,7 @@ pub enum Command {
     /// runtime's lightmap filled on the GPU, the display triangles rasterised with it; a slider
     /// per light group, the exposure, the file's cameras, orbit/fly, timings, screenshots
     /// (`--headless --screenshot F` draws offscreen).
+    #[cfg(feature = "view")]
     View(view::ViewArgs),
     /// Ray trace a frame of an operator file (B/π, highlights, mirrors, glass) into a PNG or EXR.
     Render(render::RenderArgs),
@@ -308,6 +310,7 @@ where
         Command::Probe(a) => probe::run(&a, out),
         Command::Export(a) => export::run(&a, out),
         Command::Relight(a) => relight::run(&a, out),
+        #[cfg(feature = "view")]
         Command::View(a) => view::run(&a, out),
         Command::Render(a) => render::run(&a, out),
         Command::ViewFactors(a) => view_factors::run(&a, out),
