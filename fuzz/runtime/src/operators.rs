@@ -12,7 +12,10 @@ use lrr_formats::{Container, ContainerWriter, checksum, kind};
 use lrr_runtime::Operator;
 
 /// `operator_bytes`: any bytes through the loader. A file that loads must evaluate its own
-/// baked emission and locate a point: both are infallible on a validated operator.
+/// baked emission and locate a point: both are infallible on a validated operator. A file with
+/// lightmap coordinates must also build a small lightmap over them (16 × 16 texels, whatever
+/// atlas the file names: a hostile ATLAS could ask for 16384², which the allocation meter would
+/// rightly flag) and fill it from that frame.
 pub fn operator_bytes(data: &[u8]) -> bool {
     let Ok(op) = Operator::from_bytes(data) else {
         return false;
@@ -26,7 +29,20 @@ pub fn operator_bytes(data: &[u8]) -> bool {
         op.locate([0.5, 0.5, 0.0], [0.0, 0.0, 1.0]).is_some(),
         "a loaded operator has no element to locate"
     );
+    if op.file().display.lightmap.is_some() {
+        let mut map = lrr_runtime::Lightmap::with_size(op.file(), 16, 16, 2, None)
+            .unwrap_or_else(|e| panic!("a loaded operator's lightmap coordinates are refused: {e}"));
+        let mut texels = vec![[0.0f32; 3]; 16 * 16];
+        if let Err(e) = map.fill(&radiosity, &mut texels) {
+            panic!("a lightmap refuses its own operator's frame: {e}");
+        }
+        assert!(texels.iter().flatten().all(|v| v.is_finite()) || !radiosity_finite(&radiosity));
+    }
     true
+}
+
+fn radiosity_finite(b: &[[f32; 3]]) -> bool {
+    b.iter().flatten().all(|v| v.is_finite())
 }
 
 /// `operator_mutated`: a valid operator file edited as the fuzzer's bytes say, then loaded. See
