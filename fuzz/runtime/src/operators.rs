@@ -30,8 +30,10 @@ pub fn operator_bytes(data: &[u8]) -> bool {
         "a loaded operator has no element to locate"
     );
     if op.file().display.lightmap.is_some() {
-        let mut map = lrr_runtime::Lightmap::with_size(op.file(), 16, 16, 2, None)
-            .unwrap_or_else(|e| panic!("a loaded operator's lightmap coordinates are refused: {e}"));
+        let mut map =
+            lrr_runtime::Lightmap::with_size(op.file(), 16, 16, 2, None).unwrap_or_else(|e| {
+                panic!("a loaded operator's lightmap coordinates are refused: {e}")
+            });
         let mut texels = vec![[0.0f32; 3]; 16 * 16];
         if let Err(e) = map.fill(&radiosity, &mut texels) {
             panic!("a lightmap refuses its own operator's frame: {e}");
