@@ -111,6 +111,19 @@ pub(super) fn layout_entry(b: &lrr_shaders::Binding) -> wgpu::BindGroupLayoutEnt
     }
 }
 
+/// Bind group entries of `buffers`, each bound whole at the binding of its index (what every
+/// pass's bindings are: buffers numbered from 0 in their declared order).
+pub(super) fn buffer_entries<'a>(buffers: &[&'a wgpu::Buffer]) -> Vec<wgpu::BindGroupEntry<'a>> {
+    buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect()
+}
+
 /// The bind group layout of a pass's `bindings` (its `lrr_shaders::*_BINDINGS`), explicit so
 /// that every specialisation of the pass (whatever its overrides leave unused) shares it.
 pub(super) fn bind_group_layout(

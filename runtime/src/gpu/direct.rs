@@ -539,14 +539,7 @@ impl GpuDirect {
             &self.irradiance,
             &self.rays,
         ];
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
+        let entries = super::common::buffer_entries(&buffers);
         self.gpu
             .device
             .create_bind_group(&wgpu::BindGroupDescriptor {

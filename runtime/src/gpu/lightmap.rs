@@ -255,14 +255,7 @@ impl GpuLightmap {
                 &self.neighbour_ends,
                 &self.neighbours,
             ];
-            let mut entries: Vec<wgpu::BindGroupEntry> = buffers
-                .iter()
-                .enumerate()
-                .map(|(i, b)| wgpu::BindGroupEntry {
-                    binding: i as u32,
-                    resource: b.as_entire_binding(),
-                })
-                .collect();
+            let mut entries = super::common::buffer_entries(&buffers);
             entries.push(wgpu::BindGroupEntry {
                 binding: 8,
                 resource: wgpu::BindingResource::TextureView(&self.view),

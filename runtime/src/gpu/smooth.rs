@@ -102,14 +102,7 @@ impl SmoothPass {
             radiosity,
             &self.values,
         ];
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
+        let entries = super::common::buffer_entries(&buffers);
         let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some(SMOOTH_ENTRY),
             layout: &self.layout,
