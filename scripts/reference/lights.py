@@ -38,13 +38,11 @@ should do to an intensity or an irradiance is not settled here.
 
 import hashlib
 import math
-import re
 import tomllib
 
 import numpy as np
 
 TABLES = ("point_light", "spot_light", "directional_light", "sky")
-_HEADER = re.compile(r"^\s*(\[\[?)\s*([A-Za-z0-9_.-]+)\s*(\]\]?)\s*(#.*)?$")
 
 
 def sha256(path):
@@ -62,30 +60,6 @@ def read(path):
     if lights and "include" in doc:
         raise ValueError(f"{path}: lights with [[include]] are not supported by the reference")
     return lights
-
-
-def strip(path, out):
-    """Writes `path` without its light tables to `out` (for an lrr that does not read them yet).
-
-    Line-based: a light table's header and every line up to the next table header go. The
-    result is checked: it parses to the original document less the light tables."""
-    with open(path, "rb") as f:
-        text = f.read().decode()
-    kept, skipping = [], False
-    for line in text.splitlines(keepends=True):
-        m = _HEADER.match(line)
-        if m and len(m.group(1)) == len(m.group(3)):
-            skipping = m.group(2) in TABLES
-        if not skipping:
-            kept.append(line)
-    stripped = "".join(kept)
-    original = tomllib.loads(text)
-    expected = {k: v for k, v in original.items() if k not in TABLES}
-    if tomllib.loads(stripped) != expected:
-        raise ValueError(f"{path}: removing the light tables changed the rest of the description")
-    with open(out, "w") as f:
-        f.write(stripped)
-    return out
 
 
 def _rgb(v, what):

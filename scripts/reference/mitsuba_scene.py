@@ -1,6 +1,6 @@
-"""A scene exactly as lrr imports it, as a Mitsuba 3 scene.
+"""A scene's faces as a Mitsuba 3 scene.
 
-Input: the faces JSON of `cargo run -p lrr-tests --example reference_faces` (lrr's own import:
+Input: the faces document of description.py (the reference's own reading of the description:
 planar convex polygons, counter-clockwise around their one-sided front normal, scale applied).
 
 What lrr means and how it is said in Mitsuba:
@@ -21,13 +21,6 @@ import struct
 import tempfile
 
 import numpy as np
-
-
-def load_faces(path):
-    import json
-
-    with open(path) as f:
-        return json.load(f)
 
 
 def _key(vertices):

@@ -136,12 +136,12 @@ pub(super) fn quantile(v: &[f64], q: f64) -> f64 {
     s[((q * (s.len() - 1) as f64).round() as usize).min(s.len() - 1)]
 }
 
-/// Median, 90th percentile and max of the per-point relative error, and the reference's noise.
+/// Median, 90th and 99th percentile of the per-point relative error, and the reference's noise.
 #[derive(Debug)]
 pub(super) struct Errors {
     pub median: f64,
     pub p90: f64,
-    pub max: f64,
+    pub p99: f64,
     pub noise_median: f64,
     pub noise_p90: f64,
 }
@@ -156,7 +156,7 @@ pub(super) fn errors(points: &[RefPoint], values: &[[f64; 3]]) -> Errors {
     Errors {
         median: quantile(&rel, 0.5),
         p90: quantile(&rel, 0.9),
-        max: quantile(&rel, 1.0),
+        p99: quantile(&rel, 0.99),
         noise_median: quantile(&noise, 0.5),
         noise_p90: quantile(&noise, 0.9),
     }
@@ -205,21 +205,10 @@ fn smooth_values(op: &Operator, points: &[RefPoint]) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// Bakes the scene of reference `name` with the default settings and measures its error, flat
-/// and smooth.
-fn default_bake_against_reference(name: &str) -> (Errors, Errors) {
-    bake_against_reference(name, &[])
-}
-
 /// Bakes the scene of reference `name` with the flags `extra` and measures its error, flat
-/// and smooth.
-fn bake_against_reference(name: &str, extra: &[&str]) -> (Errors, Errors) {
-    bake_against_noisy_reference(name, extra, 0.3)
-}
-
-/// [`bake_against_reference`], the reference's p90 noise allowed up to `noise_share` of the
-/// median error it measures.
-fn bake_against_noisy_reference(name: &str, extra: &[&str], noise_share: f64) -> (Errors, Errors) {
+/// and smooth; the reference's p90 noise must be under `noise_share` of the median error it
+/// measures (else the reference, not the bake, would decide the figures).
+fn bake_against_reference(name: &str, extra: &[&str], noise_share: f64) -> (Errors, Errors) {
     let (doc, points) = load_reference(name);
     let scene = scene_path(&doc);
     assert_points_on_scene(&scene, &points);
@@ -232,22 +221,21 @@ fn bake_against_noisy_reference(name: &str, extra: &[&str], noise_share: f64) ->
     let smooth = errors(&points, &smooth_values(&op, &points));
     println!(
         "{name} {extra:?}: n = {}, k = {}, bake {seconds:.1} s; against {} reference points: flat median \
-         {:.2}%, p90 {:.2}%, max {:.1}%; smooth median {:.2}%, p90 {:.2}%, max {:.1}%; \
+         {:.2}%, p90 {:.2}%, p99 {:.1}%; smooth median {:.2}%, p90 {:.2}%, p99 {:.1}%; \
          reference noise median {:.2}%, p90 {:.2}% ({})",
         op.n(),
         op.k(),
         points.len(),
         100.0 * e.median,
         100.0 * e.p90,
-        100.0 * e.max,
+        100.0 * e.p99,
         100.0 * smooth.median,
         100.0 * smooth.p90,
-        100.0 * smooth.max,
+        100.0 * smooth.p99,
         100.0 * e.noise_median,
         100.0 * e.noise_p90,
         doc["renderer"].as_str().unwrap(),
     );
-    // Cornell: the reference's p90 noise 0.48% against the smooth median 1.34% (0.36×).
     assert!(
         e.noise_p90 < noise_share * smooth.median.min(e.median),
         "{name}: the reference's noise ({e:?}) is not small against the error it measures"
@@ -255,124 +243,166 @@ fn bake_against_noisy_reference(name: &str, extra: &[&str], noise_share: f64) ->
     (e, smooth)
 }
 
-/// Asserts measured errors within `FACTOR` of what they were when these tests were written
-/// (`expected` = median, p90, max; docs/ACCURACY.md, "Against an independent path tracer"):
-/// a regression of the bake or of `locate` fails here. Bakes are deterministic, so the
-/// measured values only move when the bake does; an improvement should lower `expected`.
-fn assert_within(name: &str, e: &Errors, expected: [f64; 3]) {
-    const FACTOR: f64 = 1.25;
-    for (what, got, was) in [
-        ("median", e.median, expected[0]),
-        ("90th percentile", e.p90, expected[1]),
-        ("max", e.max, expected[2]),
+/// Ceilings of the smooth error against the path tracer: median, p90, p99.
+///
+/// [`GOAL`] is issue #14's goal for the Cornell box (median ≤ 2 %, p90 ≤ 5 %; issue #32 set the
+/// same for the lights that are not surfaces, `lights.rs`), with a p99 ceiling of 20 %: the
+/// worst points lie where one element straddles a shadow or contact line, and a point off by
+/// more than a fifth at the 99th percentile would mean light or shadow put on the wrong
+/// element, not an element too coarse. None of these was read off a run.
+pub(super) const GOAL: [f64; 3] = [0.02, 0.05, 0.20];
+/// The two default bakes that do not reach [`GOAL`] (the cluttered room: contact lines of
+/// thin slanted boards; the dense sphere at its description's coarse element size, n = 565)
+/// are held below this instead: 1.25× the goal's median, 1.6× its p90 and 1.5× its p99. They
+/// are open items of issue #31 (docs/ACCURACY.md), not a claim.
+const SHORT_OF_GOAL: [f64; 3] = [0.025, 0.08, 0.30];
+
+pub(super) fn assert_below(name: &str, e: &Errors, ceiling: [f64; 3]) {
+    for (what, got, most) in [
+        ("median", e.median, ceiling[0]),
+        ("90th percentile", e.p90, ceiling[1]),
+        ("99th percentile", e.p99, ceiling[2]),
     ] {
         assert!(
-            got <= FACTOR * was,
-            "{name}: {what} relative error {got:.4} against the path tracer, more than \
-             {FACTOR} × the {was:.4} measured when the test was written"
+            got <= most,
+            "{name}: {what} relative error {got:.4} against the path tracer, above its ceiling \
+             {most}"
         );
     }
 }
 
-/// Measured smooth errors (median, p90, max) of the default bakes (docs/ACCURACY.md: 2MSC by
-/// merging at its default threshold 7e-5, refined where light changes with `--refine 0.2`;
-/// the closed scenes with their enclosed rows summing to one).
-const CORNELL_SMOOTH: [f64; 3] = [0.0133, 0.0435, 1.138];
-const CLUTTERED_SMOOTH: [f64; 3] = [0.0102, 0.0562, 1.544];
-const SPHERE_SMOOTH: [f64; 3] = [0.0147, 0.0406, 0.180];
+/// The smooth reconstruction (what `lrr probe` returns) beats the flat value of the element at
+/// the median, measured on the same bake.
+fn assert_smooth_beats_flat(name: &str, flat: &Errors, smooth: &Errors) {
+    assert!(
+        smooth.median < flat.median,
+        "{name}: smooth median {:.4} not below flat {:.4}",
+        smooth.median,
+        flat.median
+    );
+}
 
-/// Issue #14's goal for the Cornell box, met by the default bake: median ≤ 2% and p90 ≤ 5%
-/// against the path tracer (smooth; measured 1.33% / 4.35%, n = 2 539, k = 162: docs/ACCURACY.md;
-/// by the split rule, the default before, 1.34% / 4.65% with k = 333).
+/// The default bake and the same bake without the refinement (`--refine 0`), measured in the
+/// same run: the refinement's purpose is a lower p90 (the worst points lie where one element
+/// straddles a change, which interpolation cannot mend and splitting does). Returns the
+/// default bake's smooth errors.
+fn refined_against_unrefined(name: &str, extra: &[&str], noise_share: f64) -> Errors {
+    let (flat, smooth) = bake_against_reference(name, extra, noise_share);
+    let unrefined: Vec<&str> = extra.iter().copied().chain(["--refine", "0"]).collect();
+    let (_, smooth_unrefined) = bake_against_reference(name, &unrefined, noise_share);
+    assert_smooth_beats_flat(name, &flat, &smooth);
+    println!(
+        "{name}: refined / unrefined smooth p90 = {:.3}",
+        smooth.p90 / smooth_unrefined.p90
+    );
+    assert!(
+        smooth.p90 < smooth_unrefined.p90,
+        "{name}: the refined bake's smooth p90 {:.4} is not below the unrefined bake's {:.4}",
+        smooth.p90,
+        smooth_unrefined.p90
+    );
+    smooth
+}
+
+/// Issue #14's goal for the Cornell box, met by the default bake (smooth; docs/ACCURACY.md).
 #[test]
 fn cornell_box_default_bake_against_the_path_tracer_meets_the_goal() {
-    // The reference's p90 noise (0.48%) is 0.36 of the smooth median: still well under the p90.
-    let (e, smooth) = bake_against_noisy_reference("cornell-box", &[], 0.4);
     assert_eq!(
         scene_path(&load_reference("cornell-box").0),
         cornell(),
         "the Cornell reference is of the shipped scene"
     );
-    assert_within("cornell-box", &e, [0.0258, 0.0889, 0.504]);
-    assert_within("cornell-box smooth", &smooth, CORNELL_SMOOTH);
-    assert!(
-        smooth.median <= 0.02 && smooth.p90 <= 0.05,
-        "the goal: median {:.4} ≤ 0.02 and p90 {:.4} ≤ 0.05",
-        smooth.median,
-        smooth.p90
-    );
+    // The reference's p90 noise (about 0.5%) is about 0.36 of the smooth median.
+    let smooth = refined_against_unrefined("cornell-box", &[], 0.4);
+    assert_below("cornell-box smooth", &smooth, GOAL);
+}
+
+/// A closed room of differing walls lit by a floating emitting box, with floating occluders:
+/// visibility decides the answer (issue #33; the uniform furnace cannot tell).
+#[test]
+fn occluded_room_default_bake_against_the_path_tracer_meets_the_goal() {
+    // 1 048 576 paths per point (8× the others: a small lamp in a closed room of high
+    // reflectance); the reference's p90 noise (0.36%) is then 0.33 of the smooth median.
+    let smooth = refined_against_unrefined("occluded", &[], 0.4);
+    assert_below("occluded smooth", &smooth, GOAL);
 }
 
 #[test]
 fn cluttered_room_default_bake_against_the_path_tracer() {
-    let (e, smooth) = default_bake_against_reference("cluttered");
-    assert_within("cluttered", &e, [0.0222, 0.1068, 1.798]);
-    assert_within("cluttered smooth", &smooth, CLUTTERED_SMOOTH);
+    let smooth = refined_against_unrefined("cluttered", &[], 0.3);
+    assert_below("cluttered smooth", &smooth, SHORT_OF_GOAL);
 }
 
-/// The dense sphere's description asks for h = 0.125, but before issue #31 each of its 1 280
-/// sphere faces was an element whatever h said (n = 2 020, the errors below). Its small faces
-/// are now grouped into elements of about h (n = 565 at 0.125: flat median 3.1%, smooth
-/// 2.2%, docs/ACCURACY.md); at this element size it has about the former n (2 244), and
-/// is held to the errors measured then.
-const SPHERE_FORMER_N: &[&str] = &["--element-size", "0.0625"];
-
+/// The dense sphere's description asks for h = 0.125: its 1 280 small sphere faces are grouped
+/// into elements of about h (issue #31; n = 565). At half that size it has about the element
+/// count it had when every face was an element (n ≈ 2 200) and meets the goal; the coarse
+/// default is short of it. Both bakes are measured here, and the finer one must be the better.
 #[test]
-fn dense_sphere_bake_at_its_former_element_count_against_the_path_tracer() {
-    // Measured at n = 2 244: smooth median 0.78%, p90 2.45%; the reference's p90 noise
-    // (0.25%) is then 0.32× the median.
-    let (e, smooth) = bake_against_noisy_reference("dense-sphere", SPHERE_FORMER_N, 0.4);
-    assert_within("dense-sphere", &e, [0.0212, 0.0723, 0.419]);
-    assert_within("dense-sphere smooth", &smooth, SPHERE_SMOOTH);
-}
-
-/// Measured errors (flat, then smooth: median, p90, max) of the default bakes without the
-/// refinement, `--refine 0` (docs/ACCURACY.md, "Refinement where light changes").
-const CORNELL_UNREFINED: [[f64; 3]; 2] = [[0.0261, 0.0899, 2.483], [0.0138, 0.0499, 1.846]];
-const CLUTTERED_UNREFINED: [[f64; 3]; 2] = [[0.0225, 0.1054, 1.798], [0.0098, 0.0915, 1.946]];
-const SPHERE_UNREFINED: [[f64; 3]; 2] = [[0.0259, 0.0871, 0.469], [0.0200, 0.0684, 0.168]];
-
-/// `--refine 0` against the path tracer: within 1.25× of what it measured, and the default
-/// (refined) bake's smooth p90 below 0.9× of it (the refinement's purpose: the worst points
-/// lie where one element straddles a change).
-fn unrefined_against_reference(
-    name: &str,
-    extra: &[&str],
-    expected: [[f64; 3]; 2],
-    default_smooth: [f64; 3],
-    noise_share: f64,
-) {
-    let flags: Vec<&str> = extra.iter().copied().chain(["--refine", "0"]).collect();
-    let (e, smooth) = bake_against_noisy_reference(name, &flags, noise_share);
-    assert_within(&format!("{name} --refine 0"), &e, expected[0]);
-    assert_within(&format!("{name} --refine 0 smooth"), &smooth, expected[1]);
+fn dense_sphere_bakes_against_the_path_tracer() {
+    let (flat, coarse) = bake_against_reference("dense-sphere", &[], 0.4);
+    assert_smooth_beats_flat("dense-sphere", &flat, &coarse);
+    assert_below("dense-sphere smooth", &coarse, SHORT_OF_GOAL);
+    let fine = refined_against_unrefined("dense-sphere", &["--element-size", "0.0625"], 0.4);
+    assert_below("dense-sphere --element-size 0.0625 smooth", &fine, GOAL);
     assert!(
-        default_smooth[1] < 0.9 * expected[1][1],
-        "{name}: the refined default's smooth p90 {:.4} is not below the unrefined {:.4}",
-        default_smooth[1],
-        expected[1][1]
+        fine.median < coarse.median && fine.p90 < coarse.p90,
+        "dense-sphere: halving the element size did not lower the error: {fine:?} against {coarse:?}"
     );
 }
 
+/// The reference read each scene itself (scripts/reference/description.py, no lrr code): its
+/// surfaces, their areas and materials as it read them (`surfaces` in the JSON) are lrr's
+/// import of the same file. An importer or unit error of either side fails here.
 #[test]
-fn cornell_box_unrefined_bake_against_the_path_tracer() {
-    unrefined_against_reference("cornell-box", &[], CORNELL_UNREFINED, CORNELL_SMOOTH, 0.4);
-}
-
-#[test]
-fn cluttered_room_unrefined_bake_against_the_path_tracer() {
-    unrefined_against_reference("cluttered", &[], CLUTTERED_UNREFINED, CLUTTERED_SMOOTH, 0.3);
-}
-
-#[test]
-fn dense_sphere_unrefined_bake_against_the_path_tracer() {
-    unrefined_against_reference(
-        "dense-sphere",
-        SPHERE_FORMER_N,
-        SPHERE_UNREFINED,
-        SPHERE_SMOOTH,
-        0.4,
-    );
+fn the_reference_and_lrr_read_each_scene_alike() {
+    let mut checked = 0;
+    for entry in std::fs::read_dir(data_dir()).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_stem().unwrap().to_str().unwrap().to_string();
+        if path.extension().is_none_or(|e| e != "json") || name.ends_with("-image") {
+            continue;
+        }
+        let (doc, _) = load_reference(&name);
+        let theirs = doc["surfaces"].as_array().unwrap_or_else(|| {
+            panic!("{name}: no `surfaces` (made before scripts/reference read scenes itself)")
+        });
+        let scene = lrr_precompute::scene::load(&scene_path(&doc)).unwrap();
+        let mut area = vec![0.0; scene.surfaces.len()];
+        let mut material = vec![None; scene.surfaces.len()];
+        for f in &scene.faces {
+            area[f.surface] += f.polygon.area();
+            assert!(
+                material[f.surface].is_none_or(|m| m == f.material),
+                "{name}: surface '{}' has two materials",
+                scene.surfaces[f.surface]
+            );
+            material[f.surface] = Some(f.material);
+        }
+        let names: Vec<&str> = theirs.iter().map(|s| s["name"].as_str().unwrap()).collect();
+        assert_eq!(names, scene.surfaces, "{name}: the surfaces differ");
+        for (s, t) in theirs.iter().enumerate() {
+            let m = &scene.materials[material[s].unwrap()];
+            let what = format!("{name}: surface '{}'", scene.surfaces[s]);
+            let a = t["area"].as_f64().unwrap();
+            assert!(
+                (a - area[s]).abs() <= 1e-12 * area[s],
+                "{what}: area {a} in the reference, {} in lrr",
+                area[s]
+            );
+            assert_eq!(t["material"].as_str(), Some(m.name.as_str()), "{what}");
+            let (rho, e) = (triple(&t["reflectance"]), triple(&t["emission"]));
+            for c in 0..3 {
+                assert_eq!(rho[c], m.reflectance[c], "{what}: reflectance");
+                assert!(
+                    (e[c] - m.emission[c]).abs() <= 1e-15 * m.emission[c].abs(),
+                    "{what}: emission {e:?} in the reference, {:?} in lrr",
+                    m.emission
+                );
+            }
+        }
+        checked += 1;
+    }
+    assert!(checked >= 13, "{checked} references checked");
 }
 
 /// z-scores of the reference against exact values, per point and channel with stderr > 0.

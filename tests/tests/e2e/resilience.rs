@@ -182,7 +182,8 @@ fn a_bake_killed_in_its_first_pass_resumes_it() {
         "resumed bake differs"
     );
     let [_, n, first_rows, n0] = resumed(&text);
-    // 100 kB of rows of k = 333 values is at least 32 rows.
+    // 100 kB of rows of 8·k bytes, in records of 16 rows, is at least 32 rows for any k up to
+    // 333 (the Cornell box's default k is 167 since 2MSC's merge rule: about 74 rows).
     assert!(first_rows >= 32 && first_rows <= n0 && n0 < n, "{text}");
     assert!(!first.exists() && !dir.join("cut.lrr.ckpt").exists());
     // Nothing left to resume: refused, saying so.

@@ -90,8 +90,9 @@ fn kill_mid_way(scene: &Path, dir: &Path, index: usize, count: usize, extra: &[&
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    // Header (40 bytes) + two records of 8 rows × 333 patches (24 + 8·333·8 bytes each; the
-    // default bake: 2MSC, k = 333).
+    // Header (40 bytes) + two records of 8 rows × k patches (24 + 8·k·8 bytes each). The
+    // Cornell box's default bake has k = 167 (2MSC by merging); 333 was the split rule's k, so
+    // this waits for four records, which is still "some rows saved, the bake unfinished".
     let two_blocks = 40 + 2 * (24 + 8 * 333 * 8);
     let start = Instant::now();
     let mut caught = false;
