@@ -146,6 +146,42 @@ fn the_headless_screenshot_is_lrr_render_of_the_same_camera_on_the_gpu() {
     let total = |img: &[[f32; 3]]| img.iter().map(lum).sum::<f64>();
     let (with, without) = (total(&lit_by_lamp), total(&v));
     assert!(with > 1.05 * without, "{with} against {without}");
+    // A sky through the open side: the GPU sky pass adds ρ ⊙ max(0, Σ L_lm T_lm) every frame
+    // (the transfer projected once, on the CPU, as `lrr render` does); the picture brightens
+    // and is `lrr render --sky` of the same camera.
+    let (sky_view, sky_render) = (d.join("sky-view.exr"), d.join("sky-render.exr"));
+    let sky = ["--sky", "4,4,5"];
+    let size = ["--size", "320x240"];
+    lrr(&[
+        &[
+            "view",
+            s(&file),
+            "--headless",
+            "--frames",
+            "2",
+            "--screenshot",
+            s(&sky_view),
+        ][..],
+        &size,
+        &sky,
+    ]
+    .concat())
+    .unwrap();
+    lrr(&[&["render", s(&file), "-o", s(&sky_render)][..], &size, &sky].concat()).unwrap();
+    let (_, _, sv) = read_rgb(&sky_view);
+    let (_, _, sr) = read_rgb(&sky_render);
+    let (with, without) = (total(&sv), total(&v));
+    assert!(with > 1.05 * without, "the sky: {with} against {without}");
+    let (mut sum, mut lit) = (0.0, 0usize);
+    for (a, b) in sv.iter().zip(&sr) {
+        if lum(a) > 0.0 && lum(b) > 0.0 {
+            sum += (lum(a) - lum(b)).abs() / lum(b);
+            lit += 1;
+        }
+    }
+    let mean = sum / lit as f64;
+    println!("with a sky: {lit} lit pixels, mean relative difference from lrr render {mean:.2e}");
+    assert!(mean <= 0.01, "with a sky: mean relative difference {mean}");
     // A PNG too, at the exposure it prints.
     let png = d.join("view.png");
     let said = lrr(&[

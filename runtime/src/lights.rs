@@ -688,6 +688,22 @@ impl DirectLighting {
         Ok(report)
     }
 
+    /// The sky's transfer per element (original ids): order-2 spherical harmonics
+    /// `T_lm = ∫ V(x, ω) max(0, n·ω) Y_lm(ω) dω` averaged over the element's sample points (the
+    /// bake's, section SKY_TRANSFER, when the file has one; else projected now, once, through
+    /// the file's BVH), and the shadow rays this call cast (0 once it is known). What
+    /// [`sky_irradiance`](Self::sky_irradiance) weighs a sky's coefficients with; the GPU's sky
+    /// pass uploads it.
+    pub fn sky_transfer(&mut self) -> (&[[f32; 9]], u64) {
+        let mut rays = 0;
+        if self.sky.is_none() {
+            let (transfer, cast) = self.project_sky();
+            rays = cast;
+            self.sky = Some(transfer);
+        }
+        (self.sky.as_deref().expect("projected above"), rays)
+    }
+
     /// The direct irradiance of `lights` at one surface point `x` with front normal `normal`
     /// (unit), each light behind its own shadow ray (the sky has no per-point value: its
     /// transfer is per element, [`DirectLighting::sky_irradiance`]).

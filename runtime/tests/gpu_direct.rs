@@ -23,7 +23,7 @@ use std::sync::OnceLock;
 
 use lrr_formats::{Display, Geometry, Layout, Material, Materials, OperatorFile, Precision};
 use lrr_runtime::gpu::{self, Gpu, GpuDirect, GpuEvaluator, GpuOptions};
-use lrr_runtime::lights::{DirectLighting, Light, reflected};
+use lrr_runtime::lights::{DirectLighting, Light, Sky, reflected};
 use lrr_runtime::testkit;
 use lrr_runtime::{Operator, Rgb, RgbMut};
 
@@ -469,6 +469,116 @@ fn a_frame_without_lights_runs_no_pass() {
         )
         .unwrap();
     assert_eq!(again, lit, "the pass runs again");
+}
+
+/// A sky (`GpuDirect::set_sky`), alone and beside the lights: `B` equals the CPU evaluator's of
+/// the CPU's emission `base + ρ ⊙ (H_lights + H_sky)` (`irradiance` + `sky_irradiance`,
+/// `reflected`); the transfer is projected once, on the first sky; `irradiance_buffer` keeps
+/// the lights' `H` alone; `set_sky(None)` gives the frame without it back, bit for bit.
+#[test]
+fn a_sky_adds_its_light_as_the_cpu_pass_does() {
+    let op = Operator::from_file(court(8)).unwrap();
+    let n = op.n();
+    let rho = op.reflectance();
+    let e0 = base(n);
+    let sky = Sky::Gradient {
+        zenith: [0.5, 0.7, 1.0],
+        horizon: [0.9, 0.8, 0.6],
+        up: [0.2, 1.0, 0.1],
+    };
+    let mut eval = GpuEvaluator::new(gpu(), &op).unwrap();
+    let mut cpu_pass = DirectLighting::new(op.file(), 4, 1).unwrap();
+    let mut direct = GpuDirect::new(gpu(), &cpu_pass, &rho).unwrap();
+    let mut plain = vec![[0.0f32; 3]; n];
+    direct
+        .evaluate(
+            &mut eval,
+            &[],
+            Rgb::triples(&e0),
+            RgbMut::triples(&mut plain),
+        )
+        .unwrap();
+    let rays = direct.set_sky(&mut cpu_pass, Some(&sky)).unwrap();
+    assert!(
+        rays > 0,
+        "the court has no SKY_TRANSFER: the first sky projects it"
+    );
+    assert_eq!(
+        direct.set_sky(&mut cpu_pass, Some(&sky)).unwrap(),
+        0,
+        "once"
+    );
+    let mut reference = DirectLighting::new(op.file(), 4, 2).unwrap();
+    for (lights, name) in [
+        (Vec::new(), "the sky alone"),
+        (lights(), "the sky and the lights"),
+    ] {
+        let mut h = vec![[0.0f32; 3]; n];
+        reference.irradiance(&lights, &mut h).unwrap();
+        let mut h_sky = vec![[0.0f32; 3]; n];
+        reference.sky_irradiance(&sky, &mut h_sky).unwrap();
+        assert!(
+            h_sky.iter().any(|h| h[0] > 0.0),
+            "{name}: the sky lights the court"
+        );
+        let total: Vec<[f32; 3]> = h
+            .iter()
+            .zip(&h_sky)
+            .map(|(a, b)| std::array::from_fn(|c| a[c] + b[c]))
+            .collect();
+        let mut e = vec![[0.0f32; 3]; n];
+        reflected(&rho, &total, &e0, &mut e).unwrap();
+        let mut b_cpu = vec![[0.0f32; 3]; n];
+        op.evaluator(2)
+            .unwrap()
+            .evaluate(Rgb::triples(&e), RgbMut::triples(&mut b_cpu))
+            .unwrap();
+        let mut b = vec![[f32::NAN; 3]; n];
+        let report = direct
+            .evaluate(
+                &mut eval,
+                &lights,
+                Rgb::triples(&e0),
+                RgbMut::triples(&mut b),
+            )
+            .unwrap();
+        assert!(report.sky, "{name}");
+        let gpu_h = direct.read_irradiance().unwrap();
+        let a = agreement(&gpu_h, &h);
+        let w = worst(&b, &b_cpu);
+        eprintln!(
+            "{name}: {} of {} lit elements beyond {H_REL:e}; B vs the CPU frame {w:.2e}",
+            a.off, a.lit
+        );
+        if lights.is_empty() {
+            assert!(
+                gpu_h.iter().all(|h| *h == [0.0; 3]),
+                "{name}: H holds the lights alone"
+            );
+        }
+        if a.off == 0 {
+            assert!(w <= B_REL, "{name}: B {w:e}");
+        }
+    }
+    direct.set_sky(&mut cpu_pass, None).unwrap();
+    let mut b = vec![[f32::NAN; 3]; n];
+    let report = direct
+        .evaluate(&mut eval, &[], Rgb::triples(&e0), RgbMut::triples(&mut b))
+        .unwrap();
+    assert_eq!(
+        report,
+        lrr_runtime::gpu::GpuDirectReport::default(),
+        "no pass"
+    );
+    assert_eq!(b, plain);
+    let bad = Sky::Uniform {
+        radiance: [f32::NAN, 0.0, 0.0],
+    };
+    let err = direct
+        .set_sky(&mut cpu_pass, Some(&bad))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("the sky") && err.contains("radiance"), "{err}");
 }
 
 /// Dispatches of a few workgroups each (the watchdog's bound) give the one dispatch's values bit

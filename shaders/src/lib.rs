@@ -32,7 +32,9 @@
 //! [`direct_sample`]; it shares `bvh.wgsl` and `direct_light.wgsl` with the tracer): per element,
 //! each light's irradiance averaged over fixed sample points behind any-hit shadow rays, `E =
 //! base + ρ ⊙ H` written where the passes above read the emission; its CPU mirror is the
-//! runtime's `DirectLighting`.
+//! runtime's `DirectLighting`. A sky adds its light there too (`sky.wgsl`, [`SKY_PASS`],
+//! [`SkyParams`]): per element `ρ ⊙ max(0, Σ L_lm T_lm)`, the transfer `T` (order-2 spherical
+//! harmonics, the bake's or the CPU pass's projection) uploaded once, no ray.
 //!
 //! An engine that rasterises the scene takes the light as a lightmap: `lightmap.wgsl`
 //! ([`LIGHTMAP_FILL`], [`LightmapParams`]) fills an `rgba16float` storage texture from `B` (smooth:
@@ -115,6 +117,7 @@ pub mod cpu;
 mod direct;
 mod lightmap;
 mod params;
+mod sky;
 mod smooth;
 mod trace;
 
@@ -130,6 +133,7 @@ pub use lightmap::{
     LIGHTMAP_SMOOTH, LightmapParams,
 };
 pub use params::{GatherConstants, Params};
+pub use sky::{SKY_BINDINGS, SKY_ENTRY, SKY_LANES, SKY_PASS, SkyParams};
 pub use smooth::{SMOOTH_BINDINGS, SMOOTH_ENTRY, SMOOTH_LANES, SMOOTH_VERTICES, SmoothParams};
 pub use trace::{
     DIRECT_LIGHT_BYTES, DIRECT_LIGHT_FIELDS, DirectKind, LIGHT_BYTES, NO_CORNER, NODE_BYTES,

@@ -730,3 +730,19 @@ fn lightmap_pass_compiles_and_matches_the_host() {
     assert_eq!(constant(&module, "MODE_FLAT"), crate::LIGHTMAP_FLAT);
     assert_eq!(constant(&module, "MODE_RING"), crate::LIGHTMAP_RING);
 }
+
+/// `sky.wgsl` against [`crate::SKY_BINDINGS`] and [`crate::SkyParams`].
+#[test]
+fn sky_pass_compiles_and_matches_the_host() {
+    check_self_contained(&SelfContained {
+        file: "sky.wgsl",
+        source: crate::SKY_PASS,
+        entry: crate::SKY_ENTRY,
+        lanes_constant: "SKY_LANES",
+        lanes: crate::SKY_LANES,
+        bindings: crate::SKY_BINDINGS,
+        params: "SkyParams",
+        fields: crate::SkyParams::FIELDS,
+        size: crate::SkyParams::SIZE,
+    });
+}

@@ -187,20 +187,17 @@ impl Viewer {
             (None, None) => scene.framing(),
         };
         let frame_lights = a.lights.lights(&op)?;
-        if frame_lights.sky.is_some() {
-            bail!(
-                "lrr view lights with point, spot and directional lights; the sky (a --sky flag \
-                 or the file's [sky]) needs the CPU direct pass: use lrr render, or \
-                 --no-file-lights"
-            );
-        }
         let lights = frame_lights.lights;
-        let mut direct = match lights.is_empty() {
+        // The GPU direct pass when something is not a surface: the lights (shadow rays) and the
+        // sky (its transfer, the bake's or projected here once on the CPU).
+        let mut direct = match lights.is_empty() && frame_lights.sky.is_none() {
             true => None,
             false => {
-                let pass = DirectLighting::new(op.file(), frame_lights.samples, 0)
+                let mut pass = DirectLighting::new(op.file(), frame_lights.samples, 0)
                     .map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
-                Some(GpuDirect::new(&gpu, &pass, &op.reflectance())?)
+                let mut d = GpuDirect::new(&gpu, &pass, &op.reflectance())?;
+                d.set_sky(&mut pass, frame_lights.sky.as_ref())?;
+                Some(d)
             }
         };
         let emission = op.baked_emission();

@@ -24,9 +24,15 @@
 //! 4. submits the evaluator's frame from that slot (segment sums over the whole emission, core
 //!    product, gather), leaving `B` in [`GpuEvaluator::radiosity_buffer`].
 //!
-//! A frame without shining lights (or a scene without triangles, whose samples see nothing) runs
-//! no pass: it is the evaluator's own [`submit`](GpuEvaluator::submit) or
-//! [`submit_groups`](GpuEvaluator::submit_groups).
+//! A sky ([`set_sky`](GpuDirect::set_sky)) adds its light after step 3: `sky.wgsl` writes
+//! `ρ ⊙ max(0, Σ L_lm T_lm)` over the slot, per element, from the element's order-2 transfer
+//! `T` (uploaded once: the bake's section SKY_TRANSFER, or the CPU pass's projection) and the
+//! frame's coefficients `L` ([`Sky::coefficients`]); no ray, and not part of `H`
+//! ([`irradiance_buffer`](GpuDirect::irradiance_buffer)), as on the CPU.
+//!
+//! A frame without shining lights and without a sky (or a scene without triangles, whose
+//! samples see nothing, and no sky) runs no pass: it is the evaluator's own
+//! [`submit`](GpuEvaluator::submit) or [`submit_groups`](GpuEvaluator::submit_groups).
 //!
 //! Unlike the CPU pass, every frame traces every shining light: there is no cache of a light's
 //! geometric term across frames (a frame where only intensities change costs as much as one
@@ -56,7 +62,8 @@ use std::time::Instant;
 
 use lrr_shaders::{
     DIRECT_ENTRY, DIRECT_LANES, DIRECT_LIGHT_BYTES, DIRECT_PASS, DIRECT_SAMPLE_BYTES,
-    DirectConstants, DirectParams, direct_sample, workgroups,
+    DirectConstants, DirectParams, SKY_ENTRY, SKY_LANES, SKY_PASS, SkyParams, direct_sample,
+    workgroups,
 };
 
 use super::buffers::{storage, zeros};
@@ -64,7 +71,7 @@ use super::common::{GpuError, bytes_of, bytes_of_mut};
 use super::device::Gpu;
 use super::evaluator::{GpuEvaluator, map};
 use crate::error::input;
-use crate::lights::{DirectLighting, Light};
+use crate::lights::{DirectLighting, Light, Sky};
 use crate::rgb::{Rgb, RgbMut};
 
 /// Default bound on the shadow rays of one dispatch: 2²⁴ (a few milliseconds of any-hit rays
@@ -86,6 +93,8 @@ pub struct GpuDirectReport {
     /// ([`evaluate`](GpuDirect::evaluate), [`evaluate_groups`](GpuDirect::evaluate_groups));
     /// `None` otherwise.
     pub rays: Option<u64>,
+    /// Whether the sky pass ran (a sky is set: [`GpuDirect::set_sky`]).
+    pub sky: bool,
 }
 
 /// Where a frame's base emission comes from.
@@ -99,6 +108,19 @@ enum Base<'a> {
 struct Bvh {
     nodes: wgpu::Buffer,
     tris: wgpu::Buffer,
+}
+
+/// The sky pass (`sky.wgsl`): made with the first sky.
+struct SkyPass {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    params: wgpu::Buffer,
+    /// The frame's sky: 9 order-2 coefficients × 3 channels.
+    coefficients: wgpu::Buffer,
+    /// The transfer, 9 f32 per element, original ids.
+    transfer: wgpu::Buffer,
+    /// Whether the frames have a sky.
+    on: bool,
 }
 
 /// The direct pass on the GPU. See the [module docs](self).
@@ -127,6 +149,7 @@ pub struct GpuDirect {
     rays: wgpu::Buffer,
     count_rays: bool,
     chunk_rays: u64,
+    sky: Option<SkyPass>,
 }
 
 impl std::fmt::Debug for GpuDirect {
@@ -238,6 +261,7 @@ impl GpuDirect {
             rays: zeros(gpu, "direct rays", n, wgpu::BufferUsages::COPY_SRC),
             count_rays: false,
             chunk_rays: DEFAULT_CHUNK_RAYS,
+            sky: None,
             n: n as u32,
             samples_per_element: pass.samples_per_element(),
             epsilon: scene.epsilon,
@@ -291,6 +315,101 @@ impl GpuDirect {
         }
         self.chunk_rays = rays;
         Ok(())
+    }
+
+    /// Lights the frames that follow with `sky` too (`None`: no sky), the twin of the CPU's
+    /// [`sky_irradiance`](DirectLighting::sky_irradiance) + [`reflected`](crate::lights::reflected):
+    /// per element `ρ ⊙ max(0, Σ L_lm T_lm)` is added to the frame's emission, no ray. The
+    /// first sky uploads the transfer `T` of `pass`, the CPU pass of the same file
+    /// ([`DirectLighting::sky_transfer`]: the bake's section SKY_TRANSFER, else projected now
+    /// on the CPU); returns the shadow rays that projection cast (0 after). The sky's light is
+    /// not part of [`irradiance_buffer`](Self::irradiance_buffer): like the CPU's, it has no
+    /// per-point value and stays in the bounced part a renderer shows. Errors name a bad sky,
+    /// a pass of another file, or a transfer over the binding limit.
+    pub fn set_sky(
+        &mut self,
+        pass: &mut DirectLighting,
+        sky: Option<&Sky>,
+    ) -> Result<u64, GpuError> {
+        let Some(sky) = sky else {
+            if let Some(s) = &mut self.sky {
+                s.on = false;
+            }
+            return Ok(0);
+        };
+        sky.check()
+            .map_err(|p| GpuError::from(input(format!("the sky: {p}"))))?;
+        if pass.n() != self.n as usize {
+            return Err(input(format!(
+                "sky: the CPU pass has {} elements, this pass {}; use the passes of one file",
+                pass.n(),
+                self.n
+            ))
+            .into());
+        }
+        let mut rays = 0;
+        if self.sky.is_none() {
+            let (transfer, cast) = pass.sky_transfer();
+            rays = cast;
+            let flat: Vec<f32> = transfer.iter().flatten().copied().collect();
+            check_fits(&self.gpu, &[("sky transfer", 4 * flat.len() as u64)])?;
+            let device = &self.gpu.device;
+            let layout =
+                super::common::bind_group_layout(device, SKY_ENTRY, lrr_shaders::SKY_BINDINGS);
+            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(SKY_ENTRY),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+            #[allow(unsafe_code)]
+            // SAFETY: sky.wgsl reads transfer[9 e + l] (l < 9), reflectance and emission
+            // [3 e + c] (c < 3) and coefficients[3 l + c] for e < first_element +
+            // element_count = n (the one dispatch of `frame`): the transfer holds 9 n f32
+            // (checked above: `pass` has n elements), reflectance and the evaluator's emission
+            // slot 3 n, the coefficients 27. Its one loop ends at 9.
+            let module = unsafe {
+                super::common::shader_module(
+                    device,
+                    SKY_ENTRY,
+                    SKY_PASS,
+                    self.gpu.options.bounds_checks,
+                )
+            };
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(SKY_ENTRY),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(SKY_ENTRY),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            let none = wgpu::BufferUsages::empty();
+            self.sky = Some(SkyPass {
+                pipeline,
+                layout,
+                params: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("sky params"),
+                    size: SkyParams::SIZE as u64,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+                coefficients: storage(
+                    &self.gpu,
+                    "sky coefficients",
+                    &[0.0f32; 27],
+                    wgpu::BufferUsages::COPY_DST,
+                ),
+                transfer: storage(&self.gpu, "sky transfer", &flat, none),
+                on: false,
+            });
+        }
+        let s = self.sky.as_mut().expect("made above");
+        let c: Vec<f32> = sky.coefficients().iter().flatten().copied().collect();
+        self.gpu
+            .queue
+            .write_buffer(&s.coefficients, 0, bytes_of(&c));
+        s.on = true;
+        Ok(rays)
     }
 
     /// `H`, the lights' direct irradiance per element of the last frame (3 f32 per element,
@@ -395,7 +514,8 @@ impl GpuDirect {
         let bvh = (self.bvh.as_ref())
             .filter(|_| count > 0)
             .map(|b| (b.nodes.clone(), b.tris.clone()));
-        let Some((nodes, tris)) = bvh else {
+        let sky_on = self.sky.as_ref().is_some_and(|s| s.on);
+        if bvh.is_none() && !sky_on {
             // Nothing shines on anything: the evaluator's own frame, no pass.
             match (base, out) {
                 (Base::Emission(e), None) => eval.submit(e)?,
@@ -403,18 +523,15 @@ impl GpuDirect {
                 (Base::Emission(e), Some(out)) => eval.evaluate(e, out)?,
                 (Base::Groups(g), Some(out)) => eval.evaluate_groups(g, out)?,
             }
-            if self.irradiance_written {
-                let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-                encoder.clear_buffer(&self.irradiance, 0, None);
-                self.gpu.queue.submit([encoder.finish()]);
-                self.irradiance_written = false;
-            }
+            self.clear_irradiance();
             return Ok(GpuDirectReport::default());
-        };
-        check_fits(
-            &self.gpu,
-            &[("direct lights", (count * DIRECT_LIGHT_BYTES) as u64)],
-        )?;
+        }
+        if bvh.is_some() {
+            check_fits(
+                &self.gpu,
+                &[("direct lights", (count * DIRECT_LIGHT_BYTES) as u64)],
+            )?;
+        }
         if let Some(out) = &out {
             out.check(self.n as usize, "output")?;
         }
@@ -425,25 +542,111 @@ impl GpuDirect {
             Base::Emission(e) => eval.stage_emission(&e)?,
             Base::Groups(g) => eval.stage_groups(g, &mut encoder)?,
         };
+        let mut report = GpuDirectReport {
+            sky: sky_on,
+            ..GpuDirectReport::default()
+        };
+        let counted = self.count_rays && out.is_some() && bvh.is_some();
+        if let Some((nodes, tris)) = bvh {
+            report.lights = count as u32;
+            report.dispatches = self.lights_pass(
+                (&nodes, &tris),
+                &records,
+                eval.slot_emission(slot),
+                &mut encoder,
+            );
+            self.irradiance_written = true;
+        } else {
+            self.clear_irradiance();
+        }
+        if sky_on {
+            let sky = self.sky.as_ref().expect("sky_on");
+            let params = SkyParams {
+                first_element: 0,
+                element_count: self.n,
+                ..SkyParams::default()
+            };
+            self.gpu
+                .queue
+                .write_buffer(&sky.params, 0, &params.to_bytes());
+            let buffers: [&wgpu::Buffer; 5] = [
+                &sky.params,
+                &sky.coefficients,
+                &sky.transfer,
+                &self.reflectance,
+                eval.slot_emission(slot),
+            ];
+            let entries = super::common::buffer_entries(&buffers);
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(SKY_ENTRY),
+                layout: &sky.layout,
+                entries: &entries,
+            });
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(SKY_ENTRY),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(&sky.pipeline);
+                pass.set_bind_group(0, &bind_group, &[]);
+                let [x, y, z] = workgroups(self.n.div_ceil(SKY_LANES));
+                pass.dispatch_workgroups(x, y, z);
+            }
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+        eval.run_slot(slot, out.is_some());
+        if let Some(mut out) = out {
+            eval.finish(&mut out, start)?;
+            if counted {
+                let words = read_buffer(&self.gpu, &self.rays, 4 * u64::from(self.n))?;
+                report.rays = Some(words.iter().map(|w| u64::from(w.to_bits())).sum());
+            }
+        }
+        Ok(report)
+    }
+
+    /// Zeroes [`irradiance_buffer`](Self::irradiance_buffer) after a frame whose lights did not
+    /// run (their `H` is zero), once.
+    fn clear_irradiance(&mut self) {
+        if self.irradiance_written {
+            let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+            encoder.clear_buffer(&self.irradiance, 0, None);
+            self.gpu.queue.submit([encoder.finish()]);
+            self.irradiance_written = false;
+        }
+    }
+
+    /// Uploads the shining lights' `records` and runs `direct_pass` over the elements in
+    /// dispatches of at most [`chunk_rays`](Self::chunk_rays) shadow rays, the first in
+    /// `encoder` after what it holds, each submitted on its own (the next dispatch's uniform is
+    /// written after it); leaves a fresh `encoder`. Returns the dispatches.
+    fn lights_pass(
+        &mut self,
+        (nodes, tris): (&wgpu::Buffer, &wgpu::Buffer),
+        records: &[u32],
+        emission: &wgpu::Buffer,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> u32 {
+        let device = self.gpu.device.clone();
+        let count = records.len() / (DIRECT_LIGHT_BYTES / 4);
         if count > self.direct_capacity {
             self.direct_lights = storage(
                 &self.gpu,
                 "direct lights",
-                &records,
+                records,
                 wgpu::BufferUsages::COPY_DST,
             );
             self.direct_capacity = count;
         } else {
             self.gpu
                 .queue
-                .write_buffer(&self.direct_lights, 0, bytes_of(&records));
+                .write_buffer(&self.direct_lights, 0, bytes_of(records));
         }
-        let counted = self.count_rays && out.is_some();
         let constants = DirectConstants {
             count_rays: self.count_rays,
         };
         let pipeline = self.pipeline(constants);
-        let bind_group = self.bind_group((&nodes, &tris), eval.slot_emission(slot));
+        let bind_group = self.bind_group((nodes, tris), emission);
         // Whole workgroups of elements per dispatch, at most chunk_rays shadow rays each (an
         // upper bound: every sample facing every light).
         let per_element = u64::from(self.samples_per_element) * count as u64;
@@ -476,29 +679,13 @@ impl GpuDirect {
                 pass.dispatch_workgroups(x, y, z);
             }
             // One submission per dispatch: the next dispatch's uniform is written after it.
-            let done = std::mem::replace(
-                &mut encoder,
-                device.create_command_encoder(&Default::default()),
-            );
+            let done =
+                std::mem::replace(encoder, device.create_command_encoder(&Default::default()));
             self.gpu.queue.submit([done.finish()]);
             dispatches += 1;
             first += elements;
         }
-        self.irradiance_written = true;
-        eval.run_slot(slot, out.is_some());
-        let mut report = GpuDirectReport {
-            lights: count as u32,
-            dispatches,
-            rays: None,
-        };
-        if let Some(mut out) = out {
-            eval.finish(&mut out, start)?;
-            if counted {
-                let words = read_buffer(&self.gpu, &self.rays, 4 * u64::from(self.n))?;
-                report.rays = Some(words.iter().map(|w| u64::from(w.to_bits())).sum());
-            }
-        }
-        Ok(report)
+        dispatches
     }
 
     fn pipeline(&mut self, constants: DirectConstants) -> wgpu::ComputePipeline {
