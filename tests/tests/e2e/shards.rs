@@ -1,12 +1,13 @@
 //! Sharded bakes (docs/DISTRIBUTED.md): shards run as separate processes through GNU
 //! parallel and merged into the very bytes of a single bake, a shard killed and resumed,
-//! parts that do not make one bake named, a merge under a memory cap smaller than `F_k`.
+//! parts that do not make one bake named, a merge under a memory cap smaller than `F_k`; and
+//! (ignored unless scripts/setup-slurm.sh ran) the documented Slurm job array and merge job.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::util::{bake, cornell, generated_scene, lrr, lrr_binary, temp_dir};
+use crate::util::{bake, cornell, generated_scene, lrr, lrr_binary, root, temp_dir};
 
 /// GNU parallel, which scripts/setup-parallel.sh installs (.ci/run runs it): required, never
 /// skipped.
@@ -401,4 +402,113 @@ fn shards_of_a_2msc_bake_read_one_plan_and_merge_into_the_bytes_of_a_single_bake
         "{err}"
     );
     assert!(!part.exists());
+}
+
+/// Runs `sbatch ARGS…` in `dir` with `LRR` naming the binary under test (the job scripts run
+/// `${LRR:-lrr}`; sbatch passes the environment on); its standard output, trimmed.
+fn sbatch(dir: &Path, args: &[&str]) -> Result<String, String> {
+    // `timeout`: a node that never runs the job must fail the test, not hang it.
+    let out = Command::new("timeout")
+        .args(["600", "sbatch"])
+        .args(args)
+        .current_dir(dir)
+        .env("LRR", lrr_binary())
+        .output()
+        .map_err(|e| format!("cannot run sbatch (run scripts/setup-slurm.sh): {e}"))?;
+    let text = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    if out.status.success() {
+        Ok(text)
+    } else {
+        Err(format!(
+            "sbatch {args:?}: {}\n{text}\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        ))
+    }
+}
+
+/// The job outputs (`*.out`) in `dir`, by name, for a failure's message.
+fn job_outputs(dir: &Path) -> String {
+    let mut names: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "out"))
+        .collect();
+    names.sort();
+    names
+        .iter()
+        .map(|p| format!("{}:\n{}", p.display(), std::fs::read_to_string(p).unwrap()))
+        .collect()
+}
+
+/// The Slurm example of docs/DISTRIBUTED.md as written: `sbatch --array=0-6` of
+/// deploy/slurm/bake.sbatch (every task runs `lrr bake --shard env/7 -o PARTS/part-{i}.bin`,
+/// the index from `SLURM_ARRAY_TASK_ID`), then deploy/slurm/merge.sbatch after it
+/// (`--dependency=afterok`), on the one-node cluster of scripts/setup-slurm.sh; the merged file
+/// is the single bake's bytes. scripts/test runs it when Slurm is set up, through
+/// `scripts/slurm-node.sh run` (which starts and stops the daemons).
+#[test]
+#[ignore = "needs Slurm running: scripts/setup-slurm.sh, then scripts/slurm-node.sh run cargo test --release -p lrr-tests --test e2e -- --ignored on_slurm"]
+fn a_slurm_job_array_and_its_merge_job_give_the_bytes_of_a_single_bake_on_slurm() {
+    let dir = temp_dir("slurm");
+    let scene = cornell();
+    let count = 7;
+    let extra = ["--samples", "4"];
+    let single = dir.join("single.lrr");
+    let text = bake(&scene, &single, &extra).unwrap();
+    println!("single bake: {}", text.lines().next().unwrap_or(""));
+    let parts_dir = dir.join("parts");
+    let merged = dir.join("merged.lrr");
+    let bake_job = root().join("deploy/slurm/bake.sbatch");
+    let merge_job = root().join("deploy/slurm/merge.sbatch");
+    let array = format!("--array=0-{}", count - 1);
+    let mut args = vec!["--parsable", &array, s(&bake_job), s(&scene), s(&parts_dir)];
+    args.extend_from_slice(&extra);
+    let array_id = sbatch(&dir, &args).unwrap();
+    // `--parsable` prints `ID` or `ID;CLUSTER`.
+    let array_id = array_id.split(';').next().unwrap().to_string();
+    println!("sbatch {array} deploy/slurm/bake.sbatch: job array {array_id}");
+    let after = format!("--dependency=afterok:{array_id}");
+    let merge_args = [
+        "--parsable",
+        "--wait",
+        &after,
+        s(&merge_job),
+        s(&parts_dir),
+        s(&merged),
+    ];
+    let merge_id = match sbatch(&dir, &merge_args) {
+        Ok(id) => id.split(';').next().unwrap().to_string(),
+        Err(e) => {
+            let _ = Command::new("scancel").arg(&array_id).status();
+            panic!("{e}\njob outputs:\n{}", job_outputs(&dir));
+        }
+    };
+    println!("sbatch {after} --wait deploy/slurm/merge.sbatch: job {merge_id}");
+    for i in 0..count {
+        let out = dir.join(format!("lrr-bake-{array_id}_{i}.out"));
+        let text = std::fs::read_to_string(&out)
+            .unwrap_or_else(|e| panic!("{}: {e}\n{}", out.display(), job_outputs(&dir)));
+        print!("task {i}: {text}");
+        // The index came from SLURM_ARRAY_TASK_ID, and `{i}` in -o became it.
+        let part = parts_dir.join(format!("part-{i}.bin"));
+        assert!(
+            text.contains(&format!(
+                "baked shard {i}/{count} of cornell-box → {}",
+                s(&part)
+            )),
+            "task {i}: {text}"
+        );
+    }
+    let text = std::fs::read_to_string(dir.join(format!("lrr-merge-{merge_id}.out"))).unwrap();
+    print!("merge: {text}");
+    assert!(text.contains(&format!("merged {count} parts")), "{text}");
+    assert!(
+        std::fs::read(&merged).unwrap() == std::fs::read(&single).unwrap(),
+        "the merge of the Slurm array's parts differs from the single bake"
+    );
+    println!(
+        "merged.lrr and single.lrr: the same {} bytes",
+        std::fs::metadata(&merged).unwrap().len()
+    );
 }
