@@ -26,16 +26,46 @@ fn s(p: &Path) -> &str {
     p.to_str().expect("UTF-8 path")
 }
 
+/// How a shard learns its index.
+#[derive(Clone, Copy, PartialEq)]
+enum Index {
+    /// `--shard I/N -o part-I.bin`, I written by GNU parallel.
+    Flag,
+    /// `--shard env/N -o part-{i}.bin` with I in `JOB_COMPLETION_INDEX`, as a Kubernetes
+    /// indexed Job sets it (deploy/kubernetes/bake-indexed-job.yaml): lrr reads the variable
+    /// and replaces `{i}` itself.
+    Environment,
+}
+
 /// Runs shards `indices` of `count` through GNU parallel (2 jobs at a time), each writing
 /// `dir/part-I.bin` and `dir/report-I.json`.
-fn run_shards(scene: &Path, dir: &Path, count: usize, indices: &[usize], extra: &[&str]) {
+fn run_shards(
+    scene: &Path,
+    dir: &Path,
+    count: usize,
+    indices: &[usize],
+    extra: &[&str],
+    index: Index,
+) {
     let mut cmd = Command::new(gnu_parallel());
-    cmd.args(["--will-cite", "--halt", "now,fail=1", "-j", "2"])
-        .arg(lrr_binary())
-        .args(["bake", s(scene), "-q", "--shard"])
-        .arg(format!("{{}}/{count}"))
+    cmd.args(["--will-cite", "--halt", "now,fail=1", "-j", "2"]);
+    if index == Index::Environment {
+        // SLURM_ARRAY_TASK_ID would be read first: unset it in case this runs under Slurm.
+        cmd.args([
+            "env",
+            "-u",
+            "SLURM_ARRAY_TASK_ID",
+            "JOB_COMPLETION_INDEX={}",
+        ]);
+    }
+    let (spec, part) = match index {
+        Index::Flag => (format!("{{}}/{count}"), "part-{}.bin"),
+        Index::Environment => (format!("env/{count}"), "part-{i}.bin"),
+    };
+    cmd.arg(lrr_binary())
+        .args(["bake", s(scene), "-q", "--shard", &spec])
         .arg("-o")
-        .arg(dir.join("part-{}.bin"))
+        .arg(dir.join(part))
         .arg("--report")
         .arg(dir.join("report-{}.json"))
         .args(extra)
@@ -129,7 +159,14 @@ fn shards_run_by_gnu_parallel_merge_into_the_bytes_of_a_single_bake() {
             assert!(caught, "never caught shard 1/3 mid-way in 5 attempts");
             resumed = Some(1);
         }
-        run_shards(&scene, &sub, count, &(0..count).collect::<Vec<_>>(), &extra);
+        // 7 shards as a Kubernetes indexed Job runs them: `--shard env/7 -o part-{i}.bin`.
+        let index = if count == 7 {
+            Index::Environment
+        } else {
+            Index::Flag
+        };
+        let all: Vec<usize> = (0..count).collect();
+        run_shards(&scene, &sub, count, &all, &extra, index);
         let merged = sub.join("merged.lrr");
         let text = merge(&parts(&sub, count), &merged, &[]).unwrap();
         assert!(text.contains(&format!("merged {count} parts")), "{text}");
@@ -142,6 +179,7 @@ fn shards_run_by_gnu_parallel_merge_into_the_bytes_of_a_single_bake() {
             let r = report(&sub, i);
             let rows = r["rows"].as_array().unwrap();
             let (a, b) = (rows[0].as_u64().unwrap(), rows[1].as_u64().unwrap());
+            assert_eq!(r["shard"].as_u64(), Some(i as u64), "report-{i}.json");
             assert_eq!(a, covered, "shard {i}/{count} starts where the last ended");
             covered = b;
             let resumed_rows = r["resumed_rows"].as_u64().unwrap();
