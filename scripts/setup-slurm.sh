@@ -25,6 +25,12 @@ if ! command -v slurmctld >/dev/null || ! command -v slurmd >/dev/null ||
   DEBIAN_FRONTEND=noninteractive as_root apt-get install -y -qq slurm-wlm munge >/dev/null
 fi
 
+# A slurm.conf this script did not write belongs to a real cluster: leave it alone.
+if [ -s /etc/slurm/slurm.conf ] && ! grep -q 'scripts/setup-slurm.sh' /etc/slurm/slurm.conf; then
+  say "error: /etc/slurm/slurm.conf exists and was not written by this script; not replacing it"
+  exit 1
+fi
+
 host=$(hostname -s)
 cpus=$(nproc)
 # Slurm drains a node that has less memory than configured: claim 90% of it.

@@ -20,6 +20,10 @@ conf=/etc/slurm/slurm.conf
   say "error: no Slurm configured here: run scripts/setup-slurm.sh"
   exit 1
 }
+grep -q 'scripts/setup-slurm.sh' "$conf" || {
+  say "error: $conf was not written by scripts/setup-slurm.sh: not starting or stopping its daemons"
+  exit 1
+}
 
 # The process named by a pid file, if it runs and is the named program.
 running() { # PIDFILE NAME
