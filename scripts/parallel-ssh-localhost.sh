@@ -3,19 +3,20 @@
 # this machine: an sshd of its own on 127.0.0.1:2222 (key-only, stopped at the end), reached
 # as node1 and node2 through a private ssh_config; the work folder plays the shared NFS
 # folder. Merges the shards and compares the file with a single bake, byte for byte.
-# Not in CI (installs openssh-server, starts a daemon); run by hand as root:
+# scripts/test runs it as root once scripts/setup-ssh.sh has installed OpenSSH (.ci/run does);
+# by hand, as root:
 #
 #   scripts/parallel-ssh-localhost.sh [SCENE] [N]      (default: the Cornell box, 4 shards)
+#
+# The sshd and the temporary folders are removed at the end, also on failure.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scene=$(realpath "${1:-scenes/cornell-box/cornell-box.toml}")
 count=${2:-4}
 lrr="$(pwd)/target/release/lrr"
 [ -x "$lrr" ] || { echo "error: $lrr is missing: cargo build --release -p lrr-cli" >&2; exit 1; }
-command -v sshd >/dev/null || [ -x /usr/sbin/sshd ] || {
-  apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq openssh-server openssh-client >/dev/null
-}
+[ "$(id -u)" = 0 ] || { echo "error: run as root (sshd needs /run/sshd)" >&2; exit 1; }
+scripts/setup-ssh.sh
 scripts/setup-parallel.sh
 ssh_dir=$(mktemp -d /tmp/lrr-sshd.XXXXXX)
 work=$(mktemp -d /tmp/lrr-ssh.XXXXXX)
@@ -41,8 +42,12 @@ Host node1 node2
   UserKnownHostsFile $ssh_dir/known_hosts
   LogLevel ERROR
 CONF
+cleanup() {
+  [ -f "$ssh_dir/sshd.pid" ] && kill "$(cat "$ssh_dir/sshd.pid")" 2>/dev/null || true
+  rm -rf "$ssh_dir" "$work"
+}
+trap cleanup EXIT
 /usr/sbin/sshd -f "$ssh_dir/sshd_config"
-trap 'kill "$(cat "$ssh_dir/sshd.pid")" 2>/dev/null || true' EXIT
 cd "$work"
 cp "$scene" scene.toml
 mkdir parts

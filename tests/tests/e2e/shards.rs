@@ -1,12 +1,13 @@
 //! Sharded bakes (docs/DISTRIBUTED.md): shards run as separate processes through GNU
 //! parallel and merged into the very bytes of a single bake, a shard killed and resumed,
-//! parts that do not make one bake named, a merge under a memory cap smaller than `F_k`.
+//! parts that do not make one bake named, a merge under a memory cap smaller than `F_k`; and
+//! (ignored unless scripts/setup-slurm.sh ran) the documented Slurm job array and merge job.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::util::{bake, cornell, generated_scene, lrr, lrr_binary, temp_dir};
+use crate::util::{bake, cornell, generated_scene, lrr, lrr_binary, root, temp_dir};
 
 /// GNU parallel, which scripts/setup-parallel.sh installs (.ci/run runs it): required, never
 /// skipped.
@@ -25,16 +26,46 @@ fn s(p: &Path) -> &str {
     p.to_str().expect("UTF-8 path")
 }
 
+/// How a shard learns its index.
+#[derive(Clone, Copy, PartialEq)]
+enum Index {
+    /// `--shard I/N -o part-I.bin`, I written by GNU parallel.
+    Flag,
+    /// `--shard env/N -o part-{i}.bin` with I in `JOB_COMPLETION_INDEX`, as a Kubernetes
+    /// indexed Job sets it (deploy/kubernetes/bake-indexed-job.yaml): lrr reads the variable
+    /// and replaces `{i}` itself.
+    Environment,
+}
+
 /// Runs shards `indices` of `count` through GNU parallel (2 jobs at a time), each writing
 /// `dir/part-I.bin` and `dir/report-I.json`.
-fn run_shards(scene: &Path, dir: &Path, count: usize, indices: &[usize], extra: &[&str]) {
+fn run_shards(
+    scene: &Path,
+    dir: &Path,
+    count: usize,
+    indices: &[usize],
+    extra: &[&str],
+    index: Index,
+) {
     let mut cmd = Command::new(gnu_parallel());
-    cmd.args(["--will-cite", "--halt", "now,fail=1", "-j", "2"])
-        .arg(lrr_binary())
-        .args(["bake", s(scene), "-q", "--shard"])
-        .arg(format!("{{}}/{count}"))
+    cmd.args(["--will-cite", "--halt", "now,fail=1", "-j", "2"]);
+    if index == Index::Environment {
+        // SLURM_ARRAY_TASK_ID would be read first: unset it in case this runs under Slurm.
+        cmd.args([
+            "env",
+            "-u",
+            "SLURM_ARRAY_TASK_ID",
+            "JOB_COMPLETION_INDEX={}",
+        ]);
+    }
+    let (spec, part) = match index {
+        Index::Flag => (format!("{{}}/{count}"), "part-{}.bin"),
+        Index::Environment => (format!("env/{count}"), "part-{i}.bin"),
+    };
+    cmd.arg(lrr_binary())
+        .args(["bake", s(scene), "-q", "--shard", &spec])
         .arg("-o")
-        .arg(dir.join("part-{}.bin"))
+        .arg(dir.join(part))
         .arg("--report")
         .arg(dir.join("report-{}.json"))
         .args(extra)
@@ -129,7 +160,14 @@ fn shards_run_by_gnu_parallel_merge_into_the_bytes_of_a_single_bake() {
             assert!(caught, "never caught shard 1/3 mid-way in 5 attempts");
             resumed = Some(1);
         }
-        run_shards(&scene, &sub, count, &(0..count).collect::<Vec<_>>(), &extra);
+        // 7 shards as a Kubernetes indexed Job runs them: `--shard env/7 -o part-{i}.bin`.
+        let index = if count == 7 {
+            Index::Environment
+        } else {
+            Index::Flag
+        };
+        let all: Vec<usize> = (0..count).collect();
+        run_shards(&scene, &sub, count, &all, &extra, index);
         let merged = sub.join("merged.lrr");
         let text = merge(&parts(&sub, count), &merged, &[]).unwrap();
         assert!(text.contains(&format!("merged {count} parts")), "{text}");
@@ -142,6 +180,7 @@ fn shards_run_by_gnu_parallel_merge_into_the_bytes_of_a_single_bake() {
             let r = report(&sub, i);
             let rows = r["rows"].as_array().unwrap();
             let (a, b) = (rows[0].as_u64().unwrap(), rows[1].as_u64().unwrap());
+            assert_eq!(r["shard"].as_u64(), Some(i as u64), "report-{i}.json");
             assert_eq!(a, covered, "shard {i}/{count} starts where the last ended");
             covered = b;
             let resumed_rows = r["resumed_rows"].as_u64().unwrap();
@@ -402,4 +441,115 @@ fn shards_of_a_2msc_bake_read_one_plan_and_merge_into_the_bytes_of_a_single_bake
         "{err}"
     );
     assert!(!part.exists());
+}
+
+/// Runs `sbatch ARGS…` in `dir` with `LRR` naming the binary under test (the job scripts run
+/// `${LRR:-lrr}`; sbatch passes the environment on); its standard output, trimmed.
+fn sbatch(dir: &Path, args: &[&str]) -> Result<String, String> {
+    // `timeout`: a node that never runs the job must fail the test, not hang it.
+    let out = Command::new("timeout")
+        .args(["600", "sbatch"])
+        .args(args)
+        .current_dir(dir)
+        .env("LRR", lrr_binary())
+        .output()
+        .map_err(|e| format!("cannot run sbatch (run scripts/setup-slurm.sh): {e}"))?;
+    let text = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    if out.status.success() {
+        Ok(text)
+    } else {
+        Err(format!(
+            "sbatch {args:?}: {}\n{text}\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        ))
+    }
+}
+
+/// The job outputs (`*.out`) in `dir`, by name, for a failure's message.
+fn job_outputs(dir: &Path) -> String {
+    let mut names: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "out"))
+        .collect();
+    names.sort();
+    names
+        .iter()
+        .map(|p| format!("{}:\n{}", p.display(), std::fs::read_to_string(p).unwrap()))
+        .collect()
+}
+
+/// The Slurm example of docs/DISTRIBUTED.md as written: `sbatch --array=0-6` of
+/// deploy/slurm/bake.sbatch (every task runs `lrr bake --shard env/7 -o PARTS/part-{i}.bin`,
+/// the index from `SLURM_ARRAY_TASK_ID`), then deploy/slurm/merge.sbatch after it
+/// (`--dependency=afterok`), on the one-node cluster of scripts/setup-slurm.sh; the merged file
+/// is the single bake's bytes. scripts/test runs it when Slurm is set up, through
+/// `scripts/slurm-node.sh run` (which starts and stops the daemons).
+#[test]
+#[ignore = "needs Slurm running: scripts/setup-slurm.sh, then scripts/slurm-node.sh run cargo test --release -p lrr-tests --test e2e -- --ignored on_slurm"]
+fn a_slurm_job_array_and_its_merge_job_give_the_bytes_of_a_single_bake_on_slurm() {
+    let dir = temp_dir("slurm");
+    let scene = cornell();
+    let count = 7;
+    let extra = ["--samples", "4"];
+    let single = dir.join("single.lrr");
+    let text = bake(&scene, &single, &extra).unwrap();
+    println!("single bake: {}", text.lines().next().unwrap_or(""));
+    let parts_dir = dir.join("parts");
+    let merged = dir.join("merged.lrr");
+    let bake_job = root().join("deploy/slurm/bake.sbatch");
+    let merge_job = root().join("deploy/slurm/merge.sbatch");
+    let array = format!("--array=0-{}", count - 1);
+    let mut args = vec!["--parsable", &array, s(&bake_job), s(&scene), s(&parts_dir)];
+    args.extend_from_slice(&extra);
+    let array_id = sbatch(&dir, &args).unwrap();
+    // `--parsable` prints `ID` or `ID;CLUSTER`.
+    let array_id = array_id.split(';').next().unwrap().to_string();
+    println!("sbatch {array} deploy/slurm/bake.sbatch: job array {array_id}");
+    let after = format!("--dependency=afterok:{array_id}");
+    let merge_args = [
+        "--parsable",
+        "--wait",
+        &after,
+        s(&merge_job),
+        s(&parts_dir),
+        s(&merged),
+    ];
+    let merge_id = match sbatch(&dir, &merge_args) {
+        Ok(id) => id.split(';').next().unwrap().to_string(),
+        Err(e) => {
+            let _ = Command::new("scancel").arg(&array_id).status();
+            panic!("{e}\njob outputs:\n{}", job_outputs(&dir));
+        }
+    };
+    println!("sbatch {after} --wait deploy/slurm/merge.sbatch: job {merge_id}");
+    for i in 0..count {
+        let out = dir.join(format!("lrr-bake-{array_id}_{i}.out"));
+        let text = std::fs::read_to_string(&out)
+            .unwrap_or_else(|e| panic!("{}: {e}\n{}", out.display(), job_outputs(&dir)));
+        print!("task {i}: {text}");
+        // The index came from SLURM_ARRAY_TASK_ID, and `{i}` in -o became it.
+        let part = parts_dir.join(format!("part-{i}.bin"));
+        assert!(
+            text.contains(&format!(
+                "baked shard {i}/{count} of cornell-box → {}",
+                s(&part)
+            )),
+            "task {i}: {text}"
+        );
+    }
+    let text = std::fs::read_to_string(dir.join(format!("lrr-merge-{merge_id}.out"))).unwrap();
+    print!("merge: {text}");
+    assert!(text.contains(&format!("merged {count} parts")), "{text}");
+    assert!(
+        std::fs::read(&merged).unwrap() == std::fs::read(&single).unwrap(),
+        "the merge of the Slurm array's parts differs from the single bake"
+    );
+    println!(
+        "merged.lrr and single.lrr: the same {} bytes",
+        std::fs::metadata(&merged).unwrap().len()
+    );
+    // Kept when the test fails (the job outputs, the parts); 20 MB when it passes.
+    std::fs::remove_dir_all(&dir).unwrap();
 }
