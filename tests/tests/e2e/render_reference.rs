@@ -64,8 +64,9 @@ fn image_errors(ours: &[[f64; 3]], reference: &[[f64; 3]]) -> (f64, f64, f64) {
 }
 
 /// Bakes `scene` with the default flags, renders it from the camera of reference image `name`
-/// (`tests/data/reference/NAME.exr` and `NAME-image.json`) and measures [`image_errors`].
-fn render_against(name: &str, scene: &Path) -> (f64, f64, f64) {
+/// (`tests/data/reference/NAME.exr` and `NAME-image.json`) once per entry of `flags` (extra
+/// `lrr render` flags) and measures [`image_errors`] of each.
+fn render_against(name: &str, scene: &Path, flags: &[&[&str]]) -> Vec<(f64, f64, f64)> {
     let meta: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(root().join(format!("tests/data/reference/{name}-image.json")))
             .unwrap(),
@@ -95,69 +96,82 @@ fn render_against(name: &str, scene: &Path) -> (f64, f64, f64) {
         csv(&camera["up"]),
     );
     let big = format!("{0}x{0}", 4 * size);
-    let out = lrr(&[
-        "render",
-        file.to_str().unwrap(),
-        "--eye",
-        &eye,
-        "--target",
-        &target,
-        "--up",
-        &up,
-        "--fov-y",
-        &fov,
-        "--size",
-        &big,
-        "-o",
-        image.to_str().unwrap(),
-    ])
-    .unwrap();
-    let (w, h, fine) = read_rgb(&image);
-    assert_eq!((w, h), (4 * size, 4 * size), "{out}");
-    // 4 x 4 box average: the reference's pixel filter.
-    let mut ours = vec![[0.0f64; 3]; size * size];
-    for y in 0..4 * size {
-        for x in 0..4 * size {
-            let p = &mut ours[(y / 4) * size + x / 4];
-            for c in 0..3 {
-                p[c] += fine[y * w + x][c] / 16.0;
-            }
-        }
-    }
     let (rw, rh, reference) = read_rgb(&root().join(format!("tests/data/reference/{name}.exr")));
     assert_eq!((rw, rh), (size, size));
-    let (l1, median, mean) = image_errors(&ours, &reference);
-    eprintln!(
-        "{name}: render against the path-traced image: relative L1 {:.2}%, per-pixel median \
-         {:.2}%, mean {:.2}%",
-        100.0 * l1,
-        100.0 * median,
-        100.0 * mean
-    );
-    (l1, median, mean)
+    let mut errors = Vec::new();
+    for extra in flags {
+        let args: Vec<&str> = [
+            "render",
+            file.to_str().unwrap(),
+            "--eye",
+            &eye,
+            "--target",
+            &target,
+            "--up",
+            &up,
+            "--fov-y",
+            &fov,
+            "--size",
+            &big,
+            "-o",
+            image.to_str().unwrap(),
+        ]
+        .into_iter()
+        .chain(extra.iter().copied())
+        .collect();
+        let out = lrr(&args).unwrap();
+        let (w, h, fine) = read_rgb(&image);
+        assert_eq!((w, h), (4 * size, 4 * size), "{out}");
+        // 4 x 4 box average: the reference's pixel filter.
+        let mut ours = vec![[0.0f64; 3]; size * size];
+        for y in 0..4 * size {
+            for x in 0..4 * size {
+                let p = &mut ours[(y / 4) * size + x / 4];
+                for c in 0..3 {
+                    p[c] += fine[y * w + x][c] / 16.0;
+                }
+            }
+        }
+        let (l1, median, mean) = image_errors(&ours, &reference);
+        eprintln!(
+            "{name} {extra:?}: render against the path-traced image: relative L1 {:.2}%, \
+             per-pixel median {:.2}%, mean {:.2}%",
+            100.0 * l1,
+            100.0 * median,
+            100.0 * mean
+        );
+        errors.push((l1, median, mean));
+    }
+    errors
 }
 
+/// The Cornell box rendered smooth (the default) and flat from the reference image's camera:
+/// each within issue #15's goal of a 5 % per-pixel mean error (and 5 % relative L1 and
+/// median, the point-lit test's ceilings); measured in the same run, the smooth image beats
+/// the flat one on all three figures (measured 2026-11-28: smooth 1.94%, 2.35%, 4.54%; flat
+/// 2.54%, 3.36%, 5.95%, its mean beyond the goal: why smooth shading is the default).
 #[test]
 fn cornell_render_against_the_path_traced_image() {
-    let (l1, median, mean) = render_against("cornell-box", &cornell());
-    // Measured with smooth shading and the default bake (2MSC, refined: 1.96%, 2.35%, 4.79%;
-    // the former default, 2MF unrefined: 2.27%, 2.60%, 6.49%, flat 2.73%, 3.55%, 6.88%); see
-    // README "Against the real light". Asserted within 1.25x, and the mean within issue #15's
-    // goal of 5% (the render and the committed reference are deterministic).
-    assert!(l1 <= 1.25 * L1_MEASURED, "relative L1 error {l1}");
+    let errors = render_against(
+        "cornell-box",
+        &cornell(),
+        &[&[], &["--reconstruct", "flat"]],
+    );
+    let [(l1, median, mean), (flat_l1, flat_median, flat_mean)] = errors[..] else {
+        unreachable!()
+    };
+    assert!(mean <= 0.05, "per-pixel mean error {mean} (goal 5%)");
     assert!(
-        median <= 1.25 * MEDIAN_MEASURED,
-        "per-pixel median error {median}"
+        l1 <= 0.05 && median <= 0.05,
+        "relative L1 {l1}, median {median}"
     );
     assert!(
-        mean <= (1.25 * MEAN_MEASURED).min(0.05),
-        "per-pixel mean error {mean}"
+        l1 < flat_l1 && median < flat_median && mean < flat_mean,
+        "smooth {:?} against flat {:?}",
+        (l1, median, mean),
+        (flat_l1, flat_median, flat_mean)
     );
 }
-
-const L1_MEASURED: f64 = 0.0196;
-const MEDIAN_MEASURED: f64 = 0.0235;
-const MEAN_MEASURED: f64 = 0.0479;
 
 /// Issue #32's goal for a rendered frame of the Cornell box lit by a point light (its lamp
 /// dark): per-pixel mean relative error ≤ 5 % against the path-traced image. The direct light
@@ -166,7 +180,9 @@ const MEAN_MEASURED: f64 = 0.0479;
 #[test]
 fn point_lit_cornell_render_against_the_path_traced_image() {
     let scene = root().join("tests/data/reference/scenes/cornell-point.toml");
-    let (l1, median, mean) = render_against("cornell-point", &scene);
+    let [(l1, median, mean)] = render_against("cornell-point", &scene, &[&[]])[..] else {
+        unreachable!()
+    };
     assert!(mean <= 0.05, "per-pixel mean error {mean} (goal 5%)");
     assert!(
         l1 <= 0.05 && median <= 0.05,
