@@ -57,29 +57,3 @@ crate::params::gpu_struct! {
         pub reserved2: u32,
     }
 }
-
-impl LightmapParams {
-    /// Size in bytes, on the host and in WGSL.
-    pub const SIZE: usize = 32;
-
-    /// The bytes to upload, little-endian.
-    pub fn to_bytes(&self) -> [u8; Self::SIZE] {
-        let fields = [
-            self.count,
-            self.first,
-            self.width,
-            self.mode,
-            self.samples,
-            self.reserved0,
-            self.reserved1,
-            self.reserved2,
-        ];
-        let mut bytes = [0; Self::SIZE];
-        for (chunk, field) in bytes.chunks_exact_mut(4).zip(fields) {
-            chunk.copy_from_slice(&field.to_le_bytes());
-        }
-        bytes
-    }
-}
-
-const _: () = assert!(size_of::<LightmapParams>() == LightmapParams::SIZE);

@@ -20,7 +20,24 @@ macro_rules! gpu_struct {
             /// Every field's name and byte offset, in declaration order.
             pub const FIELDS: &'static [(&'static str, usize)] =
                 &[$((stringify!($field), core::mem::offset_of!($name, $field)),)*];
+
+            /// Size in bytes, on the host and in WGSL (four per `u32` field; a naga test
+            /// compares it with the WGSL struct's).
+            pub const SIZE: usize = core::mem::size_of::<$name>();
+
+            /// The bytes to upload: the fields in order, little-endian (what the GPU reads on
+            /// every wgpu target).
+            pub fn to_bytes(&self) -> [u8; Self::SIZE] {
+                let fields = [$(self.$field,)*];
+                let mut bytes = [0; Self::SIZE];
+                for (chunk, field) in bytes.chunks_exact_mut(4).zip(fields) {
+                    chunk.copy_from_slice(&field.to_le_bytes());
+                }
+                bytes
+            }
         }
+
+        const _: () = assert!(core::mem::size_of::<$name>() == 4 * [$(stringify!($field),)*].len());
     };
 }
 pub(crate) use gpu_struct;
@@ -49,33 +66,6 @@ gpu_struct! {
         pub reserved1: u32,
     }
 }
-
-impl Params {
-    /// Size in bytes, on the host and in WGSL.
-    pub const SIZE: usize = 32;
-
-    /// The bytes to upload: the fields in order, little-endian (what the GPU reads on every
-    /// wgpu target).
-    pub fn to_bytes(&self) -> [u8; Self::SIZE] {
-        let fields = [
-            self.n,
-            self.k,
-            self.first_row,
-            self.row_count,
-            self.groups,
-            self.positions,
-            self.reserved0,
-            self.reserved1,
-        ];
-        let mut bytes = [0; Self::SIZE];
-        for (chunk, field) in bytes.chunks_exact_mut(4).zip(fields) {
-            chunk.copy_from_slice(&field.to_le_bytes());
-        }
-        bytes
-    }
-}
-
-const _: () = assert!(size_of::<Params>() == Params::SIZE);
 
 /// The gather's pipeline constants (`override` declarations in `wgsl/gather.wgsl`, plus `KP`
 /// from `wgsl/common.wgsl`). A test checks the names against the parsed WGSL.

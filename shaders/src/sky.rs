@@ -40,25 +40,3 @@ crate::params::gpu_struct! {
         pub reserved1: u32,
     }
 }
-
-impl SkyParams {
-    /// Size in bytes, on the host and in WGSL.
-    pub const SIZE: usize = 16;
-
-    /// The bytes to upload, little-endian.
-    pub fn to_bytes(&self) -> [u8; Self::SIZE] {
-        let fields = [
-            self.first_element,
-            self.element_count,
-            self.reserved0,
-            self.reserved1,
-        ];
-        let mut bytes = [0; Self::SIZE];
-        for (chunk, field) in bytes.chunks_exact_mut(4).zip(fields) {
-            chunk.copy_from_slice(&field.to_le_bytes());
-        }
-        bytes
-    }
-}
-
-const _: () = assert!(size_of::<SkyParams>() == SkyParams::SIZE);

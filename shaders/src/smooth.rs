@@ -44,28 +44,6 @@ crate::params::gpu_struct! {
     }
 }
 
-impl SmoothParams {
-    /// Size in bytes, on the host and in WGSL.
-    pub const SIZE: usize = 16;
-
-    /// The bytes to upload, little-endian.
-    pub fn to_bytes(&self) -> [u8; Self::SIZE] {
-        let fields = [
-            self.vertex_count,
-            self.reserved0,
-            self.reserved1,
-            self.reserved2,
-        ];
-        let mut bytes = [0; Self::SIZE];
-        for (chunk, field) in bytes.chunks_exact_mut(4).zip(fields) {
-            chunk.copy_from_slice(&field.to_le_bytes());
-        }
-        bytes
-    }
-}
-
-const _: () = assert!(size_of::<SmoothParams>() == SmoothParams::SIZE);
-
 #[cfg(test)]
 mod tests {
     use super::*;
