@@ -57,6 +57,28 @@ fn read_rgb(path: &Path) -> (usize, usize, Vec<[f32; 3]>) {
     (w, h, (0..w * h).map(|i| [r[i], g[i], b[i]]).collect())
 }
 
+/// A pixel's luminance (the channels' sum: only ratios are compared).
+fn lum(p: &[f32; 3]) -> f64 {
+    f64::from(p[0] + p[1] + p[2])
+}
+
+/// `image` against `reference`, pixel for pixel: the mean relative difference of luminance over
+/// the pixels lit in both, how many those are, and how many are lit in one only.
+fn against(image: &[[f32; 3]], reference: &[[f32; 3]]) -> (f64, usize, usize) {
+    let (mut sum, mut lit, mut one_only) = (0.0, 0usize, 0usize);
+    for (a, b) in image.iter().zip(reference) {
+        match (lum(a) > 0.0, lum(b) > 0.0) {
+            (true, true) => {
+                sum += (lum(a) - lum(b)).abs() / lum(b);
+                lit += 1;
+            }
+            (false, false) => {}
+            _ => one_only += 1,
+        }
+    }
+    (sum / lit as f64, lit, one_only)
+}
+
 #[test]
 #[ignore = "needs a Vulkan adapter: scripts/test runs it with --ignored where lavapipe is installed"]
 fn the_headless_screenshot_is_lrr_render_of_the_same_camera_on_the_gpu() {
@@ -83,19 +105,7 @@ fn the_headless_screenshot_is_lrr_render_of_the_same_camera_on_the_gpu() {
     let (w, h, v) = read_rgb(&view);
     let (rw, rh, r) = read_rgb(&render);
     assert_eq!((w, h), (rw, rh));
-    let lum = |p: &[f32; 3]| f64::from(p[0] + p[1] + p[2]);
-    let (mut sum, mut lit, mut one_only) = (0.0, 0usize, 0usize);
-    for (a, b) in v.iter().zip(&r) {
-        match (lum(a) > 0.0, lum(b) > 0.0) {
-            (true, true) => {
-                sum += (lum(a) - lum(b)).abs() / lum(b);
-                lit += 1;
-            }
-            (false, false) => {}
-            _ => one_only += 1,
-        }
-    }
-    let mean = sum / lit as f64;
+    let (mean, lit, one_only) = against(&v, &r);
     println!("{lit} lit pixels: mean relative difference {mean:.2e}, {one_only} lit in one only");
     assert!(lit > w * h / 2, "{lit} lit pixels of {}", w * h);
     assert!(mean <= 0.01, "mean relative difference {mean}");
@@ -172,14 +182,7 @@ fn the_headless_screenshot_is_lrr_render_of_the_same_camera_on_the_gpu() {
     let (_, _, sr) = read_rgb(&sky_render);
     let (with, without) = (total(&sv), total(&v));
     assert!(with > 1.05 * without, "the sky: {with} against {without}");
-    let (mut sum, mut lit) = (0.0, 0usize);
-    for (a, b) in sv.iter().zip(&sr) {
-        if lum(a) > 0.0 && lum(b) > 0.0 {
-            sum += (lum(a) - lum(b)).abs() / lum(b);
-            lit += 1;
-        }
-    }
-    let mean = sum / lit as f64;
+    let (mean, lit, _) = against(&sv, &sr);
     println!("with a sky: {lit} lit pixels, mean relative difference from lrr render {mean:.2e}");
     assert!(mean <= 0.01, "with a sky: mean relative difference {mean}");
     // A PNG too, at the exposure it prints.
