@@ -93,12 +93,18 @@ def test_progress_lines_without_tqdm(capfd, monkeypatch):
 def test_ctrl_c_cancels_the_bake_cleanly(tmp_path):
     """SIGINT during a bake: KeyboardInterrupt, the child ended and reaped, no output file."""
     out = tmp_path / "cancelled.lrr"
+    # Python leaves SIGINT ignored when it started ignored (a job started in the background
+    # of a non-interactive shell, as a CI runner may): Ctrl-C must be Python's here.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(1.5, lambda: os.kill(os.getpid(), signal.SIGINT))
     start = time.monotonic()
     timer.start()
-    with pytest.raises(KeyboardInterrupt):
-        lrr.bake(CORNELL, out, progress=False)  # default settings: far longer than 1.5 s
-    timer.join()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            lrr.bake(CORNELL, out, progress=False)  # default settings: far longer than 1.5 s
+    finally:
+        timer.join()
+        signal.signal(signal.SIGINT, previous)
     assert time.monotonic() - start < 8, "the bake was not cut short"
     with pytest.raises(ChildProcessError):
         os.waitpid(-1, os.WNOHANG)  # no child left, running or unreaped
