@@ -30,7 +30,7 @@ mod picture;
 mod plan;
 mod probe;
 pub mod record;
-mod relight;
+pub mod relight;
 mod render;
 mod scene;
 mod shard;
