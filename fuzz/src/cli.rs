@@ -82,7 +82,7 @@ pub fn emission_json(data: &[u8], dir: &Path) -> bool {
     }
     let emission = dir.join("emission.json");
     std::fs::write(&emission, data).expect("cannot write the fuzz emission");
-    let reconstruct = if data.len() % 2 == 0 {
+    let reconstruct = if data.len().is_multiple_of(2) {
         "smooth"
     } else {
         "flat"

@@ -151,8 +151,9 @@ impl Animation {
         }
         // Without this, fps = 1e300 made `frames` overflow (a panic in debug builds, 0 frames
         // in release) and fps = 1e9 asked for 1e18 frames.
+        // Finite or +∞, never NaN: the duration is finite and >= 0, fps finite and > 0.
         let frames = a.duration() * a.fps;
-        if !(frames < MAX_FRAMES as f64) {
+        if frames >= MAX_FRAMES as f64 {
             bail!(at(format!(
                 "duration {} s × fps {} = {frames} frames; at most {MAX_FRAMES}: shorten the \
                  duration or lower fps",

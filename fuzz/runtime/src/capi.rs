@@ -503,7 +503,7 @@ fn lights(r: &mut Reader) -> Floats {
         *v = match i % per {
             0 => [0.0, 1.0, 2.0, 3.0, 0.5, f32::NAN][usize::from(r.byte() % 6)],
             10 | 11 => f32::from(r.byte()) / 128.0,
-            _ if r.byte() % 8 == 0 => interesting(r),
+            _ if r.byte().is_multiple_of(8) => interesting(r),
             _ => f32::from(r.byte()) / 32.0 - 4.0,
         };
     }
@@ -564,7 +564,7 @@ fn direct_at(s: &State, slot: usize, r: &mut Reader) -> i32 {
 }
 
 fn lightmap_new(s: &mut State, slot: usize, r: &mut Reader) -> i32 {
-    let null_out = r.byte() % 8 == 0;
+    let null_out = r.byte().is_multiple_of(8);
     if !s.ops[slot].is_null() && s.atlas[slot] > MAX_TEXELS {
         return LRR_OK; // not called: see MAX_TEXELS
     }
