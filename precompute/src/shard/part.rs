@@ -435,9 +435,14 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
         && skeleton
             .surface_at
             .iter()
-            .all(|&s| (s as usize) < skeleton.surfaces.len());
+            .all(|&s| (s as usize) < skeleton.surfaces.len())
+        // Grey or RGB cores: the `shard_part` fuzz target found 4 channels indexing past an
+        // element's RGB reflectance when the merge summed the systems (`cores::Systems`).
+        && matches!(skeleton.channels, 1 | 3);
     if !sizes_agree {
-        return Err("the skeleton's arrays disagree in length".into());
+        return Err(
+            "the skeleton's arrays disagree in length (or its channels are not 1 or 3)".into(),
+        );
     }
     Ok(skeleton)
 }
