@@ -30,7 +30,10 @@ pub struct EmissionArgs {
 #[derive(Debug, Clone, Default, Args)]
 pub struct LightArgs {
     /// A point light `X,Y,Z:R,G,B`: position and intensity per channel in W/sr (repeatable).
-    #[arg(long = "point-light", value_name = "X,Y,Z:R,G,B")]
+    // The id is not the field's name: `lrr probe` has a `points` of its own (`--points`), and
+    // two arguments of one id made clap take `--point-light` for a second `--points` (found
+    // by the `probe_points` fuzz target, whose debug assertions panic on it).
+    #[arg(long = "point-light", id = "point_light", value_name = "X,Y,Z:R,G,B")]
     pub points: Vec<String>,
     /// A spot light `X,Y,Z:DX,DY,DZ:R,G,B:INNER,OUTER`: position, where it points, intensity on
     /// the axis (W/sr) and glTF's cone half-angles in degrees (repeatable).

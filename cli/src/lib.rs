@@ -30,7 +30,7 @@ mod picture;
 mod plan;
 mod probe;
 pub mod record;
-mod relight;
+pub mod relight;
 mod render;
 mod scene;
 mod shard;
@@ -431,4 +431,16 @@ fn warning_kind(w: &str) -> String {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    /// clap's checks of the command's definition (unique argument ids among them), which it
+    /// runs by itself only in debug builds: the tests run in release, where two arguments of
+    /// one id (`lrr probe`'s `--points` and `--point-light`) went unnoticed.
+    #[test]
+    fn the_command_line_passes_clap_checks() {
+        use clap::CommandFactory;
+        super::Cli::command().debug_assert();
+    }
 }

@@ -1,8 +1,12 @@
-//! Support for the scene import fuzz targets in `fuzz_targets/`: the shared bodies
-//! ([`harness`], also replayed by the end-to-end tests) and a scratch folder per process. The
-//! operator file and kernel targets are in `runtime/`.
+//! Support for the fuzz targets of the bake crates in `fuzz_targets/`: the shared bodies
+//! ([`harness`]: the scene importers and the bake; [`shards`]: shard parts, plans and
+//! checkpoints; [`cli`]: the files only the command line reads; all also replayed by the
+//! end-to-end tests) and a scratch folder per process. The operator file, kernel and C
+//! interface targets are in `runtime/`.
 
+pub mod cli;
 pub mod harness;
+pub mod shards;
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;

@@ -28,6 +28,10 @@ use lrr_runtime::Operator;
 use lrr_runtime::lights::Light;
 use serde::Deserialize;
 
+/// The most frames an animation may have (11.6 hours at 24 fps): each frame is evaluated and
+/// written as files of its own.
+pub const MAX_FRAMES: usize = 1_000_000;
+
 /// The animation file.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -144,6 +148,18 @@ impl Animation {
             && !(d.is_finite() && d >= 0.0)
         {
             bail!(at(format!("duration = {d} must be a finite number >= 0")));
+        }
+        // Without this, fps = 1e300 made `frames` overflow (a panic in debug builds, 0 frames
+        // in release) and fps = 1e9 asked for 1e18 frames.
+        // Finite or +∞, never NaN: the duration is finite and >= 0, fps finite and > 0.
+        let frames = a.duration() * a.fps;
+        if frames >= MAX_FRAMES as f64 {
+            bail!(at(format!(
+                "duration {} s × fps {} = {frames} frames; at most {MAX_FRAMES}: shorten the \
+                 duration or lower fps",
+                a.duration(),
+                a.fps
+            )));
         }
         Ok(a)
     }

@@ -1,8 +1,9 @@
 //! Support for the runtime's fuzz targets in `fuzz_targets/`: the shared bodies ([`operators`],
-//! [`kernels`], [`trace`], also replayed by the end-to-end tests) and an allocation meter for the loader's
+//! [`kernels`], [`trace`], [`capi`], also replayed by the end-to-end tests) and an allocation meter for the loader's
 //! size limits.
 
 pub mod alloc;
+pub mod capi;
 pub mod kernels;
 pub mod operators;
 pub mod trace;

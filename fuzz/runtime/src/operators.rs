@@ -286,24 +286,24 @@ fn interesting_f32(r: &mut Reader) -> f32 {
 }
 
 /// The fuzzer's bytes, read front to back; zeros once exhausted.
-struct Reader<'a>(&'a [u8]);
+pub struct Reader<'a>(pub &'a [u8]);
 
 impl Reader<'_> {
-    fn done(&self) -> bool {
+    pub fn done(&self) -> bool {
         self.0.is_empty()
     }
-    fn byte(&mut self) -> u8 {
+    pub fn byte(&mut self) -> u8 {
         let (&b, rest) = self.0.split_first().unwrap_or((&0, &[]));
         self.0 = rest;
         b
     }
-    fn u16(&mut self) -> u16 {
+    pub fn u16(&mut self) -> u16 {
         u16::from_le_bytes([self.byte(), self.byte()])
     }
-    fn u32(&mut self) -> u32 {
+    pub fn u32(&mut self) -> u32 {
         u32::from_le_bytes([self.byte(), self.byte(), self.byte(), self.byte()])
     }
-    fn take(&mut self, n: usize) -> &[u8] {
+    pub fn take(&mut self, n: usize) -> &[u8] {
         let (taken, rest) = self.0.split_at(n.min(self.0.len()));
         self.0 = rest;
         taken

@@ -4,7 +4,8 @@
 //! Rows of `F_k` are computed in blocks; after each block its rows are appended to
 //! `OUT.lrr.ckpt` and flushed. A record is `block index, byte length, checksum, f64 payload`;
 //! a record cut short by a crash fails its length or checksum and is dropped on resume (with
-//! everything after it). The header holds a key hashed from everything `F_k` depends on (the
+//! everything after it), and so is one holding a value no bake writes (negative or not
+//! finite). The header holds a key hashed from everything `F_k` depends on (the
 //! scene geometry, mesh sizes, the mesh itself, samples, n, k, the lrr version), so a
 //! checkpoint is never applied to a different bake. A successful bake deletes its checkpoint.
 //! `--refine`'s first pass keeps its rows the same way in `OUT.lrr.first-pass.ckpt`
@@ -188,10 +189,16 @@ fn read_record(bytes: &[u8], at: usize, shape: Shape) -> Option<(u64, Vec<f64>, 
     if lrr_formats::checksum(payload) != sum {
         return None;
     }
-    let rows = payload
+    let rows: Vec<f64> = payload
         .chunks_exact(8)
         .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
         .collect();
+    // Form factors are finite and >= 0; a record holding anything else was not written by a
+    // bake (the `checkpoint_resume` fuzz target resumed a -1 into F_k, which the file's
+    // checks then refused at the very end). Damage, like a torn record: dropped, recomputed.
+    if !rows.iter().all(|v| v.is_finite() && *v >= 0.0) {
+        return None;
+    }
     Some((index, rows, start + len))
 }
 
@@ -239,6 +246,13 @@ mod tests {
             vec![(0, vec![1.0, 2.0, 3.0, 4.0]), (2, vec![9.0, 10.0])]
         );
         c.append(1, &[5.0, 6.0, 7.0, 8.0]).unwrap();
+        drop(c);
+        let (_, blocks) = Checkpoint::resume(&path, shape).unwrap();
+        assert_eq!(blocks.len(), 3);
+        // A record with a value no bake writes is damage too: dropped with what follows.
+        let (mut c, _) = Checkpoint::resume(&path, shape).unwrap();
+        c.append(0, &[1.0, -1.0, 3.0, 4.0]).unwrap();
+        c.append(2, &[f64::NAN, 10.0]).unwrap();
         drop(c);
         let (_, blocks) = Checkpoint::resume(&path, shape).unwrap();
         assert_eq!(blocks.len(), 3);

@@ -143,7 +143,7 @@ pub fn bake_shard(
                 let visibility = visibility_name(scene, settings.visibility);
                 let text = settings_text(sizes, settings, visibility);
                 let id = plan_identity(scene, &text);
-                let mesh = plan::read(path, &id)?;
+                let mesh = plan::read(path, &id, scene)?;
                 stage.finish();
                 MeshFrom::Plan {
                     mesh: Box::new(mesh),

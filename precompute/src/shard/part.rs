@@ -63,11 +63,16 @@ impl PartHeader {
         self.boundaries[self.shard]..self.boundaries[self.shard + 1]
     }
 
-    /// Length of a complete part with this header.
-    fn file_len(&self, header_len: u64) -> u64 {
+    /// Length of a complete part with this header; `None` past `u64::MAX` (a damaged header:
+    /// the `shard_part` fuzz target found a skeleton length near 2⁶⁴ overflowing the sum).
+    fn file_len(&self, header_len: u64) -> Option<u64> {
         let rows = self.rows().len() as u64;
         let records = rows.div_ceil(self.record_rows.max(1) as u64);
-        24 + header_len + self.skeleton_len + records * RECORD_HEADER + rows * self.k as u64 * 8
+        24u64
+            .checked_add(header_len)?
+            .checked_add(self.skeleton_len)?
+            .checked_add(records.checked_mul(RECORD_HEADER)?)?
+            .checked_add(rows.checked_mul(self.k as u64)?.checked_mul(8)?)
     }
 
     fn to_bytes(&self) -> Vec<u8> {
@@ -107,8 +112,9 @@ impl PartHeader {
         };
         d.end()?;
         let b = &header.boundaries;
+        // `count + 1` would overflow for a count of usize::MAX (the `shard_part` fuzz target).
         let consistent = shard < count
-            && b.len() == count + 1
+            && b.len().checked_sub(1) == Some(count)
             && b.first() == Some(&0)
             && b.last() == Some(&n)
             && b.windows(2).all(|w| w[0] <= w[1])
@@ -188,7 +194,16 @@ impl PartReader {
             return Err(bad("damaged: the header's checksum does not match".into()));
         }
         let header = PartHeader::from_bytes(&head).map_err(|m| bad(format!("damaged: {m}")))?;
-        let expected = header.file_len(head_len);
+        let expected = header.file_len(head_len).ok_or_else(|| {
+            bad(format!(
+                "damaged: the sizes in its header (skeleton {} bytes, rows {}..{} of {} \
+                 patches) add up past 2^64 bytes; bake this shard again",
+                header.skeleton_len,
+                header.rows().start,
+                header.rows().end,
+                header.k
+            ))
+        })?;
         if len != expected {
             let what = if len < expected {
                 "truncated"
@@ -420,9 +435,14 @@ fn decode_skeleton(bytes: &[u8]) -> std::result::Result<Skeleton, String> {
         && skeleton
             .surface_at
             .iter()
-            .all(|&s| (s as usize) < skeleton.surfaces.len());
+            .all(|&s| (s as usize) < skeleton.surfaces.len())
+        // Grey or RGB cores: the `shard_part` fuzz target found 4 channels indexing past an
+        // element's RGB reflectance when the merge summed the systems (`cores::Systems`).
+        && matches!(skeleton.channels, 1 | 3);
     if !sizes_agree {
-        return Err("the skeleton's arrays disagree in length".into());
+        return Err(
+            "the skeleton's arrays disagree in length (or its channels are not 1 or 3)".into(),
+        );
     }
     Ok(skeleton)
 }

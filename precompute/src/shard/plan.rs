@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{Polygon, Region};
 use crate::mesh::Element;
 use crate::patches::{Mesh, Patch};
+use crate::scene::Scene;
 
 const MAGIC: &[u8; 8] = b"LRRPLAN2";
 
@@ -68,8 +69,9 @@ pub(crate) fn write(path: &Path, id: &PlanIdentity, mesh: &Mesh) -> Result<()> {
     Ok(())
 }
 
-/// Reads a plan and checks that it was made for `id`; the mesh's invariants are checked too.
-pub(crate) fn read(path: &Path, id: &PlanIdentity) -> Result<Mesh> {
+/// Reads a plan and checks that it was made for `id`; the mesh's invariants are checked too,
+/// and that it fits `scene` (its faces, surfaces and bounding box).
+pub(crate) fn read(path: &Path, id: &PlanIdentity, scene: &Scene) -> Result<Mesh> {
     let bad = |m: String| Error::part(path, m);
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     if bytes.len() < 24 || &bytes[..8] != MAGIC {
@@ -110,7 +112,53 @@ pub(crate) fn read(path: &Path, id: &PlanIdentity) -> Result<Mesh> {
     let mesh = mesh(&mut d).map_err(|m| bad(format!("damaged: {m}")))?;
     mesh.validate()
         .map_err(|m| bad(format!("damaged: the mesh fails its checks: {m}")))?;
+    fits(&mesh, scene).map_err(|m| bad(format!("damaged: {m}; run `lrr plan` again")))?;
     Ok(mesh)
+}
+
+/// The mesh's faces and surfaces are the scene's (indices in range), and every polygon
+/// (elements, their face pieces, patches) lies inside the scene's bounding box grown by 1e-6
+/// of its diagonal (meshing only cuts the scene's faces), with a finite normal and scale. The
+/// mesh's own checks see neither: the `shard_plan` fuzz target found resealed plans of valid
+/// shape with coordinates near 1e300, which overflowed the smooth weights' spatial grid
+/// (`mesh::smooth`, an i64 cell index + 1), and with a face index past the scene's faces
+/// (`display::materials` indexed out of bounds).
+fn fits(mesh: &Mesh, scene: &Scene) -> std::result::Result<(), String> {
+    let (lo, hi) = scene.bounds();
+    let pad = DVec3::splat(1e-6 * (hi - lo).length());
+    let (lo, hi) = (lo - pad, hi + pad);
+    let inside = |p: &Polygon| {
+        p.vertices()
+            .iter()
+            .all(|v| v.cmpge(lo).all() && v.cmple(hi).all())
+            && p.normal.is_finite()
+            && p.scale.is_finite()
+    };
+    let (faces, surfaces) = (scene.faces.len(), scene.surfaces.len());
+    let known = |face: u32, surface: u32| (face as usize) < faces && (surface as usize) < surfaces;
+    for (i, e) in mesh.elements.iter().enumerate() {
+        if !known(e.face, e.surface) || e.parts.iter().any(|&(f, _)| f as usize >= faces) {
+            return Err(format!(
+                "element {i} names a face or surface the scene lacks ({} faces, {} surfaces)",
+                faces, surfaces
+            ));
+        }
+        if !inside(&e.polygon) || !e.parts.iter().all(|(_, p)| inside(p)) {
+            return Err(format!("element {i} lies outside the scene"));
+        }
+    }
+    for (i, p) in mesh.patches.iter().enumerate() {
+        if !known(p.face, p.surface) {
+            return Err(format!(
+                "patch {i} names a face or surface the scene lacks ({} faces, {} surfaces)",
+                faces, surfaces
+            ));
+        }
+        if !p.shape.parts().iter().all(inside) {
+            return Err(format!("patch {i} lies outside the scene"));
+        }
+    }
+    Ok(())
 }
 
 fn mesh(d: &mut Dec) -> Decoded<Mesh> {

@@ -1,30 +1,47 @@
 //! The fuzz corpora as ordinary tests: every seed (`fuzz/seeds/<target>/`) and every committed
 //! crash input (`fuzz/regressions/<target>/`) runs through the same function as the cargo-fuzz
-//! target of that name (fuzz/src/harness.rs for the scene importers and the bake, fuzz/runtime/src/
-//! operators.rs, kernels.rs and trace.rs for the runtime, included here), on stable, in CI. Each must be accepted or refused with an error, never panic.
+//! target of that name (fuzz/src/harness.rs for the scene importers and the bake, shards.rs for
+//! shard parts, plans and checkpoints, cli.rs for the command line's own input files;
+//! fuzz/runtime/src/operators.rs, kernels.rs, trace.rs and capi.rs for the runtime and its C
+//! interface, included here), on stable, in CI. Each must be accepted or refused with an
+//! error, never panic.
 
 use std::path::{Path, PathBuf};
 
 use crate::util::{root, temp_dir};
 
+#[path = "../../../fuzz/runtime/src/capi.rs"]
+mod capi;
+#[path = "../../../fuzz/src/cli.rs"]
+mod cli;
 #[path = "../../../fuzz/src/harness.rs"]
 mod harness;
 #[path = "../../../fuzz/runtime/src/kernels.rs"]
 mod kernels;
 #[path = "../../../fuzz/runtime/src/operators.rs"]
 mod operators;
+#[path = "../../../fuzz/src/shards.rs"]
+mod shards;
 #[path = "../../../fuzz/runtime/src/trace.rs"]
 mod trace;
 
-const TARGETS: [&str; 8] = [
+const TARGETS: [&str; 16] = [
     "kernels",
     "operator_bytes",
     "operator_mutated",
     "trace_mutated",
+    "capi_calls",
     "obj_import",
     "scene_description",
     "gltf_import",
     "bake_geometry",
+    "shard_part",
+    "shard_plan",
+    "checkpoint_resume",
+    "probe_points",
+    "emission_json",
+    "reference_json",
+    "animation_toml",
 ];
 
 /// Runs one input through the target's body; `true` when it was accepted.
@@ -34,10 +51,18 @@ fn run(target: &str, data: &[u8], dir: &Path) -> bool {
         "operator_bytes" => operators::operator_bytes(data),
         "operator_mutated" => operators::operator_mutated(data),
         "trace_mutated" => trace::trace_mutated(data),
+        "capi_calls" => capi::capi_calls(data),
         "obj_import" => harness::obj_import(data, dir),
         "scene_description" => harness::scene_description(data, dir),
         "gltf_import" => harness::gltf_import(data, dir),
         "bake_geometry" => harness::bake_geometry(data, dir),
+        "shard_part" => shards::shard_part(data, dir),
+        "shard_plan" => shards::shard_plan(data, dir),
+        "checkpoint_resume" => shards::checkpoint_resume(data, dir),
+        "probe_points" => cli::probe_points(data, dir),
+        "emission_json" => cli::emission_json(data, dir),
+        "reference_json" => cli::reference_json(data, dir),
+        "animation_toml" => cli::animation_toml(data, dir),
         other => panic!("fuzz folder {other} is not a fuzz target"),
     }
 }
@@ -244,4 +269,122 @@ fn write_operator_seeds() {
     // (SKY_TRANSFER).
     let scene = root().join("fuzz/seeds/scene_description/lights.toml");
     crate::util::bake(&scene, &dir.join("bake-lights.lrr"), &[]).unwrap();
+}
+
+/// Rewrites the seeds of the targets of the shard parts, plans and checkpoints, the command
+/// line's input files and the C interface (`fuzz/seeds/<target>/`). Run by hand after a change
+/// of those formats or of the harnesses' input layout:
+/// `cargo test --release -p lrr-tests --test e2e -- --ignored write_input_seeds`.
+#[test]
+#[ignore = "writes fuzz/seeds/"]
+fn write_input_seeds() {
+    let write = |target: &str, name: &str, bytes: &[u8]| {
+        let dir = root().join("fuzz/seeds").join(target);
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join(name), bytes).unwrap();
+    };
+    for (name, bytes) in capi::seeds() {
+        write("capi_calls", name, &bytes);
+    }
+    // Parts: the bases untouched (one shard; two; the first twice), a resealed edit of the
+    // skeleton's first byte, and the one-shard part as raw bytes.
+    write("shard_part", "one-shard", &[0]);
+    write("shard_part", "two-shards", &[1]);
+    write("shard_part", "repeated-part", &[3]);
+    write(
+        "shard_part",
+        "second-part-edited-resealed",
+        &[0x85, 0, 0, 1, 1, 0xff],
+    );
+    let mut raw = vec![2];
+    raw.extend_from_slice(&shards::base_parts()[0]);
+    write("shard_part", "raw-one-shard", &raw);
+    // Plans: the base for both shard specs, a resealed edit, the base as raw bytes.
+    write("shard_plan", "one-shard", &[0]);
+    write("shard_plan", "second-of-two", &[2]);
+    write("shard_plan", "edited-resealed", &[0x80, 1, 0x00, 0x02, 9]);
+    let mut raw = vec![1];
+    raw.extend_from_slice(shards::base_plan());
+    write("shard_plan", "raw", &raw);
+    // Checkpoints: every block of each valid checkpoint (index, length, values, checksum
+    // modes 0), the rows' with the blocks out of order and one repeated, with a NaN.
+    let blocks = |head: u8, order: &[u8]| {
+        let mut v = vec![head];
+        for &i in order {
+            v.extend([i, 0, 0, 0]);
+        }
+        v
+    };
+    write(
+        "checkpoint_resume",
+        "rows-complete",
+        &blocks(0, &[0, 1, 2, 3, 4]),
+    );
+    write(
+        "checkpoint_resume",
+        "first-pass-complete",
+        &blocks(1, &[0, 1, 2, 3, 4]),
+    );
+    write(
+        "checkpoint_resume",
+        "rows-shuffled",
+        &blocks(0, &[3, 1, 3, 0]),
+    );
+    write(
+        "checkpoint_resume",
+        "rows-nan",
+        &[0, 0, 0, 0, 0, 1, 0, 6, 0, 0, 0],
+    );
+    // The command line's files.
+    let points = br#"[{"position": [0.5, 0.5, 0.0], "normal": [0, 0, 1]},
+ {"position": [0.4, 0.4, 0.5], "normal": [0, 0, -1]},
+ {"position": [0.5, 0.5, 1.0], "normal": [0, 0, -1]},
+ {"position": [1e30, -3, 0.5], "normal": [0, 0, 0]}]"#;
+    write("probe_points", "points.json", points);
+    write("probe_points", "empty.json", b"[]");
+    let op = lrr_runtime::Operator::from_bytes(cli::base_operator()).unwrap();
+    let emission = serde_json::to_string(&op.baked_emission()).unwrap();
+    write("emission_json", "baked.json", emission.as_bytes());
+    let zeros = serde_json::to_string(&vec![[0.0f32; 3]; op.n()]).unwrap();
+    write("emission_json", "dark.json", zeros.as_bytes());
+    let reference = br#"{"scene": "fuzz shards", "points": [
+ {"surface": "floor", "position": [0.5, 0.5, 0.0], "normal": [0, 0, 1], "radiosity": [1, 2, 3], "stderr": [0.01, 0.01, 0.01]},
+ {"surface": "shade", "position": [0.4, 0.4, 0.5], "normal": [0, 0, -1], "radiosity": [0.5, 1, 1.5], "stderr": [0.01, 0.01, 0.01]},
+ {"surface": "floor", "position": [0.9, 0.1, 0.0], "normal": [0, 0, 1], "radiosity": [1, 1, 1], "stderr": [0, 0, 0]}]}"#;
+    write("reference_json", "three-points.json", reference);
+    let animation = br#"fps = 2.0
+duration = 2.0
+[[group]]
+name = "lamp"
+keys = [
+  { time = 0.0, intensity = 1.0 },
+  { time = 1.0, intensity = 0.2, colour = [1.0, 0.6, 0.3] },
+]
+[[light]]
+name = "torch"
+kind = "point"
+keys = [
+  { time = 0.0, position = [0.1, 0.1, 0.8], intensity = [5.0, 4.0, 3.0] },
+  { time = 2.0, position = [0.9, 0.9, 0.8], intensity = [5.0, 4.0, 3.0] },
+]
+[[light]]
+name = "spot"
+kind = "spot"
+inner_cone_deg = 10.0
+outer_cone_deg = 30.0
+keys = [{ time = 0.0, position = [0.5, 0.5, 0.9], direction = [0.0, 0.0, -1.0], intensity = [2.0, 2.0, 2.0] }]
+[[light]]
+name = "sun"
+kind = "sun"
+keys = [
+  { time = 0.0, direction = [0.0, 0.0, -1.0], intensity = [1.0, 1.0, 1.0] },
+  { time = 2.0, direction = [1.0, 0.0, 0.0], intensity = [1.0, 1.0, 1.0] },
+]
+"#;
+    write("animation_toml", "lamp-and-lights.toml", animation);
+    write(
+        "animation_toml",
+        "long.toml",
+        b"fps = 24.0\nduration = 3600.0\n[[group]]\nname = \"lamp\"\nkeys = [{ time = 0.0, intensity = 1.0 }, { time = 3600.0, intensity = 0.0 }]\n",
+    );
 }
