@@ -6,6 +6,8 @@
 
 pub mod cli;
 pub mod harness;
+#[path = "../reader.rs"]
+pub mod reader;
 pub mod shards;
 
 use std::path::{Path, PathBuf};

@@ -21,6 +21,8 @@ use lrr_precompute::scene::Scene;
 use lrr_precompute::scene::description::SceneDescription;
 use lrr_precompute::shard::{self, MergeSettings, ShardSpec};
 
+use super::reader::Reader;
+
 /// The scene every input of these targets belongs to: a lit floor under a shade, a point light
 /// and a sun, the lamp a light group (n = 9 elements at element size 0.5).
 pub const SCENE: &str = r#"name = "fuzz shards"
@@ -144,31 +146,6 @@ pub fn base_checkpoints() -> &'static [Vec<u8>; 2] {
         let read = |p: &Path| std::fs::read(p).expect("the base checkpoint was written");
         [read(&path), read(&checkpoint::first_pass_path(&path))]
     })
-}
-
-/// The fuzzer's bytes, read front to back; zeros once exhausted.
-pub struct Reader<'a>(pub &'a [u8]);
-
-impl Reader<'_> {
-    pub fn done(&self) -> bool {
-        self.0.is_empty()
-    }
-    pub fn byte(&mut self) -> u8 {
-        let (&b, rest) = self.0.split_first().unwrap_or((&0, &[]));
-        self.0 = rest;
-        b
-    }
-    pub fn u16(&mut self) -> u16 {
-        u16::from_le_bytes([self.byte(), self.byte()])
-    }
-    pub fn u64(&mut self) -> u64 {
-        u64::from_le_bytes(std::array::from_fn(|_| self.byte()))
-    }
-    pub fn take(&mut self, n: usize) -> &[u8] {
-        let (taken, rest) = self.0.split_at(n.min(self.0.len()));
-        self.0 = rest;
-        taken
-    }
 }
 
 /// Raw edits of `bytes` until `r` is exhausted (at most 32): overwrite 1 to 8 bytes, set an

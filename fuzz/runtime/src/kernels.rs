@@ -30,49 +30,28 @@
 use lrr_formats::{Layout, OperatorData, OperatorFile, Precision, StoredMatrix};
 use lrr_runtime::{Evaluator, Operator, Rgb, RgbMut, SimdLevel, testkit};
 
+use super::reader::Reader;
+
 /// The largest error allowed, relative to a value's scale (see the module docs).
 pub const BOUND: f64 = 1e-5;
 /// Magnitudes outside `[TINY, HUGE]` (other than zero) leave the range where the bound holds.
 const TINY: f64 = 1e-30;
 const HUGE: f64 = 1e30;
 
-/// Bytes in order, zeros once they run out.
-struct Reader<'a>(&'a [u8]);
-
-impl Reader<'_> {
-    fn byte(&mut self) -> u8 {
-        match self.0.split_first() {
-            Some((&b, rest)) => {
-                self.0 = rest;
-                b
-            }
-            None => 0,
-        }
-    }
-
-    fn u16(&mut self) -> u16 {
-        u16::from_le_bytes([self.byte(), self.byte()])
-    }
-
-    fn u32(&mut self) -> u32 {
-        u32::from_le_bytes([self.byte(), self.byte(), self.byte(), self.byte()])
-    }
-
-    /// A value of one of the kinds that break arithmetic.
-    fn value(&mut self) -> f32 {
-        let b = self.byte();
-        let x = f32::from(self.byte());
-        match b % 9 {
-            0 => f32::from_bits(self.u32()),
-            1 => 0.0,
-            2 => x / 8.0,
-            3 => 1e30 * (1.0 + x),
-            4 => f32::from_bits(1 + u32::from(self.u16())),
-            5 => 65504.0,
-            6 => -x / 8.0,
-            7 => f32::MAX / (1.0 + x),
-            _ => 1.0 / (1.0 + x),
-        }
+/// A value of one of the kinds that break arithmetic.
+fn value(r: &mut Reader) -> f32 {
+    let b = r.byte();
+    let x = f32::from(r.byte());
+    match b % 9 {
+        0 => f32::from_bits(r.u32()),
+        1 => 0.0,
+        2 => x / 8.0,
+        3 => 1e30 * (1.0 + x),
+        4 => f32::from_bits(1 + u32::from(r.u16())),
+        5 => 65504.0,
+        6 => -x / 8.0,
+        7 => f32::MAX / (1.0 + x),
+        _ => 1.0 / (1.0 + x),
     }
 }
 
@@ -112,7 +91,7 @@ pub fn kernels(data: &[u8]) -> bool {
     let threads = 2 + usize::from(mode >> 6) % 2;
     let emission = emission(&op, mode >> 2, &mut r);
     let intensities: Vec<f32> = (0..op.light_groups().len() + usize::from(mode & 32 != 0))
-        .map(|_| r.value())
+        .map(|_| value(&mut r))
         .collect();
     let planar_in = mode & 1 != 0;
     let planar_out = mode & 2 != 0;
@@ -178,7 +157,7 @@ fn edit(file: &mut OperatorFile, r: &mut Reader<'_>) {
             let start = at % len;
             match m {
                 StoredMatrix::F32(v) => {
-                    let x = r.value();
+                    let x = value(r);
                     v[start..(start + row).min(len)].fill(x);
                 }
                 StoredMatrix::F16(v) => {
@@ -190,22 +169,22 @@ fn edit(file: &mut OperatorFile, r: &mut Reader<'_>) {
         2 => {
             if let OperatorData::Factored { cores, .. } = &mut file.operator {
                 let len = cores.len();
-                cores[at % len] = f64::from(r.value());
+                cores[at % len] = f64::from(value(r));
             }
         }
         3 => {
             let len = file.weights.len();
-            file.weights[at % len] = r.value();
+            file.weights[at % len] = value(r);
         }
         4 => {
             let len = file.reflectance.len();
             if len > 0 {
-                file.reflectance[at % len] = r.value();
+                file.reflectance[at % len] = value(r);
             }
         }
         _ => {
             let len = file.emission.len();
-            file.emission[at % len] = r.value();
+            file.emission[at % len] = value(r);
         }
     }
 }
@@ -217,12 +196,12 @@ fn emission(op: &Operator, mode: u8, r: &mut Reader<'_>) -> Vec<[f32; 3]> {
     let baked = op.baked_emission();
     match mode % 4 {
         0 => baked,
-        1 => (0..n).map(|_| [r.value(), r.value(), r.value()]).collect(),
+        1 => (0..n).map(|_| [value(r), value(r), value(r)]).collect(),
         2 => (0..n)
             .map(|_| [r.byte(), r.byte(), r.byte()].map(|b| f32::from(b) / 16.0))
             .collect(),
         _ => {
-            let s = r.value();
+            let s = value(r);
             baked.iter().map(|e| e.map(|v| v * s)).collect()
         }
     }

@@ -6,4 +6,6 @@ pub mod alloc;
 pub mod capi;
 pub mod kernels;
 pub mod operators;
+#[path = "../../reader.rs"]
+pub mod reader;
 pub mod trace;

@@ -11,6 +11,8 @@
 use lrr_formats::{Container, ContainerWriter, checksum, kind};
 use lrr_runtime::Operator;
 
+use super::reader::Reader;
+
 /// `operator_bytes`: any bytes through the loader. A file that loads must evaluate its own
 /// baked emission and locate a point: both are infallible on a validated operator. A file with
 /// lightmap coordinates must also build a small lightmap over them (16 × 16 texels, whatever
@@ -282,31 +284,6 @@ fn interesting_f32(r: &mut Reader) -> f32 {
         11 => f32::MIN_POSITIVE,
         12 => f32::from_bits(1), // subnormal
         _ => f32::from_bits(r.u32()),
-    }
-}
-
-/// The fuzzer's bytes, read front to back; zeros once exhausted.
-pub struct Reader<'a>(pub &'a [u8]);
-
-impl Reader<'_> {
-    pub fn done(&self) -> bool {
-        self.0.is_empty()
-    }
-    pub fn byte(&mut self) -> u8 {
-        let (&b, rest) = self.0.split_first().unwrap_or((&0, &[]));
-        self.0 = rest;
-        b
-    }
-    pub fn u16(&mut self) -> u16 {
-        u16::from_le_bytes([self.byte(), self.byte()])
-    }
-    pub fn u32(&mut self) -> u32 {
-        u32::from_le_bytes([self.byte(), self.byte(), self.byte(), self.byte()])
-    }
-    pub fn take(&mut self, n: usize) -> &[u8] {
-        let (taken, rest) = self.0.split_at(n.min(self.0.len()));
-        self.0 = rest;
-        taken
     }
 }
 

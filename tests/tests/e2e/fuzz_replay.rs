@@ -20,6 +20,8 @@ mod harness;
 mod kernels;
 #[path = "../../../fuzz/runtime/src/operators.rs"]
 mod operators;
+#[path = "../../../fuzz/reader.rs"]
+mod reader;
 #[path = "../../../fuzz/src/shards.rs"]
 mod shards;
 #[path = "../../../fuzz/runtime/src/trace.rs"]
