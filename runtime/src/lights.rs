@@ -668,16 +668,14 @@ impl DirectLighting {
         }
         sky.check().map_err(|p| input(format!("the sky: {p}")))?;
         let mut report = DirectReport::default();
-        if self.sky.is_none() {
-            let (transfer, rays) = self.project_sky();
-            report.rays += rays;
-            report.traced = 1;
-            self.sky = Some(transfer);
-        } else {
+        if self.sky.is_some() {
             report.cached = 1;
+        } else {
+            report.traced = 1;
         }
+        let (transfer, rays) = self.sky_transfer();
+        report.rays += rays;
         let c = sky.coefficients();
-        let transfer = self.sky.as_ref().expect("projected above");
         for (x, t) in h.iter_mut().zip(transfer) {
             let mut sum = [0.0f32; 3];
             for (cl, tl) in c.iter().zip(t) {
