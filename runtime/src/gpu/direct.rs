@@ -560,38 +560,7 @@ impl GpuDirect {
             self.clear_irradiance();
         }
         if sky_on {
-            let sky = self.sky.as_ref().expect("sky_on");
-            let params = SkyParams {
-                first_element: 0,
-                element_count: self.n,
-                ..SkyParams::default()
-            };
-            self.gpu
-                .queue
-                .write_buffer(&sky.params, 0, &params.to_bytes());
-            let buffers: [&wgpu::Buffer; 5] = [
-                &sky.params,
-                &sky.coefficients,
-                &sky.transfer,
-                &self.reflectance,
-                eval.slot_emission(slot),
-            ];
-            let entries = super::common::buffer_entries(&buffers);
-            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(SKY_ENTRY),
-                layout: &sky.layout,
-                entries: &entries,
-            });
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some(SKY_ENTRY),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(&sky.pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
-                let [x, y, z] = workgroups(self.n.div_ceil(SKY_LANES));
-                pass.dispatch_workgroups(x, y, z);
-            }
+            self.sky_pass(eval.slot_emission(slot), &mut encoder);
         }
         self.gpu.queue.submit([encoder.finish()]);
         eval.run_slot(slot, out.is_some());
@@ -603,6 +572,44 @@ impl GpuDirect {
             }
         }
         Ok(report)
+    }
+
+    /// Records `sky.wgsl` over every element in `encoder`: `ρ ⊙ max(0, Σ L_lm T_lm)` added to
+    /// `emission` (the evaluator's slot), after what `encoder` holds.
+    fn sky_pass(&self, emission: &wgpu::Buffer, encoder: &mut wgpu::CommandEncoder) {
+        let sky = self.sky.as_ref().expect("a sky is set");
+        let params = SkyParams {
+            first_element: 0,
+            element_count: self.n,
+            ..SkyParams::default()
+        };
+        self.gpu
+            .queue
+            .write_buffer(&sky.params, 0, &params.to_bytes());
+        let buffers: [&wgpu::Buffer; 5] = [
+            &sky.params,
+            &sky.coefficients,
+            &sky.transfer,
+            &self.reflectance,
+            emission,
+        ];
+        let entries = super::common::buffer_entries(&buffers);
+        let bind_group = self
+            .gpu
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(SKY_ENTRY),
+                layout: &sky.layout,
+                entries: &entries,
+            });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(SKY_ENTRY),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&sky.pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        let [x, y, z] = workgroups(self.n.div_ceil(SKY_LANES));
+        pass.dispatch_workgroups(x, y, z);
     }
 
     /// Zeroes [`irradiance_buffer`](Self::irradiance_buffer) after a frame whose lights did not
