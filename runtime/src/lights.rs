@@ -82,7 +82,7 @@ impl Light {
     }
 
     /// The light with its strength set to 1: what its shadows and falloff depend on.
-    fn shape(&self) -> Light {
+    pub(crate) fn shape(&self) -> Light {
         let mut l = *self;
         match &mut l {
             Light::Point { intensity, .. } | Light::Spot { intensity, .. } => *intensity = [1.0; 3],

@@ -619,6 +619,113 @@ fn chunked_and_checked_passes_equal_the_default_pass() {
     assert_eq!(h_checked, h);
 }
 
+/// The cache of still lights: over a sequence of frames (intensities changed, a light moved,
+/// lights dropped and brought back, a light dark and lit again), the GPU pass traces exactly the
+/// lights the CPU pass traces (the same count, the same shadow rays), and each frame's `H` is
+/// bit for bit the `H` of a fresh GPU pass that traces every light (a stored term is the f32
+/// the trace computed) and agrees with the CPU's cached pass as a fresh frame does.
+#[test]
+fn still_lights_are_not_traced_again() {
+    let op = Operator::from_file(court(8)).unwrap();
+    let n = op.n();
+    let rho = op.reflectance();
+    let e0 = base(n);
+    let all = lights();
+    let scaled = |lights: &[Light], s: f32| -> Vec<Light> {
+        lights
+            .iter()
+            .map(|l| match *l {
+                Light::Point {
+                    position,
+                    intensity,
+                } => Light::Point {
+                    position,
+                    intensity: intensity.map(|c| c * s),
+                },
+                Light::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    inner,
+                    outer,
+                } => Light::Spot {
+                    position,
+                    direction,
+                    intensity: intensity.map(|c| c * s),
+                    inner,
+                    outer,
+                },
+                Light::Directional {
+                    direction,
+                    irradiance,
+                } => Light::Directional {
+                    direction,
+                    irradiance: irradiance.map(|c| c * s),
+                },
+            })
+            .collect()
+    };
+    let mut moved = scaled(&all, 1.5);
+    moved[0] = Light::Point {
+        position: [2.1, 2.6, 2.7],
+        intensity: [3.0, 2.6, 2.2],
+    };
+    let mut dark_first = all.clone();
+    dark_first[1] = scaled(&all[1..2], 0.0)[0];
+    // (frame, lights traced by both passes).
+    let frames: Vec<(&str, Vec<Light>, u32)> = vec![
+        ("first frame", all.clone(), 4),
+        ("intensities doubled", scaled(&all, 2.0), 0),
+        ("light 0 moved", moved.clone(), 1),
+        ("the same again", moved.clone(), 0),
+        ("lights 2.. dropped", moved[..2].to_vec(), 0),
+        ("lights 2.. back", moved.clone(), 2),
+        ("light 1 dark", dark_first.clone(), 1),
+        ("light 1 lit again where it was", all.clone(), 0),
+    ];
+    let mut cpu_pass = DirectLighting::new(op.file(), 4, 1).unwrap();
+    let mut direct = GpuDirect::new(gpu(), &cpu_pass, &rho).unwrap();
+    direct.set_count_rays(true);
+    let mut eval = GpuEvaluator::new(gpu(), &op).unwrap();
+    let mut b = vec![[0.0f32; 3]; n];
+    for (name, lights, expect) in &frames {
+        let mut h_cpu = vec![[0.0f32; 3]; n];
+        let cpu = cpu_pass.irradiance(lights, &mut h_cpu).unwrap();
+        let report = direct
+            .evaluate(
+                &mut eval,
+                lights,
+                Rgb::triples(&e0),
+                RgbMut::triples(&mut b),
+            )
+            .unwrap();
+        let h = direct.read_irradiance().unwrap();
+        assert_eq!(report.traced, cpu.traced, "{name}: lights traced");
+        assert_eq!(report.traced, *expect, "{name}: lights traced");
+        assert_eq!(report.rays, Some(cpu.rays), "{name}: shadow rays");
+        // A fresh pass of the same lights traces every one.
+        let mut fresh =
+            GpuDirect::new(gpu(), &DirectLighting::new(op.file(), 4, 1).unwrap(), &rho).unwrap();
+        let mut b_fresh = vec![[0.0f32; 3]; n];
+        fresh
+            .evaluate(
+                &mut eval,
+                lights,
+                Rgb::triples(&e0),
+                RgbMut::triples(&mut b_fresh),
+            )
+            .unwrap();
+        assert_eq!(h, fresh.read_irradiance().unwrap(), "{name}: H");
+        assert_eq!(b, b_fresh, "{name}: B");
+        let a = agreement(&h, &h_cpu);
+        eprintln!(
+            "{name}: {} traced, {} shadow rays; {} of {} lit elements beyond {H_REL:e}",
+            report.traced, cpu.rays, a.off, a.lit
+        );
+        assert!(a.off as f64 <= MAX_OFF_FRACTION * a.lit as f64, "{name}");
+    }
+}
+
 /// Bad calls are errors naming the problem, and change nothing.
 #[test]
 fn bad_calls_are_clear_errors() {

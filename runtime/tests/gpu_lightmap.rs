@@ -29,50 +29,69 @@ fn gpu() -> Gpu {
     gpu
 }
 
+/// The texels `got` (the GPU's, RGBA) against the CPU's fill `want` of the same frame.
+fn assert_fill(got: &[[f32; 4]], want: &[[f32; 3]], cpu: &Lightmap, what: &str) {
+    let mut written = vec![false; want.len()];
+    for s in cpu.samples() {
+        written[s.texel] = true;
+    }
+    let mut covered = 0;
+    for (i, (g, w)) in got.iter().zip(want).enumerate() {
+        let is_written = written[i] || w.iter().any(|&v| v != 0.0);
+        if is_written {
+            covered += 1;
+            assert_eq!(g[3], 1.0, "{what} texel {i}: alpha");
+            for c in 0..3 {
+                assert!(
+                    (g[c] - w[c]).abs() <= REL * w[c].abs() + 1e-7,
+                    "{what} texel {i}: GPU {g:?} against CPU {w:?}"
+                );
+            }
+        } else {
+            assert_eq!(*g, [0.0; 4], "{what} texel {i} is not the lightmap's");
+        }
+    }
+    assert_eq!(covered, cpu.sample_count() + cpu.dilated_count(), "{what}");
+}
+
+/// Each fill equals the CPU's of its frame, also when fills alternate between two evaluators'
+/// radiosity buffers (the fill keeps the bindings of the last buffer it read).
 #[test]
 fn the_gpu_fill_is_the_cpu_fill_in_half_floats() {
     let gpu = gpu();
     // The strip over part of a 97 × 61 atlas, 3 rings of dilation.
     let file = lightmapped(|x, y| [0.1 + x / 2.5, 0.05 + y * 0.7], 97, 61, 3);
     let op = Operator::from_file(file.clone()).unwrap();
-    let mut eval = GpuEvaluator::new(&gpu, &op).unwrap();
-    let emission = [[1.0f32, 0.5, 0.25], [0.0, 0.25, 2.0]];
-    let mut b = vec![[0.0f32; 3]; 2];
-    eval.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut b))
-        .unwrap();
+    let frame = |emission: [[f32; 3]; 2]| {
+        let mut eval = GpuEvaluator::new(&gpu, &op).unwrap();
+        let mut b = vec![[0.0f32; 3]; 2];
+        eval.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut b))
+            .unwrap();
+        (eval, b)
+    };
+    let (first, b_first) = frame([[1.0, 0.5, 0.25], [0.0, 0.25, 2.0]]);
+    let (second, b_second) = frame([[0.0, 3.0, 0.5], [1.5, 0.0, 0.0]]);
     for values in [LightmapValues::Smooth, LightmapValues::Flat] {
         let mut cpu = Lightmap::new(&file, Some(values)).unwrap();
-        let mut want = vec![[f32::NAN; 3]; 97 * 61];
-        cpu.fill(&b, &mut want).unwrap();
+        let mut want_first = vec![[f32::NAN; 3]; 97 * 61];
+        cpu.fill(&b_first, &mut want_first).unwrap();
+        let mut want_second = want_first.clone();
+        cpu.fill(&b_second, &mut want_second).unwrap();
+        assert_ne!(want_first, want_second);
         let map = GpuLightmap::new(&gpu, &file, &cpu).unwrap();
         assert_eq!(map.size(), (97, 61));
-        map.fill(eval.radiosity_buffer()).unwrap();
-        let got = map.read_texels().unwrap();
-        let mut written = vec![false; 97 * 61];
-        for s in cpu.samples() {
-            written[s.texel] = true;
+        for (i, (eval, want)) in [
+            (&first, &want_first),
+            (&second, &want_second),
+            (&first, &want_first),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            map.fill(eval.radiosity_buffer()).unwrap();
+            let got = map.read_texels().unwrap();
+            assert_fill(&got, want, &cpu, &format!("{values:?}, fill {i}"));
         }
-        let mut covered = 0;
-        for (i, (g, w)) in got.iter().zip(&want).enumerate() {
-            let is_written = written[i] || w.iter().any(|&v| v != 0.0);
-            if is_written {
-                covered += 1;
-                assert_eq!(g[3], 1.0, "{values:?} texel {i}: alpha");
-                for c in 0..3 {
-                    assert!(
-                        (g[c] - w[c]).abs() <= REL * w[c].abs() + 1e-7,
-                        "{values:?} texel {i}: GPU {g:?} against CPU {w:?}"
-                    );
-                }
-            } else {
-                assert_eq!(*g, [0.0; 4], "{values:?} texel {i} is not the lightmap's");
-            }
-        }
-        assert_eq!(
-            covered,
-            cpu.sample_count() + cpu.dilated_count(),
-            "{values:?}"
-        );
         assert!(cpu.dilated_count() > 0 && cpu.sample_count() > 1000);
     }
 }

@@ -4,7 +4,8 @@
 # docs/measurements/ keeps it. Not part of CI (CI has no GPU).
 #
 # Prepare on the development machine as scripts/device/gpu.sh says, and also copy the runtime's
-# gpu_direct and gpu_lightmap test binaries to .dev/gpu-direct-tests and .dev/gpu-lightmap-tests.
+# gpu_direct and gpu_lightmap test binaries to .dev/gpu-direct-tests and .dev/gpu-lightmap-tests
+# (from `cargo test --release -p lrr-runtime --features gpu --no-run`: the feature is needed).
 # The building is baked there (its file is larger than what a call carries).
 # Run there (carry .gl and .dev):  bash scripts/device/lights.sh
 # Every step has its own time limit and appends to $OUT/steps.txt and $OUT/steps.err.
@@ -39,6 +40,8 @@ logger=$!
 # The direct pass, the sky and the lightmap fill against the CPU, on this GPU.
 step gpu-direct-tests 90 env LRR_EXPECT_ADAPTER=NVIDIA .dev/gpu-direct-tests --test-threads 1
 step gpu-lightmap-tests 60 env LRR_EXPECT_ADAPTER=NVIDIA .dev/gpu-lightmap-tests --test-threads 1
+# The tracer (its smooth pass is the lightmap fill's).
+step gpu-trace-tests 60 env LRR_EXPECT_ADAPTER=NVIDIA .dev/gpu-trace-tests --test-threads 1
 # The building, baked here with the defaults on all cores; its hash against the development
 # machine's bake of the same commit (bakes are deterministic whatever the thread count).
 step bake 180 "$LRR" bake scenes/building/building.toml -o /tmp/building.lrr --report "$OUT/bake.json"

@@ -72,8 +72,31 @@ pub const DIRECT_BINDINGS: &[Binding] = &[
     bind(5, "reflectance", Read),
     bind(6, "emission", ReadWrite),
     bind(7, "irradiance", ReadWrite),
-    bind(8, "rays", ReadWrite),
+    bind(8, "terms", ReadWrite),
 ];
+
+/// Bit 31 of a light's cache word ([`direct_cache_word`]): trace the light this frame.
+pub const DIRECT_TRACE: u32 = 1 << 31;
+
+/// The slot of a light whose term is not stored (traced every frame): bits 0–30 all set.
+pub const DIRECT_NO_SLOT: u32 = DIRECT_TRACE - 1;
+
+/// The word `cache` of a light's record (`struct DirectLight`, word
+/// [`DIRECT_LIGHT_CACHE_WORD`](crate::DIRECT_LIGHT_CACHE_WORD)) in the direct pass: `slot` is
+/// where the light's term per element (its irradiance per unit strength, averaged over the
+/// element's samples) lives in `terms` (`terms[n + slot n + e]`, as f32 bits), `None` for a
+/// light whose term is not stored; `trace`: trace the light this frame and store its term in
+/// its slot, else read the term stored by an earlier frame (no ray). A light without a slot is
+/// always traced.
+pub fn direct_cache_word(slot: Option<u32>, trace: bool) -> u32 {
+    match slot {
+        None => DIRECT_TRACE | DIRECT_NO_SLOT,
+        Some(s) => {
+            assert!(s < DIRECT_NO_SLOT, "direct pass: slot {s} out of range");
+            if trace { DIRECT_TRACE | s } else { s }
+        }
+    }
+}
 
 /// The `override` constants of `direct_pass.wgsl`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -103,6 +126,8 @@ pub struct DirectParams {
     pub light_count: u32,
     /// Offset of shadow ray origins off their surface.
     pub epsilon: f32,
+    /// Elements in all (the stride of `terms`' slots).
+    pub n: u32,
 }
 
 impl DirectParams {
@@ -116,7 +141,7 @@ impl DirectParams {
         ("samples_per_element", 8),
         ("light_count", 12),
         ("epsilon", 16),
-        ("reserved0", 20),
+        ("n", 20),
         ("reserved1", 24),
         ("reserved2", 28),
     ];
@@ -130,6 +155,7 @@ impl DirectParams {
             self.samples_per_element,
             self.light_count,
             self.epsilon.to_bits(),
+            self.n,
         ];
         let mut bytes = [0; Self::SIZE];
         for (chunk, w) in bytes.chunks_exact_mut(4).zip(words) {
@@ -151,6 +177,7 @@ mod tests {
             samples_per_element: 4,
             light_count: 3,
             epsilon: 0.25,
+            n: 1000,
         };
         let b = p.to_bytes();
         let word = |name: &str| {
@@ -165,7 +192,8 @@ mod tests {
         assert_eq!(word("samples_per_element"), 4);
         assert_eq!(word("light_count"), 3);
         assert_eq!(word("epsilon"), 0.25f32.to_bits());
-        assert!(b[20..].iter().all(|&x| x == 0));
+        assert_eq!(word("n"), 1000);
+        assert!(b[24..].iter().all(|&x| x == 0));
     }
 
     #[test]
@@ -186,6 +214,14 @@ mod tests {
         assert_eq!(at("reserved"), 0);
         let bad = direct_sample([f32::NAN; 3], [0.0; 3]);
         assert_eq!(bad, [0; 8]);
+    }
+
+    #[test]
+    fn cache_words_say_slot_and_trace() {
+        assert_eq!(direct_cache_word(Some(3), false), 3);
+        assert_eq!(direct_cache_word(Some(3), true), DIRECT_TRACE | 3);
+        assert_eq!(direct_cache_word(None, false), u32::MAX);
+        assert_eq!(direct_cache_word(None, true), u32::MAX);
     }
 
     #[test]

@@ -57,7 +57,7 @@ pub const DIRECT_LIGHT_FIELDS: &[(&str, usize)] = &[
     ("strength", 32),
     ("cos_outer", 44),
     ("falloff_scale", 48),
-    ("reserved0", 52),
+    ("cache", 52),
     ("reserved1", 56),
     ("reserved2", 60),
 ];
@@ -69,7 +69,8 @@ pub const DIRECT_LIGHT_FIELDS: &[(&str, usize)] = &[
 /// round it otherwise: `direction` is a spot's unit axis (`normalize(direction)`) or, for a sun,
 /// the unit direction towards it (`-normalize(direction)`); a spot's `cos_inner`, `cos_outer`
 /// (the cones' cosines) and `falloff_scale` (`1 / max(cos_inner − cos_outer, 1e-3)`); zero
-/// where a kind has no such value.
+/// where a kind has no such value. The word `cache` is zero here: the direct pass's
+/// [`direct_cache_word`] (the tracer does not read it).
 #[allow(clippy::too_many_arguments)]
 pub fn direct_light(
     kind: DirectKind,
@@ -102,6 +103,9 @@ pub fn direct_light(
         0,
     ]
 }
+
+/// Word index of `cache` in a [`direct_light`] record (byte 52).
+pub const DIRECT_LIGHT_CACHE_WORD: usize = 13;
 
 /// A triangle's unused fourth corner in [`smooth_element`] (`NO_CORNER` in `trace.wgsl`).
 pub const NO_CORNER: u32 = u32::MAX;

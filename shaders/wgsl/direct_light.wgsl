@@ -24,7 +24,9 @@ struct DirectLight {
     strength: vec3<f32>,
     cos_outer: f32,
     falloff_scale: f32,
-    reserved0: f32,
+    // The direct pass's cache word (direct_pass.wgsl; lrr_shaders::direct_cache_word): which of
+    // its stored terms this light's is and whether to trace it this frame. The tracer ignores it.
+    cache: u32,
     reserved1: f32,
     reserved2: f32,
 }

@@ -6,6 +6,12 @@
 // file's BVH (bvh.wgsl's `occluded`); then H = sum over lights of strength * mean, and
 // E = base + rho * H written over the emission the GPU evaluator bounces next (no readback).
 //
+// A cache of still lights, the CPU pass's: each light's record carries a cache word (its slot in
+// `terms` and whether to trace it this frame, lrr_shaders::direct_cache_word). A light to trace
+// has its mean computed behind shadow rays and, when it has a slot, stored there (f32 bits at
+// terms[n + slot * n + e]); any other light's mean is the one an earlier frame stored (no ray,
+// the same f32). The host traces a light again when anything but its strength changed.
+//
 // Its source is bvh.wgsl + direct_light.wgsl + this file (lrr_shaders::DIRECT_PASS). One
 // invocation per element (original id), a dispatch covering the elements first_element ..
 // first_element + element_count (the host cuts a frame into dispatches of a bounded number of
@@ -29,16 +35,22 @@
 //   j < samples_per_element (n * samples_per_element * 32 bytes fits one binding, so the index
 //   does not overflow);
 // - direct_lights: at least light_count entries (the host writes them per frame);
-// - reflectance, emission, irradiance: 3 n f32 each; rays: n u32 (bound but unwritten without
-//   COUNT_RAYS).
+// - reflectance, emission, irradiance: 3 n f32 each; terms: n u32 of ray counts (written only
+//   with COUNT_RAYS) then n u32 per slot, (1 + slots) n words, every slot word of a record below
+//   slots or DIRECT_NO_SLOT; a slot read without tracing was written by an earlier frame (the
+//   host's cache; a slot never written holds zeros, which the host never reads).
 // The loops end: j < samples_per_element <= 64, l < light_count, and bvh.wgsl's traversal.
 
-// Count the shadow rays per element into `rays` (the CPU's DirectReport::rays; off for timed
-// frames).
+// Count the shadow rays per element into the first n words of `terms` (the CPU's
+// DirectReport::rays; off for timed frames).
 override COUNT_RAYS: bool = false;
 
 // Invocations per workgroup (lrr_shaders::DIRECT_LANES).
 const DIRECT_LANES: u32 = 64u;
+// A cache word's trace bit and the slot of a light whose term is not stored
+// (lrr_shaders::DIRECT_TRACE, DIRECT_NO_SLOT).
+const DIRECT_TRACE: u32 = 0x80000000u;
+const DIRECT_NO_SLOT: u32 = 0x7fffffffu;
 
 // The per-dispatch uniform. Mirrored by lrr_shaders::DirectParams (shaders/src/direct.rs), 32
 // bytes; a naga test compares names and offsets.
@@ -52,7 +64,8 @@ struct DirectParams {
     light_count: u32,
     // Offset of shadow ray origins off their surface (the scene's epsilon).
     epsilon: f32,
-    reserved0: u32,
+    // Elements in all (the stride of terms' slots).
+    n: u32,
     reserved1: u32,
     reserved2: u32,
 }
@@ -80,8 +93,9 @@ struct Sample {
 @group(0) @binding(6) var<storage, read_write> emission: array<f32>;
 // Out: H, 3 f32 per element, original ids.
 @group(0) @binding(7) var<storage, read_write> irradiance: array<f32>;
-// Out (COUNT_RAYS): the shadow rays cast per element.
-@group(0) @binding(8) var<storage, read_write> rays: array<u32>;
+// Out (COUNT_RAYS): the shadow rays cast per element, its first n words; then the stored
+// terms, n f32 (as bits) per slot.
+@group(0) @binding(8) var<storage, read_write> terms: array<u32>;
 
 @compute @workgroup_size(DIRECT_LANES)
 fn direct_pass(
@@ -98,6 +112,12 @@ fn direct_pass(
     var shadow_rays = 0u;
     for (var l = 0u; l < params.light_count; l++) {
         let light = direct_lights[l];
+        let slot = light.cache & DIRECT_NO_SLOT;
+        if (light.cache & DIRECT_TRACE) == 0u {
+            // Still since the frame that stored its term: no ray.
+            h = h + light.strength * bitcast<f32>(terms[params.n + slot * params.n + e]);
+            continue;
+        }
         // lights.rs `element_term`: the mean of g over the samples the light reaches unblocked.
         var sum = 0.0;
         for (var j = 0u; j < params.samples_per_element; j++) {
@@ -120,6 +140,9 @@ fn direct_pass(
             }
         }
         let mean = sum / f32(params.samples_per_element);
+        if slot != DIRECT_NO_SLOT {
+            terms[params.n + slot * params.n + e] = bitcast<u32>(mean);
+        }
         h = h + light.strength * mean;
     }
     let at = 3u * e;
@@ -133,6 +156,6 @@ fn direct_pass(
     irradiance[at + 1u] = h.y;
     irradiance[at + 2u] = h.z;
     if COUNT_RAYS {
-        rays[e] = shadow_rays;
+        terms[e] = shadow_rays;
     }
 }

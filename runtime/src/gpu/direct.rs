@@ -34,9 +34,12 @@
 //! samples see nothing, and no sky) runs no pass: it is the evaluator's own
 //! [`submit`](GpuEvaluator::submit) or [`submit_groups`](GpuEvaluator::submit_groups).
 //!
-//! Unlike the CPU pass, every frame traces every shining light: there is no cache of a light's
-//! geometric term across frames (a frame where only intensities change costs as much as one
-//! where every light moves). `H` may be infinite where a light sits on a sample point; the CPU
+//! Like the CPU pass, a light is traced only when it is new or something but its strength
+//! changed since the frame that traced it in the same slot (its index in the frame's lights):
+//! the pass stores each light's mean term per element on the GPU (n f32 per slot, as many slots
+//! as fit one storage binding; a light past them is traced every frame) and a still light's
+//! `H` comes from it with no ray, in the same f32 operations ([`GpuDirectReport::traced`]).
+//! `H` may be infinite where a light sits on a sample point; the CPU
 //! evaluator refuses such an emission, the GPU cannot see it without a readback, and its `B` is
 //! then not finite.
 //!
@@ -61,9 +64,9 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use lrr_shaders::{
-    DIRECT_ENTRY, DIRECT_LANES, DIRECT_LIGHT_BYTES, DIRECT_PASS, DIRECT_SAMPLE_BYTES,
-    DirectConstants, DirectParams, SKY_ENTRY, SKY_LANES, SKY_PASS, SkyParams, direct_sample,
-    workgroups,
+    DIRECT_ENTRY, DIRECT_LANES, DIRECT_LIGHT_BYTES, DIRECT_LIGHT_CACHE_WORD, DIRECT_PASS,
+    DIRECT_SAMPLE_BYTES, DirectConstants, DirectParams, SKY_ENTRY, SKY_LANES, SKY_PASS, SkyParams,
+    direct_cache_word, direct_sample, workgroups,
 };
 
 use super::buffers::{storage, zeros};
@@ -82,9 +85,11 @@ pub const DEFAULT_CHUNK_RAYS: u64 = 1 << 24;
 /// What one frame of [`GpuDirect`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct GpuDirectReport {
-    /// Lights the pass traced: the frame's shining lights (0: no pass ran, the frame was the
-    /// evaluator's own).
+    /// The frame's shining lights (0: no pass ran, the frame was the evaluator's own).
     pub lights: u32,
+    /// Of those, the lights traced this frame (new, or moved since the frame that stored their
+    /// term); the others' terms came from the cache, with no ray.
+    pub traced: u32,
     /// Dispatches of the pass (0 when it did not run).
     pub dispatches: u32,
     /// Shadow rays cast (the CPU's [`DirectReport::rays`](crate::lights::DirectReport::rays) for
@@ -145,8 +150,14 @@ pub struct GpuDirect {
     irradiance: wgpu::Buffer,
     /// Whether `irradiance` may hold a nonzero value (cleared when a frame has no pass).
     irradiance_written: bool,
-    /// Shadow rays per element of the last counted frame.
-    rays: wgpu::Buffer,
+    /// Shadow rays per element of the last counted frame (the first n words), then n f32 per
+    /// cache slot: each stored light's mean term per element (binding `terms`).
+    terms: wgpu::Buffer,
+    /// Slots `terms` holds.
+    slots: u32,
+    /// Per slot (the light's index in a frame's lights): the shape whose term the slot holds,
+    /// `None` where none is stored.
+    cache: Vec<Option<Light>>,
     count_rays: bool,
     chunk_rays: u64,
     sky: Option<SkyPass>,
@@ -258,7 +269,14 @@ impl GpuDirect {
                 wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
             ),
             irradiance_written: false,
-            rays: zeros(gpu, "direct rays", n, wgpu::BufferUsages::COPY_SRC),
+            terms: zeros(
+                gpu,
+                "direct terms",
+                n,
+                wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            ),
+            slots: 0,
+            cache: Vec::new(),
             count_rays: false,
             chunk_rays: DEFAULT_CHUNK_RAYS,
             sky: None,
@@ -505,11 +523,30 @@ impl GpuDirect {
                 .check()
                 .map_err(|p| input(format!("light {i} ({light:?}): {p}")))?;
         }
-        let records: Vec<u32> = lights
-            .iter()
-            .filter(|l| l.strength() != [0.0; 3])
-            .flat_map(|l| l.gpu_record())
-            .collect();
+        // The cache as the CPU's: slots past this frame's lights are forgotten.
+        self.cache.truncate(lights.len());
+        let slots = (lights.len() as u64).min(self.max_slots()) as u32;
+        // Each shining light's record with its cache word; the slots this frame stores.
+        let mut records: Vec<u32> = Vec::with_capacity(lights.len() * DIRECT_LIGHT_BYTES / 4);
+        let mut stored: Vec<(usize, Light)> = Vec::new();
+        let mut traced = 0u32;
+        for (i, light) in lights.iter().enumerate() {
+            if light.strength() == [0.0; 3] {
+                continue;
+            }
+            let shape = light.shape();
+            let slot = (i < slots as usize).then_some(i as u32);
+            let trace = slot.is_none() || self.cache.get(i) != Some(&Some(shape));
+            if trace {
+                traced += 1;
+                if slot.is_some() {
+                    stored.push((i, shape));
+                }
+            }
+            let mut record = light.gpu_record();
+            record[DIRECT_LIGHT_CACHE_WORD] = direct_cache_word(slot, trace);
+            records.extend(record);
+        }
         let count = records.len() / (DIRECT_LIGHT_BYTES / 4);
         let bvh = (self.bvh.as_ref())
             .filter(|_| count > 0)
@@ -549,13 +586,22 @@ impl GpuDirect {
         let counted = self.count_rays && out.is_some() && bvh.is_some();
         if let Some((nodes, tris)) = bvh {
             report.lights = count as u32;
+            report.traced = traced;
+            self.reserve_slots(slots, &mut encoder);
             report.dispatches = self.lights_pass(
                 (&nodes, &tris),
-                &records,
+                (&records, traced),
                 eval.slot_emission(slot),
                 &mut encoder,
             );
             self.irradiance_written = true;
+            // The terms are written by the work submitted: the cache holds them from now on.
+            for (i, shape) in stored {
+                if self.cache.len() <= i {
+                    self.cache.resize(i + 1, None);
+                }
+                self.cache[i] = Some(shape);
+            }
         } else {
             self.clear_irradiance();
         }
@@ -567,7 +613,7 @@ impl GpuDirect {
         if let Some(mut out) = out {
             eval.finish(&mut out, start)?;
             if counted {
-                let words = read_buffer(&self.gpu, &self.rays, 4 * u64::from(self.n))?;
+                let words = read_buffer(&self.gpu, &self.terms, 4 * u64::from(self.n))?;
                 report.rays = Some(words.iter().map(|w| u64::from(w.to_bits())).sum());
             }
         }
@@ -612,6 +658,32 @@ impl GpuDirect {
         pass.dispatch_workgroups(x, y, z);
     }
 
+    /// The most cache slots `terms` may hold: (1 + slots) n words in one storage binding.
+    fn max_slots(&self) -> u64 {
+        let words = self.gpu.max_binding_bytes() / 4;
+        (words / u64::from(self.n.max(1)))
+            .saturating_sub(1)
+            .min(u64::from(lrr_shaders::DIRECT_NO_SLOT))
+    }
+
+    /// Makes `terms` hold at least `slots` slots, copying what the old buffer held (in
+    /// `encoder`, before the pass that reads it).
+    fn reserve_slots(&mut self, slots: u32, encoder: &mut wgpu::CommandEncoder) {
+        if slots <= self.slots {
+            return;
+        }
+        let words = (1 + slots as usize) * self.n as usize;
+        let terms = zeros(
+            &self.gpu,
+            "direct terms",
+            words,
+            wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        );
+        encoder.copy_buffer_to_buffer(&self.terms, 0, &terms, 0, self.terms.size());
+        self.terms = terms;
+        self.slots = slots;
+    }
+
     /// Zeroes [`irradiance_buffer`](Self::irradiance_buffer) after a frame whose lights did not
     /// run (their `H` is zero), once.
     fn clear_irradiance(&mut self) {
@@ -623,14 +695,15 @@ impl GpuDirect {
         }
     }
 
-    /// Uploads the shining lights' `records` and runs `direct_pass` over the elements in
-    /// dispatches of at most [`chunk_rays`](Self::chunk_rays) shadow rays, the first in
-    /// `encoder` after what it holds, each submitted on its own (the next dispatch's uniform is
-    /// written after it); leaves a fresh `encoder`. Returns the dispatches.
+    /// Uploads the shining lights' `records` (with their cache words; `traced` of them to trace)
+    /// and runs `direct_pass` over the elements in dispatches of at most
+    /// [`chunk_rays`](Self::chunk_rays) shadow rays, the first in `encoder` after what it holds,
+    /// each submitted on its own (the next dispatch's uniform is written after it); leaves a
+    /// fresh `encoder`. Returns the dispatches.
     fn lights_pass(
         &mut self,
         (nodes, tris): (&wgpu::Buffer, &wgpu::Buffer),
-        records: &[u32],
+        (records, traced): (&[u32], u32),
         emission: &wgpu::Buffer,
         encoder: &mut wgpu::CommandEncoder,
     ) -> u32 {
@@ -655,8 +728,8 @@ impl GpuDirect {
         let pipeline = self.pipeline(constants);
         let bind_group = self.bind_group((nodes, tris), emission);
         // Whole workgroups of elements per dispatch, at most chunk_rays shadow rays each (an
-        // upper bound: every sample facing every light).
-        let per_element = u64::from(self.samples_per_element) * count as u64;
+        // upper bound: every sample facing every traced light).
+        let per_element = u64::from(self.samples_per_element) * u64::from(traced.max(1));
         let lanes = u64::from(DIRECT_LANES);
         let chunk = ((self.chunk_rays / per_element) / lanes * lanes)
             .clamp(lanes, u64::from(self.n).max(lanes)) as u32;
@@ -664,6 +737,7 @@ impl GpuDirect {
             samples_per_element: self.samples_per_element,
             light_count: count as u32,
             epsilon: self.epsilon,
+            n: self.n,
             ..DirectParams::default()
         };
         let mut dispatches = 0u32;
@@ -731,7 +805,7 @@ impl GpuDirect {
             &self.reflectance,
             emission,
             &self.irradiance,
-            &self.rays,
+            &self.terms,
         ];
         let entries = super::common::buffer_entries(&buffers);
         self.gpu
@@ -779,8 +853,10 @@ fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
     // `DirectLighting::new`: the BVH's children and leaf ranges, its depth against the fixed
     // stacks) and by `GpuDirect` (the pass runs only over a scene with triangles; a dispatch's
     // elements first_element + element_count <= n; n samples_per_element sample records, 3 f32
-    // of reflectance, emission (the evaluator's slot, 3 n f32) and irradiance per element, one
-    // ray count per element; light_count records in the lights' buffer); the argument is in the
+    // of reflectance, emission (the evaluator's slot, 3 n f32) and irradiance per element;
+    // terms of (1 + slots) n words, every record's slot below `slots` (`frame` gives slots only
+    // to lights of index < slots, after `reserve_slots`) or DIRECT_NO_SLOT, which the shader
+    // never indexes with; light_count records in the lights' buffer); the argument is in the
     // header of direct_pass.wgsl and bvh.wgsl. Its loops end: samples_per_element <= 64,
     // light_count records, and the traversal visits each node at most once.
     unsafe {

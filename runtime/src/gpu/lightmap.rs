@@ -6,7 +6,8 @@
 //!
 //! A frame is one compute pass: smooth lightmaps first compute the smooth-vertex values
 //! (`smooth.wgsl`, as the tracer does), then one dispatch writes every sample, then one per
-//! dilation ring; each texel written holds `B/π` and alpha 1, every other texel stays zero
+//! dilation ring (their bindings made with the first fill from a radiosity buffer and kept
+//! while fills read that buffer); each texel written holds `B/π` and alpha 1, every other texel stays zero
 //! (the texture is zeroed once, when made), so alpha is the lightmap's coverage. Values are
 //! those of [`Lightmap::fill`] up to f32 sums (the GPU's smooth-vertex values and samples sum
 //! in f32, the CPU's in f64) and binary16 storage (2⁻¹¹ relative; up to 65504).
@@ -16,6 +17,8 @@ use lrr_shaders::{
     LIGHTMAP_ENTRY, LIGHTMAP_FILL, LIGHTMAP_FLAT, LIGHTMAP_LANES, LIGHTMAP_RING, LIGHTMAP_SMOOTH,
     LightmapParams, workgroups,
 };
+use std::sync::Mutex;
+
 use wgpu::util::DeviceExt;
 
 use super::buffers::storage;
@@ -47,6 +50,16 @@ pub struct GpuLightmap {
     steps: Vec<(u32, wgpu::Buffer)>,
     texture: wgpu::Texture,
     view: wgpu::TextureView,
+    /// The bindings of the last radiosity buffer filled from: the smooth pass's, and one per
+    /// step (what [`encode`](Self::encode) would otherwise make every frame).
+    bindings: Mutex<Option<Bindings>>,
+}
+
+/// [`GpuLightmap`]'s bindings for one radiosity buffer.
+struct Bindings {
+    radiosity: wgpu::Buffer,
+    smooth: Option<wgpu::BindGroup>,
+    steps: Vec<wgpu::BindGroup>,
 }
 
 impl GpuLightmap {
@@ -198,6 +211,7 @@ impl GpuLightmap {
             steps,
             texture,
             view,
+            bindings: Mutex::new(None),
         })
     }
 
@@ -229,50 +243,68 @@ impl GpuLightmap {
                 self.n
             ))));
         }
-        let table = match &self.smooth {
-            Some(pass) => {
-                pass.encode(&self.gpu, radiosity, encoder);
-                &pass.values
-            }
-            None => radiosity,
-        };
+        let mut bindings = self.bindings.lock().unwrap_or_else(|e| e.into_inner());
+        if bindings.as_ref().is_none_or(|b| b.radiosity != *radiosity) {
+            *bindings = Some(self.bindings(radiosity));
+        }
+        let b = bindings.as_ref().expect("made above");
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(LIGHTMAP_ENTRY),
             timestamp_writes: None,
         });
+        if let (Some(smooth), Some(group)) = (&self.smooth, &b.smooth) {
+            smooth.dispatch(&mut pass, group);
+        }
         pass.set_pipeline(&self.pipeline);
-        for (count, params) in &self.steps {
+        for ((count, _), group) in self.steps.iter().zip(&b.steps) {
             if *count == 0 {
                 continue;
             }
-            let buffers = [
-                params,
-                &self.texel,
-                &self.index,
-                &self.weight,
-                table,
-                &self.values,
-                &self.neighbour_ends,
-                &self.neighbours,
-            ];
-            let mut entries = super::common::buffer_entries(&buffers);
-            entries.push(wgpu::BindGroupEntry {
-                binding: 8,
-                resource: wgpu::BindingResource::TextureView(&self.view),
-            });
-            let group = self
-                .gpu
-                .device
-                .create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some(LIGHTMAP_ENTRY),
-                    layout: &self.layout,
-                    entries: &entries,
-                });
-            pass.set_bind_group(0, &group, &[]);
+            pass.set_bind_group(0, group, &[]);
             let [x, y, z] = workgroups(count.div_ceil(LIGHTMAP_LANES));
             pass.dispatch_workgroups(x, y, z);
         }
         Ok(())
+    }
+
+    /// The bindings of the smooth pass and of every step, reading `radiosity`.
+    fn bindings(&self, radiosity: &wgpu::Buffer) -> Bindings {
+        let smooth = (self.smooth.as_ref()).map(|pass| pass.bind_group(&self.gpu, radiosity));
+        let table = match &self.smooth {
+            Some(pass) => &pass.values,
+            None => radiosity,
+        };
+        let steps = (self.steps.iter())
+            .map(|(_, params)| {
+                let buffers = [
+                    params,
+                    &self.texel,
+                    &self.index,
+                    &self.weight,
+                    table,
+                    &self.values,
+                    &self.neighbour_ends,
+                    &self.neighbours,
+                ];
+                let mut entries = super::common::buffer_entries(&buffers);
+                entries.push(wgpu::BindGroupEntry {
+                    binding: 8,
+                    resource: wgpu::BindingResource::TextureView(&self.view),
+                });
+                self.gpu
+                    .device
+                    .create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some(LIGHTMAP_ENTRY),
+                        layout: &self.layout,
+                        entries: &entries,
+                    })
+            })
+            .collect();
+        Bindings {
+            radiosity: radiosity.clone(),
+            smooth,
+            steps,
+        }
     }
 
     /// Submits a fill from `radiosity` (see [`encode`](Self::encode)); returns once submitted.

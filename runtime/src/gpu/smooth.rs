@@ -83,7 +83,8 @@ impl SmoothPass {
     }
 
     /// Records the pass that fills [`values`](Self::values) from `radiosity` (3 f32 per element,
-    /// original ids; its size checked by the caller) into `encoder`.
+    /// original ids; its size checked by the caller) into `encoder` (the tracer's frame).
+    #[cfg(feature = "trace")]
     pub(super) fn encode(
         &self,
         gpu: &Gpu,
@@ -93,6 +94,17 @@ impl SmoothPass {
         if self.vertex_count == 0 {
             return;
         }
+        let bind_group = self.bind_group(gpu, radiosity);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(SMOOTH_ENTRY),
+            timestamp_writes: None,
+        });
+        self.dispatch(&mut pass, &bind_group);
+    }
+
+    /// The pass's bindings with `radiosity` (3 f32 per element, original ids; its size checked
+    /// by the caller): made once by a caller that keeps it (the lightmap fill).
+    pub(super) fn bind_group(&self, gpu: &Gpu, radiosity: &wgpu::Buffer) -> wgpu::BindGroup {
         let buffers = [
             &self.params,
             &self.offsets,
@@ -103,17 +115,21 @@ impl SmoothPass {
             &self.values,
         ];
         let entries = super::common::buffer_entries(&buffers);
-        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some(SMOOTH_ENTRY),
             layout: &self.layout,
             entries: &entries,
-        });
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(SMOOTH_ENTRY),
-            timestamp_writes: None,
-        });
+        })
+    }
+
+    /// Records the dispatch that fills [`values`](Self::values) into `pass`, with a
+    /// [`bind_group`](Self::bind_group) of this pass (nothing without smooth vertices).
+    pub(super) fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, bind_group: &wgpu::BindGroup) {
+        if self.vertex_count == 0 {
+            return;
+        }
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
+        pass.set_bind_group(0, bind_group, &[]);
         let [x, y, z] = workgroups(self.vertex_count.div_ceil(SMOOTH_LANES));
         pass.dispatch_workgroups(x, y, z);
     }
