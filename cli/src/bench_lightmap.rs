@@ -62,6 +62,12 @@ pub struct GpuLightmapRow {
     pub frame_fill_s: f64,
     /// `(frame_fill_s - frame_s) / frame_s`: what the fill adds to the frame.
     pub fill_share: f64,
+    /// By timestamp queries (`None` without them): the median GPU seconds of the evaluator's
+    /// frame and of the fill, each in a burst of 40 back to back after a warm-up, and their
+    /// ratio: what the fill adds to the frame on the GPU itself.
+    pub gpu_frame_s: Option<f64>,
+    pub gpu_fill_s: Option<f64>,
+    pub gpu_fill_share: Option<f64>,
 }
 
 /// What one run measured (medians over rounds of the per-frame time).
@@ -257,6 +263,15 @@ fn run_gpu(a: &LightmapBench, op: &Operator, map: &Lightmap, out: &mut dyn Write
         with.push(t.elapsed().as_secs_f64() / a.frames as f64);
     }
     let (frame_s, frame_fill_s) = (median(&mut alone), median(&mut with));
+    let gpu_median = |times: Option<Vec<std::time::Duration>>| {
+        times.map(|t| {
+            let mut s: Vec<f64> = t.iter().map(|d| d.as_secs_f64()).collect();
+            median(&mut s)
+        })
+    };
+    let gpu_frame_s = gpu_median(eval.burst(Rgb::triples(&emission), 40)?.map(|b| b.frames));
+    let gpu_fill_s = gpu_median(fill.burst(eval.radiosity_buffer(), 40)?);
+    let gpu_fill_share = gpu_frame_s.zip(gpu_fill_s).map(|(f, l)| l / f);
     let row = GpuLightmapRow {
         width: map.width(),
         height: map.height(),
@@ -266,6 +281,9 @@ fn run_gpu(a: &LightmapBench, op: &Operator, map: &Lightmap, out: &mut dyn Write
         frame_s,
         frame_fill_s,
         fill_share: (frame_fill_s - frame_s) / frame_s,
+        gpu_frame_s,
+        gpu_fill_s,
+        gpu_fill_share,
     };
     if a.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&row)?)?;
@@ -283,6 +301,16 @@ fn run_gpu(a: &LightmapBench, op: &Operator, map: &Lightmap, out: &mut dyn Write
         1e3 * row.frame_fill_s,
         100.0 * row.fill_share
     )?;
+    if let (Some(f), Some(l), Some(share)) = (row.gpu_frame_s, row.gpu_fill_s, row.gpu_fill_share) {
+        writeln!(
+            out,
+            "GPU time (timestamps, bursts of 40): frame {:.3} ms, fill {:.3} ms ({:.1}% of the \
+             frame)",
+            1e3 * f,
+            1e3 * l,
+            100.0 * share
+        )?;
+    }
     if gpu.is_cpu() {
         writeln!(
             out,

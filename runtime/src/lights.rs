@@ -508,13 +508,17 @@ impl DirectLighting {
             }
             for j in 0..s {
                 // Equal-area strata along the triangles (by cumulative area), van der Corput
-                // across: a Hammersley set over the element.
+                // across: a Hammersley set over the element. A stratum's middle that falls on
+                // the end of a triangle's share takes that triangle (r = 1: its edge opposite
+                // the first corner, the diagonal of a quad), not the next one's first corner
+                // (r = 0): one sample on a quad is its centre, not a corner whose shadow rays
+                // start in the plane of a neighbouring wall, decided by rounding.
                 let u = (j as f64 + 0.5) / s as f64 * total;
                 let mut acc = 0.0f64;
                 let mut pick = list.len() - 1;
                 let mut r = 0.5f64;
                 for (k, &(_, a)) in list.iter().enumerate() {
-                    if u < acc + a as f64 || k == list.len() - 1 {
+                    if u <= acc + a as f64 || k == list.len() - 1 {
                         pick = k;
                         r = ((u - acc) / (a as f64).max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
                         break;

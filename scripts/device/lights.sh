@@ -38,7 +38,7 @@ nvidia-smi --query-gpu=timestamp,clocks.sm,clocks.mem,power.draw,utilization.gpu
   -lms 200 >"$OUT/clocks.csv" 2>&1 &
 logger=$!
 # The direct pass, the sky and the lightmap fill against the CPU, on this GPU.
-step gpu-direct-tests 90 env LRR_EXPECT_ADAPTER=NVIDIA .dev/gpu-direct-tests --test-threads 1
+step gpu-direct-tests 90 env LRR_EXPECT_ADAPTER=NVIDIA .dev/gpu-direct-tests --test-threads 1 --nocapture
 step gpu-lightmap-tests 60 env LRR_EXPECT_ADAPTER=NVIDIA .dev/gpu-lightmap-tests --test-threads 1
 # The tracer (its smooth pass is the lightmap fill's).
 step gpu-trace-tests 60 env LRR_EXPECT_ADAPTER=NVIDIA .dev/gpu-trace-tests --test-threads 1

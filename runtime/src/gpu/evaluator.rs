@@ -75,12 +75,12 @@ struct Slot {
     gather_groups: Vec<wgpu::BindGroup>,
 }
 
-struct Timestamps {
+pub(super) struct Timestamps {
     /// [`BURST_PAIRS`] pairs of queries: pair 0 for a frame or read pass, all of them for
     /// [`GpuEvaluator::burst`].
-    set: wgpu::QuerySet,
-    resolve: wgpu::Buffer,
-    readback: wgpu::Buffer,
+    pub(super) set: wgpu::QuerySet,
+    pub(super) resolve: wgpu::Buffer,
+    pub(super) readback: wgpu::Buffer,
     period_ns: f32,
     /// The pair the next pass writes (0 outside a burst).
     pair: u32,
@@ -88,10 +88,10 @@ struct Timestamps {
 
 /// Query pairs of the timestamp set: a burst times at most a third as many frames (and twice
 /// as many read passes, the two read kernels alternated).
-const BURST_PAIRS: u32 = 128;
+pub(super) const BURST_PAIRS: u32 = 128;
 
 /// How long [`GpuEvaluator::burst`] keeps the GPU busy before it times frames.
-const WARM_UP: Duration = Duration::from_millis(300);
+pub(super) const WARM_UP: Duration = Duration::from_millis(300);
 
 /// Evaluates frames of one operator on a GPU: the same inputs and outputs as
 /// [`Evaluator`](crate::Evaluator) (emission and radiosity per element in original id order,
@@ -860,7 +860,7 @@ impl GpuEvaluator {
 impl Timestamps {
     /// Waits for the resolved queries in `readback` and returns the first `pairs` pairs'
     /// durations (end − start of each pair, in the device's timestamp period).
-    fn read_pairs(&self, gpu: &Gpu, pairs: usize) -> Result<Vec<Duration>, GpuError> {
+    pub(super) fn read_pairs(&self, gpu: &Gpu, pairs: usize) -> Result<Vec<Duration>, GpuError> {
         map(gpu, &self.readback)?;
         let ticks: Vec<u64> = {
             let view = self.readback.get_mapped_range(..).map_err(mapping)?;
@@ -878,7 +878,7 @@ impl Timestamps {
     }
 }
 
-fn timestamps(gpu: &Gpu) -> Timestamps {
+pub(super) fn timestamps(gpu: &Gpu) -> Timestamps {
     let buffer = |label, usage| {
         gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),

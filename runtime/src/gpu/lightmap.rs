@@ -234,6 +234,54 @@ impl GpuLightmap {
         radiosity: &wgpu::Buffer,
         encoder: &mut wgpu::CommandEncoder,
     ) -> Result<(), GpuError> {
+        self.encode_timed(radiosity, encoder, None)
+    }
+
+    /// GPU times of `fills` fills (1 to 128) from `radiosity` recorded back to back, each
+    /// timed by its own timestamp queries around its compute pass, after 0.3 s of untimed fills
+    /// (a GPU idling at low clocks raises them under load); `None` without `TIMESTAMP_QUERY`.
+    /// For benchmarks: what the fill adds to a frame on the GPU itself, without the host's
+    /// submission.
+    pub fn burst(
+        &self,
+        radiosity: &wgpu::Buffer,
+        fills: usize,
+    ) -> Result<Option<Vec<std::time::Duration>>, GpuError> {
+        use super::evaluator::{BURST_PAIRS, WARM_UP, timestamps};
+        if !self.gpu.has(wgpu::Features::TIMESTAMP_QUERY) {
+            return Ok(None);
+        }
+        let fills = fills.clamp(1, BURST_PAIRS as usize) as u32;
+        let t = timestamps(&self.gpu);
+        let warm = std::time::Instant::now();
+        while warm.elapsed() < WARM_UP {
+            for _ in 0..32 {
+                self.fill(radiosity)?;
+            }
+            self.gpu.wait()?;
+        }
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        for i in 0..fills {
+            let writes = wgpu::ComputePassTimestampWrites {
+                query_set: &t.set,
+                beginning_of_pass_write_index: Some(2 * i),
+                end_of_pass_write_index: Some(2 * i + 1),
+            };
+            self.encode_timed(radiosity, &mut encoder, Some(writes))?;
+        }
+        encoder.resolve_query_set(&t.set, 0..2 * fills, &t.resolve, 0);
+        encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.readback, 0, 16 * u64::from(fills));
+        self.gpu.queue.submit([encoder.finish()]);
+        Ok(Some(t.read_pairs(&self.gpu, fills as usize)?))
+    }
+
+    /// [`encode`](Self::encode), its compute pass timed by `timestamps` when given.
+    fn encode_timed(
+        &self,
+        radiosity: &wgpu::Buffer,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<(), GpuError> {
         let need = 12 * self.n as u64;
         if radiosity.size() < need {
             return Err(GpuError::Runtime(crate::error::input(format!(
@@ -250,7 +298,7 @@ impl GpuLightmap {
         let b = bindings.as_ref().expect("made above");
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(LIGHTMAP_ENTRY),
-            timestamp_writes: None,
+            timestamp_writes: timestamps,
         });
         if let (Some(smooth), Some(group)) = (&self.smooth, &b.smooth) {
             smooth.dispatch(&mut pass, group);
