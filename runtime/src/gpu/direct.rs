@@ -93,7 +93,7 @@ pub struct GpuDirectReport {
     /// Dispatches of the pass (0 when it did not run).
     pub dispatches: u32,
     /// Shadow rays cast (the CPU's [`DirectReport::rays`](crate::lights::DirectReport::rays) for
-    /// a pass that traces every light), when counting is on
+    /// the same frame: only the traced lights cast any), when counting is on
     /// ([`set_count_rays`](GpuDirect::set_count_rays)) and the frame was read back
     /// ([`evaluate`](GpuDirect::evaluate), [`evaluate_groups`](GpuDirect::evaluate_groups));
     /// `None` otherwise.
