@@ -11,27 +11,8 @@
 # Every step has its own time limit and appends to $OUT/steps.txt and $OUT/steps.err.
 set -u
 OUT="${OUT:-/tmp/lrr-lights-out}"
-mkdir -p "$OUT"
-if [ -d .gl ]; then
-  for f in .gl/*.deb; do dpkg -x "$f" /; done
-  ldconfig
-fi
-icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-if [ -e "$icd" ]; then export VK_DRIVER_FILES="$icd"; fi
-export WGPU_BACKEND=vulkan
-LRR=.dev/lrr
-step() {
-  local name="$1" limit="$2"
-  shift 2
-  echo "== $name ($(date -u +%H:%M:%S))" | tee -a "$OUT/steps.txt" >>"$OUT/steps.err"
-  local t0=$SECONDS
-  timeout "$limit" "$@" >"/tmp/$name.txt" 2>"/tmp/$name.err"
-  local rc=$?
-  cat "/tmp/$name.txt" >>"$OUT/steps.txt"
-  cat "/tmp/$name.err" >>"$OUT/steps.err"
-  echo "   rc $rc in $((SECONDS - t0)) s" | tee -a "$OUT/steps.txt"
-  [ $rc -eq 0 ] || tail -n 15 "/tmp/$name.err"
-}
+# shellcheck source=scripts/device/common.sh
+source "$(dirname "$0")/common.sh"
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv 2>&1 | tee -a "$OUT/steps.txt"
 lscpu | grep -E "^Model name|^CPU\(s\)" | tee -a "$OUT/steps.txt"
 nvidia-smi --query-gpu=timestamp,clocks.sm,clocks.mem,power.draw,utilization.gpu --format=csv \
