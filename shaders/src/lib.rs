@@ -137,9 +137,10 @@ pub use params::{GatherConstants, Params};
 pub use sky::{SKY_BINDINGS, SKY_ENTRY, SKY_LANES, SKY_PASS, SkyParams};
 pub use smooth::{SMOOTH_BINDINGS, SMOOTH_ENTRY, SMOOTH_LANES, SMOOTH_VERTICES, SmoothParams};
 pub use trace::{
-    DIRECT_LIGHT_BYTES, DIRECT_LIGHT_CACHE_WORD, DIRECT_LIGHT_FIELDS, DirectKind, LIGHT_BYTES, NO_CORNER, NODE_BYTES,
-    OPTICS_BYTES, SMOOTH_ELEMENT_BYTES, SMOOTH_ELEMENT_FIELDS, TRACE, TRACE_BINDINGS, TRACE_ENTRY,
-    TRACE_LANES, TraceConstants, TraceParams, direct_light, smooth_element,
+    DIRECT_LIGHT_BYTES, DIRECT_LIGHT_CACHE_WORD, DIRECT_LIGHT_FIELDS, DirectKind, LIGHT_BYTES,
+    NO_CORNER, NODE_BYTES, OPTICS_BYTES, SMOOTH_ELEMENT_BYTES, SMOOTH_ELEMENT_FIELDS, TRACE,
+    TRACE_BINDINGS, TRACE_ENTRY, TRACE_LANES, TraceConstants, TraceParams, direct_light,
+    smooth_element,
 };
 
 /// Invocations per workgroup in segment_sums, core_product and the light-group passes.
