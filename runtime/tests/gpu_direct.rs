@@ -726,6 +726,43 @@ fn still_lights_are_not_traced_again() {
     }
 }
 
+/// Lights past the slots a binding holds are traced every frame and stored nowhere; the lights
+/// with slots are still read from the cache; every frame's `H` is a fresh pass's.
+#[test]
+fn lights_past_the_cache_slots_are_traced_every_frame() {
+    let op = Operator::from_file(court(8)).unwrap();
+    let n = op.n();
+    let rho = op.reflectance();
+    let e0 = base(n);
+    let all = lights();
+    let cpu_pass = DirectLighting::new(op.file(), 4, 1).unwrap();
+    let mut direct = GpuDirect::new(gpu(), &cpu_pass, &rho).unwrap();
+    direct.set_cache_slots(2);
+    let mut eval = GpuEvaluator::new(gpu(), &op).unwrap();
+    let mut fresh = GpuDirect::new(gpu(), &cpu_pass, &rho).unwrap();
+    // Lights 0 and 1 have slots; 2 is dark; 3 and 4 have none.
+    for (frame, traced) in [(0, 4), (1, 2), (2, 2)] {
+        let mut b = vec![[0.0f32; 3]; n];
+        let report = direct
+            .evaluate(&mut eval, &all, Rgb::triples(&e0), RgbMut::triples(&mut b))
+            .unwrap();
+        assert_eq!(report.traced, traced, "frame {frame}");
+        let h = direct.read_irradiance().unwrap();
+        let mut b_fresh = vec![[0.0f32; 3]; n];
+        fresh.set_cache_slots(0);
+        fresh
+            .evaluate(
+                &mut eval,
+                &all,
+                Rgb::triples(&e0),
+                RgbMut::triples(&mut b_fresh),
+            )
+            .unwrap();
+        assert_eq!(h, fresh.read_irradiance().unwrap(), "frame {frame}: H");
+        assert_eq!(b, b_fresh, "frame {frame}: B");
+    }
+}
+
 /// Bad calls are errors naming the problem, and change nothing.
 #[test]
 fn bad_calls_are_clear_errors() {

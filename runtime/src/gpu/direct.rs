@@ -160,6 +160,8 @@ pub struct GpuDirect {
     cache: Vec<Option<Light>>,
     count_rays: bool,
     chunk_rays: u64,
+    /// At most this many cache slots (tests; `u32::MAX`: as many as fit one binding).
+    slot_cap: u32,
     sky: Option<SkyPass>,
 }
 
@@ -279,6 +281,7 @@ impl GpuDirect {
             cache: Vec::new(),
             count_rays: false,
             chunk_rays: DEFAULT_CHUNK_RAYS,
+            slot_cap: u32::MAX,
             sky: None,
             n: n as u32,
             samples_per_element: pass.samples_per_element(),
@@ -664,6 +667,16 @@ impl GpuDirect {
         (words / u64::from(self.n.max(1)))
             .saturating_sub(1)
             .min(u64::from(lrr_shaders::DIRECT_NO_SLOT))
+            .min(u64::from(self.slot_cap))
+    }
+
+    /// Keeps at most `slots` lights' terms (the first `slots` of a frame's lights; the others
+    /// are traced every frame): what a binding too small for every light's terms leaves, for
+    /// tests. Forgets what was stored.
+    #[doc(hidden)]
+    pub fn set_cache_slots(&mut self, slots: u32) {
+        self.slot_cap = slots;
+        self.cache.clear();
     }
 
     /// Makes `terms` hold at least `slots` slots, copying what the old buffer held (in
