@@ -1,5 +1,8 @@
 //! Packing charts into a lightmap atlas with etagere's shelf allocator: each chart gets a
-//! rectangle of `ceil(size × density)` texels plus `padding` on every side. Either the atlas
+//! rectangle of `ceil(size × density)` texels plus `padding` on every side. etagere numbers its
+//! shelves and items in 16 bits, so past [`ETAGERE_CHARTS`] charts (a curved surface of 10⁵
+//! triangles is 10⁵ charts) they go on shelves of our own instead ([`shelves`]: tallest first,
+//! left to right, a new shelf when a row is full). Either the atlas
 //! size is given (the largest density that packs, by bisection) or the density is (the
 //! smallest square atlas, a multiple of 4 texels, that packs). Errors are messages without
 //! flag names: the bake and `lrr export` say which of their flags set the size.
@@ -11,6 +14,10 @@ use super::charts::Chart;
 
 /// The largest atlas side tried for a given texel density.
 pub const MAX_SIZE: usize = 16384;
+
+/// The most charts packed with etagere, whose items (allocated rectangles and the free ones
+/// between them) are numbered in 16 bits: half of those numbers.
+pub const ETAGERE_CHARTS: usize = 1 << 15;
 
 /// Where the charts lie in the atlas.
 #[derive(Debug, Clone)]
@@ -170,18 +177,23 @@ fn try_pack(
             c,
         )
     });
-    let options = AllocatorOptions {
-        num_columns: 1,
-        ..etagere::DEFAULT_OPTIONS
+    let rects = if charts.len() > ETAGERE_CHARTS {
+        shelves(&sizes, &order, width, height)?
+    } else {
+        let options = AllocatorOptions {
+            num_columns: 1,
+            ..etagere::DEFAULT_OPTIONS
+        };
+        let mut atlas = AtlasAllocator::with_options(size2(width as i32, height as i32), &options);
+        let mut rects = vec![[0; 4]; charts.len()];
+        for c in order {
+            let [w, h] = sizes[c];
+            let a = atlas.allocate(size2(w as i32, h as i32))?;
+            let (x0, y0) = (a.rectangle.min.x as usize, a.rectangle.min.y as usize);
+            rects[c] = [x0, y0, x0 + w, y0 + h];
+        }
+        rects
     };
-    let mut atlas = AtlasAllocator::with_options(size2(width as i32, height as i32), &options);
-    let mut rects = vec![[0; 4]; charts.len()];
-    for c in order {
-        let [w, h] = sizes[c];
-        let a = atlas.allocate(size2(w as i32, h as i32))?;
-        let (x0, y0) = (a.rectangle.min.x as usize, a.rectangle.min.y as usize);
-        rects[c] = [x0, y0, x0 + w, y0 + h];
-    }
     let origins = rects
         .iter()
         .map(|r| DVec2::new((r[0] + padding) as f64, (r[1] + padding) as f64))
@@ -194,6 +206,36 @@ fn try_pack(
         origins,
         rects,
     })
+}
+
+/// Rectangles of `sizes` (`[w, h]` texels, each at most `width × height`) placed in `order`
+/// (tallest first) on shelves: left to right along the current shelf, whose height is its
+/// first rectangle's, and a new shelf above it when the next does not fit in the row. `None`
+/// when the shelves outgrow `height`.
+fn shelves(
+    sizes: &[[usize; 2]],
+    order: &[usize],
+    width: usize,
+    height: usize,
+) -> Option<Vec<[usize; 4]>> {
+    let mut rects = vec![[0; 4]; sizes.len()];
+    let (mut x, mut y, mut shelf) = (0usize, 0usize, 0usize);
+    for &c in order {
+        let [w, h] = sizes[c];
+        if x + w > width {
+            y += shelf;
+            (x, shelf) = (0, 0);
+        }
+        if shelf == 0 {
+            shelf = h;
+        }
+        if y + h > height {
+            return None;
+        }
+        rects[c] = [x, y, x + w, y + h];
+        x += w;
+    }
+    Some(rects)
 }
 
 #[cfg(test)]
@@ -243,6 +285,41 @@ mod tests {
         assert_eq!(l.rects[0][2] - l.rects[0][0], 32);
         // 10 charts of 32×22 texels: at least 7040 texels.
         assert!(l.width * l.height >= 7040 && l.width <= 128, "{}", l.width);
+    }
+
+    /// More charts than etagere numbers (a curved surface of 10⁵ triangles): shelves of our
+    /// own, disjoint, near the largest density, as many texels as the rectangles need within a
+    /// shelf's waste.
+    #[test]
+    fn more_charts_than_etagere_holds_go_on_shelves() {
+        let charts: Vec<Chart> = (0..100_000)
+            .map(|i| chart(0.01 + (i % 7) as f64 * 0.002, 0.01 + (i % 5) as f64 * 0.003))
+            .collect();
+        let l = pack(&charts, Sizing::Size(2048), 1).unwrap();
+        assert_eq!(l.rects.len(), 100_000);
+        assert!(disjoint_sorted(&l));
+        assert!(try_pack(&charts, 2048, 2048, l.density * 1.05, 1).is_none());
+        let used: usize = l.rects.iter().map(|r| (r[2] - r[0]) * (r[3] - r[1])).sum();
+        assert!(
+            used as f64 > 0.8 * (2048.0 * 2048.0),
+            "{used} texels of 2048²"
+        );
+    }
+
+    /// [`disjoint`] for many rectangles: sorted by row band, neighbours only.
+    fn disjoint_sorted(l: &Layout) -> bool {
+        let mut r = l.rects.clone();
+        if r.iter().any(|a| a[2] > l.width || a[3] > l.height) {
+            return false;
+        }
+        r.sort();
+        // Each rectangle against those that start before it ends, left to right.
+        (0..r.len()).all(|i| {
+            r[i + 1..]
+                .iter()
+                .take_while(|b| b[0] < r[i][2])
+                .all(|b| r[i][3] <= b[1] || b[3] <= r[i][1])
+        })
     }
 
     #[test]

@@ -505,3 +505,39 @@ fn relight_fills_the_scenes_atlas_like_export() {
     assert_eq!(relit, want);
     assert!(want.iter().any(|p| p[0] > 0.0));
 }
+
+/// A curved surface of 10⁵ triangles is 10⁵ charts (none coplanar with another): more than
+/// etagere numbers, so they go on the atlas's own shelves. The default bake keeps its lightmap
+/// (it used to stop: "100831 charts of at least 5×5 texels (padding 2) do not fit"), every
+/// chart inside the atlas, and the runtime fills it.
+#[test]
+fn a_hundred_thousand_charts_bake_with_the_defaults() {
+    let dir = temp_dir("lightmap-many-charts");
+    let scene = dir.join("bs.toml");
+    lrr(&[
+        "scene",
+        "box-sphere",
+        "--triangles",
+        "100000",
+        "-o",
+        scene.to_str().unwrap(),
+    ])
+    .unwrap();
+    let out = dir.join("bs.lrr");
+    bake(&scene, &out, &[]).unwrap_or_else(|e| panic!("the default bake: {e}"));
+    let info = crate::util::lrr_json(&["info", out.to_str().unwrap(), "--json"]);
+    let atlas = &info["display"]["lightmap_atlas"];
+    let side = atlas["width"].as_u64().unwrap();
+    assert!((1024..=16384).contains(&side), "{info}");
+    let op = Operator::load(&out).unwrap();
+    let mut map = lrr_runtime::Lightmap::new(op.file(), None).unwrap();
+    assert!(
+        map.sample_count() > 100_000,
+        "{} samples",
+        map.sample_count()
+    );
+    let mut texels = vec![[0.0f32; 3]; map.width() * map.height()];
+    map.fill(&op.evaluate_baked(), &mut texels).unwrap();
+    assert!(texels.iter().flatten().all(|x| x.is_finite() && *x >= 0.0));
+    assert!(texels.iter().any(|t| t[0] > 0.0));
+}
