@@ -138,6 +138,10 @@ struct Report<'a> {
     enclosure: Option<lrr_precompute::bake::EnclosureSummary>,
     file_bytes: u64,
     stages: BTreeMap<String, f64>,
+    /// Per stage, the process's peak resident bytes during it (Linux).
+    stage_peak_bytes: BTreeMap<String, u64>,
+    /// The process's peak resident bytes over the whole bake (Linux).
+    peak_resident_bytes: Option<u64>,
     meshing: summary::MeshingSummary,
     /// Every import warning, in order.
     warnings: &'a [String],
@@ -242,6 +246,8 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
         enclosure: baked.enclosure,
         file_bytes,
         stages,
+        stage_peak_bytes: progress.peaks().into_iter().collect(),
+        peak_resident_bytes: lrr_precompute::progress::peak_resident(),
         meshing: summary::MeshingSummary::new(&scene.repairs, &baked.mesh.meshing),
         warnings: &scene.warnings,
         resumed_rows,

@@ -36,14 +36,6 @@ pub struct MergeArgs {
     pub quiet: bool,
 }
 
-/// Peak resident memory of this process (`VmHWM`), where Linux reports it.
-fn peak_memory() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
-
 pub fn run(a: &MergeArgs, out: &mut dyn Write) -> Result<()> {
     use std::io::IsTerminal;
     let start = Instant::now();
@@ -74,7 +66,7 @@ pub fn run(a: &MergeArgs, out: &mut dyn Write) -> Result<()> {
         "memory: planned {:.1} MiB ({} rows per buffer), peak resident {}; time {:.2}s",
         merged.planned_bytes as f64 / (1u64 << 20) as f64,
         merged.chunk_rows,
-        peak_memory().map_or("unknown".to_string(), |b| format!(
+        lrr_precompute::progress::peak_resident().map_or("unknown".to_string(), |b| format!(
             "{:.1} MiB ({b} bytes)",
             b as f64 / (1u64 << 20) as f64
         )),

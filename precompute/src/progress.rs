@@ -23,10 +23,12 @@ pub enum Mode {
     Lines,
 }
 
-/// Shows progress on stderr as its [`Mode`] says; always records timings.
+/// Shows progress on stderr as its [`Mode`] says; always records timings, and each stage's
+/// peak resident memory where Linux reports it ([`Progress::peaks`]).
 pub struct Progress {
     mode: Mode,
     stages: std::sync::Mutex<Vec<(String, f64)>>,
+    peaks: std::sync::Mutex<Vec<(String, u64)>>,
 }
 
 impl Progress {
@@ -40,6 +42,7 @@ impl Progress {
         Self {
             mode,
             stages: std::sync::Mutex::new(Vec::new()),
+            peaks: std::sync::Mutex::new(Vec::new()),
         }
     }
 
@@ -50,6 +53,7 @@ impl Progress {
 
     /// Starts a stage with `total` work items (0: a spinner).
     pub fn stage(&self, name: &str, total: u64) -> Stage<'_> {
+        reset_peak_resident();
         if self.mode == Mode::Lines {
             eprintln!("lrr: {name}: started");
         }
@@ -101,6 +105,18 @@ impl Progress {
     /// (stage name, seconds) in the order stages finished.
     pub fn timings(&self) -> Vec<(String, f64)> {
         self.stages
+            .lock()
+            .expect("no panics while holding the lock")
+            .clone()
+    }
+
+    /// (stage name, bytes) in the order stages finished: the process's peak resident memory
+    /// (`VmHWM`) from the stage's start to its end, each stage starting from what was
+    /// resident then (Linux resets the mark through `/proc/self/clear_refs`). Empty where Linux
+    /// does not report it. Per process: bakes running side by side in one process (tests)
+    /// share the mark.
+    pub fn peaks(&self) -> Vec<(String, u64)> {
+        self.peaks
             .lock()
             .expect("no panics while holding the lock")
             .clone()
@@ -174,7 +190,42 @@ impl Stage<'_> {
             eprintln!("lrr: {}: done in {seconds:.1} s", self.name);
         }
         self.progress.record(&self.name, seconds);
+        if let Some(bytes) = high_water_mark() {
+            self.progress
+                .peaks
+                .lock()
+                .expect("no panics while holding the lock")
+                .push((self.name.clone(), bytes));
+        }
         seconds
+    }
+}
+
+/// The process's peak resident memory in bytes since it started (`VmHWM` of /proc/self/status,
+/// and the marks stages set back), where Linux reports it.
+pub fn peak_resident() -> Option<u64> {
+    let now = high_water_mark()?;
+    Some(now.max(BEFORE_RESETS.load(Ordering::Relaxed)))
+}
+
+/// The highest `VmHWM` seen before a stage set the mark back.
+static BEFORE_RESETS: AtomicU64 = AtomicU64::new(0);
+
+/// `VmHWM`: the peak resident memory since the process started or the mark was last set back.
+fn high_water_mark() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// Sets the peak resident memory mark back to what is resident now (writing 5 to
+/// /proc/self/clear_refs), keeping the process's peak for [`peak_resident`]; nothing where
+/// Linux does not offer it.
+fn reset_peak_resident() {
+    if let Some(hwm) = high_water_mark() {
+        BEFORE_RESETS.fetch_max(hwm, Ordering::Relaxed);
+        let _ = std::fs::write("/proc/self/clear_refs", "5");
     }
 }
 
