@@ -138,7 +138,8 @@ struct Report<'a> {
     enclosure: Option<lrr_precompute::bake::EnclosureSummary>,
     file_bytes: u64,
     stages: BTreeMap<String, f64>,
-    /// Per stage, the process's peak resident bytes during it (Linux).
+    /// Per stage, the process's peak resident bytes so far when it ended (Linux): the stage
+    /// that set the peak is the first with the final figure.
     stage_peak_bytes: BTreeMap<String, u64>,
     /// The process's peak resident bytes over the whole bake (Linux).
     peak_resident_bytes: Option<u64>,
@@ -209,7 +210,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     });
     let mut baked = bake(&scene, &settings, &progress)?;
     let stage = progress.stage("write", 0);
-    let file = write::write(&baked, &output, a.storage(&scene.bake))
+    let file = write::write(&mut baked, &output, a.storage(&scene.bake))
         .with_context(|| format!("writing the operator file {}", output.display()))?;
     let resumed_rows = baked.checkpoint.as_ref().map_or(0, |c| c.resumed_rows());
     let (resumed_first_pass_rows, first_pass_rows) = baked

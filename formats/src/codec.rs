@@ -56,10 +56,53 @@ impl OperatorFile {
     }
 
     /// Validates, encodes and writes the file atomically (see [`write_atomic`]): readers see the
-    /// old file or the new one, never a mix.
+    /// old file or the new one, never a mix. The bytes are [`to_bytes`](Self::to_bytes)'s, but a
+    /// factored file's `F_k` (most of it) goes to the file in pieces of [`FK_PIECE`] values
+    /// rather than through a copy of its own and one of the whole file.
     pub fn write(&self, path: &Path) -> Result<(), FormatError> {
-        let bytes = self.to_bytes().map_err(|e| e.context(path.display()))?;
-        write_atomic(path, &bytes)
+        let context = |e: FormatError| e.context(path.display());
+        self.validate().map_err(context)?;
+        let OperatorData::Factored { fk, .. } = &self.operator else {
+            return write_atomic(path, &encode(self));
+        };
+        let value_bytes = match fk {
+            StoredMatrix::F32(_) => 4,
+            StoredMatrix::F16(_) => 2,
+        };
+        let writer = encoder(self, false);
+        write_atomic_with(path, &mut |file| {
+            let mut fill = |emit: &mut dyn FnMut(&[u8]) -> Result<(), FormatError>| {
+                let mut piece = Vec::new();
+                match fk {
+                    StoredMatrix::F32(v) => {
+                        for values in v.chunks(FK_PIECE) {
+                            piece.clear();
+                            bytes::put_f32s(&mut piece, values);
+                            emit(&piece)?;
+                        }
+                    }
+                    StoredMatrix::F16(v) => {
+                        for values in v.chunks(FK_PIECE) {
+                            piece.clear();
+                            bytes::put_u16s(&mut piece, values);
+                            emit(&piece)?;
+                        }
+                    }
+                }
+                Ok(())
+            };
+            writer.write_streamed(
+                file,
+                Streamed {
+                    at: SECTIONS_BEFORE_FK,
+                    kind: kind::FK,
+                    required: true,
+                    len: (fk.len() * value_bytes) as u64,
+                    fill: &mut fill,
+                },
+            )
+        })
+        .map_err(context)
     }
 }
 
@@ -75,6 +118,9 @@ pub(crate) const MINOR_WITHOUT_FACES: u16 = 3;
 pub(crate) const MINOR_WITHOUT_DIRECT_LIGHTS: u16 = 4;
 /// The minor version of a file with DIRECT_LIGHTS or SKY_TRANSFER but no ATLAS (format 1.5).
 pub(crate) const MINOR_WITHOUT_ATLAS: u16 = 5;
+
+/// Values of `F_k` [`OperatorFile::write`] encodes at a time (1 MiB of f32).
+pub const FK_PIECE: usize = 1 << 18;
 
 /// Sections before FK in a factored file: METADATA, DIMS, ORDER, INDEX, WEIGHTS.
 const SECTIONS_BEFORE_FK: usize = 5;

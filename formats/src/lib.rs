@@ -278,6 +278,7 @@ mod writer;
 
 pub use atomic::{write_atomic, write_atomic_with};
 pub use checksum::{Xxh64, checksum};
+pub use codec::FK_PIECE;
 pub use container::{
     ALIGN, Container, FLAG_REQUIRED, HEADER_CHECKSUM_OFFSET, HEADER_LEN, MAGIC, SECTION_ENTRY_LEN,
     Section, VERSION_MAJOR, VERSION_MINOR,

@@ -23,8 +23,8 @@ pub enum Mode {
     Lines,
 }
 
-/// Shows progress on stderr as its [`Mode`] says; always records timings, and each stage's
-/// peak resident memory where Linux reports it ([`Progress::peaks`]).
+/// Shows progress on stderr as its [`Mode`] says; always records timings, and the process's
+/// peak resident memory at the end of each stage where Linux reports it ([`Progress::peaks`]).
 pub struct Progress {
     mode: Mode,
     stages: std::sync::Mutex<Vec<(String, f64)>>,
@@ -53,7 +53,6 @@ impl Progress {
 
     /// Starts a stage with `total` work items (0: a spinner).
     pub fn stage(&self, name: &str, total: u64) -> Stage<'_> {
-        reset_peak_resident();
         if self.mode == Mode::Lines {
             eprintln!("lrr: {name}: started");
         }
@@ -111,10 +110,10 @@ impl Progress {
     }
 
     /// (stage name, bytes) in the order stages finished: the process's peak resident memory
-    /// (`VmHWM`) from the stage's start to its end, each stage starting from what was
-    /// resident then (Linux resets the mark through `/proc/self/clear_refs`). Empty where Linux
-    /// does not report it. Per process: bakes running side by side in one process (tests)
-    /// share the mark.
+    /// so far (`VmHWM`) when the stage ended, so the stage that raised it is the first whose
+    /// figure is the final one. The mark is never set back (tools such as GNU time read it
+    /// too). Empty where Linux does not report it. Per process: bakes running side by side in
+    /// one process (tests) share it.
     pub fn peaks(&self) -> Vec<(String, u64)> {
         self.peaks
             .lock()
@@ -190,7 +189,7 @@ impl Stage<'_> {
             eprintln!("lrr: {}: done in {seconds:.1} s", self.name);
         }
         self.progress.record(&self.name, seconds);
-        if let Some(bytes) = high_water_mark() {
+        if let Some(bytes) = peak_resident() {
             self.progress
                 .peaks
                 .lock()
@@ -201,32 +200,13 @@ impl Stage<'_> {
     }
 }
 
-/// The process's peak resident memory in bytes since it started (`VmHWM` of /proc/self/status,
-/// and the marks stages set back), where Linux reports it.
+/// The process's peak resident memory in bytes since it started (`VmHWM` of
+/// /proc/self/status), where Linux reports it.
 pub fn peak_resident() -> Option<u64> {
-    let now = high_water_mark()?;
-    Some(now.max(BEFORE_RESETS.load(Ordering::Relaxed)))
-}
-
-/// The highest `VmHWM` seen before a stage set the mark back.
-static BEFORE_RESETS: AtomicU64 = AtomicU64::new(0);
-
-/// `VmHWM`: the peak resident memory since the process started or the mark was last set back.
-fn high_water_mark() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)
-}
-
-/// Sets the peak resident memory mark back to what is resident now (writing 5 to
-/// /proc/self/clear_refs), keeping the process's peak for [`peak_resident`]; nothing where
-/// Linux does not offer it.
-fn reset_peak_resident() {
-    if let Some(hwm) = high_water_mark() {
-        BEFORE_RESETS.fetch_max(hwm, Ordering::Relaxed);
-        let _ = std::fs::write("/proc/self/clear_refs", "5");
-    }
 }
 
 /// A progress line: `stage: done/total (p%), t s elapsed, about r s left` (the rest at the

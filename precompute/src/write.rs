@@ -260,9 +260,13 @@ pub fn store_matrix_as(file: &mut OperatorFile, precision: Precision) {
     file.precision = precision;
 }
 
-/// Writes the bake's operator file atomically (temporary file + rename).
-pub fn write(b: &Baked, path: &Path, storage: Storage) -> Result<OperatorFile> {
+/// Writes the bake's operator file atomically (temporary file + rename) and returns it. The
+/// bake's `F_k` in f64 is released once the file holds its stored copy (`b.fk` is empty
+/// after), and the file's `F_k` goes to disk in pieces ([`OperatorFile::write`]): the write
+/// stage adds the stored matrix to what the bake held, not three copies of it.
+pub fn write(b: &mut Baked, path: &Path, storage: Storage) -> Result<OperatorFile> {
     let file = stored_file(b, storage)?;
+    b.fk = Vec::new();
     file.write(path)?;
     Ok(file)
 }
