@@ -1,7 +1,12 @@
 //! Lightmap charts from an operator file's display faces (`OperatorFile::faces`: section FACES,
 //! else GEOMETRY's elements; "element" below means a display face): connected sets of coplanar
 //! elements (same plane within a tolerance relative to the element sizes, sharing a piece of an
-//! edge), each flattened onto its plane.
+//! edge), each flattened onto its plane. Elements coplanar with no neighbour (the triangles of a
+//! curved surface) are then grown into charts of their own: from the first such element, its
+//! neighbours of the same kind whose normals lie within [`CURVED_ANGLE`] of the first's,
+//! projected onto the first's plane (texels shrink by at most cos 30° across them); a chart
+//! whose projected faces would overlap (a surface that winds over itself) is left as single
+//! faces. A sphere of 10⁵ triangles is a few hundred charts instead of 10⁵.
 //!
 //! Two elements share an edge when at least two distinct points of one lie on the other's
 //! boundary (shared corners, T-junctions of adaptive subdivision and imprinting, offset grids);
@@ -68,6 +73,9 @@ pub fn normal(g: &Geometry, s: usize) -> DVec3 {
 
 /// Largest angle between the normals of elements of one chart (radians).
 const ANGLE: f64 = 1e-3;
+/// Largest angle between the normal of an element of a curved chart and its first element's
+/// (radians): 30°.
+pub const CURVED_ANGLE: f64 = std::f64::consts::FRAC_PI_6;
 /// Distance tolerance, relative to the median element's longest edge.
 const RELATIVE_DISTANCE: f64 = 1e-4;
 
@@ -78,7 +86,8 @@ pub fn charts(g: &Geometry) -> Vec<Chart> {
     let normals: Vec<DVec3> = (0..n).map(|s| normal(g, s)).collect();
     let eps = RELATIVE_DISTANCE * median_edge(&polys);
     let mut sets = UnionFind::new(n);
-    for (a, b) in candidate_pairs(&polys, eps) {
+    let pairs = candidate_pairs(&polys, eps);
+    for &(a, b) in &pairs {
         if coplanar(&polys, &normals, a, b, eps) && share_edge(&polys[a], &polys[b], eps) {
             sets.union(a, b);
         }
@@ -87,12 +96,141 @@ pub fn charts(g: &Geometry) -> Vec<Chart> {
     for s in 0..n {
         members.entry(sets.find(s)).or_default().push(s as u32);
     }
-    let mut groups: Vec<Vec<u32>> = members.into_values().collect();
+    let (alone, mut groups): (Vec<Vec<u32>>, Vec<Vec<u32>>) =
+        members.into_values().partition(|m| m.len() == 1);
+    let mut single = vec![false; n];
+    for m in &alone {
+        single[m[0] as usize] = true;
+    }
+    groups.extend(curved_charts(&polys, &normals, &pairs, &single, eps));
     groups.sort_unstable_by_key(|m| m[0]);
     groups
         .into_iter()
         .map(|elements| flatten(&polys, &normals, elements))
         .collect()
+}
+
+/// Charts of the `single` elements (coplanar with no neighbour): from each not yet taken, in
+/// order, its neighbours (sharing an edge, `pairs` the candidates) that are single and untaken
+/// with normals within [`CURVED_ANGLE`] of its own, breadth first; a chart whose faces,
+/// projected onto its first element's plane, would overlap is left as single elements.
+fn curved_charts(
+    polys: &[Vec<DVec3>],
+    normals: &[DVec3],
+    pairs: &[(usize, usize)],
+    single: &[bool],
+    eps: f64,
+) -> Vec<Vec<u32>> {
+    let n = polys.len();
+    let cone = CURVED_ANGLE.cos();
+    let mut around: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for &(a, b) in pairs {
+        if single[a]
+            && single[b]
+            && normals[a].dot(normals[b]) >= cone
+            && share_edge(&polys[a], &polys[b], eps)
+        {
+            around[a].push(b);
+            around[b].push(a);
+        }
+    }
+    let mut taken = vec![false; n];
+    let mut charts = Vec::new();
+    for seed in (0..n).filter(|&s| single[s]) {
+        if taken[seed] {
+            continue;
+        }
+        taken[seed] = true;
+        let axis = normals[seed];
+        let mut chart = vec![seed];
+        let mut next = 0;
+        while next < chart.len() {
+            let s = chart[next];
+            next += 1;
+            for &t in &around[s] {
+                if !taken[t] && normals[t].dot(axis) >= cone {
+                    taken[t] = true;
+                    chart.push(t);
+                }
+            }
+        }
+        if chart.len() > 1 && projections_overlap(polys, &chart, axis, eps) {
+            charts.extend(chart.iter().map(|&s| vec![s as u32]));
+        } else {
+            chart.sort_unstable();
+            charts.push(chart.into_iter().map(|s| s as u32).collect());
+        }
+    }
+    charts
+}
+
+/// Whether two of `faces`, projected along `axis` (each a convex polygon), overlap by more than
+/// `eps` (faces sharing an edge or a corner touch, they do not overlap). Candidates from a
+/// uniform grid over the projected boxes.
+fn projections_overlap(polys: &[Vec<DVec3>], faces: &[usize], axis: DVec3, eps: f64) -> bool {
+    let (u, v) = frame(&polys[faces[0]], axis);
+    let flat: Vec<Vec<DVec2>> = faces
+        .iter()
+        .map(|&s| {
+            polys[s]
+                .iter()
+                .map(|p| DVec2::new(p.dot(u), p.dot(v)))
+                .collect()
+        })
+        .collect();
+    let boxes: Vec<(DVec2, DVec2)> = flat
+        .iter()
+        .map(|p| {
+            let lo = p.iter().fold(DVec2::INFINITY, |a, b| a.min(*b));
+            let hi = p.iter().fold(DVec2::NEG_INFINITY, |a, b| a.max(*b));
+            (lo, hi)
+        })
+        .collect();
+    let mut diag: Vec<f64> = boxes.iter().map(|(lo, hi)| lo.distance(*hi)).collect();
+    let mid = diag.len() / 2;
+    let cell = 2.0 * diag.select_nth_unstable_by(mid, f64::total_cmp).1.max(eps);
+    let key = |p: DVec2| (p / cell).floor().as_i64vec2();
+    let mut grid: HashMap<[i64; 2], Vec<usize>> = HashMap::new();
+    for (i, (lo, hi)) in boxes.iter().enumerate() {
+        let (a, b) = (key(*lo), key(*hi));
+        for x in a.x..=b.x {
+            for y in a.y..=b.y {
+                grid.entry([x, y]).or_default().push(i);
+            }
+        }
+    }
+    grid.values().any(|cell| {
+        cell.iter().enumerate().any(|(k, &i)| {
+            cell[k + 1..]
+                .iter()
+                .any(|&j| convex_overlap(&flat[i], &flat[j], eps))
+        })
+    })
+}
+
+/// Whether convex polygons `a` and `b` overlap by more than `eps` along every axis their edges
+/// give (separating axis test; degenerate polygons never overlap).
+fn convex_overlap(a: &[DVec2], b: &[DVec2], eps: f64) -> bool {
+    for poly in [a, b] {
+        for i in 0..poly.len() {
+            let e = poly[(i + 1) % poly.len()] - poly[i];
+            let Some(axis) = DVec2::new(-e.y, e.x).try_normalize() else {
+                continue;
+            };
+            let span = |p: &[DVec2]| {
+                p.iter()
+                    .map(|x| x.dot(axis))
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), d| {
+                        (lo.min(d), hi.max(d))
+                    })
+            };
+            let ((alo, ahi), (blo, bhi)) = (span(a), span(b));
+            if ahi.min(bhi) - alo.max(blo) <= eps {
+                return false;
+            }
+        }
+    }
+    a.len() >= 3 && b.len() >= 3
 }
 
 /// The chart frame of `elements`: the normal of the first, `u` along its first edge, the
@@ -347,6 +485,93 @@ mod tests {
                 "{c:?}"
             );
         }
+    }
+
+    /// Quads around the axis z, each turned `step` degrees from the last (outward normals), from
+    /// `from` degrees, `rise` up per quad.
+    fn arc(count: usize, step: f64, from: f64, rise: f64) -> Vec<[[f32; 3]; 4]> {
+        let at = |deg: f64, z: f64| {
+            let a = deg.to_radians();
+            [a.cos() as f32, a.sin() as f32, z as f32]
+        };
+        (0..count)
+            .map(|i| {
+                let (a, b) = (from + i as f64 * step, from + (i + 1) as f64 * step);
+                let (z0, z1) = (i as f64 * rise, (i + 1) as f64 * rise);
+                [at(a, z0), at(b, z1), at(b, z1 + 1.0), at(a, z0 + 1.0)]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_curved_strip_is_cut_into_charts_within_thirty_degrees() {
+        // Normals 12° apart: quads 0–2 lie within 30° of quad 0 (0°, 12°, 24°), 3–5 of quad 3,
+        // 6–7 of quad 6.
+        let g = geometry(&arc(8, 12.0, 0.0, 0.0));
+        let c = charts(&g);
+        let sets: Vec<Vec<u32>> = c.iter().map(|c| c.faces.clone()).collect();
+        assert_eq!(sets, vec![vec![0, 1, 2], vec![3, 4, 5], vec![6, 7]]);
+        // Projected onto the first quad's plane, each chart keeps its faces apart.
+        for chart in &c {
+            let faces: Vec<usize> = chart.faces.iter().map(|&f| f as usize).collect();
+            let polys: Vec<Vec<DVec3>> =
+                (0..g.vertex_count.len()).map(|s| corners(&g, s)).collect();
+            let axis = normal(&g, faces[0]);
+            assert!(!projections_overlap(&polys, &faces, axis, 1e-9));
+        }
+    }
+
+    #[test]
+    fn a_surface_that_winds_over_itself_stays_single_faces() {
+        // A ramp of 36 quads rising round a vertical axis twice: every normal within 30° of the
+        // first (they lean out by under 30°), but the second turn lies over the first seen
+        // along the first's normal.
+        let mut quads = Vec::new();
+        for i in 0..36 {
+            let (a, b) = (
+                (i as f64 * 20.0).to_radians(),
+                ((i + 1) as f64 * 20.0).to_radians(),
+            );
+            let z = |t: f64| (t * 0.05) as f32;
+            let (r0, r1) = (1.0f64, 2.0f64);
+            let p = |r: f64, t: f64| [(r * t.cos()) as f32, (r * t.sin()) as f32, z(t)];
+            quads.push([p(r0, a), p(r1, a), p(r1, b), p(r0, b)]);
+        }
+        let g = geometry(&quads);
+        let normals: Vec<DVec3> = (0..36).map(|s| normal(&g, s)).collect();
+        assert!(
+            normals
+                .iter()
+                .all(|n| n.dot(normals[0]) > CURVED_ANGLE.cos())
+        );
+        let c = charts(&g);
+        assert_eq!(
+            c.len(),
+            36,
+            "{:?}",
+            c.iter().map(|c| c.faces.len()).collect::<Vec<_>>()
+        );
+    }
+
+    #[test]
+    fn faces_touching_along_an_edge_do_not_overlap() {
+        let a = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(1.0, 1.0),
+        ];
+        let b = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 1.0),
+            DVec2::new(0.0, 1.0),
+        ];
+        assert!(!convex_overlap(&a, &b, 1e-9));
+        let c = [
+            DVec2::new(0.5, 0.0),
+            DVec2::new(1.5, 0.0),
+            DVec2::new(1.5, 1.0),
+        ];
+        assert!(convex_overlap(&a, &c, 1e-9));
     }
 
     #[test]
