@@ -711,18 +711,22 @@ impl<'a> Importer<'a> {
         if let Some(info) = pbr.base_color_texture() {
             let set = info.tex_coord() as usize;
             let avg = if set < 2 {
-                let texture = self.texture(&info.texture(), &what)?;
-                base_texture = Some((texture, set));
-                self.scene.textures[texture].average()
+                self.texture(&info.texture(), &what).map(|texture| {
+                    base_texture = Some((texture, set));
+                    self.scene.textures[texture].average()
+                })
             } else {
                 self.scene.warnings.push(format!(
                     "{}: {what}: its baseColor texture uses TEXCOORD_{set}; lrr reads sets 0 and \
                      1, so the texture's mean over the image is used",
                     self.origin
                 ));
-                self.decode(&info.texture(), &what)?.average()
+                self.decode(&info.texture(), &what).map(|t| t.average())
             };
-            c = [0, 1, 2].map(|i| c[i] * avg[i]);
+            match avg {
+                Ok(avg) => c = [0, 1, 2].map(|i| c[i] * avg[i]),
+                Err(e) => self.texture_left_out(e, "baseColorFactor"),
+            }
         }
         let clamp01 = |x: f32| f64::from(x).clamp(0.0, 1.0);
         let metal = clamp01(pbr.metallic_factor());
@@ -771,8 +775,13 @@ impl<'a> Importer<'a> {
             && radiance.iter().any(|r| *r != 0.0)
         {
             // Emission is per material: only the mean is kept, not the image.
-            let avg = self.decode(&info.texture(), &what)?.average();
-            radiance = [0, 1, 2].map(|i| radiance[i] * avg[i]);
+            match self.decode(&info.texture(), &what) {
+                Ok(t) => {
+                    let avg = t.average();
+                    radiance = [0, 1, 2].map(|i| radiance[i] * avg[i]);
+                }
+                Err(e) => self.texture_left_out(e, "emissiveFactor"),
+            }
         }
         let transmission = c.map(|c| c * (1.0 - metal) * trans);
         let ior = match m.ior() {
@@ -808,6 +817,16 @@ impl<'a> Importer<'a> {
             .add_material(material, &format!("{}: {what}", self.origin))?;
         self.materials.insert(Some(index), id);
         Ok(id)
+    }
+
+    /// Warns that a texture that could not be read or decoded (`e` says which and why) is left
+    /// out, the material's `factor` standing alone: a lighting bake needs the texture's colour,
+    /// not its presence, and a scene with one missing image still bakes.
+    fn texture_left_out(&mut self, e: Error, factor: &str) {
+        self.scene.warnings.push(format!(
+            "{e}; the texture is left out and the material's {factor} used alone (put the \
+             image next to the glTF, or convert it to PNG or JPEG)"
+        ));
     }
 
     /// A base colour texture in `Scene::textures` (decoded once per glTF texture).

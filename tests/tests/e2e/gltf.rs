@@ -828,11 +828,25 @@ fn bad_gltf_input_is_refused_with_the_part_named() {
         import_edited(|r| r["nodes"][1]["children"] = json!([0])),
         &["node 0", "tree"],
     );
-    // An image that is no PNG.
-    expect_err(
-        import_edited(|r| r["images"][0] = json!({"uri": "data:image/png;base64,AAAA"})),
-        &["material 0 'floor': image 0", "decoded"],
-    );
+    // An image that is no PNG, or is not there: the texture is left out with a warning naming
+    // it, and the material's factor stands alone (the scene still bakes).
+    for (image, why) in [
+        (json!({"uri": "data:image/png;base64,AAAA"}), "decoded"),
+        (json!({"uri": "missing.png"}), "cannot read"),
+    ] {
+        let s = import_edited(|r| r["images"][0] = image.clone())
+            .unwrap_or_else(|e| panic!("refused a scene whose texture is bad: {e}"));
+        assert!(
+            s.warnings
+                .iter()
+                .any(|w| w.contains("material 0 'floor': image 0")
+                    && w.contains(why)
+                    && w.contains("left out")),
+            "{:?}",
+            s.warnings
+        );
+        assert!(s.textures.is_empty(), "{} textures", s.textures.len());
+    }
     // Not JSON at all.
     expect_err(
         gltf::import(b"{\"asset\": ", Path::new("."), "room", "room.gltf")
