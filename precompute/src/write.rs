@@ -219,6 +219,18 @@ pub(crate) fn f32_matrix(fk: &[f64]) -> StoredMatrix {
     StoredMatrix::F32(fk.iter().map(|&f| f as f32).collect())
 }
 
+#[cfg(test)]
+mod into_f32_tests {
+    #[test]
+    fn into_f32_rounds_as_f32_matrix() {
+        for n in [0usize, 1, 5, (1 << 16) + 3, 40 * (1 << 16) + 7] {
+            let fk: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin() / 3.0).collect();
+            let want = super::f32_matrix(&fk);
+            assert_eq!(super::StoredMatrix::F32(super::into_f32(fk)), want, "{n}");
+        }
+    }
+}
+
 /// How the operator is stored in the file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Storage {
@@ -240,8 +252,13 @@ impl Default for Storage {
 /// The operator file of a bake stored as asked, with one light group per emitting surface
 /// (named after the surface; its elements at their baked emission).
 pub(crate) fn stored_file(b: &Baked, storage: Storage) -> Result<OperatorFile> {
+    stored_file_with(b, f32_matrix(&b.fk), storage)
+}
+
+/// [`stored_file`] with `F_k` given in f32 (`fk`, file order).
+fn stored_file_with(b: &Baked, fk: StoredMatrix, storage: Storage) -> Result<OperatorFile> {
     let skeleton = Skeleton::of(b);
-    let mut file = skeleton.file(f32_matrix(&b.fk), &b.cores);
+    let mut file = skeleton.file(fk, &b.cores);
     skeleton.add_light_groups(&mut file)?;
     if storage.precision != file.precision {
         store_matrix_as(&mut file, storage.precision);
@@ -261,14 +278,35 @@ pub fn store_matrix_as(file: &mut OperatorFile, precision: Precision) {
 }
 
 /// Writes the bake's operator file atomically (temporary file + rename) and returns it. The
-/// bake's `F_k` in f64 is released once the file holds its stored copy (`b.fk` is empty
+/// bake's `F_k` in f64 is released as its f32 copy is made ([`into_f32`]; `b.fk` is empty
 /// after), and the file's `F_k` goes to disk in pieces ([`OperatorFile::write`]): the write
-/// stage adds the stored matrix to what the bake held, not three copies of it.
+/// stage holds about what the bake held, not three more copies of the matrix.
 pub fn write(b: &mut Baked, path: &Path, storage: Storage) -> Result<OperatorFile> {
-    let file = stored_file(b, storage)?;
-    b.fk = Vec::new();
+    let fk = into_f32(std::mem::take(&mut b.fk));
+    let file = stored_file_with(b, StoredMatrix::F32(fk), storage)?;
     file.write(path)?;
     Ok(file)
+}
+
+/// `fk` rounded to f32 (as [`f32_matrix`]), made from the end in sixteenths, each sixteenth of
+/// the f64 values released once converted: the output's pages are touched only as they are
+/// written, so the two vectors are never both resident in full (about 8 bytes per value at the
+/// most, not 12).
+pub(crate) fn into_f32(mut fk: Vec<f64>) -> Vec<f32> {
+    let n = fk.len();
+    let mut out = vec![0.0f32; n];
+    let step = n.div_ceil(16).max(1 << 16);
+    let mut end = n;
+    while end > 0 {
+        let start = end.saturating_sub(step);
+        for (o, &x) in out[start..end].iter_mut().zip(&fk[start..end]) {
+            *o = x as f32;
+        }
+        fk.truncate(start);
+        fk.shrink_to_fit();
+        end = start;
+    }
+    out
 }
 
 /// What the file's metadata section holds (JSON). Only deterministic values: no timings, no
