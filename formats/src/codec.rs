@@ -60,49 +60,53 @@ impl OperatorFile {
     /// factored file's `F_k` (most of it) goes to the file in pieces of [`FK_PIECE`] values
     /// rather than through a copy of its own and one of the whole file.
     pub fn write(&self, path: &Path) -> Result<(), FormatError> {
-        let context = |e: FormatError| e.context(path.display());
-        self.validate().map_err(context)?;
+        self.validate().map_err(|e| e.context(path.display()))?;
         let OperatorData::Factored { fk, .. } = &self.operator else {
             return write_atomic(path, &encode(self));
         };
-        let value_bytes = match fk {
-            StoredMatrix::F32(_) => 4,
-            StoredMatrix::F16(_) => 2,
-        };
+        let len = (fk.len() * fk.precision().size()) as u64;
+        self.write_fk_streamed(path, len, &mut |emit| {
+            let mut piece = Vec::new();
+            match fk {
+                StoredMatrix::F32(v) => v.chunks(FK_PIECE).try_for_each(|values| {
+                    piece.clear();
+                    bytes::put_f32s(&mut piece, values);
+                    emit(&piece)
+                }),
+                StoredMatrix::F16(v) => v.chunks(FK_PIECE).try_for_each(|values| {
+                    piece.clear();
+                    bytes::put_u16s(&mut piece, values);
+                    emit(&piece)
+                }),
+            }
+        })
+    }
+
+    /// Writes the file atomically, every section but FK encoded from `self` (checked by the
+    /// caller) and FK's `len` payload bytes handed out in pieces by `fill`.
+    #[allow(clippy::type_complexity)]
+    fn write_fk_streamed(
+        &self,
+        path: &Path,
+        len: u64,
+        fill: &mut dyn FnMut(
+            &mut dyn FnMut(&[u8]) -> Result<(), FormatError>,
+        ) -> Result<(), FormatError>,
+    ) -> Result<(), FormatError> {
         let writer = encoder(self, false);
         write_atomic_with(path, &mut |file| {
-            let mut fill = |emit: &mut dyn FnMut(&[u8]) -> Result<(), FormatError>| {
-                let mut piece = Vec::new();
-                match fk {
-                    StoredMatrix::F32(v) => {
-                        for values in v.chunks(FK_PIECE) {
-                            piece.clear();
-                            bytes::put_f32s(&mut piece, values);
-                            emit(&piece)?;
-                        }
-                    }
-                    StoredMatrix::F16(v) => {
-                        for values in v.chunks(FK_PIECE) {
-                            piece.clear();
-                            bytes::put_u16s(&mut piece, values);
-                            emit(&piece)?;
-                        }
-                    }
-                }
-                Ok(())
-            };
             writer.write_streamed(
                 file,
                 Streamed {
                     at: SECTIONS_BEFORE_FK,
                     kind: kind::FK,
                     required: true,
-                    len: (fk.len() * value_bytes) as u64,
-                    fill: &mut fill,
+                    len,
+                    fill: &mut *fill,
                 },
             )
         })
-        .map_err(context)
+        .map_err(|e| e.context(path.display()))
     }
 }
 
@@ -153,40 +157,21 @@ impl OperatorFile {
         self.check(true).map_err(context)?;
         let (k, precision) = (self.k as usize, self.precision);
         let sizes = Sizes::new(self.n, self.k, self.channels).map_err(context)?;
-        let value_bytes = match precision {
-            Precision::F32 => 4,
-            Precision::F16 => 2,
-        };
-        let writer = encoder(self, false);
-        write_atomic_with(path, &mut |file| {
-            let mut row = 0usize;
-            let mut fill = |emit: &mut dyn FnMut(&[u8]) -> Result<(), FormatError>| {
-                rows(&mut |piece: &StoredMatrix| {
-                    if piece.precision() != precision || !piece.len().is_multiple_of(k.max(1)) {
-                        return Err(FormatError::invalid(format!(
-                            "section FK: a piece of {} {:?} values is not whole rows of {k} {precision:?} values",
-                            piece.len(),
-                            piece.precision()
-                        )));
-                    }
-                    check_fk(piece, k)
-                        .map_err(|e| e.context(format_args!("rows from element {row}")))?;
-                    row += piece.len() / k.max(1);
-                    emit(&matrix_payload(piece))
-                })
-            };
-            writer.write_streamed(
-                file,
-                Streamed {
-                    at: SECTIONS_BEFORE_FK,
-                    kind: kind::FK,
-                    required: true,
-                    len: (sizes.fk * value_bytes) as u64,
-                    fill: &mut fill,
-                },
-            )
+        let mut row = 0usize;
+        self.write_fk_streamed(path, (sizes.fk * precision.size()) as u64, &mut |emit| {
+            rows(&mut |piece: &StoredMatrix| {
+                if piece.precision() != precision || !piece.len().is_multiple_of(k.max(1)) {
+                    return Err(FormatError::invalid(format!(
+                        "section FK: a piece of {} {:?} values is not whole rows of {k} {precision:?} values",
+                        piece.len(),
+                        piece.precision()
+                    )));
+                }
+                check_fk(piece, k).map_err(|e| e.context(format_args!("rows from element {row}")))?;
+                row += piece.len() / k.max(1);
+                emit(&matrix_payload(piece))
+            })
         })
-        .map_err(context)
     }
 }
 
