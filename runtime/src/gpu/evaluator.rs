@@ -78,9 +78,9 @@ struct Slot {
 pub(super) struct Timestamps {
     /// [`BURST_PAIRS`] pairs of queries: pair 0 for a frame or read pass, all of them for
     /// [`GpuEvaluator::burst`].
-    pub(super) set: wgpu::QuerySet,
-    pub(super) resolve: wgpu::Buffer,
-    pub(super) readback: wgpu::Buffer,
+    set: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    readback: wgpu::Buffer,
     period_ns: f32,
     /// The pair the next pass writes (0 outside a burst).
     pair: u32,
@@ -451,8 +451,7 @@ impl GpuEvaluator {
         }
         self.set_pair(0);
         let t = self.timestamps.as_ref().expect("checked above");
-        encoder.resolve_query_set(&t.set, 0..6 * frames, &t.resolve, 0);
-        encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.readback, 0, 48 * u64::from(frames));
+        t.resolve(&mut encoder, 3 * frames);
         self.gpu.queue.submit([encoder.finish()]);
         let times = t.read_pairs(&self.gpu, 3 * frames as usize)?;
         let (f, r) = times.split_at(frames as usize);
@@ -680,14 +679,7 @@ impl GpuEvaluator {
     fn pass_descriptor(&self, label: &'static str) -> wgpu::ComputePassDescriptor<'_> {
         wgpu::ComputePassDescriptor {
             label: Some(label),
-            timestamp_writes: self
-                .timestamps
-                .as_ref()
-                .map(|t| wgpu::ComputePassTimestampWrites {
-                    query_set: &t.set,
-                    beginning_of_pass_write_index: Some(2 * t.pair),
-                    end_of_pass_write_index: Some(2 * t.pair + 1),
-                }),
+            timestamp_writes: self.timestamps.as_ref().map(|t| t.writes(t.pair)),
         }
     }
 
@@ -748,8 +740,7 @@ impl GpuEvaluator {
 
     fn resolve_timestamps(&self, encoder: &mut wgpu::CommandEncoder) {
         if let Some(t) = &self.timestamps {
-            encoder.resolve_query_set(&t.set, 0..2, &t.resolve, 0);
-            encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.readback, 0, 16);
+            t.resolve(encoder, 1);
         }
     }
 
@@ -858,6 +849,22 @@ impl GpuEvaluator {
 }
 
 impl Timestamps {
+    /// The writes of query pair `pair` at the start and end of a compute pass.
+    pub(super) fn writes(&self, pair: u32) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.set,
+            beginning_of_pass_write_index: Some(2 * pair),
+            end_of_pass_write_index: Some(2 * pair + 1),
+        }
+    }
+
+    /// Records the resolution of the first `pairs` query pairs into the mappable buffer, for
+    /// [`read_pairs`](Self::read_pairs) once `encoder` is submitted.
+    pub(super) fn resolve(&self, encoder: &mut wgpu::CommandEncoder, pairs: u32) {
+        encoder.resolve_query_set(&self.set, 0..2 * pairs, &self.resolve, 0);
+        encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, 16 * u64::from(pairs));
+    }
+
     /// Waits for the resolved queries in `readback` and returns the first `pairs` pairs'
     /// durations (end − start of each pair, in the device's timestamp period).
     pub(super) fn read_pairs(&self, gpu: &Gpu, pairs: usize) -> Result<Vec<Duration>, GpuError> {

@@ -262,15 +262,9 @@ impl GpuLightmap {
         }
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         for i in 0..fills {
-            let writes = wgpu::ComputePassTimestampWrites {
-                query_set: &t.set,
-                beginning_of_pass_write_index: Some(2 * i),
-                end_of_pass_write_index: Some(2 * i + 1),
-            };
-            self.encode_timed(radiosity, &mut encoder, Some(writes))?;
+            self.encode_timed(radiosity, &mut encoder, Some(t.writes(i)))?;
         }
-        encoder.resolve_query_set(&t.set, 0..2 * fills, &t.resolve, 0);
-        encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.readback, 0, 16 * u64::from(fills));
+        t.resolve(&mut encoder, fills);
         self.gpu.queue.submit([encoder.finish()]);
         Ok(Some(t.read_pairs(&self.gpu, fills as usize)?))
     }
