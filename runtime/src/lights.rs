@@ -81,14 +81,20 @@ impl Light {
         }
     }
 
-    /// The light with its strength set to 1: what its shadows and falloff depend on.
-    pub(crate) fn shape(&self) -> Light {
+    /// The same light with its colour times intensity (W/sr, or W/m² for a directional light)
+    /// set to `strength`.
+    pub fn with_strength(&self, strength: [f32; 3]) -> Light {
         let mut l = *self;
         match &mut l {
-            Light::Point { intensity, .. } | Light::Spot { intensity, .. } => *intensity = [1.0; 3],
-            Light::Directional { irradiance, .. } => *irradiance = [1.0; 3],
+            Light::Point { intensity, .. } | Light::Spot { intensity, .. } => *intensity = strength,
+            Light::Directional { irradiance, .. } => *irradiance = strength,
         }
         l
+    }
+
+    /// The light with its strength set to 1: what its shadows and falloff depend on.
+    pub(crate) fn shape(&self) -> Light {
+        self.with_strength([1.0; 3])
     }
 
     /// Checks the values (finite, non-negative strengths, non-zero directions, cones in

@@ -632,37 +632,8 @@ fn still_lights_are_not_traced_again() {
     let e0 = base(n);
     let all = lights();
     let scaled = |lights: &[Light], s: f32| -> Vec<Light> {
-        lights
-            .iter()
-            .map(|l| match *l {
-                Light::Point {
-                    position,
-                    intensity,
-                } => Light::Point {
-                    position,
-                    intensity: intensity.map(|c| c * s),
-                },
-                Light::Spot {
-                    position,
-                    direction,
-                    intensity,
-                    inner,
-                    outer,
-                } => Light::Spot {
-                    position,
-                    direction,
-                    intensity: intensity.map(|c| c * s),
-                    inner,
-                    outer,
-                },
-                Light::Directional {
-                    direction,
-                    irradiance,
-                } => Light::Directional {
-                    direction,
-                    irradiance: irradiance.map(|c| c * s),
-                },
-            })
+        (lights.iter())
+            .map(|l| l.with_strength(l.strength().map(|c| c * s)))
             .collect()
     };
     let mut moved = scaled(&all, 1.5);
