@@ -219,18 +219,6 @@ pub(crate) fn f32_matrix(fk: &[f64]) -> StoredMatrix {
     StoredMatrix::F32(fk.iter().map(|&f| f as f32).collect())
 }
 
-#[cfg(test)]
-mod into_f32_tests {
-    #[test]
-    fn into_f32_rounds_as_f32_matrix() {
-        for n in [0usize, 1, 5, (1 << 16) + 3, 40 * (1 << 16) + 7] {
-            let fk: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin() / 3.0).collect();
-            let want = super::f32_matrix(&fk);
-            assert_eq!(super::StoredMatrix::F32(super::into_f32(fk)), want, "{n}");
-        }
-    }
-}
-
 /// How the operator is stored in the file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Storage {
@@ -364,4 +352,16 @@ pub(crate) fn surface_ranges(mesh: &Mesh, surfaces: &[String]) -> Vec<SurfaceRan
         }
     }
     out
+}
+
+#[cfg(test)]
+mod into_f32_tests {
+    #[test]
+    fn into_f32_rounds_as_f32_matrix() {
+        for n in [0usize, 1, 5, (1 << 16) + 3, 40 * (1 << 16) + 7] {
+            let fk: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin() / 3.0).collect();
+            let want = super::f32_matrix(&fk);
+            assert_eq!(super::StoredMatrix::F32(super::into_f32(fk)), want, "{n}");
+        }
+    }
 }
