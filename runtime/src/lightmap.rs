@@ -41,6 +41,9 @@
 
 use lrr_formats::{OperatorData, OperatorFile};
 
+use std::sync::Barrier;
+use std::sync::atomic::{AtomicU32, Ordering};
+
 use crate::error::{RuntimeError, input};
 use crate::smooth::mean_value_weights;
 
@@ -71,29 +74,89 @@ pub struct Lightmap {
     pub(crate) height: usize,
     pub(crate) padding: usize,
     pub(crate) values: LightmapValues,
-    /// Per sample, in increasing texel order: its texel, face and point.
-    pub(crate) texel: Vec<u32>,
-    pub(crate) face: Vec<u32>,
+    /// The samples in runs, in increasing texel order: a run is consecutive texels of one row
+    /// that one face covers. Run `r` holds samples `run_start[r]..run_start[r + 1]` at texels
+    /// from `run_texel[r]` on, of face `run_face[r]`, and reads `run_index[4 * r..4 * r + 4]`
+    /// (smooth: the face's corners' smooth vertices, unused corners 0) or `run_index[r]`
+    /// (flat: the element's original id).
+    run_start: Vec<u32>,
+    run_texel: Vec<u32>,
+    run_face: Vec<u32>,
+    run_index: Vec<u32>,
+    /// Per sample: the point it shows and (smooth) its corners' weights times 1/π (unused
+    /// corners 0).
     point: Vec<[f32; 3]>,
-    /// Smooth: 4 per sample, smooth vertex and weight (times 1/π; unused corners weight 0).
-    /// Flat: 1 per sample, the element's original id, and no weights (1/π).
-    pub(crate) index: Vec<u32>,
-    pub(crate) weight: Vec<f32>,
+    weight: Vec<[f32; 4]>,
+    /// One past the largest element id a fill reads (0: none).
+    elements: usize,
     /// The smooth vertices' weights over elements (original ids), SMOOTH's rows.
     vertex_offsets: Vec<u32>,
     vertex_elements: Vec<u32>,
     vertex_weights: Vec<f32>,
     /// This frame's smooth-vertex values.
-    vertices: Vec<[f32; 3]>,
+    vertices: VertexValues,
     /// Dilation: `ring_ends[r]` ends ring `r` in `dilated`; each dilated texel's filled
-    /// neighbours are `neighbours[neighbour_ends[i - 1]..neighbour_ends[i]]`.
+    /// neighbours are `neighbours[neighbour_ends[i - 1]..neighbour_ends[i]]`. Within a ring,
+    /// texels are ordered by [`Bands`]: band 0's, band 1's, …, then the deferred ones.
     pub(crate) ring_ends: Vec<u32>,
     pub(crate) dilated: Vec<u32>,
     pub(crate) neighbour_ends: Vec<u32>,
     pub(crate) neighbours: Vec<u32>,
-    /// A ring's values before they are written.
-    ring_values: Vec<[f32; 3]>,
+    /// How a fill splits over `threads` threads.
+    bands: Bands,
     threads: usize,
+}
+
+/// The split of a fill over threads. Band `b` takes a share of the smooth vertices
+/// ([`Lightmap::vertex_values`]), then runs `runs[b]..runs[b + 1]` and texels
+/// `texels[b]..texels[b + 1]` (from its first run's texel to the next band's; the first from
+/// 0, the last to the end), writes them, and dilates the texels of its own range whose
+/// neighbours, and theirs ring after ring, lie in its range too: in ring `r` (with `c`
+/// bands), `parts[r * (c + 1) + b]..parts[r * (c + 1) + b + 1]` of `dilated`. The rest of
+/// ring `r`, from `parts[r * (c + 1) + c]` to `ring_ends[r]`, is deferred: dilated by the
+/// calling thread once the bands are done (texels near a band's edge: a few rows' worth). So
+/// a fill spawns its threads once, and the texels are the same for any number of threads:
+/// each dilated texel reads the same neighbours, already final, in the same order.
+#[derive(Debug, Clone, Default)]
+struct Bands {
+    runs: Vec<usize>,
+    texels: Vec<usize>,
+    parts: Vec<u32>,
+}
+
+impl Bands {
+    fn count(&self) -> usize {
+        self.runs.len() - 1
+    }
+}
+
+/// Smooth-vertex values (`r, g, b, 0` as f32 bits): each thread of a fill writes its share,
+/// and after a barrier every thread reads them all. Relaxed atomics are plain loads and stores
+/// here; the barrier orders them.
+#[derive(Debug, Default)]
+struct VertexValues(Vec<[AtomicU32; 4]>);
+
+impl VertexValues {
+    fn new(count: usize) -> Self {
+        Self(
+            (0..count)
+                .map(|_| [0, 0, 0, 0].map(AtomicU32::new))
+                .collect(),
+        )
+    }
+
+    #[inline(always)]
+    fn get(&self, v: usize) -> [f32; 4] {
+        let x = &self.0[v];
+        let at = |c: usize| f32::from_bits(x[c].load(Ordering::Relaxed));
+        [at(0), at(1), at(2), at(3)]
+    }
+}
+
+impl Clone for VertexValues {
+    fn clone(&self) -> Self {
+        Self::new(self.0.len())
+    }
 }
 
 impl Lightmap {
@@ -193,20 +256,22 @@ impl Lightmap {
             height,
             padding,
             values,
-            texel: Vec::new(),
-            face: Vec::new(),
+            run_start: vec![0],
+            run_texel: Vec::new(),
+            run_face: Vec::new(),
+            run_index: Vec::new(),
             point: Vec::new(),
-            index: Vec::new(),
             weight: Vec::new(),
+            elements: 0,
             vertex_offsets: Vec::new(),
             vertex_elements: Vec::new(),
             vertex_weights: Vec::new(),
-            vertices: Vec::new(),
+            vertices: VertexValues::default(),
             ring_ends: Vec::new(),
             dilated: Vec::new(),
             neighbour_ends: Vec::new(),
             neighbours: Vec::new(),
-            ring_values: Vec::new(),
+            bands: Bands::default(),
             threads: 1,
         };
         if values == LightmapValues::Smooth {
@@ -224,13 +289,20 @@ impl Lightmap {
                 .map(|&p| file.order[p as usize])
                 .collect();
             map.vertex_weights = s.weights.clone();
-            map.vertices = vec![[0.0; 3]; r.vertex_count()];
+            map.vertices = VertexValues::new(r.vertex_count());
+            map.elements = map
+                .vertex_elements
+                .iter()
+                .map(|&e| e as usize + 1)
+                .max()
+                .unwrap_or(0);
         }
         let hidden = hidden_elements(file);
         let mut raster = Raster::new(width, height);
         raster.samples(file, uv, &hidden);
         map.weigh(file, &raster.samples);
         map.rings(&mut raster.filled);
+        map.split(1);
         Ok(map)
     }
 
@@ -240,6 +312,7 @@ impl Lightmap {
             0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
             t => t,
         };
+        self.split(self.threads);
     }
 
     /// Texels across.
@@ -264,7 +337,7 @@ impl Lightmap {
 
     /// Number of samples (texels a face covers).
     pub fn sample_count(&self) -> usize {
-        self.texel.len()
+        self.point.len()
     }
 
     /// Number of texels dilation fills.
@@ -274,18 +347,42 @@ impl Lightmap {
 
     /// The samples in increasing texel order.
     pub fn samples(&self) -> impl ExactSizeIterator<Item = LightmapSample> + '_ {
-        (0..self.texel.len()).map(|i| LightmapSample {
-            texel: self.texel[i] as usize,
-            face: self.face[i] as usize,
-            point: self.point[i],
+        let mut run = 0;
+        (0..self.point.len()).map(move |i| {
+            while self.run_start[run + 1] as usize <= i {
+                run += 1;
+            }
+            LightmapSample {
+                texel: (self.run_texel[run] + i as u32 - self.run_start[run]) as usize,
+                face: self.run_face[run] as usize,
+                point: self.point[i],
+            }
         })
     }
 
-    /// Bytes one [`fill`](Self::fill) must at least move: the sample table it reads (texel,
-    /// indices, weights), the dilation table, the smooth vertices' rows, and the texels it
-    /// writes. What a roofline compares a fill's time with.
+    /// The samples as the GPU's fill reads them: per sample its texel and either four smooth
+    /// vertices and weights (times 1/π) or one element.
+    pub(crate) fn sample_table(&self) -> (Vec<u32>, Vec<u32>, Vec<f32>) {
+        let corners = match self.values {
+            LightmapValues::Smooth => 4,
+            LightmapValues::Flat => 1,
+        };
+        let (mut texel, mut index) = (Vec::new(), Vec::new());
+        for r in 0..self.run_texel.len() {
+            for j in 0..self.run_start[r + 1] - self.run_start[r] {
+                texel.push(self.run_texel[r] + j);
+                index.extend_from_slice(&self.run_index[corners * r..corners * (r + 1)]);
+            }
+        }
+        (texel, index, self.weight.as_flattened().to_vec())
+    }
+
+    /// Bytes one [`fill`](Self::fill) must at least move: the sample table it reads (runs,
+    /// weights), the dilation table, the smooth vertices' rows, and the texels it writes.
+    /// What a roofline compares a fill's time with.
     pub fn fill_bytes(&self) -> usize {
-        4 * (self.texel.len() + self.index.len() + self.weight.len())
+        4 * (self.run_start.len() + self.run_texel.len() + self.run_index.len())
+            + 16 * self.weight.len()
             + 4 * (self.dilated.len() + self.neighbour_ends.len() + self.neighbours.len())
             + 4 * (self.vertex_offsets.len()
                 + self.vertex_elements.len()
@@ -301,8 +398,7 @@ impl Lightmap {
         radiosity: &[[f32; 3]],
         out: &mut [[f32; 3]],
     ) -> Result<(), RuntimeError> {
-        self.fill_samples(radiosity, out)?;
-        self.dilate(out)
+        self.run(Some(radiosity), out, true)
     }
 
     /// Writes every texel of `out`: the samples' `B/π`, zero elsewhere (dilation not done).
@@ -311,142 +407,202 @@ impl Lightmap {
         radiosity: &[[f32; 3]],
         out: &mut [[f32; 3]],
     ) -> Result<(), RuntimeError> {
-        self.check_out(out)?;
-        if self.values == LightmapValues::Smooth {
-            self.vertex_values(radiosity)?;
-        } else if let Some(bad) = self.index.iter().find(|&&e| e as usize >= radiosity.len()) {
-            return Err(input(format!(
-                "lightmap: {} element values, but element {bad} is sampled; pass the frame's \
-                 radiosity of every element",
-                radiosity.len()
-            )));
-        }
-        let threads = self.threads.max(1).min(self.texel.len().max(1));
-        let chunk = self.texel.len().div_ceil(threads).max(1);
-        let this = &*self;
-        let table: &[[f32; 3]] = match self.values {
-            LightmapValues::Smooth => &self.vertices,
-            LightmapValues::Flat => radiosity,
-        };
-        // Chunk c takes samples c·chunk.. and the texels from its first sample's up to the
-        // next chunk's first sample's (the first from 0, the last to the end).
-        let mut rest = out;
-        let mut start = 0usize;
-        let mut parts = Vec::with_capacity(threads);
-        for c in 0..threads {
-            let samples =
-                (c * chunk).min(this.texel.len())..((c + 1) * chunk).min(this.texel.len());
-            let end = match samples.end < this.texel.len() && c + 1 < threads {
-                true => this.texel[samples.end] as usize,
-                false => this.width * this.height,
-            };
-            let (mine, tail) = rest.split_at_mut(end - start);
-            parts.push((samples, start, mine));
-            rest = tail;
-            start = end;
-        }
-        if threads == 1 {
-            for (samples, first, texels) in parts {
-                this.fill_range(table, samples, first, texels);
-            }
-        } else {
-            std::thread::scope(|s| {
-                for (samples, first, texels) in parts {
-                    s.spawn(move || this.fill_range(table, samples, first, texels));
-                }
-            });
-        }
-        Ok(())
-    }
-
-    /// Samples `samples` into `texels` (texel `first` onwards), zeroing the texels between.
-    fn fill_range(
-        &self,
-        table: &[[f32; 3]],
-        samples: std::ops::Range<usize>,
-        first: usize,
-        texels: &mut [[f32; 3]],
-    ) {
-        let mut next = 0usize;
-        for i in samples {
-            let t = self.texel[i] as usize - first;
-            texels[next..t].fill([0.0; 3]);
-            texels[t] = match self.values {
-                LightmapValues::Smooth => {
-                    let (idx, w) = (
-                        &self.index[4 * i..4 * i + 4],
-                        &self.weight[4 * i..4 * i + 4],
-                    );
-                    // In f64, as `Reconstruction::at`: within half an f32 ulp of the exact sum
-                    // of the stored terms, so a frame scaled by s gives texels scaled by s.
-                    let mut v = [0.0f64; 3];
-                    for k in 0..4 {
-                        let x = table[idx[k] as usize];
-                        for c in 0..3 {
-                            v[c] += f64::from(w[k]) * f64::from(x[c]);
-                        }
-                    }
-                    v.map(|x| x as f32)
-                }
-                LightmapValues::Flat => table[self.index[i] as usize].map(|x| x / PI_F32),
-            };
-            next = t + 1;
-        }
-        texels[next..].fill([0.0; 3]);
+        self.run(Some(radiosity), out, false)
     }
 
     /// Dilates `out` (filled by [`fill_samples`](Self::fill_samples), perhaps with light added
     /// at the samples) `padding` rings deep.
     pub fn dilate(&mut self, out: &mut [[f32; 3]]) -> Result<(), RuntimeError> {
+        self.run(None, out, true)
+    }
+
+    /// The samples' pass of `radiosity` and/or the dilation, with the threads spawned once.
+    fn run(
+        &mut self,
+        radiosity: Option<&[[f32; 3]]>,
+        out: &mut [[f32; 3]],
+        dilate: bool,
+    ) -> Result<(), RuntimeError> {
         self.check_out(out)?;
-        let mut values = std::mem::take(&mut self.ring_values);
-        let mut begin = 0;
-        for &end in &self.ring_ends {
-            let ring = begin..end as usize;
-            values.clear();
-            values.resize(ring.len(), [0.0; 3]);
-            // Each thread takes a share of the ring's texels, reading the texels of the rings
-            // before; the values are written once all are known.
-            let threads = self.threads.max(1).min(ring.len().div_ceil(4096)).max(1);
-            let chunk = ring.len().div_ceil(threads).max(1);
-            let this = &*self;
-            let shown = &*out;
-            if threads == 1 {
-                this.ring_means(ring.start, &mut values, shown);
-            } else {
-                std::thread::scope(|s| {
-                    for (c, part) in values.chunks_mut(chunk).enumerate() {
-                        s.spawn(move || this.ring_means(ring.start + c * chunk, part, shown));
-                    }
-                });
-            }
-            for (i, v) in ring.zip(&values) {
-                out[self.dilated[i] as usize] = *v;
-            }
-            begin = end as usize;
+        if let Some(b) = radiosity
+            && b.len() < self.elements
+        {
+            return Err(input(format!(
+                "lightmap: {} element values, but element {} is sampled; pass the frame's \
+                 radiosity of every element",
+                b.len(),
+                self.elements - 1
+            )));
         }
-        self.ring_values = values;
+        let count = self.bands.count();
+        let barrier = Barrier::new(count);
+        let this = &*self;
+        let band = |b: usize, texels: &mut [[f32; 3]]| {
+            if let Some(radiosity) = radiosity
+                && this.values == LightmapValues::Smooth
+            {
+                this.vertex_values(b, radiosity);
+                if count > 1 {
+                    barrier.wait();
+                }
+            }
+            this.band(b, radiosity, dilate, texels);
+        };
+        let band = &band;
+        if count == 1 {
+            // No scope: one thread allocates nothing.
+            band(0, out);
+        } else {
+            let mut rest = &mut *out;
+            let mut first = None;
+            std::thread::scope(|s| {
+                for b in 0..count {
+                    let len = this.bands.texels[b + 1] - this.bands.texels[b];
+                    let (mine, tail) = rest.split_at_mut(len);
+                    rest = tail;
+                    match b {
+                        0 => first = Some(mine),
+                        _ => {
+                            s.spawn(move || band(b, mine));
+                        }
+                    }
+                }
+                band(0, first.take().expect("at least one band"));
+            });
+        }
+        if dilate {
+            for r in 0..self.ring_ends.len() {
+                let deferred = self.bands.parts[r * (count + 1) + count] as usize;
+                for i in deferred..self.ring_ends[r] as usize {
+                    out[self.dilated[i] as usize] = self.ring_mean(i, out, 0);
+                }
+            }
+        }
         Ok(())
     }
 
-    /// The means of the filled neighbours of dilated texels `first..first + values.len()`.
-    fn ring_means(&self, first: usize, values: &mut [[f32; 3]], out: &[[f32; 3]]) {
-        for (i, value) in (first..).zip(values) {
-            let from = if i == 0 {
-                0
-            } else {
-                self.neighbour_ends[i - 1] as usize
-            };
-            let around = &self.neighbours[from..self.neighbour_ends[i] as usize];
-            let mut sum = [0.0f32; 3];
-            for &j in around {
-                for c in 0..3 {
-                    sum[c] += out[j as usize][c];
+    /// Band `b`'s share of a fill into `texels` (its range of the atlas): with `radiosity`,
+    /// its runs, zero between them; with `dilate`, its own dilated texels. Row by row: ring
+    /// `r` of row `y` right after the samples of row `y + r` (the texels it reads are then
+    /// final), while the rows it reads are still in cache.
+    fn band(
+        &self,
+        b: usize,
+        radiosity: Option<&[[f32; 3]]>,
+        dilate: bool,
+        texels: &mut [[f32; 3]],
+    ) {
+        let w = self.width;
+        let count = self.bands.count();
+        let (start, end) = (self.bands.texels[b], self.bands.texels[b + 1]);
+        if start == end {
+            return;
+        }
+        let (mut run, last) = (self.bands.runs[b], self.bands.runs[b + 1]);
+        let mut next = start;
+        let rings = if dilate { self.ring_ends.len() } else { 0 };
+        let mut cursor = [0usize; MAX_RINGS];
+        let mut stop = [0usize; MAX_RINGS];
+        for r in 0..rings {
+            cursor[r] = self.bands.parts[r * (count + 1) + b] as usize;
+            stop[r] = self.bands.parts[r * (count + 1) + b + 1] as usize;
+        }
+        let (first_row, last_row) = (start / w, (end - 1) / w);
+        for y in first_row..=last_row + rings {
+            if let Some(radiosity) = radiosity
+                && y <= last_row
+            {
+                let row_end = ((y + 1) * w).min(end);
+                while run < last && (self.run_texel[run] as usize) < row_end {
+                    let t = self.run_texel[run] as usize;
+                    let samples = self.run_start[run] as usize..self.run_start[run + 1] as usize;
+                    texels[next - start..t - start].as_flattened_mut().fill(0.0);
+                    next = t + samples.len();
+                    let mine = &mut texels[t - start..next - start];
+                    self.run_values(run, samples, radiosity, mine);
+                    run += 1;
+                }
+                texels[next - start..row_end - start]
+                    .as_flattened_mut()
+                    .fill(0.0);
+                next = row_end;
+            }
+            // Ring r + 1 up to row y - r - 1.
+            for r in 0..rings.min(y + 1) {
+                let before = (y - r) * w;
+                while cursor[r] < stop[r] && (self.dilated[cursor[r]] as usize) < before {
+                    let t = self.dilated[cursor[r]] as usize;
+                    texels[t - start] = self.ring_mean(cursor[r], texels, start);
+                    cursor[r] += 1;
                 }
             }
-            let scale = 1.0 / around.len() as f32;
-            *value = sum.map(|x| x * scale);
         }
+    }
+
+    /// The values of run `run`'s `samples` into `texels`. Smooth: `Σ w·x` over the corners in
+    /// f64, as `Reconstruction::at`: within half an f32 ulp of the exact sum of the stored
+    /// terms, so a frame scaled by s gives texels scaled by s (the group layers of `lrr
+    /// export` rely on it).
+    #[inline(always)]
+    fn run_values(
+        &self,
+        run: usize,
+        samples: std::ops::Range<usize>,
+        radiosity: &[[f32; 3]],
+        texels: &mut [[f32; 3]],
+    ) {
+        match self.values {
+            LightmapValues::Smooth => {
+                let c = &self.run_index[4 * run..4 * run + 4];
+                let x = [
+                    self.vertices.get(c[0] as usize),
+                    self.vertices.get(c[1] as usize),
+                    self.vertices.get(c[2] as usize),
+                    self.vertices.get(c[3] as usize),
+                ];
+                let mut xd = [[0.0f64; 4]; 4];
+                for k in 0..4 {
+                    for c in 0..4 {
+                        xd[k][c] = f64::from(x[k][c]);
+                    }
+                }
+                let x = xd;
+                for (texel, w) in texels.iter_mut().zip(&self.weight[samples]) {
+                    let mut v = [0.0f64; 4];
+                    for k in 0..4 {
+                        let w = f64::from(w[k]);
+                        for c in 0..4 {
+                            v[c] += w * x[k][c];
+                        }
+                    }
+                    *texel = [v[0] as f32, v[1] as f32, v[2] as f32];
+                }
+            }
+            LightmapValues::Flat => {
+                let e = radiosity[self.run_index[run] as usize];
+                texels.fill(e.map(|x| x / PI_F32));
+            }
+        }
+    }
+
+    /// The mean of the filled neighbours of dilated texel `i`, read in `texels` (the atlas
+    /// from texel `start` on).
+    fn ring_mean(&self, i: usize, texels: &[[f32; 3]], start: usize) -> [f32; 3] {
+        let from = if i == 0 {
+            0
+        } else {
+            self.neighbour_ends[i - 1] as usize
+        };
+        let around = &self.neighbours[from..self.neighbour_ends[i] as usize];
+        let mut sum = [0.0f32; 3];
+        for &j in around {
+            let v = texels[j as usize - start];
+            for c in 0..3 {
+                sum[c] += v[c];
+            }
+        }
+        let scale = 1.0 / around.len() as f32;
+        sum.map(|x| x * scale)
     }
 
     fn check_out(&self, out: &[[f32; 3]]) -> Result<(), RuntimeError> {
@@ -461,22 +617,14 @@ impl Lightmap {
         Ok(())
     }
 
-    /// This frame's smooth-vertex values from the element values, clamped at zero (a vertex on
-    /// a surface's boundary extrapolates, with negative weights), as
+    /// Band `b`'s share of this frame's smooth-vertex values from the element values `b`
+    /// (checked long enough), clamped at zero (a vertex on a surface's boundary extrapolates,
+    /// with negative weights), as
     /// [`Reconstruction::vertex_values`](crate::Reconstruction::vertex_values).
-    fn vertex_values(&mut self, b: &[[f32; 3]]) -> Result<(), RuntimeError> {
-        if let Some(bad) = self
-            .vertex_elements
-            .iter()
-            .find(|&&e| e as usize >= b.len())
-        {
-            return Err(input(format!(
-                "lightmap: {} element values, but element {bad} is sampled; pass the frame's \
-                 radiosity of every element",
-                b.len()
-            )));
-        }
-        for (v, value) in self.vertices.iter_mut().enumerate() {
+    fn vertex_values(&self, band: usize, b: &[[f32; 3]]) {
+        let n = self.vertices.0.len();
+        let per = n.div_ceil(self.bands.count()).max(1);
+        for v in (band * per).min(n)..((band + 1) * per).min(n) {
             let mut sum = [0.0f64; 3];
             for j in self.vertex_offsets[v] as usize..self.vertex_offsets[v + 1] as usize {
                 let e = b[self.vertex_elements[j] as usize];
@@ -485,42 +633,138 @@ impl Lightmap {
                     sum[c] += w * f64::from(e[c]);
                 }
             }
-            *value = sum.map(|x| x.max(0.0) as f32);
+            for c in 0..3 {
+                let x = sum[c].max(0.0) as f32;
+                self.vertices.0[v][c].store(x.to_bits(), Ordering::Relaxed);
+            }
         }
-        Ok(())
     }
 
     /// The samples' reconstruction weights (times 1/π).
     fn weigh(&mut self, file: &OperatorFile, samples: &[Sample]) {
         let faces = file.faces();
         let g = faces.geometry;
-        for s in samples {
-            self.texel.push(s.texel);
-            self.face.push(s.face);
-            self.point.push(s.point);
+        for (i, s) in samples.iter().enumerate() {
             let f = s.face as usize;
-            match self.values {
-                LightmapValues::Flat => {
-                    self.index.push(file.order[faces.element(f)]);
+            let follows = i > 0
+                && s.texel == samples[i - 1].texel + 1
+                && s.face == samples[i - 1].face
+                && !(s.texel as usize).is_multiple_of(self.width);
+            if !follows {
+                if i > 0 {
+                    self.run_start.push(i as u32);
                 }
-                LightmapValues::Smooth => {
-                    let corners = &file.display.smooth.as_ref().expect("smooth").corners;
-                    let count = usize::from(g.vertex_count[f]);
-                    let mut v = [[0.0f64; 3]; 4];
-                    for (i, vi) in v.iter_mut().enumerate().take(count) {
-                        *vi = [0, 1, 2].map(|c| f64::from(g.vertices[12 * f + 3 * i + c]));
+                self.run_texel.push(s.texel);
+                self.run_face.push(s.face);
+                match self.values {
+                    LightmapValues::Flat => {
+                        let e = file.order[faces.element(f)];
+                        self.elements = self.elements.max(e as usize + 1);
+                        self.run_index.push(e);
                     }
-                    let normal = [0, 1, 2].map(|c| f64::from(g.normals[3 * f + c]));
-                    let w = mean_value_weights(&v[..count], normal, s.point.map(f64::from));
-                    for k in 0..4 {
-                        let used = k < count;
-                        self.index.push(if used { corners[4 * f + k] } else { 0 });
-                        self.weight
-                            .push(if used { (w[k] / PI) as f32 } else { 0.0 });
+                    LightmapValues::Smooth => {
+                        let corners = &file.display.smooth.as_ref().expect("smooth").corners;
+                        for k in 0..4 {
+                            let used = k < usize::from(g.vertex_count[f]);
+                            self.run_index
+                                .push(if used { corners[4 * f + k] } else { 0 });
+                        }
                     }
                 }
             }
+            self.point.push(s.point);
+            if self.values == LightmapValues::Smooth {
+                let count = usize::from(g.vertex_count[f]);
+                let mut v = [[0.0f64; 3]; 4];
+                for (i, vi) in v.iter_mut().enumerate().take(count) {
+                    *vi = [0, 1, 2].map(|c| f64::from(g.vertices[12 * f + 3 * i + c]));
+                }
+                let normal = [0, 1, 2].map(|c| f64::from(g.normals[3 * f + c]));
+                let w = mean_value_weights(&v[..count], normal, s.point.map(f64::from));
+                self.weight
+                    .push([0, 1, 2, 3].map(|k| if k < count { (w[k] / PI) as f32 } else { 0.0 }));
+            }
         }
+        self.run_start.push(samples.len() as u32);
+    }
+
+    /// Splits the fill over `threads` threads ([`Bands`]): bands of about equal sample counts
+    /// (whole runs), and each ring's dilated texels reordered band by band, the deferred ones
+    /// last.
+    fn split(&mut self, threads: usize) {
+        let (n, runs) = (self.point.len(), self.run_texel.len());
+        let count = threads.max(1).min(runs.max(1));
+        let chunk = n.div_ceil(count).max(1);
+        // Band b's first run: the first whose samples start at b·chunk or later.
+        let bands: Vec<usize> = (0..=count)
+            .map(|b| match b {
+                0 => 0,
+                b if b == count => runs,
+                b => self
+                    .run_start
+                    .partition_point(|&s| (s as usize) < b * chunk)
+                    .min(runs),
+            })
+            .collect();
+        let texels: Vec<usize> = (0..=count)
+            .map(|b| match b {
+                0 => 0,
+                b if b == count || bands[b] >= runs => self.width * self.height,
+                b => self.run_texel[bands[b]] as usize,
+            })
+            .collect();
+        let band_of = |t: usize| texels.partition_point(|&start| start <= t) - 1;
+        // Per texel: the band whose thread dilates it, or `count` when deferred.
+        let mut owner = vec![0u32; self.width * self.height];
+        for (b, w) in texels.windows(2).enumerate() {
+            owner[w[0]..w[1]].fill(b as u32);
+        }
+        let (mut dilated, mut ends, mut neighbours) = (vec![], vec![], vec![]);
+        let mut parts = Vec::with_capacity(self.ring_ends.len() * (count + 1));
+        let mut begin = 0;
+        for &end in &self.ring_ends {
+            let ring = begin..end as usize;
+            let mut group = vec![0u32; ring.len()];
+            for (i, g) in ring.clone().zip(&mut group) {
+                let t = self.dilated[i] as usize;
+                let b = band_of(t);
+                let from = if i == 0 {
+                    0
+                } else {
+                    self.neighbour_ends[i - 1] as usize
+                };
+                let own = self.neighbours[from..self.neighbour_ends[i] as usize]
+                    .iter()
+                    .all(|&j| owner[j as usize] as usize == b);
+                *g = if own { b as u32 } else { count as u32 };
+            }
+            for (i, &g) in ring.clone().zip(&group) {
+                owner[self.dilated[i] as usize] = g;
+            }
+            for g in 0..=count as u32 {
+                parts.push(dilated.len() as u32);
+                for (i, _) in ring.clone().zip(&group).filter(|&(_, &h)| h == g) {
+                    let from = if i == 0 {
+                        0
+                    } else {
+                        self.neighbour_ends[i - 1] as usize
+                    };
+                    dilated.push(self.dilated[i]);
+                    neighbours
+                        .extend_from_slice(&self.neighbours[from..self.neighbour_ends[i] as usize]);
+                    ends.push(neighbours.len() as u32);
+                }
+            }
+            begin = end as usize;
+        }
+        self.dilated = dilated;
+        self.neighbour_ends = ends;
+        self.neighbours = neighbours;
+        self.bands = Bands {
+            runs: bands,
+            texels,
+            parts,
+        };
     }
 
     /// The dilation rings from the texels the samples fill.
@@ -564,6 +808,8 @@ impl Lightmap {
 }
 
 const PI: f64 = std::f64::consts::PI;
+/// Rings a lightmap dilates at most.
+const MAX_RINGS: usize = lrr_formats::MAX_ATLAS_PADDING as usize;
 const PI_F32: f32 = std::f32::consts::PI;
 
 const NEIGHBOURS: [(i64, i64); 8] = [
@@ -878,8 +1124,28 @@ mod tests {
             let mut got = vec![[f32::NAN; 3]; 97 * 61];
             many.fill(&b, &mut got).unwrap();
             assert_eq!(got, texels, "{threads} threads");
+            // The two halves give the same texels, as long as nothing is added between.
+            let mut halves = vec![[f32::NAN; 3]; 97 * 61];
+            many.fill_samples(&b, &mut halves).unwrap();
+            many.dilate(&mut halves).unwrap();
+            assert_eq!(halves, texels, "{threads} threads, in two halves");
+            let bands = many.bands.count();
+            let deferred: usize = (0..many.ring_ends.len())
+                .map(|r| {
+                    many.ring_ends[r] as usize - many.bands.parts[r * (bands + 1) + bands] as usize
+                })
+                .sum();
+            assert!(
+                deferred > 0,
+                "{threads} threads: rings cross the bands' edges"
+            );
         }
-        assert!(one.fill_bytes() >= 12 * 97 * 61 + 36 * one.sample_count());
+        assert!(
+            one.dilated_count() > 500,
+            "{} dilated texels",
+            one.dilated_count()
+        );
+        assert!(one.fill_bytes() >= 12 * 97 * 61 + 16 * one.sample_count());
     }
 
     #[test]

@@ -1,12 +1,13 @@
 //! A frame allocates nothing: every allocation of the process is counted, on every thread, while
-//! an evaluator (and the benchmarks' dense-V baseline) renders frames (one test in this binary, so no other test allocates meanwhile).
+//! an evaluator (and the benchmarks' dense-V baseline) renders frames and a one-thread lightmap
+//! fills (one test in this binary, so no other test allocates meanwhile).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use lrr_formats::{Layout as OperatorLayout, Precision};
-use lrr_runtime::testkit::{baseline::DenseV, synthetic};
-use lrr_runtime::{Rgb, RgbMut};
+use lrr_runtime::testkit::{baseline::DenseV, faces, synthetic};
+use lrr_runtime::{Lightmap, LightmapValues, Rgb, RgbMut};
 
 struct Counting;
 
@@ -88,5 +89,28 @@ fn frames_allocate_nothing() {
         op.evaluate(&e, &mut out).unwrap();
         COUNTING.store(false, Ordering::SeqCst);
         assert!(ALLOCATIONS.swap(0, Ordering::SeqCst) > 0);
+    }
+    // A lightmap fill on one thread, smooth and flat, whole and in its two halves.
+    let file = faces::lightmapped(|x, y| [0.1 + x / 2.5, 0.05 + y * 0.7], 97, 61, 3);
+    let mut b = vec![[0.0f32; 3]; 2];
+    for (s, &id) in faces::ORDER.iter().enumerate() {
+        b[id as usize] = faces::EMISSION[s];
+    }
+    let mut texels = vec![[0.0f32; 3]; 97 * 61];
+    for values in [LightmapValues::Smooth, LightmapValues::Flat] {
+        let mut map = Lightmap::new(&file, Some(values)).unwrap();
+        map.fill(&b, &mut texels).unwrap();
+        COUNTING.store(true, Ordering::SeqCst);
+        for _ in 0..5 {
+            map.fill(&b, &mut texels).unwrap();
+            map.fill_samples(&b, &mut texels).unwrap();
+            map.dilate(&mut texels).unwrap();
+        }
+        COUNTING.store(false, Ordering::SeqCst);
+        let allocations = ALLOCATIONS.swap(0, Ordering::SeqCst);
+        assert_eq!(
+            allocations, 0,
+            "{values:?} lightmap: {allocations} allocations"
+        );
     }
 }

@@ -75,13 +75,14 @@ impl GpuLightmap {
                 gpu.adapter_name()
             )));
         }
-        let samples = map.texel.len();
+        let (mut texel, index, weight) = map.sample_table();
+        let samples = texel.len();
         let compact = samples + map.dilated.len();
         let limit = gpu.max_binding_bytes();
         for (name, bytes) in [
             ("texel", 4 * compact),
-            ("index", 4 * map.index.len()),
-            ("weight", 4 * map.weight.len()),
+            ("index", 4 * index.len()),
+            ("weight", 4 * weight.len()),
             ("values", 12 * compact),
             ("neighbours", 4 * map.neighbours.len()),
         ] {
@@ -95,7 +96,6 @@ impl GpuLightmap {
         }
         // Compact ids: samples, then the dilated texels; the neighbours named by compact id.
         let mut compact_of = std::collections::HashMap::with_capacity(compact);
-        let mut texel = map.texel.clone();
         texel.extend(&map.dilated);
         for (i, &t) in texel.iter().enumerate() {
             compact_of.insert(t, i as u32);
@@ -203,8 +203,8 @@ impl GpuLightmap {
             pipeline,
             layout,
             texel: storage(gpu, "lightmap texels", &texel, none),
-            index: storage(gpu, "lightmap indices", &map.index, none),
-            weight: storage(gpu, "lightmap weights", &map.weight, none),
+            index: storage(gpu, "lightmap indices", &index, none),
+            weight: storage(gpu, "lightmap weights", &weight, none),
             values: storage(gpu, "lightmap values", &vec![0.0f32; 3 * compact], none),
             neighbour_ends: storage(gpu, "lightmap rings", &map.neighbour_ends, none),
             neighbours: storage(gpu, "lightmap neighbours", &neighbours, none),
