@@ -35,7 +35,7 @@ use glam::{DMat4, DQuat, DVec3};
 use gltf::json;
 
 use super::model::{Camera, DirectLight, Material, Optics, PointLight, Scene};
-use super::texture::{Texture, TextureBinding, UvMap, Wrap};
+use super::texture::{self, Texture, TextureBinding, UvMap, Wrap};
 use crate::error::{Error, Result};
 
 /// The extensions this importer reads (everything else is refused when required, warned about
@@ -53,9 +53,6 @@ pub const MAX_REFLECTANCE: f64 = super::model::MAX_TEXTURED_REFLECTANCE;
 
 /// Reflectance of primitives without a material (with a warning; OBJ uses the same).
 const DEFAULT_REFLECTANCE: f64 = 0.5;
-
-/// Largest image (width × height) whose texels are averaged.
-const MAX_TEXELS: u64 = 1 << 26;
 
 /// Loads a `.gltf` or `.glb` file; external buffers and images must lie in its folder.
 pub fn load(path: &Path) -> Result<Scene> {
@@ -860,24 +857,6 @@ impl<'a> Importer<'a> {
                 return Err(self.err(format!("{what} has neither a bufferView nor a uri")));
             }
         };
-        let mut reader = image::io::Reader::new(std::io::Cursor::new(&encoded));
-        let mut limits = image::io::Limits::default();
-        limits.max_alloc = Some(4 * MAX_TEXELS);
-        reader.limits(limits);
-        let decoded = reader
-            .with_guessed_format()
-            .map_err(|e| self.err(format!("{what}: {e}")))?
-            .decode()
-            .map_err(|e| {
-                self.err(format!(
-                    "{what} cannot be decoded (PNG or JPEG expected): {e}"
-                ))
-            })?;
-        let rgb = decoded.to_rgb8();
-        let texels = u64::from(rgb.width()) * u64::from(rgb.height());
-        if texels == 0 {
-            return Err(self.err(format!("{what} has no texels")));
-        }
         let wrap = |mode: gltf::texture::WrappingMode| match mode {
             gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
             gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
@@ -888,14 +867,12 @@ impl<'a> Importer<'a> {
             .name
             .clone()
             .unwrap_or_else(|| format!("image {index}"));
-        Ok(Texture {
+        texture::decode(
+            &encoded,
             name,
-            width: rgb.width() as usize,
-            height: rgb.height() as usize,
-            texels: rgb.pixels().map(|p| p.0).collect(),
-            wrap_u: wrap(sampler.wrap_s()),
-            wrap_v: wrap(sampler.wrap_t()),
-        })
+            [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())],
+        )
+        .map_err(|e| self.err(format!("{what}{e}")))
     }
 
     /// The bytes of a buffer view, checked against its buffer.

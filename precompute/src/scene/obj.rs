@@ -1,6 +1,8 @@
 //! Wavefront OBJ + MTL import (tobj), with errors that name the file and the line.
 //!
-//! `Kd` is the diffuse reflectance, `Ke` the emitted radiance (exitance `E = π·Ke`). What a ray
+//! `Kd` is the diffuse reflectance, `Ke` the emitted radiance (exitance `E = π·Ke`). A `map_Kd`
+//! image multiplies `Kd` (1 when absent) and varies the reflectance over each face through its
+//! `vt`, as a glTF base colour texture (`texture`; docs/SCENES.md). What a ray
 //! tracer adds ([`Optics`]) comes from `illum`, `Ks`, `Ns`, `Ni`, `Tf` and `d` (or `Tr = 1 - d`):
 //! - `Ks` is the Phong highlight colour and `Ns` its exponent, for `illum` 2 and up (and when
 //!   `illum` is absent); `illum` 0 and 1 have no highlight.
@@ -29,10 +31,94 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::model::{Material, Optics, Scene};
+use super::texture::{self, TextureBinding, UvMap, Wrap};
 use crate::error::{Error, Result};
 
 /// Reflectance used for faces without a material (with a warning).
 const DEFAULT_REFLECTANCE: f64 = 0.5;
+
+/// The texture coordinates of a face (its `vt`, `v` flipped: OBJ puts `v = 0` at the bottom of
+/// the image, glTF and [`texture::Texture`] at the top) as an affine map of its plane: the
+/// first fan triangle whose corners are not in a line.
+fn face_uv(vertices: &[DVec3], indices: &[u32], texcoords: &[f64]) -> Option<UvMap> {
+    let t = |i: usize| {
+        let k = 2 * indices[i] as usize;
+        [texcoords[k], 1.0 - texcoords[k + 1]]
+    };
+    (1..vertices.len().saturating_sub(1)).find_map(|i| {
+        UvMap::from_triangle(
+            [vertices[0], vertices[i], vertices[i + 1]],
+            [t(0), t(i), t(i + 1)],
+        )
+    })
+}
+
+/// The texture of a `map_Kd` statement (`spec`: options, then the image's path), decoded once
+/// per image into `scene.textures`. Of the options, `-clamp on` clamps the coordinates to the
+/// image (else it repeats); the others are skipped with a warning.
+fn diffuse_map(
+    spec: &str,
+    folders: &[std::path::PathBuf],
+    images: &mut HashMap<std::path::PathBuf, usize>,
+    scene: &mut Scene,
+    location: &str,
+) -> Result<usize> {
+    let words: Vec<&str> = spec.split_whitespace().collect();
+    let mut i = 0;
+    let mut wrap = Wrap::Repeat;
+    let mut skipped = Vec::new();
+    while i < words.len() && words[i].starts_with('-') {
+        let option = words[i];
+        i += 1;
+        // An option's arguments: numbers, or on/off.
+        let start = i;
+        while i < words.len()
+            && i + 1 < words.len()
+            && (words[i].parse::<f64>().is_ok() || matches!(words[i], "on" | "off"))
+        {
+            i += 1;
+        }
+        match (option, &words[start..i]) {
+            ("-clamp", ["on"]) => wrap = Wrap::Clamp,
+            ("-clamp", _) => {}
+            _ => skipped.push(option),
+        }
+    }
+    let file = words[i.min(words.len())..].join(" ");
+    if file.is_empty() {
+        return Err(Error::scene(
+            location,
+            format!("map_Kd '{spec}' names no image"),
+        ));
+    }
+    if !skipped.is_empty() {
+        scene.warnings.push(format!(
+            "{location}: map_Kd option(s) {} ignored",
+            skipped.join(", ")
+        ));
+    }
+    let path = folders
+        .iter()
+        .map(|d| d.join(&file))
+        .find(|p| p.is_file())
+        .ok_or_else(|| {
+            Error::scene(
+                location,
+                format!("map_Kd image '{file}' is not beside the OBJ or its MTL"),
+            )
+        })?;
+    if let Some(&id) = images.get(&path) {
+        return Ok(id);
+    }
+    let what = format!("{location}: map_Kd image {}", path.display());
+    let bytes = std::fs::read(&path).map_err(|e| Error::scene(&what, e.to_string()))?;
+    let decoded = texture::decode(&bytes, file.clone(), [wrap, wrap])
+        .map_err(|e| Error::scene(location, format!("map_Kd image {}{e}", path.display())))?;
+    scene.textures.push(decoded);
+    let id = scene.textures.len() - 1;
+    images.insert(path, id);
+    Ok(id)
+}
 
 /// Loads an OBJ file (and the MTL files it names).
 pub fn load(path: &Path) -> Result<Scene> {
@@ -41,8 +127,16 @@ pub fn load(path: &Path) -> Result<Scene> {
     let face_lines = prescan(&bytes, &origin)?;
     // Where each material is defined ("file.mtl:line"), for messages about its values.
     let mut defined = HashMap::new();
+    let folder = path.parent().unwrap_or(Path::new("."));
+    // Where a map_Kd image may lie: beside the OBJ, or beside one of its MTL files.
+    let mut image_folders = vec![folder.to_path_buf()];
     for library in material_libraries(&bytes) {
-        let mtl = path.parent().unwrap_or(Path::new(".")).join(&library);
+        let mtl = folder.join(&library);
+        if let Some(dir) = mtl.parent()
+            && !image_folders.iter().any(|d| d == dir)
+        {
+            image_folders.push(dir.to_path_buf());
+        }
         if let Ok(text) = std::fs::read(&mtl) {
             defined.extend(prescan_mtl(&text, &mtl.display().to_string())?);
         }
@@ -63,20 +157,42 @@ pub fn load(path: &Path) -> Result<Scene> {
     let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("scene");
     let mut scene = Scene::new(name);
     let mut material_ids = Vec::with_capacity(materials.len());
+    // Decoded map_Kd images by path, each decoded once.
+    let mut images: HashMap<std::path::PathBuf, usize> = HashMap::new();
     for m in &materials {
         let location = format!("{origin}: material '{}'", m.name);
-        let kd = m.diffuse.unwrap_or([DEFAULT_REFLECTANCE; 3]);
+        let mut kd = m.diffuse.unwrap_or([DEFAULT_REFLECTANCE; 3]);
         let ke = m.emissive.unwrap_or([0.0; 3]);
         let mtl_location = match defined.get(&m.name) {
             Some(at) => format!("{at}: material '{}'", m.name),
             None => location.clone(),
         };
+        let mut texture = None;
+        if let Some(spec) = &m.diffuse_texture {
+            match diffuse_map(spec, &image_folders, &mut images, &mut scene, &mtl_location) {
+                Ok(id) => {
+                    // The map multiplies Kd (1 where the MTL gives none).
+                    let factor = m.diffuse.unwrap_or([1.0; 3]);
+                    let mean = scene.textures[id].average();
+                    kd = [0, 1, 2].map(|c| factor[c] * mean[c]);
+                    texture = Some(TextureBinding {
+                        texture: id,
+                        set: 0,
+                        scale: factor,
+                    });
+                }
+                Err(e) => scene.warnings.push(format!(
+                    "{e}; the texture is left out and the material's Kd used alone (put the \
+                     image next to the OBJ or its MTL, or convert it to PNG or JPEG)"
+                )),
+            }
+        }
         let material = Material {
             name: m.name.clone(),
             reflectance: kd,
             emission: ke.map(|k| k * std::f64::consts::PI),
             optics: optics(m, &mtl_location, &mut scene.warnings)?,
-            texture: None,
+            texture,
         };
         material_ids.push(scene.add_material(material, &location)?);
     }
@@ -134,7 +250,17 @@ pub fn load(path: &Path) -> Result<Scene> {
                     )
                 })
                 .collect();
-            scene.add_polygon(&vertices, material, surface, &location)?;
+            let uv = match scene.materials[material].texture.is_some()
+                && mesh.texcoord_indices.len() == mesh.indices.len()
+            {
+                true => face_uv(
+                    &vertices,
+                    &mesh.texcoord_indices[start - arity..start],
+                    &mesh.texcoords,
+                ),
+                false => None,
+            };
+            scene.add_polygon_uv(&vertices, material, surface, [uv, None], &location)?;
         }
     }
     Ok(scene)

@@ -109,6 +109,39 @@ impl Texture {
     }
 }
 
+/// Largest image (width × height) a texture may decode to.
+const MAX_TEXELS: u64 = 1 << 26;
+
+/// Decodes a PNG or JPEG image (`encoded`) into a texture with wrap modes `[u, v]`. The error
+/// reads on after the image's name: `": …"` or `" cannot be decoded …"`.
+pub(crate) fn decode(
+    encoded: &[u8],
+    name: String,
+    [wrap_u, wrap_v]: [Wrap; 2],
+) -> std::result::Result<Texture, String> {
+    let mut reader = image::io::Reader::new(std::io::Cursor::new(encoded));
+    let mut limits = image::io::Limits::default();
+    limits.max_alloc = Some(4 * MAX_TEXELS);
+    reader.limits(limits);
+    let decoded = reader
+        .with_guessed_format()
+        .map_err(|e| format!(": {e}"))?
+        .decode()
+        .map_err(|e| format!(" cannot be decoded (PNG or JPEG expected): {e}"))?;
+    let rgb = decoded.to_rgb8();
+    if u64::from(rgb.width()) * u64::from(rgb.height()) == 0 {
+        return Err(" has no texels".to_string());
+    }
+    Ok(Texture {
+        name,
+        width: rgb.width() as usize,
+        height: rgb.height() as usize,
+        texels: rgb.pixels().map(|p| p.0).collect(),
+        wrap_u,
+        wrap_v,
+    })
+}
+
 /// The sRGB transfer function, inverted, for every 8-bit value.
 pub fn linear_lut() -> [f64; 256] {
     std::array::from_fn(|i| srgb_to_linear(i as f64 / 255.0))

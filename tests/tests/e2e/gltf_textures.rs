@@ -169,48 +169,112 @@ fn each_element_takes_the_mean_of_the_texels_it_covers() {
             ],
         )
         .unwrap();
-        let file = lrr_formats::OperatorFile::read(&out).unwrap();
-        assert_eq!(file.channels, 3, "a coloured texture needs three channels");
-        let floor = baked_floor(&file);
-        assert_eq!(floor.len(), 64);
-        let factor = f64::from(0.8f32);
-        let mut mean = [0.0; 3];
-        for (centre, rho) in &floor {
-            // Texel column and row of the element (v = 1 − y/2 puts y = 2 at the top row).
-            let (tx, ty) = (
-                (centre[0] * 4.0) as usize,
-                ((2.0 - centre[1]) * 4.0) as usize,
-            );
-            let block = BLOCKS[2 * (ty / 4) + tx / 4];
-            // An element one texel or more from a block edge sees its block's colour only
-            // (bilinear filtering reaches half a texel).
-            let inner = |t: usize| (t % 4 != 3 && !t.is_multiple_of(4)) || t == 0 || t == 7;
-            if inner(tx) && inner(ty) {
-                let want = block.map(|c| factor * srgb_to_linear(f64::from(c) / 255.0));
-                for k in 0..3 {
-                    // The file stores f32.
-                    assert!(
-                        (rho[k] - want[k]).abs() < 1e-6,
-                        "element at {centre:?} (texel {tx}, {ty}): {rho:?}, want {want:?}"
-                    );
-                }
-            }
+        let material = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
+        check_blocks(&out, material.reflectance);
+    }
+}
+
+/// The elements of the baked floor `out` against the blocks under them (factor 0.8), and
+/// their mean against the material's `reflectance`.
+fn check_blocks(out: &std::path::Path, reflectance: [f64; 3]) {
+    let file = lrr_formats::OperatorFile::read(out).unwrap();
+    assert_eq!(file.channels, 3, "a coloured texture needs three channels");
+    let floor = baked_floor(&file);
+    assert_eq!(floor.len(), 64);
+    let factor = f64::from(0.8f32);
+    let mut mean = [0.0; 3];
+    for (centre, rho) in &floor {
+        // Texel column and row of the element (v = 1 − y/2 puts y = 2 at the top row).
+        let (tx, ty) = (
+            (centre[0] * 4.0) as usize,
+            ((2.0 - centre[1]) * 4.0) as usize,
+        );
+        let block = BLOCKS[2 * (ty / 4) + tx / 4];
+        // An element one texel or more from a block edge sees its block's colour only
+        // (bilinear filtering reaches half a texel).
+        let inner = |t: usize| (t % 4 != 3 && !t.is_multiple_of(4)) || t == 0 || t == 7;
+        if inner(tx) && inner(ty) {
+            let want = block.map(|c| factor * srgb_to_linear(f64::from(c) / 255.0));
             for k in 0..3 {
-                mean[k] += rho[k] / 64.0;
+                // The file stores f32.
+                assert!(
+                    (rho[k] - want[k]).abs() < 1e-6,
+                    "element at {centre:?} (texel {tx}, {ty}): {rho:?}, want {want:?}"
+                );
             }
         }
-        // Over the floor the elements average to the material's mean (the image's mean times
-        // the factor): bilinear blending at block edges only moves colour across them.
-        let material = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
         for k in 0..3 {
-            let err = (mean[k] - material.reflectance[k]).abs() / material.reflectance[k];
-            assert!(
-                err < 2e-3,
-                "mean {mean:?} vs material {:?}",
-                material.reflectance
-            );
+            mean[k] += rho[k] / 64.0;
         }
     }
+    // Over the floor the elements average to the material's mean (the image's mean times
+    // the factor): bilinear blending at block edges only moves colour across them.
+    for k in 0..3 {
+        let err = (mean[k] - reflectance[k]).abs() / reflectance[k];
+        assert!(err < 2e-3, "mean {mean:?} vs material {reflectance:?}");
+    }
+}
+
+/// The floor of [`textured_floor`] as an OBJ whose MTL names the blocks with `map_Kd -clamp on`
+/// (`vt` with `v` up, as OBJ has it: the same image upright from above) and a lamp; `image`
+/// is the file `map_Kd` names.
+fn obj_floor(dir: &std::path::Path, image: &str) -> std::path::PathBuf {
+    std::fs::write(dir.join("blocks.png"), png_blocks()).unwrap();
+    std::fs::write(
+        dir.join("floor.mtl"),
+        format!(
+            "newmtl tiles\nKd 0.8 0.8 0.8\nmap_Kd -clamp on {image}\n\n\
+             newmtl lamp\nKd 0.5 0.5 0.5\nKe 1 1 1\n"
+        ),
+    )
+    .unwrap();
+    let path = dir.join("floor.obj");
+    std::fs::write(
+        &path,
+        "mtllib floor.mtl\n\
+         v 0 0 0\nv 2 0 0\nv 2 2 0\nv 0 2 0\n\
+         v 0.5 0.5 1\nv 0.5 1.5 1\nv 1.5 1.5 1\nv 1.5 0.5 1\n\
+         vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+         o floor\nusemtl tiles\nf 1/1 2/2 3/3 4/4\n\
+         o lamp\nusemtl lamp\nf 5 6 7 8\n",
+    )
+    .unwrap();
+    path
+}
+
+#[test]
+fn an_obj_map_kd_varies_the_reflectance_as_a_gltf_texture_does() {
+    let dir = temp_dir("obj-texture");
+    let path = obj_floor(&dir, "blocks.png");
+    let scene = lrr_precompute::scene::load(&path).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(scene.textures.len(), 1);
+    let out = dir.join("floor.lrr");
+    let args = [
+        "--element-size",
+        "0.25",
+        "--patch-size",
+        "1",
+        "--refine",
+        "0",
+    ];
+    bake(&path, &out, &args).unwrap();
+    let material = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
+    check_blocks(&out, material.reflectance);
+    // An image that is not there: a warning, and Kd alone.
+    let path = obj_floor(&dir, "missing.png");
+    let scene = lrr_precompute::scene::load(&path).unwrap();
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("map_Kd image 'missing.png' is not beside")
+                && w.contains("Kd used alone")),
+        "{:?}",
+        scene.warnings
+    );
+    let tiles = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
+    assert_eq!((tiles.reflectance, tiles.texture), ([0.8; 3], None));
 }
 
 #[test]
