@@ -12,7 +12,9 @@ tests/tests/e2e/reference.rs compares with lrr's import). The file is read with 
     [[material]]                     name, reflectance = [r, g, b], radiance = [r, g, b]
                                      (emitted radiance Ke; the exitance is E = π·Ke; default 0)
     [[surface]]                      name, material, polygons = [[[x, y, z], …], …]: each polygon
-                                     counter-clockwise seen from its front (its one lit side)
+                                     counter-clockwise seen from its front (its one lit side);
+                                     and/or vertices = [[x, y, z], …] with faces = [[i, j, k, …],
+                                     …] indexing them from 0 (after the polygons)
     [[box]]                          name, material, min, max, inward (fronts face into the box),
                                      omit = faces left out (-x, +x, -y, +y, -z, +z); the faces
                                      are the surfaces NAME.-x, NAME.+x, …
@@ -164,9 +166,18 @@ def load(path):
         where = f"{path}: surface '{s['name']}'"
         mat = material(s["material"], where)
         sid = surface(s["name"])
-        for i, polygon in enumerate(s["polygons"]):
+        vertices = s.get("vertices", [])
+        if bool(vertices) != bool(s.get("faces", [])):
+            raise DescriptionError(f"{where}: vertices and faces go together")
+        indexed = []
+        for i, face in enumerate(s.get("faces", [])):
+            if any(not 0 <= k < len(vertices) for k in face):
+                raise DescriptionError(f"{where} face {i}: a vertex index is out of range")
+            indexed.append((f"{where} face {i}", [vertices[k] for k in face]))
+        named = [(f"{where} polygon {i}", p) for i, p in enumerate(s.get("polygons", []))]
+        for what, polygon in named + indexed:
             scaled = [[scale * float(c) for c in p] for p in polygon]
-            for piece in _pieces(scaled, f"{where} polygon {i}"):
+            for piece in _pieces(scaled, what):
                 faces.append(_face(piece, sid, mat))
     for b in doc.get("box", []):
         where = f"{path}: box '{b['name']}'"

@@ -13,7 +13,8 @@
 //! touching at a single corner does not join charts. Candidate pairs come from a uniform grid
 //! over element boxes, so the work is near linear in the element count.
 
-use std::collections::HashMap;
+use rayon::prelude::*;
+use rustc_hash::FxHashMap as HashMap;
 
 use glam::{DVec2, DVec3};
 use lrr_formats::Geometry;
@@ -87,12 +88,17 @@ pub fn charts(g: &Geometry) -> Vec<Chart> {
     let eps = RELATIVE_DISTANCE * median_edge(&polys);
     let mut sets = UnionFind::new(n);
     let pairs = candidate_pairs(&polys, eps);
-    for &(a, b) in &pairs {
-        if coplanar(&polys, &normals, a, b, eps) && share_edge(&polys[a], &polys[b], eps) {
+    // Whether each pair shares an edge, tested in parallel, in the pairs' order.
+    let sharing: Vec<bool> = pairs
+        .par_iter()
+        .map(|&(a, b)| share_edge(&polys[a], &polys[b], eps))
+        .collect();
+    for (&(a, b), &shared) in pairs.iter().zip(&sharing) {
+        if shared && coplanar(&polys, &normals, a, b, eps) {
             sets.union(a, b);
         }
     }
-    let mut members: HashMap<usize, Vec<u32>> = HashMap::new();
+    let mut members: HashMap<usize, Vec<u32>> = HashMap::default();
     for s in 0..n {
         members.entry(sets.find(s)).or_default().push(s as u32);
     }
@@ -102,7 +108,9 @@ pub fn charts(g: &Geometry) -> Vec<Chart> {
     for m in &alone {
         single[m[0] as usize] = true;
     }
-    groups.extend(curved_charts(&polys, &normals, &pairs, &single, eps));
+    groups.extend(curved_charts(
+        &polys, &normals, &pairs, &sharing, &single, eps,
+    ));
     groups.sort_unstable_by_key(|m| m[0]);
     groups
         .into_iter()
@@ -111,25 +119,23 @@ pub fn charts(g: &Geometry) -> Vec<Chart> {
 }
 
 /// Charts of the `single` elements (coplanar with no neighbour): from each not yet taken, in
-/// order, its neighbours (sharing an edge, `pairs` the candidates) that are single and untaken
+/// order, its neighbours (sharing an edge: `pairs` the candidates, `sharing` whether each
+/// does) that are single and untaken
 /// with normals within [`CURVED_ANGLE`] of its own, breadth first; a chart whose faces,
 /// projected onto its first element's plane, would overlap is left as single elements.
 fn curved_charts(
     polys: &[Vec<DVec3>],
     normals: &[DVec3],
     pairs: &[(usize, usize)],
+    sharing: &[bool],
     single: &[bool],
     eps: f64,
 ) -> Vec<Vec<u32>> {
     let n = polys.len();
     let cone = CURVED_ANGLE.cos();
     let mut around: Vec<Vec<usize>> = vec![Vec::new(); n];
-    for &(a, b) in pairs {
-        if single[a]
-            && single[b]
-            && normals[a].dot(normals[b]) >= cone
-            && share_edge(&polys[a], &polys[b], eps)
-        {
+    for (&(a, b), &shared) in pairs.iter().zip(sharing) {
+        if single[a] && single[b] && normals[a].dot(normals[b]) >= cone && shared {
             around[a].push(b);
             around[b].push(a);
         }
@@ -190,7 +196,7 @@ fn projections_overlap(polys: &[Vec<DVec3>], faces: &[usize], axis: DVec3, eps: 
     let mid = diag.len() / 2;
     let cell = 2.0 * diag.select_nth_unstable_by(mid, f64::total_cmp).1.max(eps);
     let key = |p: DVec2| (p / cell).floor().as_i64vec2();
-    let mut grid: HashMap<[i64; 2], Vec<usize>> = HashMap::new();
+    let mut grid: HashMap<[i64; 2], Vec<usize>> = HashMap::default();
     for (i, (lo, hi)) in boxes.iter().enumerate() {
         let (a, b) = (key(*lo), key(*hi));
         for x in a.x..=b.x {
@@ -199,11 +205,16 @@ fn projections_overlap(polys: &[Vec<DVec3>], faces: &[usize], axis: DVec3, eps: 
             }
         }
     }
+    // Boxes apart (not touching) hold polygons apart, which the separating axes find too.
+    let apart = |i: usize, j: usize| {
+        let ((la, ha), (lb, hb)) = (boxes[i], boxes[j]);
+        la.cmpgt(hb).any() || lb.cmpgt(ha).any()
+    };
     grid.values().any(|cell| {
         cell.iter().enumerate().any(|(k, &i)| {
             cell[k + 1..]
                 .iter()
-                .any(|&j| convex_overlap(&flat[i], &flat[j], eps))
+                .any(|&j| !apart(i, j) && convex_overlap(&flat[i], &flat[j], eps))
         })
     })
 }
@@ -329,7 +340,7 @@ fn candidate_pairs(polys: &[Vec<DVec3>], eps: f64) -> Vec<(usize, usize)> {
     let mid = diag.len() / 2;
     let cell = 2.0 * diag.select_nth_unstable_by(mid, f64::total_cmp).1.max(eps);
     let key = |p: DVec3| (p / cell).floor().as_i64vec3();
-    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::default();
     for (s, (lo, hi)) in boxes.iter().enumerate() {
         let (a, b) = (key(*lo), key(*hi));
         for x in a.x..=b.x {

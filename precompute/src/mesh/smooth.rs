@@ -327,10 +327,20 @@ fn plane_weights(
 fn positions(elements: &[&Element], tol: f64) -> (Vec<usize>, Vec<DVec3>) {
     let cell = |x: DVec3| (x / tol).floor().as_i64vec3().to_array();
     let mut grid: FxHashMap<[i64; 3], Vec<usize>> = FxHashMap::default();
+    // Corners met before, bit for bit, and the position each took: a tessellated surface
+    // repeats each vertex in every face around it. A corner takes the lowest-numbered position
+    // within `tol`; positions are made more than `tol` apart and numbered as made, so the same
+    // coordinates always take the same position, and the look-up gives what the search would.
+    let mut seen: FxHashMap<[u64; 3], usize> = FxHashMap::default();
     let mut positions: Vec<DVec3> = Vec::new();
     let mut corner_pos = vec![usize::MAX; elements.len() * 4];
     for (s, e) in elements.iter().enumerate() {
         for (i, &v) in e.polygon.vertices().iter().enumerate() {
+            let bits = v.to_array().map(f64::to_bits);
+            if let Some(&p) = seen.get(&bits) {
+                corner_pos[s * 4 + i] = p;
+                continue;
+            }
             let c = cell(v);
             let found = neighbours(c)
                 .filter_map(|k| grid.get(&k))
@@ -338,11 +348,13 @@ fn positions(elements: &[&Element], tol: f64) -> (Vec<usize>, Vec<DVec3>) {
                 .copied()
                 .filter(|&p| positions[p].distance(v) <= tol)
                 .min();
-            corner_pos[s * 4 + i] = found.unwrap_or_else(|| {
+            let p = found.unwrap_or_else(|| {
                 positions.push(v);
                 grid.entry(c).or_default().push(positions.len() - 1);
                 positions.len() - 1
             });
+            seen.insert(bits, p);
+            corner_pos[s * 4 + i] = p;
         }
     }
     (corner_pos, positions)

@@ -54,6 +54,7 @@ pub fn parallel_squares(side: f64, distance: f64) -> SceneDescription {
             [s, s, 0.0],
             [0.0, s, 0.0],
         ]],
+        ..Default::default()
     });
     d.surfaces.push(SurfaceDesc {
         name: "top".into(),
@@ -64,6 +65,7 @@ pub fn parallel_squares(side: f64, distance: f64) -> SceneDescription {
             [s, s, distance],
             [s, 0.0, distance],
         ]],
+        ..Default::default()
     });
     d.mesh = MeshHints {
         element_size: Some(side / 10.0),
@@ -87,6 +89,7 @@ pub fn perpendicular(length: f64, width: f64, height: f64) -> SceneDescription {
             [width, l, 0.0],
             [0.0, l, 0.0],
         ]],
+        ..Default::default()
     });
     d.surfaces.push(SurfaceDesc {
         name: "wall".into(),
@@ -97,6 +100,7 @@ pub fn perpendicular(length: f64, width: f64, height: f64) -> SceneDescription {
             [0.0, l, height],
             [0.0, 0.0, height],
         ]],
+        ..Default::default()
     });
     let size = length.min(width).min(height);
     d.mesh = MeshHints {
@@ -134,11 +138,13 @@ pub(crate) fn lit_room_surfaces(d: &mut SceneDescription) {
             quad(0.0, 0.4, 0.4, 0.6),
             quad(0.6, 1.0, 0.4, 0.6),
         ],
+        ..Default::default()
     });
     d.surfaces.push(SurfaceDesc {
         name: "light".into(),
         material: "light".into(),
         polygons: vec![quad(0.4, 0.6, 0.4, 0.6)],
+        ..Default::default()
     });
 }
 
@@ -158,11 +164,15 @@ pub fn dense_sphere(subdivisions: u32) -> SceneDescription {
     d.materials.push(grey("light", 0.0, 10.0));
     lit_room_surfaces(&mut d);
     let centre = [0.5, 0.4, 0.5];
-    d.surfaces.push(SurfaceDesc {
-        name: "sphere".into(),
-        material: "clay".into(),
-        polygons: icosphere(subdivisions.min(MAX_SPHERE_SUBDIVISIONS), centre, 0.25),
-    });
+    d.surfaces.push(
+        SurfaceDesc {
+            name: "sphere".into(),
+            material: "clay".into(),
+            polygons: icosphere(subdivisions.min(MAX_SPHERE_SUBDIVISIONS), centre, 0.25),
+            ..Default::default()
+        }
+        .indexed(),
+    );
     d.mesh = MeshHints {
         element_size: Some(0.125),
         patch_size: Some(0.25),
@@ -270,6 +280,7 @@ pub fn cluttered(grid: usize, seed: u64) -> SceneDescription {
             [2.4, 2.4, z],
             [2.4, 1.6, z],
         ]],
+        ..Default::default()
     });
     let grid = grid.max(1);
     let cell = side / grid as f64;
@@ -299,6 +310,7 @@ pub fn cluttered(grid: usize, seed: u64) -> SceneDescription {
             name,
             material: "clutter".into(),
             polygons: vec![quad.to_vec(), back.to_vec()],
+            ..Default::default()
         });
     };
     for i in 0..grid {
@@ -455,17 +467,28 @@ pub fn triangulated(d: &SceneDescription, how: Triangulation) -> SceneDescriptio
             .collect()
     };
     for s in &mut out.surfaces {
-        s.polygons = s.polygons.iter().flat_map(|p| split(p)).collect();
+        let polygons = s.all_polygons().iter().flat_map(|p| split(p)).collect();
+        *s = SurfaceDesc {
+            name: std::mem::take(&mut s.name),
+            material: std::mem::take(&mut s.material),
+            polygons,
+            ..Default::default()
+        }
+        .indexed();
     }
     for b in std::mem::take(&mut out.boxes) {
         let (lo, hi) = (DVec3::from_array(b.min), DVec3::from_array(b.max));
         for (face, v) in super::description::box_polygons(&b, lo, hi) {
             let quad: Vec<[f64; 3]> = v.iter().map(|p| p.to_array()).collect();
-            out.surfaces.push(SurfaceDesc {
-                name: format!("{}.{face}", b.name),
-                material: b.material.clone(),
-                polygons: split(&quad),
-            });
+            out.surfaces.push(
+                SurfaceDesc {
+                    name: format!("{}.{face}", b.name),
+                    material: b.material.clone(),
+                    polygons: split(&quad),
+                    ..Default::default()
+                }
+                .indexed(),
+            );
         }
     }
     out
@@ -554,6 +577,7 @@ pub fn messy() -> SceneDescription {
             [2.4, 2.4, 2.45],
             [2.4, 1.6, 2.45],
         ]],
+        ..Default::default()
     });
     // The platform: a box without a top, the top as strips of needle triangles.
     let (x0, x1, y0, y1, h) = (0.2, 2.2, 0.2, 1.2, 0.2);
@@ -578,6 +602,7 @@ pub fn messy() -> SceneDescription {
         name: "platform-top".into(),
         material: "wood".into(),
         polygons: top,
+        ..Default::default()
     });
     // An L-shaped rug on the floor, 1 mm above it: a fan of needles from its inner corner
     // over points every 5 cm along its far edges (concave, no quad in it).
@@ -614,6 +639,7 @@ pub fn messy() -> SceneDescription {
         name: "rug".into(),
         material: "wood".into(),
         polygons: rug,
+        ..Default::default()
     });
     // The round table: fans of 64 triangles, on a leg.
     let (cx, cy, r, z) = (3.0, 3.0, 0.4, 0.7);
@@ -635,11 +661,13 @@ pub fn messy() -> SceneDescription {
         name: "table-top".into(),
         material: "wood".into(),
         polygons: upper,
+        ..Default::default()
     });
     d.surfaces.push(SurfaceDesc {
         name: "table-underside".into(),
         material: "wood".into(),
         polygons: lower,
+        ..Default::default()
     });
     d.boxes.push(boxed(
         "table-leg",
@@ -663,6 +691,7 @@ pub fn messy() -> SceneDescription {
         name: "panel".into(),
         material: "wall".into(),
         polygons: panel,
+        ..Default::default()
     });
     // Boxes passing through each other, and one sunk into the floor.
     d.boxes.push(boxed(
@@ -696,6 +725,7 @@ pub fn messy() -> SceneDescription {
             [1.0, 3.7, 1.0],
             [0.7, 23.7, 1.3],
         ]],
+        ..Default::default()
     });
     // Broken input: a zero-area triangle and a face written twice.
     d.surfaces.push(SurfaceDesc {
@@ -706,6 +736,7 @@ pub fn messy() -> SceneDescription {
             vec![[2.0, 3.5, 1.2], [2.2, 3.5, 1.2], [2.2, 3.7, 1.2]],
             vec![[2.0, 3.5, 1.2], [2.2, 3.5, 1.2], [2.2, 3.7, 1.2]],
         ],
+        ..Default::default()
     });
     d.mesh = MeshHints {
         element_size: Some(0.25),

@@ -71,6 +71,7 @@ pub fn cornell_glass() -> SceneDescription {
             [1.0, 450.0, 450.0],
             [1.0, 100.0, 450.0],
         ]],
+        ..Default::default()
     });
     // The camera is the bundled box's own ('front', the Cornell data page's).
     let area = 130.0 * 105.0;
@@ -156,11 +157,15 @@ pub fn box_sphere(triangles: usize) -> Result<SceneDescription> {
         inward: false,
         omit: vec!["-y".into()],
     });
-    d.surfaces.push(SurfaceDesc {
-        name: "sphere".into(),
-        material: "clay".into(),
-        polygons: geodesic_sphere(m, [0.66, 0.23, 0.42], 0.2),
-    });
+    d.surfaces.push(
+        SurfaceDesc {
+            name: "sphere".into(),
+            material: "clay".into(),
+            polygons: geodesic_sphere(m, [0.66, 0.23, 0.42], 0.2),
+            ..Default::default()
+        }
+        .indexed(),
+    );
     d.mesh = MeshHints {
         element_size: Some(0.125),
         patch_size: Some(0.25),
@@ -221,6 +226,7 @@ pub fn uneven() -> SceneDescription {
             [60.0, y, 60.0],
             [40.0, y, 60.0],
         ]],
+        ..Default::default()
     });
     for (i, (x, z)) in [(80.0, 15.0), (15.0, 80.0), (75.0, 75.0)]
         .into_iter()
@@ -257,6 +263,7 @@ pub fn uneven() -> SceneDescription {
         name: "cluster".into(),
         material: "clutter".into(),
         polygons,
+        ..Default::default()
     });
     d.cameras
         .push(camera([10.5, 0.6, 12.0], [10.5, 0.0, 10.5], 45.0));
