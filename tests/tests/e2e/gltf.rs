@@ -552,19 +552,7 @@ fn room_bakes_like_its_description() {
     for (scene, out) in [(&gltf_path, &a), (&desc_path, &b)] {
         // Unrefined: the two imports' emissions differ in the last bits (radiance · π / π),
         // which may reorder elements ranked equal at the refinement's budget.
-        bake(
-            scene,
-            out,
-            &[
-                "--element-size",
-                "0.25",
-                "--patch-size",
-                "1",
-                "--refine",
-                "0",
-            ],
-        )
-        .unwrap();
+        bake(scene, out, &super::gltf_textures::FLOOR_BAKE).unwrap();
     }
     let fa = lrr_formats::OperatorFile::read(&a).unwrap();
     let fb = lrr_formats::OperatorFile::read(&b).unwrap();

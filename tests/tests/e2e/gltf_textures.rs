@@ -8,6 +8,17 @@ use serde_json::{Value, json};
 use super::gltf::Builder;
 use crate::util::{bake, temp_dir};
 
+/// The floor's bake: elements of 0.25 on the 2 × 2 floor, one texel each, unrefined (the
+/// refinement where light changes would split some).
+pub const FLOOR_BAKE: [&str; 6] = [
+    "--element-size",
+    "0.25",
+    "--patch-size",
+    "1",
+    "--refine",
+    "0",
+];
+
 /// An 8×8 texture of four 4×4 blocks: red, green (top row of blocks), blue, white (bottom).
 const BLOCKS: [[u8; 3]; 4] = [[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255]];
 
@@ -156,19 +167,7 @@ fn each_element_takes_the_mean_of_the_texels_it_covers() {
         let out = dir.join(format!("floor-{component}.lrr"));
         // Elements of 0.25 on the 2 × 2 floor: one texel each (8 × 8), one block per 4 × 4
         // (unrefined: the refinement where light changes would split some).
-        bake(
-            &path,
-            &out,
-            &[
-                "--element-size",
-                "0.25",
-                "--patch-size",
-                "1",
-                "--refine",
-                "0",
-            ],
-        )
-        .unwrap();
+        bake(&path, &out, &FLOOR_BAKE).unwrap();
         let material = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
         check_blocks(&out, material.reflectance);
     }
@@ -250,15 +249,7 @@ fn an_obj_map_kd_varies_the_reflectance_as_a_gltf_texture_does() {
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
     assert_eq!(scene.textures.len(), 1);
     let out = dir.join("floor.lrr");
-    let args = [
-        "--element-size",
-        "0.25",
-        "--patch-size",
-        "1",
-        "--refine",
-        "0",
-    ];
-    bake(&path, &out, &args).unwrap();
+    bake(&path, &out, &FLOOR_BAKE).unwrap();
     let material = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
     check_blocks(&out, material.reflectance);
     // An image that is not there: a warning, and Kd alone.
