@@ -142,6 +142,8 @@ pub fn run(a: &SceneArgs, out: &mut dyn Write) -> Result<()> {
             let text = std::fs::read_to_string(input)
                 .with_context(|| format!("reading the scene description {origin}"))?;
             let d = lrr_precompute::scene::description::SceneDescription::parse(&text, &origin)?;
+            // Its own errors (a face index out of range, …) are the input's, named as such.
+            d.build(&origin, input.parent().unwrap_or(std::path::Path::new(".")))?;
             let how = if let Some(g) = grid {
                 if !(1..=64).contains(g) {
                     anyhow::bail!("--grid {g}: use 1 to 64 cells per side");

@@ -41,9 +41,6 @@
 
 use lrr_formats::{OperatorData, OperatorFile};
 
-use std::sync::Barrier;
-use std::sync::atomic::{AtomicU32, Ordering};
-
 use crate::error::{RuntimeError, input};
 use crate::smooth::mean_value_weights;
 
@@ -94,7 +91,7 @@ pub struct Lightmap {
     vertex_elements: Vec<u32>,
     vertex_weights: Vec<f32>,
     /// This frame's smooth-vertex values.
-    vertices: VertexValues,
+    vertices: Vec<[f32; 4]>,
     /// Dilation: `ring_ends[r]` ends ring `r` in `dilated`; each dilated texel's filled
     /// neighbours are `neighbours[neighbour_ends[i - 1]..neighbour_ends[i]]`. Within a ring,
     /// texels are ordered by [`Bands`]: band 0's, band 1's, …, then the deferred ones.
@@ -107,16 +104,18 @@ pub struct Lightmap {
     threads: usize,
 }
 
-/// The split of a fill over threads. Band `b` takes a share of the smooth vertices
-/// ([`Lightmap::vertex_values`]), then runs `runs[b]..runs[b + 1]` and texels
+/// The split of a fill over threads (after the smooth-vertex values, computed by the same
+/// threads in equal shares: [`Lightmap::vertex_values`]). Band `b` takes runs
+/// `runs[b]..runs[b + 1]` and texels
 /// `texels[b]..texels[b + 1]` (from its first run's texel to the next band's; the first from
 /// 0, the last to the end), writes them, and dilates the texels of its own range whose
 /// neighbours, and theirs ring after ring, lie in its range too: in ring `r` (with `c`
 /// bands), `parts[r * (c + 1) + b]..parts[r * (c + 1) + b + 1]` of `dilated`. The rest of
 /// ring `r`, from `parts[r * (c + 1) + c]` to `ring_ends[r]`, is deferred: dilated by the
 /// calling thread once the bands are done (texels near a band's edge: a few rows' worth). So
-/// a fill spawns its threads once, and the texels are the same for any number of threads:
-/// each dilated texel reads the same neighbours, already final, in the same order.
+/// the samples and the rings take one spawn of the threads, and the texels are the same for
+/// any number of threads: each dilated texel reads the same neighbours, already final, in the
+/// same order.
 #[derive(Debug, Clone, Default)]
 struct Bands {
     runs: Vec<usize>,
@@ -127,35 +126,6 @@ struct Bands {
 impl Bands {
     fn count(&self) -> usize {
         self.runs.len() - 1
-    }
-}
-
-/// Smooth-vertex values (`r, g, b, 0` as f32 bits): each thread of a fill writes its share,
-/// and after a barrier every thread reads them all. Relaxed atomics are plain loads and stores
-/// here; the barrier orders them.
-#[derive(Debug, Default)]
-struct VertexValues(Vec<[AtomicU32; 4]>);
-
-impl VertexValues {
-    fn new(count: usize) -> Self {
-        Self(
-            (0..count)
-                .map(|_| [0, 0, 0, 0].map(AtomicU32::new))
-                .collect(),
-        )
-    }
-
-    #[inline(always)]
-    fn get(&self, v: usize) -> [f32; 4] {
-        let x = &self.0[v];
-        let at = |c: usize| f32::from_bits(x[c].load(Ordering::Relaxed));
-        [at(0), at(1), at(2), at(3)]
-    }
-}
-
-impl Clone for VertexValues {
-    fn clone(&self) -> Self {
-        Self::new(self.0.len())
     }
 }
 
@@ -266,7 +236,7 @@ impl Lightmap {
             vertex_offsets: Vec::new(),
             vertex_elements: Vec::new(),
             vertex_weights: Vec::new(),
-            vertices: VertexValues::default(),
+            vertices: Vec::new(),
             ring_ends: Vec::new(),
             dilated: Vec::new(),
             neighbour_ends: Vec::new(),
@@ -289,7 +259,7 @@ impl Lightmap {
                 .map(|&p| file.order[p as usize])
                 .collect();
             map.vertex_weights = s.weights.clone();
-            map.vertices = VertexValues::new(r.vertex_count());
+            map.vertices = vec![[0.0; 4]; r.vertex_count()];
             map.elements = map
                 .vertex_elements
                 .iter()
@@ -362,6 +332,7 @@ impl Lightmap {
 
     /// The samples as the GPU's fill reads them: per sample its texel and either four smooth
     /// vertices and weights (times 1/π) or one element.
+    #[cfg(feature = "gpu")]
     pub(crate) fn sample_table(&self) -> (Vec<u32>, Vec<u32>, Vec<f32>) {
         let corners = match self.values {
             LightmapValues::Smooth => 4,
@@ -435,17 +406,13 @@ impl Lightmap {
             )));
         }
         let count = self.bands.count();
-        let barrier = Barrier::new(count);
+        if let Some(radiosity) = radiosity
+            && self.values == LightmapValues::Smooth
+        {
+            self.vertex_values(radiosity, count);
+        }
         let this = &*self;
         let band = |b: usize, texels: &mut [[f32; 3]]| {
-            if let Some(radiosity) = radiosity
-                && this.values == LightmapValues::Smooth
-            {
-                this.vertex_values(b, radiosity);
-                if count > 1 {
-                    barrier.wait();
-                }
-            }
             this.band(b, radiosity, dilate, texels);
         };
         let band = &band;
@@ -555,10 +522,10 @@ impl Lightmap {
             LightmapValues::Smooth => {
                 let c = &self.run_index[4 * run..4 * run + 4];
                 let x = [
-                    self.vertices.get(c[0] as usize),
-                    self.vertices.get(c[1] as usize),
-                    self.vertices.get(c[2] as usize),
-                    self.vertices.get(c[3] as usize),
+                    self.vertices[c[0] as usize],
+                    self.vertices[c[1] as usize],
+                    self.vertices[c[2] as usize],
+                    self.vertices[c[3] as usize],
                 ];
                 let mut xd = [[0.0f64; 4]; 4];
                 for k in 0..4 {
@@ -617,27 +584,31 @@ impl Lightmap {
         Ok(())
     }
 
-    /// Band `b`'s share of this frame's smooth-vertex values from the element values `b`
-    /// (checked long enough), clamped at zero (a vertex on a surface's boundary extrapolates,
-    /// with negative weights), as
-    /// [`Reconstruction::vertex_values`](crate::Reconstruction::vertex_values).
-    fn vertex_values(&self, band: usize, b: &[[f32; 3]]) {
-        let n = self.vertices.0.len();
-        let per = n.div_ceil(self.bands.count()).max(1);
-        for v in (band * per).min(n)..((band + 1) * per).min(n) {
-            let mut sum = [0.0f64; 3];
-            for j in self.vertex_offsets[v] as usize..self.vertex_offsets[v + 1] as usize {
-                let e = b[self.vertex_elements[j] as usize];
-                let w = f64::from(self.vertex_weights[j]);
-                for c in 0..3 {
-                    sum[c] += w * f64::from(e[c]);
-                }
-            }
-            for c in 0..3 {
-                let x = sum[c].max(0.0) as f32;
-                self.vertices.0[v][c].store(x.to_bits(), Ordering::Relaxed);
-            }
+    /// This frame's smooth-vertex values (`r, g, b, 0`) from the element values `b` (checked
+    /// long enough), clamped at zero (a vertex on a surface's boundary extrapolates, with
+    /// negative weights), as [`Reconstruction::vertex_values`](crate::Reconstruction::vertex_values);
+    /// `threads` threads take equal shares.
+    fn vertex_values(&mut self, b: &[[f32; 3]], threads: usize) {
+        let rows = (
+            &self.vertex_offsets[..],
+            &self.vertex_elements[..],
+            &self.vertex_weights[..],
+        );
+        let per = self.vertices.len().div_ceil(threads).max(1);
+        let mut shares = self.vertices.chunks_mut(per).enumerate();
+        let Some((_, first)) = shares.next() else {
+            return;
+        };
+        if threads == 1 {
+            vertex_rows(rows, 0, first, b);
+            return;
         }
+        std::thread::scope(|s| {
+            for (k, share) in shares {
+                s.spawn(move || vertex_rows(rows, k * per, share, b));
+            }
+            vertex_rows(rows, 0, first, b);
+        });
     }
 
     /// The samples' reconstruction weights (times 1/π).
@@ -741,9 +712,13 @@ impl Lightmap {
             for (i, &g) in ring.clone().zip(&group) {
                 owner[self.dilated[i] as usize] = g;
             }
+            // Each group in texel order, as the bands' row-by-row pass takes them (a ring is
+            // in texel order when built, but no longer after a split into several bands).
+            let mut order: Vec<usize> = ring.clone().collect();
+            order.sort_unstable_by_key(|&i| self.dilated[i]);
             for g in 0..=count as u32 {
                 parts.push(dilated.len() as u32);
-                for (i, _) in ring.clone().zip(&group).filter(|&(_, &h)| h == g) {
+                for &i in order.iter().filter(|&&i| group[i - ring.start] == g) {
                     let from = if i == 0 {
                         0
                     } else {
@@ -804,6 +779,32 @@ impl Lightmap {
             }
             self.ring_ends.push(self.dilated.len() as u32);
         }
+    }
+}
+
+/// The values of smooth vertices `first..first + out.len()` from SMOOTH's `rows` (offsets,
+/// elements, weights) over the element values `b`, clamped at zero.
+fn vertex_rows(
+    (offsets, elements, weights): (&[u32], &[u32], &[f32]),
+    first: usize,
+    out: &mut [[f32; 4]],
+    b: &[[f32; 3]],
+) {
+    for (v, value) in (first..).zip(out) {
+        let mut sum = [0.0f64; 3];
+        for j in offsets[v] as usize..offsets[v + 1] as usize {
+            let e = b[elements[j] as usize];
+            let w = f64::from(weights[j]);
+            for c in 0..3 {
+                sum[c] += w * f64::from(e[c]);
+            }
+        }
+        *value = [
+            sum[0].max(0.0) as f32,
+            sum[1].max(0.0) as f32,
+            sum[2].max(0.0) as f32,
+            0.0,
+        ];
     }
 }
 
@@ -1124,6 +1125,14 @@ mod tests {
             let mut got = vec![[f32::NAN; 3]; 97 * 61];
             many.fill(&b, &mut got).unwrap();
             assert_eq!(got, texels, "{threads} threads");
+            // Split again, from a split into several bands, and back.
+            for again in [3, 1, threads] {
+                let mut resplit = many.clone();
+                resplit.set_threads(again);
+                let mut got = vec![[f32::NAN; 3]; 97 * 61];
+                resplit.fill(&b, &mut got).unwrap();
+                assert_eq!(got, texels, "{threads} threads, then {again}");
+            }
             // The two halves give the same texels, as long as nothing is added between.
             let mut halves = vec![[f32::NAN; 3]; 97 * 61];
             many.fill_samples(&b, &mut halves).unwrap();

@@ -619,13 +619,6 @@ impl SceneDescription {
                      from 0) or neither",
                 ));
             }
-            if surface.polygons.is_empty() && surface.faces.is_empty() {
-                return Err(Error::scene(
-                    format!("{origin}: surface '{}'", surface.name),
-                    "has no polygons: give polygons = [[[x, y, z], …], …], or vertices and \
-                     faces",
-                ));
-            }
             for (i, face) in surface.faces.iter().enumerate() {
                 let v = face
                     .iter()
@@ -1333,11 +1326,6 @@ mod tests {
                 "faces = [[0, 1, 2, 3], [1, 4, 2]]",
                 "",
                 "vertices and faces go together",
-            ),
-            (
-                "vertices = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0]]\n            faces = [[0, 1, 2, 3], [1, 4, 2]]",
-                "",
-                "has no polygons",
             ),
         ] {
             let text = indexed.replace(from, to);

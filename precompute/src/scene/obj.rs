@@ -30,7 +30,7 @@ use std::path::Path;
 
 use glam::DVec3;
 
-use super::model::{Material, Optics, Scene};
+use super::model::{MAX_TEXTURED_REFLECTANCE, Material, Optics, Scene};
 use super::texture::{self, TextureBinding, UvMap, Wrap};
 use crate::error::{Error, Result};
 
@@ -59,7 +59,7 @@ fn face_uv(vertices: &[DVec3], indices: &[u32], texcoords: &[f64]) -> Option<UvM
 fn diffuse_map(
     spec: &str,
     folders: &[std::path::PathBuf],
-    images: &mut HashMap<std::path::PathBuf, usize>,
+    images: &mut HashMap<(std::path::PathBuf, Wrap), usize>,
     scene: &mut Scene,
     location: &str,
 ) -> Result<usize> {
@@ -107,7 +107,7 @@ fn diffuse_map(
                 format!("map_Kd image '{file}' is not beside the OBJ or its MTL"),
             )
         })?;
-    if let Some(&id) = images.get(&path) {
+    if let Some(&id) = images.get(&(path.clone(), wrap)) {
         return Ok(id);
     }
     let what = format!("{location}: map_Kd image {}", path.display());
@@ -116,7 +116,7 @@ fn diffuse_map(
         .map_err(|e| Error::scene(location, format!("map_Kd image {}{e}", path.display())))?;
     scene.textures.push(decoded);
     let id = scene.textures.len() - 1;
-    images.insert(path, id);
+    images.insert((path, wrap), id);
     Ok(id)
 }
 
@@ -158,7 +158,7 @@ pub fn load(path: &Path) -> Result<Scene> {
     let mut scene = Scene::new(name);
     let mut material_ids = Vec::with_capacity(materials.len());
     // Decoded map_Kd images by path, each decoded once.
-    let mut images: HashMap<std::path::PathBuf, usize> = HashMap::new();
+    let mut images: HashMap<(std::path::PathBuf, Wrap), usize> = HashMap::new();
     for m in &materials {
         let location = format!("{origin}: material '{}'", m.name);
         let mut kd = m.diffuse.unwrap_or([DEFAULT_REFLECTANCE; 3]);
@@ -175,6 +175,13 @@ pub fn load(path: &Path) -> Result<Scene> {
                     let factor = m.diffuse.unwrap_or([1.0; 3]);
                     let mean = scene.textures[id].average();
                     kd = [0, 1, 2].map(|c| factor[c] * mean[c]);
+                    if kd.iter().any(|&r| r > MAX_TEXTURED_REFLECTANCE) {
+                        scene.warnings.push(format!(
+                            "{mtl_location}: Kd times its map_Kd's mean, {kd:.3?}, clamped to \
+                             {MAX_TEXTURED_REFLECTANCE} (a reflectance of 1 never lets light decay)"
+                        ));
+                        kd = kd.map(|r| r.min(MAX_TEXTURED_REFLECTANCE));
+                    }
                     texture = Some(TextureBinding {
                         texture: id,
                         set: 0,
@@ -234,7 +241,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             let line = face_lines.get(face_counter).copied();
             face_counter += 1;
             let location = match line {
-                Some(l) => format!("{origin}:{l}"),
+                Some((l, _)) => format!("{origin}:{l}"),
                 None => format!("{origin}: face #{face_counter}"),
             };
             let idx = &mesh.indices[start..start + arity];
@@ -250,7 +257,9 @@ pub fn load(path: &Path) -> Result<Scene> {
                     )
                 })
                 .collect();
+            // A face without its own `vt` takes the material's mean (Kd times the image's).
             let uv = match scene.materials[material].texture.is_some()
+                && line.is_some_and(|(_, textured)| textured)
                 && mesh.texcoord_indices.len() == mesh.indices.len()
             {
                 true => face_uv(
@@ -289,7 +298,7 @@ fn surface_name(group: &str, material: &str, per_group: &HashMap<String, usize>)
 
 /// Checks the statements tobj would reject, with line numbers, and returns the line of every
 /// face statement in file order.
-fn prescan(bytes: &[u8], origin: &str) -> Result<Vec<usize>> {
+fn prescan(bytes: &[u8], origin: &str) -> Result<Vec<(usize, bool)>> {
     let mut vertices = 0i64;
     let mut faces = Vec::new();
     for (i, raw) in bytes.split(|&b| b == b'\n').enumerate() {
@@ -330,6 +339,11 @@ fn prescan(bytes: &[u8], origin: &str) -> Result<Vec<usize>> {
                         "a face ('f') needs at least three vertices",
                     ));
                 }
+                // Whether every corner names a texture coordinate (tobj fills a missing one
+                // with the one before).
+                let textured = refs
+                    .iter()
+                    .all(|r| r.split('/').nth(1).is_some_and(|t| !t.is_empty()));
                 for r in refs {
                     let first = r.split('/').next().unwrap_or("");
                     let idx: i64 = first.parse().map_err(|_| {
@@ -345,7 +359,7 @@ fn prescan(bytes: &[u8], origin: &str) -> Result<Vec<usize>> {
                         ));
                     }
                 }
-                faces.push(line_no);
+                faces.push((line_no, textured));
             }
             _ => {}
         }
@@ -681,6 +695,12 @@ mod tests {
             "a.obj",
         )
         .unwrap();
-        assert_eq!(lines, vec![5, 6]);
+        assert_eq!(lines, vec![(5, false), (6, false)]);
+        let lines = prescan(
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3/1\nf 1/1/1 2//1 3/1\nf 1 2 3\n",
+            "a.obj",
+        )
+        .unwrap();
+        assert_eq!(lines, vec![(5, true), (6, false), (7, false)]);
     }
 }

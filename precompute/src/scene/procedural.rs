@@ -450,6 +450,9 @@ pub fn triangulated(d: &SceneDescription, how: Triangulation) -> SceneDescriptio
     let split = |polygon: &[[f64; 3]]| -> Vec<Vec<[f64; 3]>> {
         let v: Vec<DVec3> = polygon.iter().map(|p| DVec3::from_array(*p)).collect();
         let n = v.len();
+        if n < 3 {
+            return vec![polygon.to_vec()]; // degenerate: the import drops it with a warning
+        }
         if let Triangulation::Grid(g) = how {
             return grid_triangles(&v, g.max(1));
         }

@@ -24,7 +24,7 @@ use crate::geometry::Polygon;
 pub const MAX_SPLITS: usize = 16;
 
 /// How texture coordinates outside [0, 1] map into the image (glTF sampler wrap modes).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Wrap {
     /// The image repeats (glTF's default).
     #[default]

@@ -266,6 +266,35 @@ fn an_obj_map_kd_varies_the_reflectance_as_a_gltf_texture_does() {
     );
     let tiles = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
     assert_eq!((tiles.reflectance, tiles.texture), ([0.8; 3], None));
+    // A white image and no Kd: a reflectance of 1, clamped with a warning, not refused.
+    let mut white = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut white),
+        &[255u8; 12],
+        2,
+        2,
+        image::ColorType::Rgb8,
+    )
+    .unwrap();
+    std::fs::write(dir.join("white.png"), white).unwrap();
+    std::fs::write(
+        dir.join("white.mtl"),
+        "newmtl white\nmap_Kd white.png\n\nnewmtl lamp\nKd 0.5 0.5 0.5\nKe 1 1 1\n",
+    )
+    .unwrap();
+    let obj = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("floor.mtl", "white.mtl")
+        .replace("usemtl tiles", "usemtl white");
+    std::fs::write(dir.join("white.obj"), obj).unwrap();
+    let scene = lrr_precompute::scene::load(&dir.join("white.obj")).unwrap();
+    let white = scene.materials.iter().find(|m| m.name == "white").unwrap();
+    assert_eq!(white.reflectance, [0.99; 3]);
+    assert!(
+        scene.warnings.iter().any(|w| w.contains("clamped to 0.99")),
+        "{:?}",
+        scene.warnings
+    );
 }
 
 #[test]
