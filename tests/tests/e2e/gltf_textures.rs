@@ -252,6 +252,24 @@ fn an_obj_map_kd_varies_the_reflectance_as_a_gltf_texture_does() {
     bake(&path, &out, &FLOOR_BAKE).unwrap();
     let material = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
     check_blocks(&out, material.reflectance);
+    // A face without its own vt (the file has some): the material's mean over the whole
+    // floor, not the colour of the coordinate before.
+    let plain = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("f 1/1 2/2 3/3 4/4", "f 1 2 3 4");
+    std::fs::write(dir.join("plain.obj"), plain).unwrap();
+    let out = dir.join("plain.lrr");
+    bake(&dir.join("plain.obj"), &out, &FLOOR_BAKE).unwrap();
+    let file = lrr_formats::OperatorFile::read(&out).unwrap();
+    for (centre, rho) in baked_floor(&file) {
+        for k in 0..3 {
+            assert!(
+                (rho[k] - material.reflectance[k]).abs() < 1e-6,
+                "element at {centre:?}: {rho:?}, want the mean {:?}",
+                material.reflectance
+            );
+        }
+    }
     // An image that is not there: a warning, and Kd alone.
     let path = obj_floor(&dir, "missing.png");
     let scene = lrr_precompute::scene::load(&path).unwrap();
