@@ -127,6 +127,12 @@ impl Bands {
     fn count(&self) -> usize {
         self.runs.len() - 1
     }
+
+    /// Where group `g` of ring `r` starts in `dilated`: band `g`'s texels, or with `g` the
+    /// band count, the deferred ones.
+    fn start(&self, r: usize, g: usize) -> usize {
+        self.parts[r * (self.count() + 1) + g] as usize
+    }
 }
 
 impl Lightmap {
@@ -387,7 +393,8 @@ impl Lightmap {
         self.run(None, out, true)
     }
 
-    /// The samples' pass of `radiosity` and/or the dilation, with the threads spawned once.
+    /// The samples' pass of `radiosity` and/or the dilation: the smooth-vertex values in one
+    /// spawn of the threads, the bands in another, then the deferred ring texels.
     fn run(
         &mut self,
         radiosity: Option<&[[f32; 3]]>,
@@ -439,8 +446,7 @@ impl Lightmap {
         }
         if dilate {
             for r in 0..self.ring_ends.len() {
-                let deferred = self.bands.parts[r * (count + 1) + count] as usize;
-                for i in deferred..self.ring_ends[r] as usize {
+                for i in self.bands.start(r, count)..self.ring_ends[r] as usize {
                     out[self.dilated[i] as usize] = self.ring_mean(i, out, 0);
                 }
             }
@@ -460,7 +466,6 @@ impl Lightmap {
         texels: &mut [[f32; 3]],
     ) {
         let w = self.width;
-        let count = self.bands.count();
         let (start, end) = (self.bands.texels[b], self.bands.texels[b + 1]);
         if start == end {
             return;
@@ -471,8 +476,8 @@ impl Lightmap {
         let mut cursor = [0usize; MAX_RINGS];
         let mut stop = [0usize; MAX_RINGS];
         for r in 0..rings {
-            cursor[r] = self.bands.parts[r * (count + 1) + b] as usize;
-            stop[r] = self.bands.parts[r * (count + 1) + b + 1] as usize;
+            cursor[r] = self.bands.start(r, b);
+            stop[r] = self.bands.start(r, b + 1);
         }
         let (first_row, last_row) = (start / w, (end - 1) / w);
         for y in first_row..=last_row + rings {
@@ -555,12 +560,7 @@ impl Lightmap {
     /// The mean of the filled neighbours of dilated texel `i`, read in `texels` (the atlas
     /// from texel `start` on).
     fn ring_mean(&self, i: usize, texels: &[[f32; 3]], start: usize) -> [f32; 3] {
-        let from = if i == 0 {
-            0
-        } else {
-            self.neighbour_ends[i - 1] as usize
-        };
-        let around = &self.neighbours[from..self.neighbour_ends[i] as usize];
+        let around = self.around(i);
         let mut sum = [0.0f32; 3];
         for &j in around {
             let v = texels[j as usize - start];
@@ -570,6 +570,15 @@ impl Lightmap {
         }
         let scale = 1.0 / around.len() as f32;
         sum.map(|x| x * scale)
+    }
+
+    /// The filled neighbours of dilated texel `i`.
+    fn around(&self, i: usize) -> &[u32] {
+        let from = match i {
+            0 => 0,
+            i => self.neighbour_ends[i - 1] as usize,
+        };
+        &self.neighbours[from..self.neighbour_ends[i] as usize]
     }
 
     fn check_out(&self, out: &[[f32; 3]]) -> Result<(), RuntimeError> {
@@ -684,8 +693,8 @@ impl Lightmap {
                 b => self.run_texel[bands[b]] as usize,
             })
             .collect();
-        let band_of = |t: usize| texels.partition_point(|&start| start <= t) - 1;
-        // Per texel: the band whose thread dilates it, or `count` when deferred.
+        // Per texel: the band whose thread dilates it (its range's, until a ring takes it), or
+        // `count` when deferred.
         let mut owner = vec![0u32; self.width * self.height];
         for (b, w) in texels.windows(2).enumerate() {
             owner[w[0]..w[1]].fill(b as u32);
@@ -697,17 +706,10 @@ impl Lightmap {
             let ring = begin..end as usize;
             let mut group = vec![0u32; ring.len()];
             for (i, g) in ring.clone().zip(&mut group) {
-                let t = self.dilated[i] as usize;
-                let b = band_of(t);
-                let from = if i == 0 {
-                    0
-                } else {
-                    self.neighbour_ends[i - 1] as usize
-                };
-                let own = self.neighbours[from..self.neighbour_ends[i] as usize]
-                    .iter()
-                    .all(|&j| owner[j as usize] as usize == b);
-                *g = if own { b as u32 } else { count as u32 };
+                // Not yet dilated, so still its range's band.
+                let b = owner[self.dilated[i] as usize];
+                let own = self.around(i).iter().all(|&j| owner[j as usize] == b);
+                *g = if own { b } else { count as u32 };
             }
             for (i, &g) in ring.clone().zip(&group) {
                 owner[self.dilated[i] as usize] = g;
@@ -719,14 +721,8 @@ impl Lightmap {
             for g in 0..=count as u32 {
                 parts.push(dilated.len() as u32);
                 for &i in order.iter().filter(|&&i| group[i - ring.start] == g) {
-                    let from = if i == 0 {
-                        0
-                    } else {
-                        self.neighbour_ends[i - 1] as usize
-                    };
                     dilated.push(self.dilated[i]);
-                    neighbours
-                        .extend_from_slice(&self.neighbours[from..self.neighbour_ends[i] as usize]);
+                    neighbours.extend_from_slice(self.around(i));
                     ends.push(neighbours.len() as u32);
                 }
             }
@@ -1140,9 +1136,7 @@ mod tests {
             assert_eq!(halves, texels, "{threads} threads, in two halves");
             let bands = many.bands.count();
             let deferred: usize = (0..many.ring_ends.len())
-                .map(|r| {
-                    many.ring_ends[r] as usize - many.bands.parts[r * (bands + 1) + bands] as usize
-                })
+                .map(|r| many.ring_ends[r] as usize - many.bands.start(r, bands))
                 .sum();
             assert!(
                 deferred > 0,
