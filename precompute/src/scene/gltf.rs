@@ -34,7 +34,7 @@ use base64::Engine;
 use glam::{DMat4, DQuat, DVec3};
 use gltf::json;
 
-use super::model::{Camera, DirectLight, Material, Optics, PointLight, Scene};
+use super::model::{Camera, DirectLight, Material, Optics, PointLight, Scene, clamp_reflectance};
 use super::texture::{self, Texture, TextureBinding, UvMap, Wrap};
 use crate::error::{Error, Result};
 
@@ -752,20 +752,16 @@ impl<'a> Importer<'a> {
             }
         }
         let diffuse_share = (1.0 - metal) * (1.0 - trans) + metal * rough;
-        let mut reflectance = c.map(|c| c * diffuse_share);
+        let reflectance = clamp_reflectance(
+            c.map(|c| c * diffuse_share),
+            &format!("{}: {what}", self.origin),
+            &mut self.scene.warnings,
+        );
         let texture = base_texture.map(|(texture, set)| TextureBinding {
             texture,
             set,
             scale: factor.map(|f| f * diffuse_share),
         });
-        if reflectance.iter().any(|r| *r > MAX_REFLECTANCE) {
-            self.scene.warnings.push(format!(
-                "{}: {what}: diffuse reflectance {reflectance:.3?} clamped to {MAX_REFLECTANCE} \
-                 (a reflectance of 1 never lets light decay)",
-                self.origin
-            ));
-            reflectance = reflectance.map(|r| r.min(MAX_REFLECTANCE));
-        }
         let strength = m.emissive_strength().map(f64::from).unwrap_or(1.0);
         let mut radiance = m.emissive_factor().map(|e| f64::from(e) * strength);
         if let Some(info) = m.emissive_texture()

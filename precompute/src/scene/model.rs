@@ -144,8 +144,22 @@ impl Material {
 }
 
 /// Largest reflectance an element takes from a texture (a reflectance of 1 makes a closed
-/// scene's radiosity system singular); the glTF importer clamps whole materials likewise.
+/// scene's radiosity system singular); the glTF and OBJ importers clamp whole materials
+/// likewise ([`clamp_reflectance`]).
 pub const MAX_TEXTURED_REFLECTANCE: f64 = 0.99;
+
+/// `rho` with each channel at most [`MAX_TEXTURED_REFLECTANCE`], and a warning naming `what`
+/// (where the value comes from) when it was over.
+pub(crate) fn clamp_reflectance(rho: [f64; 3], what: &str, warnings: &mut Vec<String>) -> [f64; 3] {
+    if rho.iter().all(|&r| r <= MAX_TEXTURED_REFLECTANCE) {
+        return rho;
+    }
+    warnings.push(format!(
+        "{what}: diffuse reflectance {rho:.3?} clamped to {MAX_TEXTURED_REFLECTANCE} (a \
+         reflectance of 1 never lets light decay)"
+    ));
+    rho.map(|r| r.min(MAX_TEXTURED_REFLECTANCE))
+}
 
 /// One planar convex face of the scene.
 #[derive(Debug, Clone, PartialEq)]

@@ -30,7 +30,7 @@ use std::path::Path;
 
 use glam::DVec3;
 
-use super::model::{MAX_TEXTURED_REFLECTANCE, Material, Optics, Scene};
+use super::model::{Material, Optics, Scene, clamp_reflectance};
 use super::texture::{self, TextureBinding, UvMap, Wrap};
 use crate::error::{Error, Result};
 
@@ -174,14 +174,11 @@ pub fn load(path: &Path) -> Result<Scene> {
                     // The map multiplies Kd (1 where the MTL gives none).
                     let factor = m.diffuse.unwrap_or([1.0; 3]);
                     let mean = scene.textures[id].average();
-                    kd = [0, 1, 2].map(|c| factor[c] * mean[c]);
-                    if kd.iter().any(|&r| r > MAX_TEXTURED_REFLECTANCE) {
-                        scene.warnings.push(format!(
-                            "{mtl_location}: Kd times its map_Kd's mean, {kd:.3?}, clamped to \
-                             {MAX_TEXTURED_REFLECTANCE} (a reflectance of 1 never lets light decay)"
-                        ));
-                        kd = kd.map(|r| r.min(MAX_TEXTURED_REFLECTANCE));
-                    }
+                    kd = clamp_reflectance(
+                        [0, 1, 2].map(|c| factor[c] * mean[c]),
+                        &format!("{mtl_location}: Kd times its map_Kd's mean"),
+                        &mut scene.warnings,
+                    );
                     texture = Some(TextureBinding {
                         texture: id,
                         set: 0,
