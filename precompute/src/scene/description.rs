@@ -1272,34 +1272,37 @@ pub fn load(path: &Path) -> Result<Scene> {
 mod tests {
     use super::*;
 
+    /// A grey material `m`, for the tests' descriptions.
+    const GREY: &str = r#"
+        [[material]]
+        name = "m"
+        reflectance = [0.5, 0.5, 0.5]
+    "#;
+
+    /// The start of a surface `s` of [`GREY`].
+    const GREY_SURFACE: &str = r#"
+        [[surface]]
+        name = "s"
+        material = "m"
+    "#;
+
     #[test]
     fn an_indexed_surface_imports_as_its_polygons_do() {
-        let polygons = r#"
-            [[material]]
-            name = "m"
-            reflectance = [0.5, 0.5, 0.5]
-            [[surface]]
-            name = "s"
-            material = "m"
-            polygons = [[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[1, 0, 0], [2, 0, 0], [1, 1, 0]]]
-        "#;
-        let indexed = r#"
-            [[material]]
-            name = "m"
-            reflectance = [0.5, 0.5, 0.5]
-            [[surface]]
-            name = "s"
-            material = "m"
-            vertices = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0]]
-            faces = [[0, 1, 2, 3], [1, 4, 2]]
-        "#;
+        let polygons = format!(
+            "{GREY}{GREY_SURFACE}polygons = [[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], \
+             [[1, 0, 0], [2, 0, 0], [1, 1, 0]]]"
+        );
+        let indexed = format!(
+            "{GREY}{GREY_SURFACE}vertices = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0]]
+            faces = [[0, 1, 2, 3], [1, 4, 2]]"
+        );
         let build = |text: &str| {
             SceneDescription::parse(text, "t.toml")
                 .unwrap()
                 .build("t.toml", Path::new("."))
                 .unwrap()
         };
-        let (a, b) = (build(polygons), build(indexed));
+        let (a, b) = (build(&polygons), build(&indexed));
         assert_eq!(a.faces.len(), 2);
         let corners = |s: &Scene| -> Vec<Vec<DVec3>> {
             s.faces
@@ -1309,7 +1312,7 @@ mod tests {
         };
         assert_eq!(corners(&a), corners(&b));
         // indexed() writes the polygons form as the indexed one, vertices shared.
-        let d = SceneDescription::parse(polygons, "t.toml").unwrap();
+        let d = SceneDescription::parse(&polygons, "t.toml").unwrap();
         let s = d.surfaces[0].clone().indexed();
         assert!(s.polygons.is_empty());
         assert_eq!(s.vertices.len(), 5);
@@ -1339,10 +1342,8 @@ mod tests {
 
     #[test]
     fn box_faces_point_the_right_way() {
-        let text = r#"
-            [[material]]
-            name = "m"
-            reflectance = [0.5, 0.5, 0.5]
+        let text = GREY.to_string()
+            + r#"
             [[box]]
             name = "room"
             material = "m"
@@ -1356,7 +1357,7 @@ mod tests {
             max = [1, 1, 1]
             omit = ["-y"]
         "#;
-        let d = SceneDescription::parse(text, "t.toml").unwrap();
+        let d = SceneDescription::parse(&text, "t.toml").unwrap();
         let s = d.build("t.toml", Path::new(".")).unwrap();
         assert_eq!(s.faces.len(), 11);
         let centre_room = DVec3::new(1.0, 1.5, 2.0);
