@@ -53,6 +53,24 @@ pub enum LightmapValues {
     Flat,
 }
 
+/// A [`Lightmap`] as the GPU's fill reads it ([`Lightmap::gpu_table`]; the layout is
+/// `lightmap.wgsl`'s).
+#[cfg(feature = "gpu")]
+#[derive(Debug, Default)]
+pub(crate) struct GpuTable {
+    /// Per sample its run, and (smooth) its four weights (f32 bits).
+    pub samples: Vec<u32>,
+    /// Per run its first texel minus its first sample (wrapping).
+    pub run_base: Vec<u32>,
+    /// Per run four sources: smooth vertices, or the element and three zeros (flat).
+    pub run_index: Vec<u32>,
+    /// Per dilated texel: the texel, and the end of its terms.
+    pub rings: Vec<u32>,
+    /// Per term of a dilated texel: its source and weight (f32 bits).
+    pub ring_source: Vec<u32>,
+    pub ring_weight: Vec<u32>,
+}
+
 /// One sample of a [`Lightmap`]: a texel whose value comes from a point of a display face.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LightmapSample {
@@ -336,22 +354,91 @@ impl Lightmap {
         })
     }
 
-    /// The samples as the GPU's fill reads them: per sample its texel and either four smooth
-    /// vertices and weights (times 1/π) or one element.
+    /// The lightmap as the GPU's fill reads it (`lightmap.wgsl` of `lrr-shaders`): per sample
+    /// its run (and, smooth, its four weights), per run its texel base and
+    /// sources, and every dilated texel expanded into the same sources (the mean of its
+    /// neighbours is linear in them), so that one dispatch writes samples and rings.
     #[cfg(feature = "gpu")]
-    pub(crate) fn sample_table(&self) -> (Vec<u32>, Vec<u32>, Vec<f32>) {
-        let corners = match self.values {
-            LightmapValues::Smooth => 4,
-            LightmapValues::Flat => 1,
-        };
-        let (mut texel, mut index) = (Vec::new(), Vec::new());
+    pub(crate) fn gpu_table(&self) -> GpuTable {
+        let smooth = self.values == LightmapValues::Smooth;
+        let corners = if smooth { 4 } else { 1 };
+        let mut table = GpuTable::default();
+        let mut sample_run = Vec::with_capacity(self.point.len());
         for r in 0..self.run_texel.len() {
-            for j in 0..self.run_start[r + 1] - self.run_start[r] {
-                texel.push(self.run_texel[r] + j);
-                index.extend_from_slice(&self.run_index[corners * r..corners * (r + 1)]);
+            let first = self.run_start[r];
+            table.run_base.push(self.run_texel[r].wrapping_sub(first));
+            let mut index = [0u32; 4];
+            index[..corners].copy_from_slice(&self.run_index[corners * r..corners * (r + 1)]);
+            table.run_index.extend_from_slice(&index);
+            for _ in first..self.run_start[r + 1] {
+                sample_run.push(r as u32);
             }
         }
-        (texel, index, self.weight.as_flattened().to_vec())
+        for (i, &r) in sample_run.iter().enumerate() {
+            table.samples.push(r);
+            if smooth {
+                table.samples.extend(self.weight[i].map(f32::to_bits));
+            }
+        }
+        // A texel's terms (source, weight): a sample's from its run, a dilated texel's from
+        // `terms`, found through `slot` (sample i: i; dilated texel d: samples + d).
+        let samples = self.point.len();
+        let mut slot = vec![u32::MAX; self.width * self.height];
+        for (i, &r) in sample_run.iter().enumerate() {
+            let r = r as usize;
+            slot[(self.run_texel[r] + i as u32 - self.run_start[r]) as usize] = i as u32;
+        }
+        let mut terms: Vec<Vec<(u32, f64)>> = Vec::with_capacity(self.dilated.len());
+        let sample_terms = |i: usize, out: &mut Vec<(u32, f64)>| {
+            out.clear();
+            let r = sample_run[i] as usize;
+            if smooth {
+                for k in 0..4 {
+                    if self.weight[i][k] != 0.0 {
+                        out.push((self.run_index[4 * r + k], f64::from(self.weight[i][k])));
+                    }
+                }
+            } else {
+                out.push((self.run_index[r], 1.0 / PI));
+            }
+        };
+        let mut scratch = Vec::new();
+        let mut begin = 0;
+        for &end in &self.ring_ends {
+            // In ring order: a ring's neighbours are samples or texels of earlier rings.
+            for d in begin..end as usize {
+                let around = self.around(d);
+                let share = 1.0 / around.len() as f64;
+                let mut sum: Vec<(u32, f64)> = Vec::new();
+                for &t in around {
+                    let s = slot[t as usize] as usize;
+                    let from = if s < samples {
+                        sample_terms(s, &mut scratch);
+                        &scratch
+                    } else {
+                        &terms[s - samples]
+                    };
+                    for &(source, w) in from {
+                        match sum.iter_mut().find(|(x, _)| *x == source) {
+                            Some((_, acc)) => *acc += share * w,
+                            None => sum.push((source, share * w)),
+                        }
+                    }
+                }
+                slot[self.dilated[d] as usize] = (samples + d) as u32;
+                terms.push(sum);
+            }
+            begin = end as usize;
+        }
+        for (d, sum) in terms.iter().enumerate() {
+            for &(source, w) in sum {
+                table.ring_source.push(source);
+                table.ring_weight.push((w as f32).to_bits());
+            }
+            table.rings.push(self.dilated[d]);
+            table.rings.push(table.ring_source.len() as u32);
+        }
+        table
     }
 
     /// Bytes one [`fill`](Self::fill) must at least move: the sample table it reads (runs,

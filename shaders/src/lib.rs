@@ -38,8 +38,9 @@
 //!
 //! An engine that rasterises the scene takes the light as a lightmap: `lightmap.wgsl`
 //! ([`LIGHTMAP_FILL`], [`LightmapParams`]) fills an `rgba16float` storage texture from `B` (smooth:
-//! after `smooth.wgsl`, four smooth-vertex values per texel; flat: the element's value), then
-//! dilates it ring by ring; its CPU twin is the runtime's `Lightmap`.
+//! after `smooth.wgsl`, four smooth-vertex values per texel; flat: the element's value) and its
+//! dilation rings (each ring texel expanded once into the same sources) in one dispatch; its
+//! CPU twin is the runtime's `Lightmap`.
 //!
 //! [`Pass::Read`] (`read.wgsl`) is not a step of a frame: it reads the gather's bytes and
 //! nothing else, the roofline the benchmark compares the gather with.
@@ -130,7 +131,7 @@ pub use direct::{
     direct_sample,
 };
 pub use lightmap::{
-    LIGHTMAP_BINDINGS, LIGHTMAP_ENTRY, LIGHTMAP_FILL, LIGHTMAP_FLAT, LIGHTMAP_LANES, LIGHTMAP_RING,
+    LIGHTMAP_BINDINGS, LIGHTMAP_ENTRY, LIGHTMAP_FILL, LIGHTMAP_FLAT, LIGHTMAP_LANES,
     LIGHTMAP_SMOOTH, LightmapParams,
 };
 pub use params::{GatherConstants, Params};

@@ -13,25 +13,24 @@ pub const LIGHTMAP_ENTRY: &str = "lightmap_fill";
 /// Invocations per workgroup. Mirrored by `LIGHTMAP_LANES` in `wgsl/lightmap.wgsl`.
 pub const LIGHTMAP_LANES: u32 = 64;
 
-/// [`LightmapParams::mode`]: samples, smooth (four smooth vertices each).
+/// [`LightmapParams::mode`]: smooth samples (four smooth vertices each, binary16 weights).
 pub const LIGHTMAP_SMOOTH: u32 = 0;
-/// [`LightmapParams::mode`]: samples, flat (the element's radiosity).
+/// [`LightmapParams::mode`]: flat samples (the element's radiosity).
 pub const LIGHTMAP_FLAT: u32 = 1;
-/// [`LightmapParams::mode`]: one dilation ring.
-pub const LIGHTMAP_RING: u32 = 2;
 
-use Access::{Read, ReadWrite, Uniform, WriteTexture};
+use Access::{Read, Uniform, WriteTexture};
 
-/// The bindings of `lightmap_fill`, all in group 0.
+/// The bindings of `lightmap_fill`, all in group 0 (seven storage buffers: within WebGPU's
+/// default of eight per stage).
 pub const LIGHTMAP_BINDINGS: &[Binding] = &[
     bind(0, "params", Uniform),
-    bind(1, "texel", Read),
-    bind(2, "index", Read),
-    bind(3, "weight", Read),
-    bind(4, "table", Read),
-    bind(5, "values", ReadWrite),
-    bind(6, "neighbour_ends", Read),
-    bind(7, "neighbours", Read),
+    bind(1, "samples", Read),
+    bind(2, "run_base", Read),
+    bind(3, "run_index", Read),
+    bind(4, "rings", Read),
+    bind(5, "ring_source", Read),
+    bind(6, "ring_weight", Read),
+    bind(7, "table", Read),
     bind(8, "atlas", WriteTexture),
 ];
 
@@ -39,21 +38,21 @@ crate::params::gpu_struct! {
     /// The uniform at binding 0 of `lightmap_fill` (`struct LightmapParams` of
     /// `wgsl/lightmap.wgsl`, its twin): 32 bytes. Upload [`LightmapParams::to_bytes`].
     pub struct LightmapParams {
-        /// Invocations that compute (the rest return).
+        /// Samples: the invocations before the dilated texels.
+        pub samples: u32,
+        /// Invocations that compute (samples and dilated texels; the rest return).
         pub count: u32,
-        /// The compact id of the first (samples, then dilated texels in ring order).
-        pub first: u32,
         /// Texels across the atlas.
         pub width: u32,
-        /// [`LIGHTMAP_SMOOTH`], [`LIGHTMAP_FLAT`] or [`LIGHTMAP_RING`].
+        /// [`LIGHTMAP_SMOOTH`] or [`LIGHTMAP_FLAT`].
         pub mode: u32,
-        /// Samples: the compact id of the first dilated texel.
-        pub samples: u32,
         /// Zero.
         pub reserved0: u32,
         /// Zero.
         pub reserved1: u32,
         /// Zero.
         pub reserved2: u32,
+        /// Zero.
+        pub reserved3: u32,
     }
 }

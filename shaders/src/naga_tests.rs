@@ -728,7 +728,6 @@ fn lightmap_pass_compiles_and_matches_the_host() {
     });
     assert_eq!(constant(&module, "MODE_SMOOTH"), crate::LIGHTMAP_SMOOTH);
     assert_eq!(constant(&module, "MODE_FLAT"), crate::LIGHTMAP_FLAT);
-    assert_eq!(constant(&module, "MODE_RING"), crate::LIGHTMAP_RING);
 }
 
 /// `sky.wgsl` against [`crate::SKY_BINDINGS`] and [`crate::SkyParams`].

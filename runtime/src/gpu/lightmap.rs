@@ -5,17 +5,19 @@
 //! texture that an application binds for sampling: no readback.
 //!
 //! A frame is one compute pass: smooth lightmaps first compute the smooth-vertex values
-//! (`smooth.wgsl`, as the tracer does), then one dispatch writes every sample, then one per
-//! dilation ring (their bindings made with the first fill from a radiosity buffer and kept
-//! while fills read that buffer); each texel written holds `B/π` and alpha 1, every other texel stays zero
-//! (the texture is zeroed once, when made), so alpha is the lightmap's coverage. Values are
-//! those of [`Lightmap::fill`] up to f32 sums (the GPU's smooth-vertex values and samples sum
-//! in f32, the CPU's in f64) and binary16 storage (2⁻¹¹ relative; up to 65504).
+//! (`smooth.wgsl`, as the tracer does), then one dispatch writes every sample and every
+//! dilated texel (each ring texel expanded once, at upload, into the sources its neighbours
+//! read: [`Lightmap::gpu_table`]), its bindings made with the first fill from a radiosity
+//! buffer and kept while fills read that buffer. Each texel written holds `B/π` and alpha 1,
+//! every other texel stays zero (the texture is zeroed once, when made), so alpha is the
+//! lightmap's coverage. Values are those of [`Lightmap::fill`] up to the texture's binary16
+//! (2⁻¹⁰ relative: Vulkan lets an implementation round toward zero, and lavapipe and the
+//! H200's driver do; up to 65504) and f32 sums where the CPU sums in f64.
 
 use lrr_formats::OperatorFile;
 use lrr_shaders::{
-    LIGHTMAP_ENTRY, LIGHTMAP_FILL, LIGHTMAP_FLAT, LIGHTMAP_LANES, LIGHTMAP_RING, LIGHTMAP_SMOOTH,
-    LightmapParams, workgroups,
+    LIGHTMAP_ENTRY, LIGHTMAP_FILL, LIGHTMAP_FLAT, LIGHTMAP_LANES, LIGHTMAP_SMOOTH, LightmapParams,
+    workgroups,
 };
 use std::sync::Mutex;
 
@@ -40,14 +42,12 @@ pub struct GpuLightmap {
     smooth: Option<SmoothPass>,
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
-    texel: wgpu::Buffer,
-    index: wgpu::Buffer,
-    weight: wgpu::Buffer,
-    values: wgpu::Buffer,
-    neighbour_ends: wgpu::Buffer,
-    neighbours: wgpu::Buffer,
-    /// One uniform per step: the samples, then each ring.
-    steps: Vec<(u32, wgpu::Buffer)>,
+    /// Invocations of the fill's dispatch: samples and dilated texels.
+    count: u32,
+    params: wgpu::Buffer,
+    /// `lightmap.wgsl`'s tables ([`GpuTable`](crate::lightmap::GpuTable)): samples, run_base,
+    /// run_index, rings, ring_source, ring_weight.
+    tables: [wgpu::Buffer; 6],
     texture: wgpu::Texture,
     view: wgpu::TextureView,
     /// The bindings of the last radiosity buffer filled from: the smooth pass's, and one per
@@ -59,7 +59,7 @@ pub struct GpuLightmap {
 struct Bindings {
     radiosity: wgpu::Buffer,
     smooth: Option<wgpu::BindGroup>,
-    steps: Vec<wgpu::BindGroup>,
+    fill: wgpu::BindGroup,
 }
 
 impl GpuLightmap {
@@ -75,17 +75,16 @@ impl GpuLightmap {
                 gpu.adapter_name()
             )));
         }
-        let (mut texel, index, weight) = map.sample_table();
-        let samples = texel.len();
-        let compact = samples + map.dilated.len();
+        let table = map.gpu_table();
+        let samples = map.sample_count();
+        let count = samples + map.dilated_count();
         let limit = gpu.max_binding_bytes();
-        for (name, bytes) in [
-            ("texel", 4 * compact),
-            ("index", 4 * index.len()),
-            ("weight", 4 * weight.len()),
-            ("values", 12 * compact),
-            ("neighbours", 4 * map.neighbours.len()),
+        for (name, words) in [
+            ("sample", table.samples.len()),
+            ("run", table.run_index.len()),
+            ("ring", table.ring_source.len()),
         ] {
+            let bytes = 4 * words;
             if bytes as u64 > limit {
                 return Err(GpuError::Device(format!(
                     "GPU: the lightmap's {name} table needs {bytes} bytes, over the {limit}-byte \
@@ -94,13 +93,6 @@ impl GpuLightmap {
                 )));
             }
         }
-        // Compact ids: samples, then the dilated texels; the neighbours named by compact id.
-        let mut compact_of = std::collections::HashMap::with_capacity(compact);
-        texel.extend(&map.dilated);
-        for (i, &t) in texel.iter().enumerate() {
-            compact_of.insert(t, i as u32);
-        }
-        let neighbours: Vec<u32> = map.neighbours.iter().map(|t| compact_of[t]).collect();
         let smooth = match map.values {
             LightmapValues::Smooth => {
                 let s = file.display.smooth.as_ref().ok_or_else(|| {
@@ -138,44 +130,22 @@ impl GpuLightmap {
             compilation_options: wgpu::PipelineCompilationOptions::default(),
             cache: None,
         });
-        let uniform = |p: LightmapParams| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("lightmap params"),
-                contents: &p.to_bytes(),
-                usage: wgpu::BufferUsages::UNIFORM,
-            })
-        };
         let mode = match map.values {
             LightmapValues::Smooth => LIGHTMAP_SMOOTH,
             LightmapValues::Flat => LIGHTMAP_FLAT,
         };
-        let mut steps = vec![(
-            samples as u32,
-            uniform(LightmapParams {
-                count: samples as u32,
-                first: 0,
+        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("lightmap params"),
+            contents: &LightmapParams {
+                samples: samples as u32,
+                count: count as u32,
                 width,
                 mode,
-                samples: samples as u32,
                 ..LightmapParams::default()
-            }),
-        )];
-        let mut begin = 0usize;
-        for &end in &map.ring_ends {
-            let count = (end as usize - begin) as u32;
-            steps.push((
-                count,
-                uniform(LightmapParams {
-                    count,
-                    first: (samples + begin) as u32,
-                    width,
-                    mode: LIGHTMAP_RING,
-                    samples: samples as u32,
-                    ..LightmapParams::default()
-                }),
-            ));
-            begin = end as usize;
-        }
+            }
+            .to_bytes(),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("lightmap"),
             size: wgpu::Extent3d {
@@ -202,13 +172,16 @@ impl GpuLightmap {
             smooth,
             pipeline,
             layout,
-            texel: storage(gpu, "lightmap texels", &texel, none),
-            index: storage(gpu, "lightmap indices", &index, none),
-            weight: storage(gpu, "lightmap weights", &weight, none),
-            values: storage(gpu, "lightmap values", &vec![0.0f32; 3 * compact], none),
-            neighbour_ends: storage(gpu, "lightmap rings", &map.neighbour_ends, none),
-            neighbours: storage(gpu, "lightmap neighbours", &neighbours, none),
-            steps,
+            count: count as u32,
+            params,
+            tables: [
+                storage(gpu, "lightmap samples", &table.samples, none),
+                storage(gpu, "lightmap run bases", &table.run_base, none),
+                storage(gpu, "lightmap run sources", &table.run_index, none),
+                storage(gpu, "lightmap rings", &table.rings, none),
+                storage(gpu, "lightmap ring sources", &table.ring_source, none),
+                storage(gpu, "lightmap ring weights", &table.ring_weight, none),
+            ],
             texture,
             view,
             bindings: Mutex::new(None),
@@ -297,55 +270,50 @@ impl GpuLightmap {
         if let (Some(smooth), Some(group)) = (&self.smooth, &b.smooth) {
             smooth.dispatch(&mut pass, group);
         }
-        pass.set_pipeline(&self.pipeline);
-        for ((count, _), group) in self.steps.iter().zip(&b.steps) {
-            if *count == 0 {
-                continue;
-            }
-            pass.set_bind_group(0, group, &[]);
-            let [x, y, z] = workgroups(count.div_ceil(LIGHTMAP_LANES));
+        if self.count > 0 {
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &b.fill, &[]);
+            let [x, y, z] = workgroups(self.count.div_ceil(LIGHTMAP_LANES));
             pass.dispatch_workgroups(x, y, z);
         }
         Ok(())
     }
 
-    /// The bindings of the smooth pass and of every step, reading `radiosity`.
+    /// The bindings of the smooth pass and of the fill, reading `radiosity`.
     fn bindings(&self, radiosity: &wgpu::Buffer) -> Bindings {
         let smooth = (self.smooth.as_ref()).map(|pass| pass.bind_group(&self.gpu, radiosity));
         let table = match &self.smooth {
             Some(pass) => &pass.values,
             None => radiosity,
         };
-        let steps = (self.steps.iter())
-            .map(|(_, params)| {
-                let buffers = [
-                    params,
-                    &self.texel,
-                    &self.index,
-                    &self.weight,
-                    table,
-                    &self.values,
-                    &self.neighbour_ends,
-                    &self.neighbours,
-                ];
-                let mut entries = super::common::buffer_entries(&buffers);
-                entries.push(wgpu::BindGroupEntry {
-                    binding: 8,
-                    resource: wgpu::BindingResource::TextureView(&self.view),
-                });
-                self.gpu
-                    .device
-                    .create_bind_group(&wgpu::BindGroupDescriptor {
-                        label: Some(LIGHTMAP_ENTRY),
-                        layout: &self.layout,
-                        entries: &entries,
-                    })
-            })
-            .collect();
+        let t = &self.tables;
+        let buffers = [
+            &self.params,
+            &t[0],
+            &t[1],
+            &t[2],
+            &t[3],
+            &t[4],
+            &t[5],
+            table,
+        ];
+        let mut entries = super::common::buffer_entries(&buffers);
+        entries.push(wgpu::BindGroupEntry {
+            binding: 8,
+            resource: wgpu::BindingResource::TextureView(&self.view),
+        });
+        let fill = self
+            .gpu
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(LIGHTMAP_ENTRY),
+                layout: &self.layout,
+                entries: &entries,
+            });
         Bindings {
             radiosity: radiosity.clone(),
             smooth,
-            steps,
+            fill,
         }
     }
 
