@@ -173,21 +173,21 @@ pub fn read_matrix(words: &[u32]) -> u32 {
 
 /// Mirror of `smooth_vertices` (`wgsl/smooth.wgsl`): for each smooth vertex `v <
 /// params.vertex_count`, `out[v] = max(0, Σ_{j ∈ offsets[v]..offsets[v+1]} weights[j]
-/// radiosity[element_id[positions[j]]])`, one running f32 sum per channel in stored order
-/// (`radiosity` by original id, `element_id` the file's order).
+/// radiosity[elements[j]])`, one running f32 sum per channel in stored order (`radiosity` by
+/// original id, `elements` SMOOTH's positions mapped through the file's order). The pass reads
+/// four entries a step, and pads a row's last step with weight-0 terms, which add nothing.
 pub fn smooth_vertices(
     params: &SmoothParams,
     offsets: &[u32],
-    positions: &[u32],
+    elements: &[u32],
     weights: &[f32],
-    element_id: &[u32],
     radiosity: &[[f32; 3]],
     out: &mut [[f32; 3]],
 ) {
     for v in 0..params.vertex_count as usize {
         let mut sum = [0.0f32; 3];
         for j in offsets[v] as usize..offsets[v + 1] as usize {
-            let b = radiosity[element_id[positions[j] as usize] as usize];
+            let b = radiosity[elements[j] as usize];
             for c in 0..3 {
                 sum[c] += weights[j] * b[c];
             }

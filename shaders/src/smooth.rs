@@ -22,11 +22,10 @@ use Access::{Read, ReadWrite, Uniform};
 pub const SMOOTH_BINDINGS: &[Binding] = &[
     bind(0, "params", Uniform),
     bind(1, "offsets", Read),
-    bind(2, "positions", Read),
+    bind(2, "elements", Read),
     bind(3, "weights", Read),
-    bind(4, "element_id", Read),
-    bind(5, "radiosity", Read),
-    bind(6, "vertex_values", ReadWrite),
+    bind(4, "radiosity", Read),
+    bind(5, "vertex_values", ReadWrite),
 ];
 
 crate::params::gpu_struct! {

@@ -106,8 +106,25 @@ fn lightmap_fill(
         }
         t = rings[2u * j];
         let end = rings[2u * j + 1u];
-        for (var k = start; k < end; k++) {
-            v = v + bitcast<f32>(ring_weight[k]) * at(ring_source[k]);
+        // Four terms a step, their loads in flight together; past the end a term reads the
+        // last term's source with weight 0, which leaves the sum as it is.
+        let last = end - 1u;
+        for (var k = start; k < end; k += 4u) {
+            let q = vec4<u32>(k, min(k + 1u, last), min(k + 2u, last), min(k + 3u, last));
+            let w = vec4<f32>(
+                bitcast<f32>(ring_weight[q.x]),
+                select(0.0, bitcast<f32>(ring_weight[q.y]), k + 1u < end),
+                select(0.0, bitcast<f32>(ring_weight[q.z]), k + 2u < end),
+                select(0.0, bitcast<f32>(ring_weight[q.w]), k + 3u < end),
+            );
+            let a0 = at(ring_source[q.x]);
+            let a1 = at(ring_source[q.y]);
+            let a2 = at(ring_source[q.z]);
+            let a3 = at(ring_source[q.w]);
+            v = v + w.x * a0;
+            v = v + w.y * a1;
+            v = v + w.z * a2;
+            v = v + w.w * a3;
         }
     }
     textureStore(atlas, vec2<u32>(t % params.width, t / params.width), vec4<f32>(v, 1.0));

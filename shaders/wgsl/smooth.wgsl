@@ -6,7 +6,10 @@
 // relighting passes left in their storage buffer and writes the values trace.wgsl interpolates
 // (no readback between the passes).
 //
-// Self-contained (no common.wgsl). One invocation per smooth vertex; the host dispatches
+// Self-contained (no common.wgsl). One invocation per smooth vertex, its row read four entries
+// at a time: the four entries' loads are independent, so they are in flight together (one
+// entry after another, each a chain of two loads, made the pass latency-bound: 10 us of an
+// H200's time for the building's 36 261 vertices, docs/PERFORMANCE.md). The host dispatches
 // lrr_shaders::workgroups(ceil(vertex_count / SMOOTH_LANES)) groups, a 2D grid past 65535
 // groups, whose surplus invocations return at once.
 //
@@ -15,7 +18,8 @@
 // Reconstruction::new, and in runtime/src/gpu/smooth.rs):
 // - offsets: vertex_count + 1 entries, non-decreasing, the last = the length of positions and
 //   weights, so offsets[v] .. offsets[v + 1] stays inside both for v < vertex_count;
-// - positions: file positions < n; element_id: n entries, each < n (the file's order);
+// - elements: original ids < n (SMOOTH's file positions mapped through the file's order at
+//   upload, runtime/src/gpu/smooth.rs);
 // - radiosity: at least 3 n f32 (checked per frame); vertex_values: 3 vertex_count f32.
 
 const SMOOTH_LANES: u32 = 64u;
@@ -32,15 +36,17 @@ struct SmoothParams {
 @group(0) @binding(0) var<uniform> params: SmoothParams;
 // Per smooth vertex v: its weights are offsets[v] .. offsets[v + 1].
 @group(0) @binding(1) var<storage, read> offsets: array<u32>;
-// Per weight: the file position of its element.
-@group(0) @binding(2) var<storage, read> positions: array<u32>;
+// Per weight: the original id of its element (the index into the radiosity).
+@group(0) @binding(2) var<storage, read> elements: array<u32>;
 @group(0) @binding(3) var<storage, read> weights: array<f32>;
-// Per file position: the original id (the index into the radiosity).
-@group(0) @binding(4) var<storage, read> element_id: array<u32>;
 // The relighting's B: 3 f32 per element, original ids (GpuEvaluator::radiosity_buffer).
-@group(0) @binding(5) var<storage, read> radiosity: array<f32>;
+@group(0) @binding(4) var<storage, read> radiosity: array<f32>;
 // Out: 3 f32 per smooth vertex.
-@group(0) @binding(6) var<storage, read_write> vertex_values: array<f32>;
+@group(0) @binding(5) var<storage, read_write> vertex_values: array<f32>;
+
+fn element_value(e: u32) -> vec3<f32> {
+    return vec3<f32>(radiosity[3u * e], radiosity[3u * e + 1u], radiosity[3u * e + 2u]);
+}
 
 @compute @workgroup_size(SMOOTH_LANES)
 fn smooth_vertices(
@@ -52,11 +58,27 @@ fn smooth_vertices(
         return;
     }
     // Weights in their stored order, each channel a running f32 sum (the CPU mirror's order).
+    // Four entries a step; past the row's end an entry reads the row's last element with
+    // weight 0, which leaves the sum as it is (the values are finite).
     var sum = vec3<f32>(0.0);
-    for (var j = offsets[v]; j < offsets[v + 1u]; j++) {
-        let at = 3u * element_id[positions[j]];
-        let b = vec3<f32>(radiosity[at], radiosity[at + 1u], radiosity[at + 2u]);
-        sum = sum + weights[j] * b;
+    let end = offsets[v + 1u];
+    for (var j = offsets[v]; j < end; j += 4u) {
+        let last = end - 1u;
+        let k = vec4<u32>(j, min(j + 1u, last), min(j + 2u, last), min(j + 3u, last));
+        let w = vec4<f32>(
+            weights[k.x],
+            select(0.0, weights[k.y], j + 1u < end),
+            select(0.0, weights[k.z], j + 2u < end),
+            select(0.0, weights[k.w], j + 3u < end),
+        );
+        let b0 = element_value(elements[k.x]);
+        let b1 = element_value(elements[k.y]);
+        let b2 = element_value(elements[k.z]);
+        let b3 = element_value(elements[k.w]);
+        sum = sum + w.x * b0;
+        sum = sum + w.y * b1;
+        sum = sum + w.z * b2;
+        sum = sum + w.w * b3;
     }
     // Boundary vertices extrapolate (negative weights): never below zero.
     sum = max(sum, vec3<f32>(0.0));

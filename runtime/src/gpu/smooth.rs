@@ -22,9 +22,9 @@ pub(super) struct SmoothPass {
     pipeline: wgpu::ComputePipeline,
     params: wgpu::Buffer,
     offsets: wgpu::Buffer,
-    positions: wgpu::Buffer,
+    /// Per weight, its element's original id (SMOOTH's position mapped through the order).
+    elements: wgpu::Buffer,
     weights: wgpu::Buffer,
-    element_id: wgpu::Buffer,
     /// This frame's smooth-vertex values, 3 f32 each (binding `vertex_values` of the tracer and
     /// of the lightmap fill).
     pub values: wgpu::Buffer,
@@ -36,6 +36,10 @@ impl SmoothPass {
     pub(super) fn new(gpu: &Gpu, smooth: &Smooth, element_id: &[u32]) -> Self {
         let none = wgpu::BufferUsages::empty();
         let vertex_count = smooth.vertex_count() as u32;
+        // One load fewer per weight in the pass: the element's original id, not its position.
+        let elements: Vec<u32> = (smooth.positions.iter())
+            .map(|&p| element_id[p as usize])
+            .collect();
         let device = &gpu.device;
         let module = shader_module(gpu);
         let layout = bind_group_layout(gpu);
@@ -69,9 +73,8 @@ impl SmoothPass {
             pipeline,
             params,
             offsets: storage(gpu, "smooth offsets", &smooth.offsets, none),
-            positions: storage(gpu, "smooth positions", &smooth.positions, none),
+            elements: storage(gpu, "smooth elements", &elements, none),
             weights: storage(gpu, "smooth weights", &smooth.weights, none),
-            element_id: storage(gpu, "smooth element ids", element_id, none),
             values: storage(
                 gpu,
                 "smooth vertex values",
@@ -108,9 +111,8 @@ impl SmoothPass {
         let buffers = [
             &self.params,
             &self.offsets,
-            &self.positions,
+            &self.elements,
             &self.weights,
-            &self.element_id,
             radiosity,
             &self.values,
         ];
