@@ -39,7 +39,7 @@ done
 # What an engine sees: evaluation + fill + draw every frame at 1080p.
 for b in "${builds[@]}"; do
   step "view-$b" 60 "/tmp/lrr-$b" view /tmp/building.lrr --headless --animate --frames 2000 \
-    --size 1920x1080
+    --size 1920x1080 --screenshot "/tmp/view-$b.png"
 done
 kill "$logger" 2>/dev/null
 grep -E "^== fill|^== view|fill adds|GPU time|frames/s|largest" "$OUT/steps.txt" | cut -c1-200
