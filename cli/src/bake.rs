@@ -141,6 +141,13 @@ struct Report<'a> {
     /// Per stage, the process's peak resident bytes so far when it ended (Linux): the stage
     /// that set the peak is the first with the final figure.
     stage_peak_bytes: BTreeMap<String, u64>,
+    /// Per stage, the process's resident and peak resident bytes when it began (Linux).
+    stage_start_resident_bytes: BTreeMap<String, u64>,
+    stage_start_peak_bytes: BTreeMap<String, u64>,
+    /// Per stage that planned its buffers before allocating them (the matrices), the bytes
+    /// planned: its peak stays within what was resident when it began plus this (with room for
+    /// the threads' scratch; `tests/tests/e2e/real_scenes.rs`).
+    stage_estimate_bytes: BTreeMap<String, u64>,
     /// The process's peak resident bytes over the whole bake (Linux).
     peak_resident_bytes: Option<u64>,
     meshing: summary::MeshingSummary,
@@ -248,6 +255,13 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
         file_bytes,
         stages,
         stage_peak_bytes: progress.peaks().into_iter().collect(),
+        stage_start_resident_bytes: (progress.starts().into_iter())
+            .filter_map(|(s, m)| Some((s, m.resident?)))
+            .collect(),
+        stage_start_peak_bytes: (progress.starts().into_iter())
+            .filter_map(|(s, m)| Some((s, m.peak?)))
+            .collect(),
+        stage_estimate_bytes: progress.estimates().into_iter().collect(),
         peak_resident_bytes: lrr_precompute::progress::peak_resident(),
         meshing: summary::MeshingSummary::new(&scene.repairs, &baked.mesh.meshing),
         warnings: &scene.warnings,

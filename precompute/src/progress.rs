@@ -29,6 +29,29 @@ pub struct Progress {
     mode: Mode,
     stages: std::sync::Mutex<Vec<(String, f64)>>,
     peaks: std::sync::Mutex<Vec<(String, u64)>>,
+    /// Per stage that ended: the process's resident and peak resident bytes when it began.
+    starts: std::sync::Mutex<Vec<(String, Memory)>>,
+    /// Per stage that planned its buffers: the bytes it said it needs.
+    estimates: std::sync::Mutex<Vec<(String, u64)>>,
+}
+
+/// The process's memory at one moment (Linux; `None` elsewhere).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Memory {
+    /// Resident bytes (`VmRSS`).
+    pub resident: Option<u64>,
+    /// Peak resident bytes so far (`VmHWM`).
+    pub peak: Option<u64>,
+}
+
+impl Memory {
+    /// Now.
+    pub fn now() -> Self {
+        Self {
+            resident: status_bytes("VmRSS:"),
+            peak: peak_resident(),
+        }
+    }
 }
 
 impl Progress {
@@ -43,6 +66,8 @@ impl Progress {
             mode,
             stages: std::sync::Mutex::new(Vec::new()),
             peaks: std::sync::Mutex::new(Vec::new()),
+            starts: std::sync::Mutex::new(Vec::new()),
+            estimates: std::sync::Mutex::new(Vec::new()),
         }
     }
 
@@ -53,6 +78,7 @@ impl Progress {
 
     /// Starts a stage with `total` work items (0: a spinner).
     pub fn stage(&self, name: &str, total: u64) -> Stage<'_> {
+        let memory = Memory::now();
         if self.mode == Mode::Lines {
             eprintln!("lrr: {name}: started");
         }
@@ -92,6 +118,7 @@ impl Progress {
         Stage {
             progress: self,
             name: name.to_string(),
+            memory,
             start: Instant::now(),
             bar,
             ticker,
@@ -121,6 +148,31 @@ impl Progress {
             .clone()
     }
 
+    /// (stage name, memory when it began) in the order stages finished.
+    pub fn starts(&self) -> Vec<(String, Memory)> {
+        self.starts
+            .lock()
+            .expect("no panics while holding the lock")
+            .clone()
+    }
+
+    /// Records that stage `name` planned `bytes` of buffers (what `--max-memory` was checked
+    /// against), so that a report can set the stage's peak beside it.
+    pub fn estimate(&self, name: &str, bytes: u128) {
+        self.estimates
+            .lock()
+            .expect("no panics while holding the lock")
+            .push((name.to_string(), bytes.min(u128::from(u64::MAX)) as u64));
+    }
+
+    /// (stage name, bytes) of [`estimate`](Self::estimate), in the order given.
+    pub fn estimates(&self) -> Vec<(String, u64)> {
+        self.estimates
+            .lock()
+            .expect("no panics while holding the lock")
+            .clone()
+    }
+
     /// Records a stage measured elsewhere.
     pub(crate) fn record(&self, name: &str, seconds: f64) {
         self.stages
@@ -134,6 +186,8 @@ impl Progress {
 pub struct Stage<'a> {
     progress: &'a Progress,
     name: String,
+    /// The process's memory when the stage began.
+    memory: Memory,
     start: Instant,
     bar: Option<ProgressBar>,
     /// Plain-line mode, no total: the thread that prints "still running" (stopped by
@@ -189,6 +243,11 @@ impl Stage<'_> {
             eprintln!("lrr: {}: done in {seconds:.1} s", self.name);
         }
         self.progress.record(&self.name, seconds);
+        self.progress
+            .starts
+            .lock()
+            .expect("no panics while holding the lock")
+            .push((self.name.clone(), self.memory));
         if let Some(bytes) = peak_resident() {
             self.progress
                 .peaks
@@ -203,8 +262,13 @@ impl Stage<'_> {
 /// The process's peak resident memory in bytes since it started (`VmHWM` of
 /// /proc/self/status), where Linux reports it.
 pub fn peak_resident() -> Option<u64> {
+    status_bytes("VmHWM:")
+}
+
+/// A `kB` line of /proc/self/status, in bytes.
+fn status_bytes(key: &str) -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let line = status.lines().find(|l| l.starts_with(key))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)
 }

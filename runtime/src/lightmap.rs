@@ -357,7 +357,9 @@ impl Lightmap {
     /// The lightmap as the GPU's fill reads it (`lightmap.wgsl` of `lrr-shaders`): per sample
     /// its run (and, smooth, its four weights), per run its texel base and
     /// sources, and every dilated texel expanded into the same sources (the mean of its
-    /// neighbours is linear in them), so that one dispatch writes samples and rings.
+    /// neighbours is linear in them), so that one dispatch writes samples and rings. A texel
+    /// of ring `d` has about `2d + 1` terms along a straight chart edge (the building, padding
+    /// 2: 5.2 on average, 22 at most), so the ring tables grow as the padding squared.
     #[cfg(feature = "gpu")]
     pub(crate) fn gpu_table(&self) -> GpuTable {
         let smooth = self.values == LightmapValues::Smooth;
@@ -1190,6 +1192,102 @@ mod tests {
                     assert_eq!(at(x, y), [0.0; 3], "({x}, {y})");
                 } else {
                     assert!(at(x, y).iter().sum::<f32>() > 0.0, "({x}, {y})");
+                }
+            }
+        }
+    }
+
+    /// The GPU's table (`lightmap.wgsl`'s layout), evaluated here in f64, gives the CPU's
+    /// fill: every sample and every ring texel (each expanded into sources), at any padding
+    /// and thread count (a split reorders the ring texels), smooth and flat. Without an
+    /// adapter: an index slip in the table shows here, not only on a GPU.
+    #[cfg(feature = "gpu")]
+    #[test]
+    fn the_gpu_table_gives_the_cpu_fill() {
+        let b = radiosity();
+        for padding in [0, 1, 3] {
+            let file = strip(|x, y| [0.1 + x / 2.5, 0.05 + y * 0.7], 97, 61, padding);
+            for values in [LightmapValues::Smooth, LightmapValues::Flat] {
+                for threads in [1, 3] {
+                    let what = format!("padding {padding}, {values:?}, {threads} threads");
+                    let mut map = Lightmap::new(&file, Some(values)).unwrap();
+                    map.set_threads(threads);
+                    let mut want = vec![[f32::NAN; 3]; 97 * 61];
+                    map.fill(&b, &mut want).unwrap();
+                    let sources: Vec<[f64; 3]> = match values {
+                        LightmapValues::Smooth => (map.vertices.iter())
+                            .map(|v| [0, 1, 2].map(|c| f64::from(v[c])))
+                            .collect(),
+                        LightmapValues::Flat => b.iter().map(|v| v.map(f64::from)).collect(),
+                    };
+                    let t = map.gpu_table();
+                    let mut got = vec![None; 97 * 61];
+                    let stride = if values == LightmapValues::Smooth {
+                        5
+                    } else {
+                        1
+                    };
+                    for i in 0..map.sample_count() {
+                        let run = t.samples[stride * i] as usize;
+                        let texel = (i as u32).wrapping_add(t.run_base[run]) as usize;
+                        let mut v = [0.0f64; 3];
+                        for k in 0..stride.min(4) {
+                            let w = match values {
+                                LightmapValues::Smooth => {
+                                    f64::from(f32::from_bits(t.samples[5 * i + 1 + k]))
+                                }
+                                LightmapValues::Flat => 1.0 / PI,
+                            };
+                            let x = sources[t.run_index[4 * run + k] as usize];
+                            for c in 0..3 {
+                                v[c] += w * x[c];
+                            }
+                        }
+                        assert!(
+                            got[texel].replace(v).is_none(),
+                            "{what}: texel {texel} twice"
+                        );
+                    }
+                    for j in 0..map.dilated_count() {
+                        let start = if j == 0 {
+                            0
+                        } else {
+                            t.rings[2 * j - 1] as usize
+                        };
+                        let mut v = [0.0f64; 3];
+                        for k in start..t.rings[2 * j + 1] as usize {
+                            let w = f64::from(f32::from_bits(t.ring_weight[k]));
+                            let x = sources[t.ring_source[k] as usize];
+                            for c in 0..3 {
+                                v[c] += w * x[c];
+                            }
+                        }
+                        let texel = t.rings[2 * j] as usize;
+                        assert!(
+                            got[texel].replace(v).is_none(),
+                            "{what}: texel {texel} twice"
+                        );
+                    }
+                    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+                        match g {
+                            None => assert_eq!(*w, [0.0; 3], "{what}: texel {i} left out"),
+                            Some(g) => {
+                                for c in 0..3 {
+                                    let w = f64::from(w[c]);
+                                    assert!(
+                                        (g[c] - w).abs() <= 1e-6 * w.abs() + 1e-9,
+                                        "{what}: texel {i}: table {g:?} against fill {w}"
+                                    );
+                                }
+                            }
+                        }
+                    }
+                    assert_eq!(
+                        got.iter().filter(|g| g.is_some()).count(),
+                        map.sample_count() + map.dilated_count(),
+                        "{what}"
+                    );
+                    assert!(padding == 0 || map.dilated_count() > 0, "{what}");
                 }
             }
         }

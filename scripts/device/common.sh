@@ -1,4 +1,4 @@
-# Sourced by scripts/device/gpu.sh and lights.sh (run on the lent device machine, in the
+# Sourced by scripts/device/gpu.sh, lights.sh and fill.sh (run on the lent device machine, in the
 # repository root, with .gl and .dev carried): unpacks the Vulkan loader, points wgpu at the
 # NVIDIA driver, and defines `step NAME LIMIT COMMAND…`, which runs a command under its own time
 # limit and appends its stdout to $OUT/steps.txt and its stderr to $OUT/steps.err (the tool

@@ -16,19 +16,32 @@ set -u
 OUT="${OUT:-/tmp/lrr-fill-out}"
 # shellcheck source=scripts/device/common.sh
 source "$(dirname "$0")/common.sh"
-builds=("$@")
+if [ $# -lt 1 ]; then
+  echo "usage: bash scripts/device/fill.sh NAME… (each .dev/lrr-NAME.gz; the first bakes)" >&2
+  exit 2
+fi
+builds=()
+for b in "$@"; do
+  if gunzip -c ".dev/lrr-$b.gz" >"/tmp/lrr-$b" 2>/dev/null && chmod +x "/tmp/lrr-$b"; then
+    builds+=("$b")
+  else
+    echo "fill.sh: no .dev/lrr-$b.gz: build $b left out" | tee -a "$OUT/steps.txt"
+  fi
+done
+[ ${#builds[@]} -ge 1 ] || exit 2
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv 2>&1 | tee -a "$OUT/steps.txt"
 nvidia-smi --query-gpu=timestamp,clocks.sm,clocks.mem,power.draw,utilization.gpu --format=csv \
   -lms 200 >"$OUT/clocks.csv" 2>&1 &
 logger=$!
+trap 'kill "$logger" 2>/dev/null' EXIT
 for b in "${builds[@]}"; do
-  gunzip -c ".dev/lrr-$b.gz" >"/tmp/lrr-$b" && chmod +x "/tmp/lrr-$b"
   if [ -e ".dev/gpu-lightmap-tests-$b" ]; then
     step "tests-$b" 60 env LRR_EXPECT_ADAPTER=NVIDIA ".dev/gpu-lightmap-tests-$b" \
       --test-threads 1 --nocapture
   fi
 done
 step bake 180 "/tmp/lrr-${builds[0]}" bake scenes/building/building.toml -o /tmp/building.lrr
+[ -e /tmp/building.lrr ] || exit 1
 sha256sum /tmp/building.lrr | tee -a "$OUT/steps.txt"
 for round in 1 2 3; do
   for b in "${builds[@]}"; do
@@ -41,6 +54,6 @@ for b in "${builds[@]}"; do
   step "view-$b" 60 "/tmp/lrr-$b" view /tmp/building.lrr --headless --animate --frames 2000 \
     --size 1920x1080 --screenshot "/tmp/view-$b.png"
 done
-kill "$logger" 2>/dev/null
-grep -E "^== fill|^== view|fill adds|GPU time|frames/s|largest" "$OUT/steps.txt" | cut -c1-200
+grep -E "^== fill|^== view|fill adds|GPU time|frames/s" "$OUT/steps.txt" | cut -c1-200
+grep -E "largest relative" "$OUT/steps.err"
 echo "== end $(date -u +%H:%M:%S)"

@@ -175,7 +175,7 @@ pub fn read_matrix(words: &[u32]) -> u32 {
 /// params.vertex_count`, `out[v] = max(0, Σ_{j ∈ offsets[v]..offsets[v+1]} weights[j]
 /// radiosity[elements[j]])`, one running f32 sum per channel in stored order (`radiosity` by
 /// original id, `elements` SMOOTH's positions mapped through the file's order). The pass reads
-/// four entries a step, and pads a row's last step with weight-0 terms, which add nothing.
+/// four entries a step and adds only the products of the row's own entries.
 pub fn smooth_vertices(
     params: &SmoothParams,
     offsets: &[u32],

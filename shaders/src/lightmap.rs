@@ -13,7 +13,7 @@ pub const LIGHTMAP_ENTRY: &str = "lightmap_fill";
 /// Invocations per workgroup. Mirrored by `LIGHTMAP_LANES` in `wgsl/lightmap.wgsl`.
 pub const LIGHTMAP_LANES: u32 = 64;
 
-/// [`LightmapParams::mode`]: smooth samples (four smooth vertices each, binary16 weights).
+/// [`LightmapParams::mode`]: smooth samples (four smooth vertices and weights each).
 pub const LIGHTMAP_SMOOTH: u32 = 0;
 /// [`LightmapParams::mode`]: flat samples (the element's radiosity).
 pub const LIGHTMAP_FLAT: u32 = 1;

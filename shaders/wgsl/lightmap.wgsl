@@ -107,24 +107,25 @@ fn lightmap_fill(
         t = rings[2u * j];
         let end = rings[2u * j + 1u];
         // Four terms a step, their loads in flight together; past the end a term reads the
-        // last term's source with weight 0, which leaves the sum as it is.
+        // last term's source, and its product is not added.
         let last = end - 1u;
+        let zero = vec3<f32>(0.0);
         for (var k = start; k < end; k += 4u) {
             let q = vec4<u32>(k, min(k + 1u, last), min(k + 2u, last), min(k + 3u, last));
             let w = vec4<f32>(
                 bitcast<f32>(ring_weight[q.x]),
-                select(0.0, bitcast<f32>(ring_weight[q.y]), k + 1u < end),
-                select(0.0, bitcast<f32>(ring_weight[q.z]), k + 2u < end),
-                select(0.0, bitcast<f32>(ring_weight[q.w]), k + 3u < end),
+                bitcast<f32>(ring_weight[q.y]),
+                bitcast<f32>(ring_weight[q.z]),
+                bitcast<f32>(ring_weight[q.w]),
             );
             let a0 = at(ring_source[q.x]);
             let a1 = at(ring_source[q.y]);
             let a2 = at(ring_source[q.z]);
             let a3 = at(ring_source[q.w]);
             v = v + w.x * a0;
-            v = v + w.y * a1;
-            v = v + w.z * a2;
-            v = v + w.w * a3;
+            v = v + select(zero, w.y * a1, k + 1u < end);
+            v = v + select(zero, w.z * a2, k + 2u < end);
+            v = v + select(zero, w.w * a3, k + 3u < end);
         }
     }
     textureStore(atlas, vec2<u32>(t % params.width, t / params.width), vec4<f32>(v, 1.0));

@@ -16,8 +16,9 @@
 // Indices (the argument for building this pass without bounds checks; the host checks all of
 // it once, in Reconstruction::from_parts through TraceScene::new or, for the lightmap fill,
 // Reconstruction::new, and in runtime/src/gpu/smooth.rs):
-// - offsets: vertex_count + 1 entries, non-decreasing, the last = the length of positions and
-//   weights, so offsets[v] .. offsets[v + 1] stays inside both for v < vertex_count;
+// - offsets: vertex_count + 1 entries, non-decreasing, the last = the length of elements and
+//   weights, so offsets[v] .. offsets[v + 1] stays inside both for v < vertex_count (a step's
+//   entries past the row's end read index offsets[v + 1] - 1, inside the row);
 // - elements: original ids < n (SMOOTH's file positions mapped through the file's order at
 //   upload, runtime/src/gpu/smooth.rs);
 // - radiosity: at least 3 n f32 (checked per frame); vertex_values: 3 vertex_count f32.
@@ -58,27 +59,23 @@ fn smooth_vertices(
         return;
     }
     // Weights in their stored order, each channel a running f32 sum (the CPU mirror's order).
-    // Four entries a step; past the row's end an entry reads the row's last element with
-    // weight 0, which leaves the sum as it is (the values are finite).
+    // Four entries a step; past the row's end an entry reads the row's last element, and its
+    // product is not added (so an infinite radiosity gives what the mirror gives).
     var sum = vec3<f32>(0.0);
     let end = offsets[v + 1u];
     for (var j = offsets[v]; j < end; j += 4u) {
         let last = end - 1u;
         let k = vec4<u32>(j, min(j + 1u, last), min(j + 2u, last), min(j + 3u, last));
-        let w = vec4<f32>(
-            weights[k.x],
-            select(0.0, weights[k.y], j + 1u < end),
-            select(0.0, weights[k.z], j + 2u < end),
-            select(0.0, weights[k.w], j + 3u < end),
-        );
+        let w = vec4<f32>(weights[k.x], weights[k.y], weights[k.z], weights[k.w]);
         let b0 = element_value(elements[k.x]);
         let b1 = element_value(elements[k.y]);
         let b2 = element_value(elements[k.z]);
         let b3 = element_value(elements[k.w]);
+        let zero = vec3<f32>(0.0);
         sum = sum + w.x * b0;
-        sum = sum + w.y * b1;
-        sum = sum + w.z * b2;
-        sum = sum + w.w * b3;
+        sum = sum + select(zero, w.y * b1, j + 1u < end);
+        sum = sum + select(zero, w.z * b2, j + 2u < end);
+        sum = sum + select(zero, w.w * b3, j + 3u < end);
     }
     // Boundary vertices extrapolate (negative weights): never below zero.
     sum = max(sum, vec3<f32>(0.0));

@@ -76,6 +76,7 @@ pub(crate) fn element_patch_matrix(
         &format!("the element-to-patch matrix (n = {n} elements × k = {k} patches)"),
         &size_advice(),
     )?;
+    progress.estimate(stage, bytes);
     let polygons: Vec<Polygon> = rows.clone().map(|s| mesh.element_at(s).polygon).collect();
     let ids = &mesh.order[rows];
     let targets: Vec<Region> = mesh.patches.iter().map(|p| p.shape.clone()).collect();

@@ -50,8 +50,8 @@ pub struct GpuLightmap {
     tables: [wgpu::Buffer; 6],
     texture: wgpu::Texture,
     view: wgpu::TextureView,
-    /// The bindings of the last radiosity buffer filled from: the smooth pass's, and one per
-    /// step (what [`encode`](Self::encode) would otherwise make every frame).
+    /// The bindings of the last radiosity buffer filled from: the smooth pass's and the fill's
+    /// (what [`encode`](Self::encode) would otherwise make every frame).
     bindings: Mutex<Option<Bindings>>,
 }
 
@@ -81,8 +81,11 @@ impl GpuLightmap {
         let limit = gpu.max_binding_bytes();
         for (name, words) in [
             ("sample", table.samples.len()),
-            ("run", table.run_index.len()),
-            ("ring", table.ring_source.len()),
+            ("run base", table.run_base.len()),
+            ("run source", table.run_index.len()),
+            ("ring", table.rings.len()),
+            ("ring source", table.ring_source.len()),
+            ("ring weight", table.ring_weight.len()),
         ] {
             let bytes = 4 * words;
             if bytes as u64 > limit {

@@ -146,9 +146,11 @@ fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
     #[allow(unsafe_code)]
     // SAFETY: every index smooth.wgsl follows was checked by `Reconstruction::from_parts` when
     // the tracer's scene was made (offsets non-decreasing from 0 to the number of positions and
-    // weights, positions below n, the order's ids below n) and by the buffers made here (3 f32
-    // per smooth vertex) and in `GpuTracer::frame` (the radiosity buffer's size); the argument
-    // is in the header of smooth.wgsl. Its loop ends: j runs up to offsets[v + 1].
+    // weights, positions below n) and by the buffers made here (the element ids mapped through
+    // the order by checked indexing in `SmoothPass::new`, so below n; 3 f32 per smooth vertex)
+    // and in `GpuTracer::frame` (the radiosity buffer's size); the argument is in the header
+    // of smooth.wgsl. Its loop ends: j steps by 4 up to offsets[v + 1], and the entries of a
+    // step past the row read its last index, offsets[v + 1] - 1.
     unsafe {
         super::common::shader_module(
             &gpu.device,
