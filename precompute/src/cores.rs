@@ -33,6 +33,14 @@ pub(crate) struct OperatorInputs<'a> {
     pub channels: usize,
 }
 
+/// Bytes [`build_cores`] holds at most for `k` patches and `channels` channels: the systems
+/// and the inverses kept (`c k²` f64 each), and while one channel is inverted its LU factors,
+/// the inverse and a copy (`3 k²`). The merge of a sharded bake plans with it too.
+pub(crate) fn cores_bytes(k: usize, channels: usize) -> u128 {
+    let (k, c) = (k as u128, channels as u128);
+    (2 * c + 3) * k * k * 8
+}
+
 /// Builds and inverts `I - VᵀU` for every channel.
 pub(crate) fn build_cores(inp: &OperatorInputs) -> Result<Cores> {
     let mut systems = Systems::new(inp.weights, inp.index, inp.reflectance, inp.channels);

@@ -261,6 +261,14 @@ pub(crate) fn refine_mesh(
         &format!("the first pass of --refine (n = {n0} elements × k = {k} patches)"),
         &format!("use --refine 0, or: {}", checkpoint::size_advice()),
     )?;
+    // Its cores, the bake's own after it (the same k): refused before the hours of work.
+    let channels = if scene.is_grey() { 1 } else { 3 };
+    memory::check_with(
+        crate::cores::cores_bytes(k, channels),
+        max_memory,
+        &format!("the radiosity system's cores ({channels} × k² with k = {k} patches)"),
+        "use a larger --patch-size, or raise --max-memory",
+    )?;
     let mut ff =
         FormFactors::new(first.first_pass_samples(), first.occluder).with_enclosure(first.closed);
     ff.adaptive = 1;
@@ -307,7 +315,6 @@ pub(crate) fn refine_mesh(
             }
         }
     }
-    let channels = if scene.is_grey() { 1 } else { 3 };
     let values = first_pass(&mesh, &fk, &reflectance, &emission, channels)?;
     drop(fk);
     let (mut refined, split) = refine_by(scene, &mesh, &values, budget)?;

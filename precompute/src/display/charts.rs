@@ -11,7 +11,8 @@
 //! Two elements share an edge when at least two distinct points of one lie on the other's
 //! boundary (shared corners, T-junctions of adaptive subdivision and imprinting, offset grids);
 //! touching at a single corner does not join charts. Candidate pairs come from a uniform grid
-//! over element boxes, so the work is near linear in the element count.
+//! over element boxes, or from a hierarchy of grids where a few boxes far larger than the rest
+//! would fill too many cells, so the work is near linear in the element count.
 
 use crate::geometry::boxes::BoxGrid;
 use rayon::prelude::*;
@@ -326,7 +327,7 @@ fn median_edge(polys: &[Vec<DVec3>]) -> f64 {
     *longest.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
-/// Pairs `(a, b)`, `a < b`, whose boxes (grown by `eps`) share a grid cell, each once.
+/// Pairs `(a, b)`, `a < b`, whose boxes (grown by `eps`) overlap or touch, each once, sorted.
 fn candidate_pairs(polys: &[Vec<DVec3>], eps: f64) -> Vec<(usize, usize)> {
     let boxes: Vec<(DVec3, DVec3)> = polys
         .iter()
@@ -349,13 +350,7 @@ fn candidate_pairs(polys: &[Vec<DVec3>], eps: f64) -> Vec<(usize, usize)> {
     // be in millions of cells: then the hierarchy of grids (at most 8 cells a box), which
     // costs more per box where boxes are alike (a tessellated sphere: 0.05 against 0.03 s).
     // Both give every overlapping pair, so the pairs are the same.
-    let cells: f64 = (boxes.iter())
-        .map(|&(lo, hi)| {
-            let (a, b) = (key(lo), key(hi));
-            (b - a + 1).as_dvec3().element_product()
-        })
-        .sum();
-    if cells > (8 * boxes.len()) as f64 {
+    if crowded(&boxes, cell) {
         return hierarchical_pairs(&boxes);
     }
     let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::default();
@@ -382,6 +377,24 @@ fn candidate_pairs(polys: &[Vec<DVec3>], eps: f64) -> Vec<(usize, usize)> {
     pairs.sort_unstable();
     pairs.dedup();
     pairs
+}
+
+/// Whether `boxes` would fill more than 8 cells of size `cell` each on average (counted in
+/// f64: an empty or infinite box counts as infinitely many, and goes to the hierarchy, which
+/// leaves it in no cell).
+fn crowded(boxes: &[(DVec3, DVec3)], cell: f64) -> bool {
+    let key = |p: DVec3| (p / cell).floor();
+    let cells: f64 = (boxes.iter())
+        .map(|&(lo, hi)| {
+            let span = key(hi) - key(lo) + 1.0;
+            if span.is_finite() && span.min_element() >= 1.0 {
+                span.element_product()
+            } else {
+                f64::INFINITY
+            }
+        })
+        .sum();
+    !(cells <= (8 * boxes.len()) as f64)
 }
 
 /// [`candidate_pairs`] of `boxes` through the hierarchy of grids.
@@ -508,15 +521,19 @@ mod tests {
             (boxes, pairs)
         };
         let (boxes, want) = scan(&polys);
+        // Cells of twice the median diagonal; each box straddles z = 0, so two cells deep.
+        let cell = 2.0 * (0.1f64 * 0.1 * 2.0 + 4.0 * eps * eps).sqrt();
+        assert!(!crowded(&boxes, cell));
         assert_eq!(candidate_pairs(&polys, eps), want, "alike boxes");
         assert_eq!(
             hierarchical_pairs(&boxes),
             want,
             "the hierarchy on alike boxes"
         );
-        // One face over the whole floor, about 30 000 cells of the uniform grid: the hierarchy.
+        // One face over the whole floor, about 63 000 cells of the uniform grid: the hierarchy.
         polys.push(square(-1.0, -1.0, 50.0));
-        let (_, want) = scan(&polys);
+        let (boxes, want) = scan(&polys);
+        assert!(crowded(&boxes, cell));
         assert!(want.len() > 3 * 900);
         assert_eq!(candidate_pairs(&polys, eps), want, "one face over all");
     }

@@ -353,8 +353,11 @@ fn plan_memory(
         + skeleton.display.bvh.as_ref().map_or(0, |b| {
             13 * b.triangles.len() as u128 + 4 * b.nodes.len() as u128
         });
-    let fixed =
-        PROCESS + n * per_element + display + (2 * c + 3) * k * k * 8 + header.skeleton_len as u128;
+    let fixed = PROCESS
+        + n * per_element
+        + display
+        + crate::cores::cores_bytes(k as usize, c as usize)
+        + header.skeleton_len as u128;
     // Per buffered row: the bytes read, f64 values, f32 values, the encoded payload.
     let per_row = k * (8 + 8 + 4 + 4);
     let limit = settings
