@@ -394,7 +394,7 @@ fn crowded(boxes: &[(DVec3, DVec3)], cell: f64) -> bool {
             }
         })
         .sum();
-    !(cells <= (8 * boxes.len()) as f64)
+    cells > (8 * boxes.len()) as f64
 }
 
 /// [`candidate_pairs`] of `boxes` through the hierarchy of grids.
