@@ -14,7 +14,7 @@
 //! over element boxes, or from a hierarchy of grids where a few boxes far larger than the rest
 //! would fill too many cells, so the work is near linear in the element count.
 
-use crate::geometry::boxes::BoxGrid;
+use crate::geometry::boxes::{BoxGrid, overlaps};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 
@@ -342,10 +342,6 @@ fn candidate_pairs(polys: &[Vec<DVec3>], eps: f64) -> Vec<(usize, usize)> {
     let mid = diag.len() / 2;
     let cell = 2.0 * diag.select_nth_unstable_by(mid, f64::total_cmp).1.max(eps);
     let key = |p: DVec3| (p / cell).floor().as_i64vec3();
-    let overlap = |a: usize, b: usize| {
-        let ((la, ha), (lb, hb)) = (boxes[a], boxes[b]);
-        la.cmple(hb).all() && lb.cmple(ha).all()
-    };
     // A few boxes far larger than the median (a game level's floor among its details) would
     // be in millions of cells: then the hierarchy of grids (at most 8 cells a box), which
     // costs more per box where boxes are alike (a tessellated sphere: 0.05 against 0.03 s).
@@ -368,7 +364,7 @@ fn candidate_pairs(polys: &[Vec<DVec3>], eps: f64) -> Vec<(usize, usize)> {
     for cell in grid.values() {
         for (i, &a) in cell.iter().enumerate() {
             for &b in &cell[i + 1..] {
-                if overlap(a, b) {
+                if overlaps(boxes[a], boxes[b]) {
                     pairs.push((a.min(b), a.max(b)));
                 }
             }
@@ -399,17 +395,13 @@ fn crowded(boxes: &[(DVec3, DVec3)], cell: f64) -> bool {
 
 /// [`candidate_pairs`] of `boxes` through the hierarchy of grids.
 fn hierarchical_pairs(boxes: &[(DVec3, DVec3)]) -> Vec<(usize, usize)> {
-    let overlap = |a: usize, b: usize| {
-        let ((la, ha), (lb, hb)) = (boxes[a], boxes[b]);
-        la.cmple(hb).all() && lb.cmple(ha).all()
-    };
     let grid = BoxGrid::new(boxes);
     let mut pairs: Vec<(usize, usize)> = (0..boxes.len())
         .into_par_iter()
         .flat_map_iter(|a| {
             (grid.candidates(boxes[a]).into_iter())
                 .map(|b| b as usize)
-                .filter(move |&b| b > a && overlap(a, b))
+                .filter(move |&b| b > a && overlaps(boxes[a], boxes[b]))
                 .map(move |b| (a, b))
         })
         .collect();
@@ -512,8 +504,7 @@ mod tests {
             let mut pairs = Vec::new();
             for a in 0..boxes.len() {
                 for b in a + 1..boxes.len() {
-                    let ((la, ha), (lb, hb)) = (boxes[a], boxes[b]);
-                    if la.cmple(hb).all() && lb.cmple(ha).all() {
+                    if overlaps(boxes[a], boxes[b]) {
                         pairs.push((a, b));
                     }
                 }

@@ -12,6 +12,12 @@
 use glam::DVec3;
 use rustc_hash::FxHashMap;
 
+/// Whether the closed boxes `a` and `b` (lower, upper corner) meet: overlap or touch. What
+/// callers test [`BoxGrid::candidates`] with.
+pub(crate) fn overlaps(a: (DVec3, DVec3), b: (DVec3, DVec3)) -> bool {
+    a.0.cmple(b.1).all() && b.0.cmple(a.1).all()
+}
+
 /// The index; queries answer box indices (`u32`).
 pub(crate) struct BoxGrid {
     /// Corner of every level's cell (0, 0, 0).
@@ -159,10 +165,6 @@ fn cells_in(a: [i64; 3], z: [i64; 3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn overlaps(a: (DVec3, DVec3), b: (DVec3, DVec3)) -> bool {
-        a.0.cmple(b.1).all() && b.0.cmple(a.1).all()
-    }
 
     /// Against a scan of every box: boxes of sizes over six orders of magnitude, points and
     /// lines among them, queries small and large.

@@ -12,7 +12,7 @@
 use glam::DVec3;
 
 use crate::geometry::Polygon;
-use crate::geometry::boxes::BoxGrid;
+use crate::geometry::boxes::{BoxGrid, overlaps};
 use crate::scene::Face;
 
 /// Relative distance under which a vertex counts as lying in a plane.
@@ -178,10 +178,6 @@ fn bounds(p: &Polygon) -> (DVec3, DVec3) {
     let v = p.vertices();
     v.iter()
         .fold((v[0], v[0]), |(lo, hi), x| (lo.min(*x), hi.max(*x)))
-}
-
-fn overlaps(a: (DVec3, DVec3), b: (DVec3, DVec3)) -> bool {
-    a.0.cmple(b.1).all() && b.0.cmple(a.1).all()
 }
 
 /// Where `g` meets the plane of `f` when `g` is not parallel to `f`: an edge of `g` lying in

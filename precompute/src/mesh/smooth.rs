@@ -42,7 +42,7 @@ use lrr_formats::Smooth;
 use rayon::prelude::*;
 
 use super::element::Element;
-use super::imprint::{Contact, Imprinter};
+use super::imprint::{Contact, Imprinter, polygon_bounds};
 use crate::geometry::boxes::BoxGrid;
 use crate::scene::Scene;
 
@@ -427,10 +427,8 @@ impl Incidence {
         }
         let boxes: Vec<(DVec3, DVec3)> = (elements.iter())
             .map(|e| {
-                let v = e.polygon.vertices();
-                let lo = v.iter().fold(v[0], |a, &b| a.min(b)) - DVec3::splat(tol);
-                let hi = v.iter().fold(v[0], |a, &b| a.max(b)) + DVec3::splat(tol);
-                (lo, hi)
+                let (lo, hi) = polygon_bounds(&e.polygon);
+                (lo - DVec3::splat(tol), hi + DVec3::splat(tol))
             })
             .collect();
         let grid = BoxGrid::new(&boxes);
@@ -527,9 +525,7 @@ fn components<T>(items: &[T], joined: impl Fn(&T, &T) -> bool) -> Vec<Vec<usize>
 fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> Vec<Vec<Contact>> {
     let mut bounds: Vec<Option<(DVec3, DVec3)>> = vec![None; scene.faces.len()];
     for e in elements {
-        let v = e.polygon.vertices();
-        let lo = v.iter().fold(v[0], |a, &b| a.min(b));
-        let hi = v.iter().fold(v[0], |a, &b| a.max(b));
+        let (lo, hi) = polygon_bounds(&e.polygon);
         let b = &mut bounds[e.face as usize];
         *b = Some(b.map_or((lo, hi), |(l, h)| (l.min(lo), h.max(hi))));
     }
