@@ -237,6 +237,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     stage.finish();
     let file_bytes = std::fs::metadata(&output).map(|m| m.len()).unwrap_or(0);
     let stages: BTreeMap<String, f64> = progress.timings().into_iter().collect();
+    let starts = progress.starts();
     let report = Report {
         scene: &baked.scene_name,
         output: output.display().to_string(),
@@ -255,11 +256,11 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
         file_bytes,
         stages,
         stage_peak_bytes: progress.peaks().into_iter().collect(),
-        stage_start_resident_bytes: (progress.starts().into_iter())
-            .filter_map(|(s, m)| Some((s, m.resident?)))
+        stage_start_resident_bytes: (starts.iter())
+            .filter_map(|(s, m)| Some((s.clone(), m.resident?)))
             .collect(),
-        stage_start_peak_bytes: (progress.starts().into_iter())
-            .filter_map(|(s, m)| Some((s, m.peak?)))
+        stage_start_peak_bytes: (starts.iter())
+            .filter_map(|(s, m)| Some((s.clone(), m.peak?)))
             .collect(),
         stage_estimate_bytes: progress.estimates().into_iter().collect(),
         peak_resident_bytes: lrr_precompute::progress::peak_resident(),

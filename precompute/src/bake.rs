@@ -459,14 +459,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
         )?;
         let channels = prepared.channels();
         let (reflectance, emission) = prepared.file_order_materials();
-        let k = prepared.mesh.k();
-        let bytes = crate::cores::cores_bytes(k, channels);
-        crate::memory::check_with(
-            bytes,
-            settings.max_memory,
-            &format!("the radiosity system's cores ({channels} × k² with k = {k} patches)"),
-            "use a larger --patch-size, or raise --max-memory",
-        )?;
+        let bytes = crate::cores::check_memory(prepared.mesh.k(), channels, settings.max_memory)?;
         progress.estimate("operator", bytes);
         let stage = progress.stage("operator", 0);
         let cores = build_cores(&OperatorInputs {

@@ -41,6 +41,18 @@ pub(crate) fn cores_bytes(k: usize, channels: usize) -> u128 {
     (2 * c + 3) * k * k * 8
 }
 
+/// Refuses cores over `max_memory` ([`crate::memory::check_with`]); their bytes otherwise.
+pub(crate) fn check_memory(k: usize, channels: usize, max_memory: Option<u64>) -> Result<u128> {
+    let bytes = cores_bytes(k, channels);
+    crate::memory::check_with(
+        bytes,
+        max_memory,
+        &format!("the radiosity system's cores ({channels} × k² with k = {k} patches)"),
+        "use a larger --patch-size, or raise --max-memory",
+    )?;
+    Ok(bytes)
+}
+
 /// Builds and inverts `I - VᵀU` for every channel.
 pub(crate) fn build_cores(inp: &OperatorInputs) -> Result<Cores> {
     let mut systems = Systems::new(inp.weights, inp.index, inp.reflectance, inp.channels);

@@ -263,12 +263,7 @@ pub(crate) fn refine_mesh(
     )?;
     // Its cores, the bake's own after it (the same k): refused before the hours of work.
     let channels = if scene.is_grey() { 1 } else { 3 };
-    memory::check_with(
-        crate::cores::cores_bytes(k, channels),
-        max_memory,
-        &format!("the radiosity system's cores ({channels} × k² with k = {k} patches)"),
-        "use a larger --patch-size, or raise --max-memory",
-    )?;
+    crate::cores::check_memory(k, channels, max_memory)?;
     let mut ff =
         FormFactors::new(first.first_pass_samples(), first.occluder).with_enclosure(first.closed);
     ff.adaptive = 1;

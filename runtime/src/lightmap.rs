@@ -113,10 +113,10 @@ pub struct Lightmap {
     /// Dilation: `ring_ends[r]` ends ring `r` in `dilated`; each dilated texel's filled
     /// neighbours are `neighbours[neighbour_ends[i - 1]..neighbour_ends[i]]`. Within a ring,
     /// texels are ordered by [`Bands`]: band 0's, band 1's, …, then the deferred ones.
-    pub(crate) ring_ends: Vec<u32>,
-    pub(crate) dilated: Vec<u32>,
-    pub(crate) neighbour_ends: Vec<u32>,
-    pub(crate) neighbours: Vec<u32>,
+    ring_ends: Vec<u32>,
+    dilated: Vec<u32>,
+    neighbour_ends: Vec<u32>,
+    neighbours: Vec<u32>,
     /// How a fill splits over `threads` threads.
     bands: Bands,
     threads: usize,
@@ -386,9 +386,8 @@ impl Lightmap {
         // `terms`, found through `slot` (sample i: i; dilated texel d: samples + d).
         let samples = self.point.len();
         let mut slot = vec![u32::MAX; self.width * self.height];
-        for (i, &r) in sample_run.iter().enumerate() {
-            let r = r as usize;
-            slot[(self.run_texel[r] + i as u32 - self.run_start[r]) as usize] = i as u32;
+        for (i, s) in self.samples().enumerate() {
+            slot[s.texel] = i as u32;
         }
         let mut terms: Vec<Vec<(u32, f64)>> = Vec::with_capacity(self.dilated.len());
         let sample_terms = |i: usize, out: &mut Vec<(u32, f64)>| {
