@@ -27,10 +27,20 @@ use std::path::{Path, PathBuf};
 use crate::render_reference::read_rgb;
 use crate::util::{lrr, lrr_binary, lrr_json, root, temp_dir};
 
-/// What a planned stage may hold beyond its estimate on 2 threads: the form-factor workers'
-/// scratch and the allocator's per-thread arenas (measured up to 4.5 MB over what was resident
-/// plus the estimate, on the corpus).
-const SCRATCH: f64 = 16.0 * 1024.0 * 1024.0;
+/// The bake's threads here (the bytes are the same at any count).
+const THREADS: usize = 2;
+
+/// What a worker thread of a planned stage holds that the estimate, which plans the
+/// matrices' buffers, does not: its stack (Rust's default 2 MiB at most) and its allocator
+/// arena (glibc keeps a thread's freed blocks resident for the thread to reuse), whose working
+/// set is a row's buffers, O(k + samples) values: well under a MiB for the k of a scene whose
+/// matrix fits in memory. 8 MiB a thread bounds both with room for the arena's growth steps;
+/// a buffer the estimate forgot that grows with n or k (zdm2's n·k f64 alone is 236 MB) does
+/// not fit in it. (Measured: at most 4.5 MB over on 2 threads, on the corpus.)
+const SCRATCH_PER_THREAD: f64 = 8.0 * 1024.0 * 1024.0;
+
+/// [`SCRATCH_PER_THREAD`] for the bake's [`THREADS`].
+const SCRATCH: f64 = THREADS as f64 * SCRATCH_PER_THREAD;
 
 /// A scene of the corpus.
 struct Case {
@@ -61,8 +71,7 @@ fn bakes_with_the_defaults(c: &Case) {
     let lrr_bin = lrr_binary();
     let start = std::time::Instant::now();
     // Its own process, so that its memory figures are the bake's alone (the tests of this
-    // binary run side by side); on 2 threads, which [`SCRATCH`] was measured at (the bytes
-    // are the same at any thread count).
+    // binary run side by side); on [`THREADS`] threads, which [`SCRATCH`] counts.
     let run = std::process::Command::new(lrr_bin)
         .args([
             "bake",
@@ -71,7 +80,8 @@ fn bakes_with_the_defaults(c: &Case) {
             out.to_str().unwrap(),
             "-q",
         ])
-        .args(["--report", report.to_str().unwrap(), "--threads", "2"])
+        .args(["--report", report.to_str().unwrap()])
+        .args(["--threads", &THREADS.to_string()])
         .output()
         .unwrap();
     assert!(
