@@ -87,7 +87,6 @@ pub(crate) enum MeshFrom {
         budget: f64,
         /// The bake's samples per pair (the first pass takes at most these).
         samples: u32,
-        max_memory: Option<u64>,
         /// Where the first pass's rows are checkpointed (`checkpoint::first_pass_path` of the
         /// bake's checkpoint), if the bake checkpoints.
         checkpoint: Option<CheckpointSettings>,
@@ -106,7 +105,6 @@ impl MeshFrom {
             Some(budget) if budget > 0.0 => Self::Refine {
                 budget,
                 samples: settings.samples,
-                max_memory: settings.max_memory,
                 checkpoint: settings.checkpoint.as_ref().map(|c| {
                     let path = checkpoint::first_pass_path(&c.path);
                     CheckpointSettings {
@@ -174,7 +172,15 @@ impl<'s> Prepared<'s> {
         visibility: Backend,
         progress: &Progress,
     ) -> Result<Self> {
-        Self::with_mesh(scene, sizes, method, visibility, progress, MeshFrom::Build)
+        Self::with_mesh(
+            scene,
+            sizes,
+            method,
+            visibility,
+            progress,
+            None,
+            MeshFrom::Build,
+        )
     }
 
     /// [`new`](Self::new), with the mesh refined where light changes (`MeshFrom::Refine`,
@@ -186,6 +192,7 @@ impl<'s> Prepared<'s> {
         method: PatchMethod,
         visibility: Backend,
         progress: &Progress,
+        max_memory: Option<u64>,
         from: MeshFrom,
     ) -> Result<Self> {
         if !visibility.available() {
@@ -205,6 +212,14 @@ impl<'s> Prepared<'s> {
         let occluder = if !needs_occluder(scene) {
             None
         } else {
+            let bytes = crate::visibility::build_bytes(scene);
+            crate::memory::check_with(
+                bytes,
+                max_memory,
+                &format!("the occlusion BVH ({} faces)", scene.faces.len()),
+                "simplify the model (fewer triangles), or raise --max-memory",
+            )?;
+            progress.estimate("visibility", bytes);
             Some(visibility.build(scene)?)
         };
         stage.finish();
@@ -215,17 +230,18 @@ impl<'s> Prepared<'s> {
                 (*mesh, refine, None)
             }
             MeshFrom::Build => {
-                let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
+                let mesh =
+                    Mesh::build_within(scene, sizes, method, occluder.as_deref(), max_memory)?;
                 stage.finish();
                 (mesh, None, None)
             }
             MeshFrom::Refine {
                 budget,
                 samples,
-                max_memory,
                 checkpoint,
             } => {
-                let mesh = Mesh::build(scene, sizes, method, occluder.as_deref())?;
+                let mesh =
+                    Mesh::build_within(scene, sizes, method, occluder.as_deref(), max_memory)?;
                 stage.finish();
                 // The first pass rescales the rows the bake would (a closed scene's rows sum
                 // to one there too, as far as its few samples let them: docs/MESHING.md).
@@ -441,6 +457,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             settings.method,
             settings.visibility,
             progress,
+            settings.max_memory,
             MeshFrom::meshing(settings),
         )?;
         // Before the form factors: bad point lights and cameras are refused early.
@@ -449,6 +466,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             &prepared.mesh,
             prepared.occluder.as_deref(),
             progress,
+            settings.max_memory,
         )?;
         let ff = prepared.form_factors(settings.samples);
         let (fk, checkpoint) = prepared.element_patch_matrix(

@@ -263,7 +263,7 @@ pub(crate) fn refine_mesh(
     )?;
     // Its cores, the bake's own after it (the same k): refused before the hours of work.
     let channels = if scene.is_grey() { 1 } else { 3 };
-    crate::cores::check_memory(k, channels, max_memory)?;
+    let cores = crate::cores::check_memory(k, channels, max_memory)?;
     let mut ff =
         FormFactors::new(first.first_pass_samples(), first.occluder).with_enclosure(first.closed);
     ff.adaptive = 1;
@@ -291,6 +291,9 @@ pub(crate) fn refine_mesh(
         Some((c, _)) if c.resume => checkpoint::resume_or_replace(&c.path, "the first pass", run)?,
         _ => run(false)?,
     };
+    // The solve's cores come on top of the rows, which it reads.
+    progress.estimate("first pass solve", cores);
+    let stage = progress.stage("first pass solve", 0);
     let (reflectance, mut emission) = mesh.file_order_materials(scene);
     // The lights that are not surfaces light the first pass as the runtime will: their
     // reflected direct light at each element's centroid is emission.
@@ -312,6 +315,7 @@ pub(crate) fn refine_mesh(
     }
     let values = first_pass(&mesh, &fk, &reflectance, &emission, channels)?;
     drop(fk);
+    stage.finish();
     let (mut refined, split) = refine_by(scene, &mesh, &values, budget)?;
     refined.meshing.refined = split;
     Ok((refined, saved))

@@ -35,15 +35,26 @@ pub fn build(
     mesh: &Mesh,
     occluder: Option<&dyn crate::visibility::Occluder>,
     progress: &Progress,
+    max_memory: Option<u64>,
 ) -> Result<Display> {
     let materials = materials(scene, mesh)?;
     let point_lights = point_lights(scene, mesh)?;
     let direct_lights = direct_lights(scene)?;
     let cameras = cameras(scene)?;
     let shown = Shown::of(mesh);
+    // Both follow the display faces, the input's triangles: what shrinks them is the model.
+    let advice = "simplify the model (fewer triangles), or raise --max-memory";
+    let bytes = bvh::build_bytes(shown.geometry.triangles().count());
+    let what = format!("the display BVH ({} faces)", shown.faces.len());
+    crate::memory::check_with(bytes, max_memory, &what, advice)?;
+    progress.estimate("bvh", bytes);
     let stage = progress.stage("bvh", 0);
     let bvh = bvh::build(&shown.geometry);
     stage.finish();
+    let bytes = crate::mesh::smooth::build_bytes(shown.faces.len());
+    let what = format!("the smooth weights ({} faces)", shown.faces.len());
+    crate::memory::check_with(bytes, max_memory, &what, advice)?;
+    progress.estimate("smooth", bytes);
     let stage = progress.stage("smooth", 0);
     let refs: Vec<&Element> = shown.faces.iter().collect();
     let mut smooth = crate::mesh::smooth::weights(scene, &refs);

@@ -60,6 +60,25 @@ const MAX_EXTRAPOLATION_WEIGHT: f64 = 8.0;
 /// Two edge rays are one when their directions' dot product exceeds `1 - RAY_TOLERANCE`.
 const RAY_TOLERANCE: f64 = 1e-9;
 
+/// Bytes [`weights`] may hold at once per face (element) it is given, planned before it
+/// starts. Per face, with its four corners: their positions and look-ups (the corner's
+/// position index, the map of bit patterns met and the grid of positions: about 200 bytes),
+/// the incidence lists (16 bytes a corner and a list per position: about 110) and the faces'
+/// boxes in the grid of boxes (48 and up to 8 cells: about 180); the contact lines of the
+/// scene's faces; then the weights three times over (the means, the boundary's plane fits
+/// and, for grouped elements, [`per_element`]): a member and a weight (8 bytes) per corner
+/// and T-junction, the corners' vertex ids (16) and a vertex's offset and boundary position
+/// (36), about 100 bytes each time. A boundary vertex's fit gathers at most
+/// [`MAX_RING_TERMS`] members, so nothing grows faster than the faces. About 800 bytes all
+/// told. Measured: zdm2's 94 295 display faces (scenes/real) raised the resident memory by
+/// 56.7 MB over the stage, 601 bytes a face.
+const BUILD_BYTES_PER_FACE: u128 = 1024;
+
+/// What [`weights`] (and [`per_element`] after it) may take over `faces` faces.
+pub(crate) fn build_bytes(faces: usize) -> u128 {
+    faces as u128 * BUILD_BYTES_PER_FACE
+}
+
 /// The smooth reconstruction weights of the fine mesh `elements` (file order) of `scene`.
 pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
     let tol = POSITION_TOLERANCE * scene.extent().max(f64::MIN_POSITIVE);
@@ -226,12 +245,20 @@ fn mean_weights(angles: &[f64]) -> Vec<f32> {
     raw.iter().map(|w| (w / sum) as f32).collect()
 }
 
+/// Most members a boundary vertex's neighbourhood may gather (its elements' corners' smooth
+/// vertices' members, counted with repeats) for the plane fit; beyond it the vertex keeps
+/// the mean. An ordinary mesh gathers tens (three elements, three corners, six members
+/// each); the rim of a fan of 10⁴ triangles round one vertex would gather the fan at each of
+/// its 10⁴ vertices, 10⁸ weights (1.6 GB and 26 s before this bound).
+const MAX_RING_TERMS: usize = 512;
+
 /// `s` with each boundary vertex (`boundary[v]` its position) extrapolated: the value at the
 /// vertex of the least-squares plane through the values of the elements around it (its own
 /// and those sharing a vertex with them), at their centroids, weighted by area, in the tangent
 /// plane of its elements. The weights sum to 1 and may be negative; the runtime clamps the
 /// value at zero. A vertex whose neighbourhood gives no plane (its elements' centroids on a
-/// line) or a weight beyond [`MAX_EXTRAPOLATION_WEIGHT`] keeps the mean.
+/// line), a weight beyond [`MAX_EXTRAPOLATION_WEIGHT`] or more than [`MAX_RING_TERMS`] to
+/// gather keeps the mean, so no vertex holds more weights than that or its own members.
 fn extrapolate(s: &Smooth, elements: &[&Element], boundary: &[Option<DVec3>]) -> Smooth {
     let members = |v: usize| &s.positions[s.offsets[v] as usize..s.offsets[v + 1] as usize];
     let mut out = Smooth {
@@ -242,7 +269,21 @@ fn extrapolate(s: &Smooth, elements: &[&Element], boundary: &[Option<DVec3>]) ->
     };
     for (v, at) in boundary.iter().enumerate() {
         let range = s.offsets[v] as usize..s.offsets[v + 1] as usize;
-        let fitted = at.and_then(|x| {
+        // Bounded before it is gathered: the rim of a fan of m triangles would gather the
+        // apex's m members at each of its m vertices.
+        let gathered = || {
+            members(v)
+                .iter()
+                .map(|&e| {
+                    let e = e as usize;
+                    let used = elements[e].polygon.count;
+                    (s.corners[4 * e..4 * e + used].iter())
+                        .map(|&c| members(c as usize).len())
+                        .sum::<usize>()
+                })
+                .sum::<usize>()
+        };
+        let fitted = at.filter(|_| gathered() <= MAX_RING_TERMS).and_then(|x| {
             let mut ring: Vec<u32> = members(v)
                 .iter()
                 .flat_map(|&e| {
@@ -855,6 +896,10 @@ mod tests {
             "{largest} members at the apex, {} elements",
             elements.len()
         );
+        // The rim's boundary vertices keep their means: gathering the apex's m members at
+        // each of them for a plane fit stored m² weights (10⁸: 1.6 GB and 26 s).
+        let stored = s.weights.len();
+        assert!(stored <= 8 * m, "{stored} weights stored for {m} faces");
     }
 
     /// Coincident and duplicated vertices: a quad written twice (duplicate faces), a triangle

@@ -106,12 +106,30 @@ pub(crate) fn msc_inputs<'a>(
     pieces: &[subdivide::Piece],
     elements: &[Element],
     occluder: Option<&'a dyn Occluder>,
+    max_memory: Option<u64>,
 ) -> Result<(coherence::Probes<'a>, Vec<coherence::Material>)> {
     // Probes at half the patch size were tried: 4× the probing cost for the same k at
     // equal error on the Cornell box.
     let mut probed = elements.to_vec();
     let probe_patches = two_fixed_patches(pieces, sizes, &mut probed);
     let budget = probe_budget(elements.len());
+    let q = probe_patches.len().min(budget);
+    // The probes are the 2MF patches at the patch size (grouped down to the budget when there
+    // are more): a larger patch size makes fewer, down to one per surface, and a larger
+    // element size fewer elements to view them. (--method 2mf needs no probes but takes those
+    // patches as its k, whose cores are larger still.)
+    crate::memory::check_with(
+        probe_bytes(q, elements.len()),
+        max_memory,
+        &format!(
+            "2MSC's probing (q = {q} probes, n = {} elements)",
+            elements.len()
+        ),
+        &format!(
+            "{}, or raise --max-memory",
+            crate::checkpoint::size_advice()
+        ),
+    )?;
     let (targets, reflectance, emission) = if probe_patches.len() > budget {
         grouped_probes(scene, probe_patches, &mut probed, budget)
     } else {
@@ -137,6 +155,15 @@ pub(crate) fn msc_inputs<'a>(
     }
     let materials = pieces.iter().map(|p| material(scene, p.face)).collect();
     Ok((probes, materials))
+}
+
+/// Bytes 2MSC's probes need with `q` probes over `n` elements: the coarse system's factors,
+/// its matrix and that matrix's LU factors (three `q²` f64), and every element's view of the
+/// probes that the merge rule keeps (`n · q` f32, and as much again for the groups' sums).
+/// At most about 0.8 GB: [`MAX_PROBES`] and [`MAX_PROBE_PAIRS`] bound both terms.
+pub(crate) fn probe_bytes(q: usize, n: usize) -> u128 {
+    let (q, n) = (q as u128, n as u128);
+    3 * q * q * 8 + n * q * 8
 }
 
 /// Most probes 2MSC measures against: their coarse solve holds `q²` factors (128 MiB here).
@@ -266,12 +293,25 @@ fn two_fixed_patches(
 
 impl Mesh {
     /// Builds both meshes with the given patch method. 2MSC probes visibility with `occluder`
-    /// (`None`: nothing occludes).
+    /// (`None`: nothing occludes). (Bakes call [`build_within`](Self::build_within).)
+    #[cfg(test)]
     pub(crate) fn build(
         scene: &Scene,
         sizes: MeshSizes,
         method: PatchMethod,
         occluder: Option<&dyn Occluder>,
+    ) -> Result<Self> {
+        Self::build_within(scene, sizes, method, occluder, None)
+    }
+
+    /// [`build`](Self::build), refusing 2MSC's probes when they need more than `max_memory`
+    /// bytes ([`probe_bytes`]; `None`: 80% of what is available).
+    pub(crate) fn build_within(
+        scene: &Scene,
+        sizes: MeshSizes,
+        method: PatchMethod,
+        occluder: Option<&dyn Occluder>,
+        max_memory: Option<u64>,
     ) -> Result<Self> {
         match method {
             PatchMethod::TwoFixed => Self::two_fixed(scene, sizes),
@@ -281,7 +321,7 @@ impl Mesh {
                 rule,
             } => {
                 let refinement = refinement(sizes, threshold, min_patch_area, rule)?;
-                Self::two_msc(scene, sizes, refinement, occluder)
+                Self::two_msc(scene, sizes, refinement, occluder, max_memory)
             }
         }
     }
@@ -304,9 +344,11 @@ impl Mesh {
         sizes: MeshSizes,
         refinement: coherence::Refinement,
         occluder: Option<&dyn Occluder>,
+        max_memory: Option<u64>,
     ) -> Result<Self> {
         let (mut elements, pieces, meshing) = fine_mesh(scene, sizes)?;
-        let (probes, materials) = msc_inputs(scene, sizes, &pieces, &elements, occluder)?;
+        let (probes, materials) =
+            msc_inputs(scene, sizes, &pieces, &elements, occluder, max_memory)?;
         let patches = match refinement.rule {
             CoherenceRule::Split => coherence::two_msc(
                 &pieces,

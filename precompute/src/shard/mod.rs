@@ -157,6 +157,7 @@ pub fn bake_shard(
             settings.method,
             settings.visibility,
             progress,
+            settings.max_memory,
             from,
         )?;
         // Removed with the rows' checkpoint once the part is written.
@@ -166,6 +167,7 @@ pub fn bake_shard(
             &prepared.mesh,
             prepared.occluder.as_deref(),
             progress,
+            settings.max_memory,
         )?;
         let stage = progress.stage("cut", 0);
         let costs = cost::row_costs(&prepared.mesh, prepared.occluder.is_some());
@@ -248,6 +250,7 @@ pub fn write_plan(
             settings.method,
             settings.visibility,
             progress,
+            settings.max_memory,
             MeshFrom::meshing(settings),
         )?;
         let text = settings_text(sizes, settings, prepared.visibility_name());

@@ -289,16 +289,66 @@ fn a_refusal_on_a_dense_mesh_gives_advice_that_works() {
     let scene =
         crate::util::generated_scene(&dir, "sphere", &["dense-sphere", "--subdivisions", "4"]);
     let out = dir.join("sphere.lrr");
+    // 8 MiB: the occlusion BVH and the smooth weights of its 5 130 faces plan 5 MiB each.
     let err = bake(
         &scene,
         &out,
-        &["--max-memory", "4M", "--element-size", "0.03"],
+        &["--max-memory", "8M", "--element-size", "0.03"],
     )
     .unwrap_err();
     assert!(err.contains("use a larger --element-size"), "{err}");
     // The description's own element size, 0.125: larger than 0.03, as the advice says.
-    bake(&scene, &out, &["--max-memory", "4M"])
+    bake(&scene, &out, &["--max-memory", "8M"])
         .unwrap_or_else(|e| panic!("the advice did not make the bake fit: {e}"));
+    assert!(out.exists());
+}
+
+/// The BVHs and the smooth weights follow the input's triangles, not the element size: a
+/// model too dense for the memory is refused before any of them is built, with advice about
+/// the model.
+#[test]
+fn a_model_too_dense_for_memory_is_refused_before_its_bvh() {
+    let dir = temp_dir("memory-bvh");
+    let scene =
+        crate::util::generated_scene(&dir, "sphere", &["dense-sphere", "--subdivisions", "4"]);
+    let out = dir.join("sphere.lrr");
+    let err = bake(&scene, &out, &["--max-memory", "4M"]).unwrap_err();
+    assert!(
+        err.contains("the occlusion BVH (5130 faces) needs about 5.0 MiB but only 4.0 MiB")
+            && err.contains("simplify the model"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
+/// 2MSC's probes (the 2MF patches at the patch size, with their dense solve) are planned
+/// before they are built: a patch size as small as the elements makes as many probes as
+/// elements, which is refused; the advice (a larger patch size, here twice the size) makes
+/// the bake fit.
+#[test]
+fn probes_over_the_memory_limit_are_refused_with_advice_that_works() {
+    let dir = temp_dir("memory-probes");
+    let out = dir.join("cornell.lrr");
+    // The element size of the Cornell box's description is 48: probes of that size number
+    // n = 2 116 (24 q² + 8 n q bytes: 137 MiB).
+    let err = bake(
+        &cornell(),
+        &out,
+        &["--max-memory", "64M", "--patch-size", "48"],
+    )
+    .unwrap_err();
+    assert!(
+        err.contains("2MSC's probing (q = 2116 probes, n = 2116 elements)")
+            && err.contains("--patch-size"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    bake(
+        &cornell(),
+        &out,
+        &["--max-memory", "64M", "--patch-size", "96"],
+    )
+    .unwrap_or_else(|e| panic!("the advice did not make the bake fit: {e}"));
     assert!(out.exists());
 }
 
@@ -306,7 +356,10 @@ fn a_refusal_on_a_dense_mesh_gives_advice_that_works() {
 fn a_bake_larger_than_memory_is_refused_before_allocating() {
     let dir = temp_dir("memory");
     let out = dir.join("big.lrr");
-    let err = bake(&cornell(), &out, &["--max-memory", "1M"]).unwrap_err();
+    // By 2MF, which has no probes (the default 2MSC is refused at its probes first:
+    // probes_over_the_memory_limit_are_refused_with_advice_that_works), the first pass's
+    // matrix.
+    let err = bake(&cornell(), &out, &["--max-memory", "1M", "--method", "2mf"]).unwrap_err();
     assert!(
         err.contains("MiB but only 1.0 MiB") && err.contains("--element-size"),
         "{err}"

@@ -372,7 +372,7 @@ fn estimate_against_oracle() {
     // The probes and materials as `Mesh::two_msc` makes them.
     let (elements, pieces, _) = crate::mesh::fine_mesh(&scene, sizes).unwrap();
     let (probes, materials) =
-        crate::patches::msc_inputs(&scene, sizes, &pieces, &elements, Some(&occ)).unwrap();
+        crate::patches::msc_inputs(&scene, sizes, &pieces, &elements, Some(&occ), None).unwrap();
     let ctx = Ctx {
         pieces: &pieces,
         units: pieces.iter().map(|p| Unit::of(&p.polygon)).collect(),
@@ -603,7 +603,8 @@ fn merge_oracle() {
         assert!(probes, "the estimate needs LRR_MERGE_RECEIVERS=probes");
         let (elements, pieces, _) = crate::mesh::fine_mesh(&scene, sizes).unwrap();
         let (pr, _) =
-            crate::patches::msc_inputs(&scene, sizes, &pieces, &elements, Some(&occ)).unwrap();
+            crate::patches::msc_inputs(&scene, sizes, &pieces, &elements, Some(&occ), None)
+                .unwrap();
         assert_eq!(pr.targets.len(), r);
         let views: Vec<Vec<f64>> = (0..n)
             .into_par_iter()
