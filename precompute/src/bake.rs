@@ -477,7 +477,8 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
         )?;
         let channels = prepared.channels();
         let (reflectance, emission) = prepared.file_order_materials();
-        let bytes = crate::cores::check_memory(prepared.mesh.k(), channels, settings.max_memory)?;
+        let (n, k) = (prepared.mesh.n(), prepared.mesh.k());
+        let bytes = crate::cores::check_memory(k, channels, n, settings.max_memory)?;
         progress.estimate("operator", bytes);
         let stage = progress.stage("operator", 0);
         let cores = build_cores(&OperatorInputs {

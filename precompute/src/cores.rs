@@ -41,13 +41,24 @@ pub(crate) fn cores_bytes(k: usize, channels: usize) -> u128 {
     (2 * c + 3) * k * k * 8
 }
 
-/// Refuses cores over `max_memory` ([`crate::memory::check_with`]); their bytes otherwise.
-pub(crate) fn check_memory(k: usize, channels: usize, max_memory: Option<u64>) -> Result<u128> {
+/// Refuses cores over `max_memory` ([`crate::memory::check_with`]) together with the `n`
+/// rows of f64 element-to-patch factors they are built from, which are held meanwhile; the
+/// cores' own bytes otherwise.
+pub(crate) fn check_memory(
+    k: usize,
+    channels: usize,
+    n: usize,
+    max_memory: Option<u64>,
+) -> Result<u128> {
     let bytes = cores_bytes(k, channels);
+    let rows = (n as u128) * (k as u128) * 8;
     crate::memory::check_with(
-        bytes,
+        rows + bytes,
         max_memory,
-        &format!("the radiosity system's cores ({channels} × k² with k = {k} patches)"),
+        &format!(
+            "the radiosity system's cores ({channels} × k² with k = {k} patches) with the \
+             n = {n} rows they are built from"
+        ),
         "use a larger --patch-size, or raise --max-memory",
     )?;
     Ok(bytes)

@@ -27,7 +27,7 @@ pub(crate) fn available() -> u128 {
 /// Refuses `bytes` of working memory for `what` when they exceed `limit` bytes
 /// (`--max-memory`) or, without one, 80% of what is available.
 pub(crate) fn check_with(bytes: u128, limit: Option<u64>, what: &str, fix: &str) -> Result<()> {
-    let limit = limit.map_or_else(|| available() * 8 / 10, u128::from);
+    let limit = usable(limit);
     if bytes > limit {
         return Err(Error::Limits(format!(
             "{what} needs about {} but only {} can be used; {fix}",
@@ -36,6 +36,11 @@ pub(crate) fn check_with(bytes: u128, limit: Option<u64>, what: &str, fix: &str)
         )));
     }
     Ok(())
+}
+
+/// The bytes a job may use: `limit` (`--max-memory`), or 80% of what is available.
+pub(crate) fn usable(limit: Option<u64>) -> u128 {
+    limit.map_or_else(|| available() * 8 / 10, u128::from)
 }
 
 /// Bytes in GiB, or MiB below 1 GiB (so small limits do not all read "0.01 GiB").

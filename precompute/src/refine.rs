@@ -263,7 +263,7 @@ pub(crate) fn refine_mesh(
     )?;
     // Its cores, the bake's own after it (the same k): refused before the hours of work.
     let channels = if scene.is_grey() { 1 } else { 3 };
-    let cores = crate::cores::check_memory(k, channels, max_memory)?;
+    let cores = crate::cores::check_memory(k, channels, n0, max_memory)?;
     let mut ff =
         FormFactors::new(first.first_pass_samples(), first.occluder).with_enclosure(first.closed);
     ff.adaptive = 1;

@@ -42,8 +42,10 @@ pub fn build(
     let direct_lights = direct_lights(scene)?;
     let cameras = cameras(scene)?;
     let shown = Shown::of(mesh);
-    // Both follow the display faces, the input's triangles: what shrinks them is the model.
-    let advice = "simplify the model (fewer triangles), or raise --max-memory";
+    // Both follow the display faces: the elements, or the input's faces where small ones were
+    // grouped into elements.
+    let advice = "use a larger --element-size or simplify the model (fewer triangles), or \
+                  raise --max-memory";
     let bytes = bvh::build_bytes(shown.geometry.triangles().count());
     let what = format!("the display BVH ({} faces)", shown.faces.len());
     crate::memory::check_with(bytes, max_memory, &what, advice)?;
@@ -52,7 +54,7 @@ pub fn build(
     let bvh = bvh::build(&shown.geometry);
     stage.finish();
     let bytes = crate::mesh::smooth::build_bytes(shown.faces.len());
-    let what = format!("the smooth weights ({} faces)", shown.faces.len());
+    let what = format!("building the smooth weights ({} faces)", shown.faces.len());
     crate::memory::check_with(bytes, max_memory, &what, advice)?;
     progress.estimate("smooth", bytes);
     let stage = progress.stage("smooth", 0);

@@ -69,8 +69,9 @@ const RAY_TOLERANCE: f64 = 1e-9;
 /// and, for grouped elements, [`per_element`]): a member and a weight (8 bytes) per corner
 /// and T-junction, the corners' vertex ids (16) and a vertex's offset and boundary position
 /// (36), about 100 bytes each time. A boundary vertex's fit gathers at most
-/// [`MAX_RING_TERMS`] members, so nothing grows faster than the faces. About 800 bytes all
-/// told. Measured: zdm2's 94 295 display faces (scenes/real) raised the resident memory by
+/// [`MAX_RING_TERMS`] members, so nothing grows faster than the faces (a fan of fewer
+/// triangles than that with a boundary rim stores up to 8 bytes a face per triangle of the
+/// fan). About 800 bytes all told for ordinary meshes; not a worst-case bound. Measured: zdm2's 94 295 display faces (scenes/real) raised the resident memory by
 /// 56.7 MB over the stage, 601 bytes a face.
 const BUILD_BYTES_PER_FACE: u128 = 1024;
 
@@ -247,10 +248,15 @@ fn mean_weights(angles: &[f64]) -> Vec<f32> {
 
 /// Most members a boundary vertex's neighbourhood may gather (its elements' corners' smooth
 /// vertices' members, counted with repeats) for the plane fit; beyond it the vertex keeps
-/// the mean. An ordinary mesh gathers tens (three elements, three corners, six members
-/// each); the rim of a fan of 10⁴ triangles round one vertex would gather the fan at each of
-/// its 10⁴ vertices, 10⁸ weights (1.6 GB and 26 s before this bound).
-const MAX_RING_TERMS: usize = 512;
+/// the mean. A regular mesh gathers tens (three elements, three corners, six members each:
+/// 54), more along T-junctions and at the hubs of real models: at 128, vertices of the
+/// living room, CornellBox-Water and zdm2 (scenes/real) kept their means and those bakes
+/// changed; at 512, zdm2 still did; at 2048 none does. The rim of a fan of 10⁴ triangles
+/// round one vertex would gather the fan at each of its 10⁴ vertices, 10⁸ weights (1.6 GB and
+/// 26 s before this bound). A fan of m < 1020 triangles still stores m weights at each of
+/// its m rim vertices: 8m bytes a face, which [`BUILD_BYTES_PER_FACE`] is not sized for
+/// beyond about m = 60.
+const MAX_RING_TERMS: usize = 2048;
 
 /// `s` with each boundary vertex (`boundary[v]` its position) extrapolated: the value at the
 /// vertex of the least-squares plane through the values of the elements around it (its own

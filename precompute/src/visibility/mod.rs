@@ -72,14 +72,15 @@ impl Backend {
 }
 
 /// Bytes a backend's build may hold at once, per triangle of the scene (a quad is two),
-/// planned before it starts. The default backend holds per triangle: the triangle in f32
-/// (48 bytes) and in f64 (72, twice: in input and in BVH order), its plane (32) and box (32);
-/// obvhs' PLOC build, per primitive, two arrays of leaf nodes (48 each), the binary tree's two
-/// nodes (96), Morton codes and indices (24) and the leaf collapse's copy of the tree (96);
-/// then the 4-wide tree (under 64). That is about 730 bytes were all of it live at once,
-/// before the faces merged into convex planar groups (`mesh::occluder_faces`), which only
-/// makes fewer. Measured: zdm2's 56 900 triangles (scenes/real) raised the resident memory by
-/// 40.1 MB over the stage, 705 bytes a triangle. Embree's build is held to the same figure.
+/// planned before it starts. The default backend holds per triangle: the scene's faces merged
+/// into convex planar groups (`mesh::occluder_faces`: a copy of each face, about 300 bytes,
+/// fewer where faces merge); the triangle in f32 (48) and in f64 (72, twice: in input and in
+/// BVH order), its plane (32) and box (32); obvhs' PLOC build, per primitive, two arrays of
+/// leaf nodes (48 each), the binary tree's two nodes (96), Morton codes and indices (40), all
+/// freed before the leaf collapse copies the tree (96); then the 4-wide tree (under 64).
+/// About 1 KiB at the most, 0.85 KiB with the PLOC buffers gone before the collapse.
+/// Measured: zdm2's 56 900 triangles (scenes/real) raised the resident memory by 40.1 MB over
+/// the stage, 705 bytes a triangle. Embree's build is held to the same figure, unmeasured.
 pub(crate) const BUILD_BYTES_PER_TRIANGLE: u128 = 1024;
 
 /// What the occlusion structure of `scene` may take to build: [`BUILD_BYTES_PER_TRIANGLE`]

@@ -276,9 +276,9 @@ fn bakes_are_identical_across_runs_and_thread_counts() {
     );
 }
 
-/// A mesh at its floor of one element per input face (the dense sphere of 5 120 triangles,
-/// each smaller than the element size): the refusal says a larger element size will not help
-/// and names what will; following it (2MF with a larger patch size) the bake fits the same
+/// A dense mesh (the dense sphere of 5 120 triangles, each smaller than the element size):
+/// since issue #31 its small faces are grouped into elements of about the element size, so
+/// the refusal advises a larger element size, and following it the bake fits the same
 /// memory.
 #[test]
 fn a_refusal_on_a_dense_mesh_gives_advice_that_works() {
@@ -323,8 +323,8 @@ fn a_model_too_dense_for_memory_is_refused_before_its_bvh() {
 
 /// 2MSC's probes (the 2MF patches at the patch size, with their dense solve) are planned
 /// before they are built: a patch size as small as the elements makes as many probes as
-/// elements, which is refused; the advice (a larger patch size, here twice the size) makes
-/// the bake fit.
+/// elements, which is refused; the advice (a patch size so many times larger: twice is
+/// more than it asks) makes the bake fit.
 #[test]
 fn probes_over_the_memory_limit_are_refused_with_advice_that_works() {
     let dir = temp_dir("memory-probes");
@@ -339,10 +339,18 @@ fn probes_over_the_memory_limit_are_refused_with_advice_that_works() {
     .unwrap_err();
     assert!(
         err.contains("2MSC's probing (q = 2116 probes, n = 2116 elements)")
-            && err.contains("--patch-size"),
+            && err.contains("--patch-size about"),
         "{err}"
     );
     assert!(!out.exists());
+    // The advice names a factor; twice the patch size follows it.
+    let factor: f64 = err
+        .split("--patch-size about ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("no factor in: {err}"));
+    assert!((1.0..=2.0).contains(&factor), "{err}");
     bake(
         &cornell(),
         &out,
