@@ -71,8 +71,9 @@ const RAY_TOLERANCE: f64 = 1e-9;
 /// (36), about 100 bytes each time. A boundary vertex's fit gathers at most
 /// [`MAX_RING_TERMS`] members, so nothing grows faster than the faces (a fan of fewer
 /// triangles than that with a boundary rim stores up to 8 bytes a face per triangle of the
-/// fan). About 800 bytes all told for ordinary meshes; not a worst-case bound. Measured: zdm2's 94 295 display faces (scenes/real) raised the resident memory by
-/// 56.7 MB over the stage, 601 bytes a face.
+/// fan). About 800 bytes all told for ordinary meshes; not a worst-case bound. Measured:
+/// zdm2's 94 295 display faces (scenes/real) raised the resident memory by 56.7 MB over the
+/// stage, 601 bytes a face.
 const BUILD_BYTES_PER_FACE: u128 = 1024;
 
 /// What [`weights`] (and [`per_element`] after it) may take over `faces` faces.
