@@ -38,6 +38,14 @@ pub(crate) fn check_with(bytes: u128, limit: Option<u64>, what: &str, fix: &str)
     Ok(())
 }
 
+/// What to change when the elements or the patches are too many for the memory (`n · k`, the
+/// probes): a larger element size lowers n on every surface (small faces are grouped into
+/// elements of about the element size, `mesh::dense`); a larger patch size or threshold
+/// lowers k and the probes.
+pub(crate) fn size_advice() -> String {
+    "use a larger --element-size or --patch-size".to_string()
+}
+
 /// The bytes a job may use: `limit` (`--max-memory`), or 80% of what is available.
 pub(crate) fn usable(limit: Option<u64>) -> u128 {
     limit.map_or_else(|| available() * 8 / 10, u128::from)

@@ -259,7 +259,7 @@ pub(crate) fn refine_mesh(
         (n0 as u128) * (k as u128) * 8,
         max_memory,
         &format!("the first pass of --refine (n = {n0} elements × k = {k} patches)"),
-        &format!("use --refine 0, or: {}", checkpoint::size_advice()),
+        &format!("use --refine 0, or: {}", memory::size_advice()),
     )?;
     // Its cores, the bake's own after it (the same k): refused before the hours of work.
     let channels = if scene.is_grey() { 1 } else { 3 };

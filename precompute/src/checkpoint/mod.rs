@@ -51,13 +51,6 @@ pub(crate) struct Identity<'a> {
 /// for a bake, one shard's range for a sharded one). Returns the open checkpoint, which the
 /// caller removes once the output is safely written. `checkpoint` comes with the bake's
 /// [`key`] (for a range, [`range_key`]).
-/// What to change when `n · k` does not fit. A larger element size lowers n on every surface
-/// (small faces are grouped into elements of about the element size, `mesh::dense`); a larger
-/// patch size or threshold lowers k.
-pub(crate) fn size_advice() -> String {
-    "use a larger --element-size or --patch-size".to_string()
-}
-
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn element_patch_matrix(
     mesh: &Mesh,
@@ -74,7 +67,7 @@ pub(crate) fn element_patch_matrix(
         bytes,
         max_memory,
         &format!("the element-to-patch matrix (n = {n} elements × k = {k} patches)"),
-        &size_advice(),
+        &memory::size_advice(),
     )?;
     progress.estimate(stage, bytes);
     let polygons: Vec<Polygon> = rows.clone().map(|s| mesh.element_at(s).polygon).collect();

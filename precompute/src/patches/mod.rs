@@ -139,10 +139,7 @@ pub(crate) fn msc_inputs<'a>(
             format!("use {larger}, or raise --max-memory")
         }
     } else {
-        format!(
-            "{}, or raise --max-memory",
-            crate::checkpoint::size_advice()
-        )
+        format!("{}, or raise --max-memory", crate::memory::size_advice())
     };
     crate::memory::check_with(
         probe_bytes(q, elements.len()),
