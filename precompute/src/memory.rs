@@ -27,12 +27,25 @@ pub(crate) fn available() -> u128 {
 /// Refuses `bytes` of working memory for `what` when they exceed `limit` bytes
 /// (`--max-memory`) or, without one, 80% of what is available.
 pub(crate) fn check_with(bytes: u128, limit: Option<u64>, what: &str, fix: &str) -> Result<()> {
+    check_then(bytes, limit, || what.to_string(), |_| fix.to_string())
+}
+
+/// [`check_with`] for a refusal whose words cost work to build: `what` and `fix` run only
+/// when the job is refused, `fix` with the bytes that can be used.
+pub(crate) fn check_then(
+    bytes: u128,
+    limit: Option<u64>,
+    what: impl FnOnce() -> String,
+    fix: impl FnOnce(u128) -> String,
+) -> Result<()> {
     let limit = usable(limit);
     if bytes > limit {
         return Err(Error::Limits(format!(
-            "{what} needs about {} but only {} can be used; {fix}",
+            "{} needs about {} but only {} can be used; {}",
+            what(),
             size(bytes),
-            size(limit)
+            size(limit),
+            fix(limit)
         )));
     }
     Ok(())

@@ -349,21 +349,24 @@ fn candidate_pairs(polys: &[Vec<DVec3>], eps: f64) -> Vec<(usize, usize)> {
     if crowded(&boxes, cell) {
         return hierarchical_pairs(&boxes);
     }
-    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::default();
+    // (cell, box) for every cell a box meets, sorted: each cell's boxes are one run.
+    let mut entries: Vec<([i64; 3], u32)> = Vec::with_capacity(boxes.len() * 2);
     for (s, (lo, hi)) in boxes.iter().enumerate() {
         let (a, b) = (key(*lo), key(*hi));
         for x in a.x..=b.x {
             for y in a.y..=b.y {
                 for z in a.z..=b.z {
-                    grid.entry([x, y, z]).or_default().push(s);
+                    entries.push(([x, y, z], s as u32));
                 }
             }
         }
     }
+    entries.sort_unstable();
     let mut pairs = Vec::new();
-    for cell in grid.values() {
-        for (i, &a) in cell.iter().enumerate() {
-            for &b in &cell[i + 1..] {
+    for cell in entries.chunk_by(|p, q| p.0 == q.0) {
+        for (i, &(_, a)) in cell.iter().enumerate() {
+            for &(_, b) in &cell[i + 1..] {
+                let (a, b) = (a as usize, b as usize);
                 if overlaps(boxes[a], boxes[b]) {
                     pairs.push((a.min(b), a.max(b)));
                 }
@@ -422,15 +425,20 @@ fn coplanar(polys: &[Vec<DVec3>], normals: &[DVec3], a: usize, b: usize, eps: f6
 
 /// At least two distinct points of one polygon lie on the other's boundary.
 fn share_edge(a: &[DVec3], b: &[DVec3], eps: f64) -> bool {
-    let mut touching: Vec<DVec3> = Vec::new();
+    let mut first: Option<DVec3> = None;
     for (p, q) in [(a, b), (b, a)] {
         for x in p {
-            if on_boundary(*x, q, eps) && touching.iter().all(|t| t.distance(*x) > eps) {
-                touching.push(*x);
+            if !on_boundary(*x, q, eps) {
+                continue;
+            }
+            match first {
+                None => first = Some(*x),
+                Some(t) if t.distance(*x) > eps => return true,
+                Some(_) => {}
             }
         }
     }
-    touching.len() >= 2
+    false
 }
 
 fn on_boundary(x: DVec3, poly: &[DVec3], eps: f64) -> bool {

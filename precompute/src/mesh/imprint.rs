@@ -24,9 +24,11 @@ const MIN_PIECE_FRACTION: f64 = 1e-9;
 /// and each face's place in the sweep order (by the low x of its box) that contacts come in.
 pub(super) struct Imprinter<'f> {
     faces: &'f [Face],
+    /// The faces in sweep order (by the low x of their boxes, then by index): the grid answers
+    /// places in it, so sorting its answers puts them in sweep order.
+    sweep: Vec<u32>,
+    /// The boxes in sweep order.
     boxes: Vec<(DVec3, DVec3)>,
-    /// Each face's place in the sweep (faces by the low x of their boxes, then by index).
-    rank: Vec<u32>,
     grid: BoxGrid,
 }
 
@@ -44,18 +46,15 @@ pub(super) struct Contact {
 
 impl<'f> Imprinter<'f> {
     pub(super) fn new(faces: &'f [Face]) -> Self {
-        let boxes: Vec<(DVec3, DVec3)> = faces.iter().map(|f| bounds(&f.polygon)).collect();
-        let mut by_x: Vec<usize> = (0..faces.len()).collect();
-        by_x.sort_by(|&a, &b| boxes[a].0.x.total_cmp(&boxes[b].0.x));
-        let mut rank = vec![0; faces.len()];
-        for (r, &g) in by_x.iter().enumerate() {
-            rank[g] = r as u32;
-        }
+        let by_face: Vec<(DVec3, DVec3)> = faces.iter().map(|f| bounds(&f.polygon)).collect();
+        let mut sweep: Vec<u32> = (0..faces.len() as u32).collect();
+        sweep.sort_by(|&a, &b| by_face[a as usize].0.x.total_cmp(&by_face[b as usize].0.x));
+        let boxes: Vec<(DVec3, DVec3)> = sweep.iter().map(|&g| by_face[g as usize]).collect();
         let grid = BoxGrid::new(&boxes);
         Self {
             faces,
+            sweep,
             boxes,
-            rank,
             grid,
         }
     }
@@ -73,12 +72,14 @@ impl<'f> Imprinter<'f> {
         // Every face whose box meets the query's, in sweep order (the order a scan of every
         // face by low x would meet them in: the same contacts in the same order).
         let mut near = self.grid.candidates((lo, hi));
-        near.retain(|&g| Some(g as usize) != skip && overlaps((lo, hi), self.boxes[g as usize]));
-        near.sort_unstable_by_key(|&g| self.rank[g as usize]);
+        near.sort_unstable();
         near.dedup();
         let mut out = Vec::new();
-        for g in near {
-            let g = g as usize;
+        for r in near {
+            let g = self.sweep[r as usize] as usize;
+            if Some(g) == skip || !overlaps((lo, hi), self.boxes[r as usize]) {
+                continue;
+            }
             let other = &self.faces[g].polygon;
             if let Some((segment, through)) = crossing(plane, other) {
                 out.push(Contact {

@@ -118,37 +118,35 @@ pub(crate) fn msc_inputs<'a>(
     // down to one per surface, and a larger element size fewer elements to view them. When
     // they are grouped down to the budget, `n · q` stays near MAX_PROBE_PAIRS whatever the
     // sizes, until the patches are fewer than the budget. (--method 2mf needs no probes but
-    // takes those patches as its k, whose cores are larger still.)
-    // The most probes that fit beside these elements (24 q² + 8 n q ≤ the limit); the patch
-    // count goes as the inverse square of the patch size.
-    let n = elements.len() as f64;
-    let usable = crate::memory::usable(max_memory) as f64;
-    let fit = ((64.0 * n * n + 96.0 * usable).sqrt() - 8.0 * n) / 48.0;
-    let fix = if fit >= 1.0 {
-        let larger = format!(
-            "a --patch-size about {:.2} times larger (fewer probes)",
-            (probe_patches.len() as f64 / fit.floor()).sqrt().max(1.0) * 1.05
-        );
-        // Where the elements' views outweigh the probes' solve, fewer elements help most
-        // (and the matrices after the probes need them fewer too).
-        if 8 * elements.len() > 24 * q {
-            format!(
-                "use a larger --element-size (fewer elements) or {larger}, or raise --max-memory"
-            )
-        } else {
-            format!("use {larger}, or raise --max-memory")
-        }
-    } else {
-        format!("{}, or raise --max-memory", crate::memory::size_advice())
-    };
-    crate::memory::check_with(
-        probe_bytes(q, elements.len()),
+    // takes those patches as its k, whose cores are larger still.) On a refusal, the advice
+    // names the factor that brings the patch count to the most probes that fit beside these
+    // elements (24 q² + 8 n q ≤ the limit; the count goes as the inverse square of the size).
+    let n = elements.len();
+    crate::memory::check_then(
+        probe_bytes(q, n),
         max_memory,
-        &format!(
-            "2MSC's probing (q = {q} probes, n = {} elements)",
-            elements.len()
-        ),
-        &fix,
+        || format!("2MSC's probing (q = {q} probes, n = {n} elements)"),
+        |usable| {
+            let (nf, usable) = (n as f64, usable as f64);
+            let fit = ((64.0 * nf * nf + 96.0 * usable).sqrt() - 8.0 * nf) / 48.0;
+            if fit < 1.0 {
+                return format!("{}, or raise --max-memory", crate::memory::size_advice());
+            }
+            let larger = format!(
+                "a --patch-size about {:.2} times larger (fewer probes)",
+                (probe_patches.len() as f64 / fit.floor()).sqrt().max(1.0) * 1.05
+            );
+            // Where the elements' views outweigh the probes' solve, fewer elements help
+            // most (and the matrices after the probes need them fewer too).
+            if 8 * n > 24 * q {
+                format!(
+                    "use a larger --element-size (fewer elements) or {larger}, or raise \
+                     --max-memory"
+                )
+            } else {
+                format!("use {larger}, or raise --max-memory")
+            }
+        },
     )?;
     let (targets, reflectance, emission) = if probe_patches.len() > budget {
         grouped_probes(scene, probe_patches, &mut probed, budget)
