@@ -232,6 +232,7 @@ impl<'s> Prepared<'s> {
             MeshFrom::Build => {
                 let mesh =
                     Mesh::build_within(scene, sizes, method, occluder.as_deref(), max_memory)?;
+                progress.estimate("mesh", mesh.meshing.planned_bytes);
                 stage.finish();
                 (mesh, None, None)
             }
@@ -242,6 +243,7 @@ impl<'s> Prepared<'s> {
             } => {
                 let mesh =
                     Mesh::build_within(scene, sizes, method, occluder.as_deref(), max_memory)?;
+                progress.estimate("mesh", mesh.meshing.planned_bytes);
                 stage.finish();
                 // The first pass rescales the rows the bake would (a closed scene's rows sum
                 // to one there too, as far as its few samples let them: docs/MESHING.md).

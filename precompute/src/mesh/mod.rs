@@ -36,14 +36,53 @@ pub(crate) use region::occluder_faces;
 pub use subdivide::Grouped;
 pub use subdivide::{MeshReport, estimate_elements};
 
-/// The fine mesh (independent of the patch method), refused when it would be too large, and
-/// what meshing found.
+/// Bytes meshing holds per input face while its pieces are cut: its root (a polygon and an
+/// index, 160) and the contact search's box, place and grid entries (up to 8: about 90; while
+/// the grid is built, its (cell, box) pairs, up to 8 × 32 = 256). The planar groups (about
+/// 100 a face) are gone by then. The pieces cut from it count apart
+/// ([`MESH_BYTES_PER_PIECE`]).
+pub(crate) const MESH_BYTES_PER_FACE: u128 = 512;
+
+/// Bytes meshing holds per estimated piece (the subdivision's leaves, before small pieces are
+/// grouped): the piece (a polygon and indices, 160) and its element (176; a grouped piece is
+/// a part of its element instead, 144), the grouping's unit and index (about 80), 2MSC's copy
+/// of the elements with their parts (176), and the 2MF patches it probes with (about 300 an
+/// element where each element is its own patch). About 900.
+/// Measured with `--report` (the mesh stage's rise of the peak, 2MSC's probes included),
+/// per piece of the estimate, faces included: zdm2's 110 000 pieces (57 644 faces) 112 MB,
+/// 1.0 KiB; `lrr scene dense-sphere --subdivisions 5` and `6` (20 964 and 82 404 pieces, as
+/// many faces) 25 and 88 MB, 1.2 and 1.1 KiB (estimated 1.5); CornellBox-Water (9 144
+/// pieces, 7 088 faces) 33 MB, most of it 2MSC's views of its probes
+/// ([`crate::patches::probe_bytes`], planned apart).
+pub(crate) const MESH_BYTES_PER_PIECE: u128 = 1024;
+
+/// [`fine_mesh_within`] without a memory limit.
+#[cfg(test)]
 pub(crate) fn fine_mesh(
     scene: &Scene,
     sizes: MeshSizes,
 ) -> Result<(Vec<Element>, Vec<subdivide::Piece>, MeshReport)> {
+    fine_mesh_within(scene, sizes, None)
+}
+
+/// The fine mesh (independent of the patch method), refused when it would be too large, and
+/// what meshing found. Its buffers are planned before they exist: refused over `max_memory`
+/// (or 80% of what is available) with advice; `MeshReport::planned_bytes` says what was
+/// planned.
+pub(crate) fn fine_mesh_within(
+    scene: &Scene,
+    sizes: MeshSizes,
+    max_memory: Option<u64>,
+) -> Result<(Vec<Element>, Vec<subdivide::Piece>, MeshReport)> {
     let t = Instant::now();
     let h = sizes.element_size;
+    let faces = scene.faces.len();
+    crate::memory::check_then(
+        faces as u128 * MESH_BYTES_PER_FACE,
+        max_memory,
+        || format!("meshing's planar regions and contact searches ({faces} faces)"),
+        |_| "simplify the model (fewer triangles), or raise --max-memory".to_string(),
+    )?;
     let (roots, regions) = region::plan(scene, h, &|p| subdivide::leaf_count(*p, h) as f64);
     let mut report = MeshReport {
         regions,
@@ -56,6 +95,23 @@ pub(crate) fn fine_mesh(
     if estimate > limit {
         return Err(refusal(scene, sizes.element_size, &per_surface));
     }
+    // Under the element limit, so the product stays far from overflowing.
+    let planned =
+        faces as u128 * MESH_BYTES_PER_FACE + estimate.ceil() as u128 * MESH_BYTES_PER_PIECE;
+    crate::memory::check_then(
+        planned,
+        max_memory,
+        || format!("meshing ({faces} faces, about {estimate:.0} pieces at element size {h:.4})"),
+        |usable| {
+            // Every face is a piece at least: past that, only fewer faces help.
+            if faces as u128 * (MESH_BYTES_PER_FACE + MESH_BYTES_PER_PIECE) >= usable {
+                "simplify the model (fewer triangles), or raise --max-memory".to_string()
+            } else {
+                "use a larger --element-size (fewer pieces), or raise --max-memory".to_string()
+            }
+        },
+    )?;
+    report.planned_bytes = planned;
     let (elements, pieces) = subdivide::fine(scene, roots, sizes.element_size, &mut report);
     let t = Instant::now();
     let (elements, pieces, grouped) = dense::group(scene, elements, pieces, sizes.element_size);

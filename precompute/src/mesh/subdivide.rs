@@ -138,6 +138,11 @@ pub struct MeshReport {
     /// Pieces of small input faces and grid cells grouped into elements of about the element
     /// size (`dense`; stage `group`).
     pub grouped: Grouped,
+    /// Bytes the mesh stage was planned to hold before its buffers existed, checked against
+    /// `--max-memory`: meshing's ([`crate::mesh::MESH_BYTES_PER_FACE`] and
+    /// [`crate::mesh::MESH_BYTES_PER_PIECE`]) and 2MSC's probes'. 0 for a mesh read from a
+    /// plan.
+    pub planned_bytes: u128,
 }
 
 /// What grouping did: pieces grouped and the elements they became.

@@ -22,7 +22,7 @@ use crate::error::{Error, Result};
 use crate::geometry::cluster;
 use crate::geometry::{Polygon, Region};
 use crate::mesh::subdivide;
-use crate::mesh::{Element, MeshReport, MeshSizes, fine_mesh};
+use crate::mesh::{Element, MeshReport, MeshSizes, fine_mesh_within};
 use crate::scene::Scene;
 use crate::visibility::Occluder;
 
@@ -332,7 +332,7 @@ impl Mesh {
         max_memory: Option<u64>,
     ) -> Result<Self> {
         match method {
-            PatchMethod::TwoFixed => Self::two_fixed(scene, sizes),
+            PatchMethod::TwoFixed => Self::two_fixed_within(scene, sizes, max_memory),
             PatchMethod::SpatialCoherence {
                 threshold,
                 min_patch_area,
@@ -344,10 +344,16 @@ impl Mesh {
         }
     }
 
-    /// Builds both meshes by 2MF: uniform subdivision and a uniform cut; small pieces (dense
-    /// meshes) are clustered to the patch size.
+    /// [`two_fixed_within`](Self::two_fixed_within) without a memory limit.
+    #[cfg(test)]
     pub(crate) fn two_fixed(scene: &Scene, sizes: MeshSizes) -> Result<Self> {
-        let (mut elements, pieces, meshing) = fine_mesh(scene, sizes)?;
+        Self::two_fixed_within(scene, sizes, None)
+    }
+
+    /// Builds both meshes by 2MF: uniform subdivision and a uniform cut; small pieces (dense
+    /// meshes) are clustered to the patch size. Meshing is planned against `max_memory`.
+    fn two_fixed_within(scene: &Scene, sizes: MeshSizes, max_memory: Option<u64>) -> Result<Self> {
+        let (mut elements, pieces, meshing) = fine_mesh_within(scene, sizes, max_memory)?;
         let patches = two_fixed_patches(&pieces, sizes, &mut elements);
         Ok(Self {
             meshing,
@@ -364,9 +370,10 @@ impl Mesh {
         occluder: Option<&dyn Occluder>,
         max_memory: Option<u64>,
     ) -> Result<Self> {
-        let (mut elements, pieces, meshing) = fine_mesh(scene, sizes)?;
+        let (mut elements, pieces, mut meshing) = fine_mesh_within(scene, sizes, max_memory)?;
         let (probes, materials) =
             msc_inputs(scene, sizes, &pieces, &elements, occluder, max_memory)?;
+        meshing.planned_bytes += probe_bytes(probes.targets.len(), elements.len());
         let patches = match refinement.rule {
             CoherenceRule::Split => coherence::two_msc(
                 &pieces,

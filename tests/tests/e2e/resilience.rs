@@ -289,23 +289,27 @@ fn a_refusal_on_a_dense_mesh_gives_advice_that_works() {
     let scene =
         crate::util::generated_scene(&dir, "sphere", &["dense-sphere", "--subdivisions", "4"]);
     let out = dir.join("sphere.lrr");
-    // 8 MiB: the occlusion BVH and the smooth weights of its 5 130 faces plan 5 MiB each.
+    // 8 MiB: the occlusion BVH and the smooth weights of its 5 130 faces plan 5 MiB each;
+    // meshing at 0.03 plans 34 368 pieces, 36 MiB.
     let err = bake(
         &scene,
         &out,
         &["--max-memory", "8M", "--element-size", "0.03"],
     )
     .unwrap_err();
-    assert!(err.contains("use a larger --element-size"), "{err}");
+    assert!(
+        err.contains("meshing (5130 faces") && err.contains("use a larger --element-size"),
+        "{err}"
+    );
     // The description's own element size, 0.125: larger than 0.03, as the advice says.
     bake(&scene, &out, &["--max-memory", "8M"])
         .unwrap_or_else(|e| panic!("the advice did not make the bake fit: {e}"));
     assert!(out.exists());
 }
 
-/// The BVHs and the smooth weights follow the input's triangles, not the element size: a
-/// model too dense for the memory is refused before any of them is built, with advice about
-/// the model.
+/// The BVHs, meshing's faces and the smooth weights follow the input's triangles, not the
+/// element size: a model too dense for the memory is refused before any of them is built,
+/// with advice about the model.
 #[test]
 fn a_model_too_dense_for_memory_is_refused_before_its_bvh() {
     let dir = temp_dir("memory-bvh");
@@ -316,6 +320,13 @@ fn a_model_too_dense_for_memory_is_refused_before_its_bvh() {
     assert!(
         err.contains("the occlusion BVH (5130 faces) needs about 5.0 MiB but only 4.0 MiB")
             && err.contains("simplify the model"),
+        "{err}"
+    );
+    // With room for the occlusion BVH, meshing: each face is a piece at least (1.5 KiB a
+    // face, 7.5 MiB), so a larger element size cannot help.
+    let err = bake(&scene, &out, &["--max-memory", "6M"]).unwrap_err();
+    assert!(
+        err.contains("meshing (5130 faces") && err.contains("simplify the model"),
         "{err}"
     );
     assert!(!out.exists());
@@ -365,8 +376,8 @@ fn a_bake_larger_than_memory_is_refused_before_allocating() {
     let dir = temp_dir("memory");
     let out = dir.join("big.lrr");
     // By 2MF, which has no probes (the default 2MSC is refused at its probes first:
-    // probes_over_the_memory_limit_are_refused_with_advice_that_works), the first pass's
-    // matrix.
+    // probes_over_the_memory_limit_are_refused_with_advice_that_works): meshing (2 288
+    // pieces planned at 1 KiB each) is refused before its pieces exist.
     let err = bake(&cornell(), &out, &["--max-memory", "1M", "--method", "2mf"]).unwrap_err();
     assert!(
         err.contains("MiB but only 1.0 MiB") && err.contains("--element-size"),
