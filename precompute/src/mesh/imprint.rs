@@ -20,8 +20,8 @@ const CONTACT_TOLERANCE: f64 = 1e-7;
 /// Pieces smaller than this fraction of their face's area are not cut off.
 const MIN_PIECE_FRACTION: f64 = 1e-9;
 
-/// The faces of a scene indexed for contact searches: bounding boxes in a hierarchy of grids,
-/// and each face's place in the sweep order (by the low x of its box) that contacts come in.
+/// The faces of a scene indexed for contact searches: their bounding boxes, in the sweep order
+/// (by the low x of the box) that contacts come in, in a hierarchy of grids.
 pub(super) struct Imprinter<'f> {
     faces: &'f [Face],
     /// The faces in sweep order (by the low x of their boxes, then by index): the grid answers
@@ -50,6 +50,7 @@ impl<'f> Imprinter<'f> {
         let mut sweep: Vec<u32> = (0..faces.len() as u32).collect();
         sweep.sort_by(|&a, &b| by_face[a as usize].0.x.total_cmp(&by_face[b as usize].0.x));
         let boxes: Vec<(DVec3, DVec3)> = sweep.iter().map(|&g| by_face[g as usize]).collect();
+        drop(by_face); // not held beside the grid's build
         let grid = BoxGrid::new(&boxes);
         Self {
             faces,

@@ -48,12 +48,12 @@ pub(crate) const MESH_BYTES_PER_FACE: u128 = 512;
 /// a part of its element instead, 144), the grouping's unit and index (about 80), 2MSC's copy
 /// of the elements with their parts (176), and the 2MF patches it probes with (about 300 an
 /// element where each element is its own patch). About 900.
-/// Measured with `--report` (the mesh stage's rise of the peak, 2MSC's probes included),
-/// per piece of the estimate, faces included: zdm2's 110 000 pieces (57 644 faces) 112 MB,
-/// 1.0 KiB; `lrr scene dense-sphere --subdivisions 5` and `6` (20 964 and 82 404 pieces, as
-/// many faces) 25 and 88 MB, 1.2 and 1.1 KiB (estimated 1.5); CornellBox-Water (9 144
-/// pieces, 7 088 faces) 33 MB, most of it 2MSC's views of its probes
-/// ([`crate::patches::probe_bytes`], planned apart).
+/// Measured with `--report`: the mesh stage's rise of the peak (2MSC's probes included)
+/// divided by the estimated pieces: zdm2's 110 000 pieces (57 644 faces) 100–112 MB, 1.0
+/// KiB; `lrr scene dense-sphere --subdivisions 5` and `6` (20 964 and 82 404 pieces, as many
+/// faces) 25 and 88 MB, 1.2 and 1.1 KiB, where these constants plan 1.5 KiB (a face and a
+/// piece, probes left out); CornellBox-Water (9 144 pieces, 7 088 faces) 33–35 MB, most of it
+/// 2MSC's views of its probes ([`crate::patches::probe_bytes`], planned beside these).
 pub(crate) const MESH_BYTES_PER_PIECE: u128 = 1024;
 
 /// [`fine_mesh_within`] without a memory limit.
@@ -96,19 +96,25 @@ pub(crate) fn fine_mesh_within(
         return Err(refusal(scene, sizes.element_size, &per_surface));
     }
     // Under the element limit, so the product stays far from overflowing.
-    let planned =
-        faces as u128 * MESH_BYTES_PER_FACE + estimate.ceil() as u128 * MESH_BYTES_PER_PIECE;
+    let planned = mesh_bytes(faces, estimate);
     crate::memory::check_then(
         planned,
         max_memory,
-        || format!("meshing ({faces} faces, about {estimate:.0} pieces at element size {h:.4})"),
-        |usable| {
-            // Every face is a piece at least: past that, only fewer faces help.
-            if faces as u128 * (MESH_BYTES_PER_FACE + MESH_BYTES_PER_PIECE) >= usable {
-                "simplify the model (fewer triangles), or raise --max-memory".to_string()
-            } else {
-                "use a larger --element-size (fewer pieces), or raise --max-memory".to_string()
-            }
+        || {
+            format!(
+                "meshing ({faces} faces, about {estimate:.0} pieces at element size {})",
+                length(h)
+            )
+        },
+        // The size named leaves a quarter of the memory to what meshing holds it for: 2MSC's
+        // probes (checked together with meshing) and the passes after.
+        |usable| match larger_size_that_fits(scene, h, usable / 4 * 3) {
+            Some(fits) => format!(
+                "use --element-size {} or larger (fewer pieces), or raise --max-memory",
+                length(fits)
+            ),
+            // Merged faces and grid cells have a floor of pieces whatever the size.
+            None => "simplify the model (fewer triangles), or raise --max-memory".to_string(),
         },
     )?;
     report.planned_bytes = planned;
@@ -124,6 +130,48 @@ pub(crate) fn fine_mesh_within(
     report.grouped = grouped;
     report.stages.push(("group", t.elapsed().as_secs_f64()));
     Ok((elements, pieces, report))
+}
+
+/// Bytes meshing plans for `faces` input faces cut into about `pieces` pieces.
+fn mesh_bytes(faces: usize, pieces: f64) -> u128 {
+    faces as u128 * MESH_BYTES_PER_FACE + pieces.ceil() as u128 * MESH_BYTES_PER_PIECE
+}
+
+/// The smallest element size from `h` up (doubling, then bisection on the estimate) whose
+/// meshing fits in `usable` bytes; `None` when none up to a thousand times the scene's extent
+/// does (the planar merges and grid cells keep a floor of pieces per face).
+fn larger_size_that_fits(scene: &Scene, h: f64, usable: u128) -> Option<f64> {
+    let fits = |h: f64| {
+        let (roots, _) = region::plan(scene, h, &|p| subdivide::leaf_count(*p, h) as f64);
+        let pieces = subdivide::per_surface_estimate(scene, &roots, h, MAX_ELEMENTS as f64)
+            .iter()
+            .sum::<f64>();
+        mesh_bytes(scene.faces.len(), pieces) <= usable
+    };
+    let cap = scene.extent() * 1e3;
+    let (mut lo, mut hi) = (h, h * 2.0);
+    while !fits(hi) {
+        if hi >= cap {
+            return None;
+        }
+        lo = hi;
+        hi *= 2.0;
+    }
+    for _ in 0..12 {
+        let mid = 0.5 * (lo + hi);
+        if fits(mid) { hi = mid } else { lo = mid }
+    }
+    Some(hi)
+}
+
+/// A length for a message: four decimals, or four significant digits where those would hide
+/// it (under 0.001 or over a million scene units).
+fn length(h: f64) -> String {
+    if (1e-3..1e6).contains(&h.abs()) {
+        format!("{h:.4}")
+    } else {
+        format!("{h:.4e}")
+    }
 }
 
 /// The refusal of a mesh over the element limit: the surface with the most elements, its area,
@@ -159,9 +207,11 @@ fn refusal(scene: &Scene, element_size: f64, per_surface: &[f64]) -> Error {
     }
     let name = scene.surfaces.get(worst).map_or("?", |s| s.as_str());
     Error::Limits(format!(
-        "the element size {element_size:.4} would create more than {limit:.0} elements (the limit); \
+        "the element size {} would create more than {limit:.0} elements (the limit); \
          surface '{name}' (area {area:.4}) accounts for at least {count:.0} of them; \
-         use --element-size {hi:.4} or larger",
+         use --element-size {} or larger",
+        length(element_size),
+        length(hi),
     ))
 }
 

@@ -99,15 +99,18 @@ pub(crate) fn refinement(
 }
 
 /// What 2MSC measures against: the probes (the 2MF patches at the patch size, with their
-/// coarse solve) and each piece's material (means over the channels).
+/// coarse solve) and each piece's material (means over the channels); also the probes'
+/// planned bytes ([`probe_bytes`]). `(held, max_memory)`: the probes are refused when they
+/// need more than `max_memory` (`None`: 80% of what is available) beside the `held` bytes
+/// meshing planned.
 pub(crate) fn msc_inputs<'a>(
     scene: &Scene,
     sizes: MeshSizes,
     pieces: &[subdivide::Piece],
     elements: &[Element],
     occluder: Option<&'a dyn Occluder>,
-    max_memory: Option<u64>,
-) -> Result<(coherence::Probes<'a>, Vec<coherence::Material>)> {
+    (held, max_memory): (u128, Option<u64>),
+) -> Result<(coherence::Probes<'a>, Vec<coherence::Material>, u128)> {
     // Probes at half the patch size were tried: 4× the probing cost for the same k at
     // equal error on the Cornell box.
     let mut probed = elements.to_vec();
@@ -122,12 +125,13 @@ pub(crate) fn msc_inputs<'a>(
     // names the factor that brings the patch count to the most probes that fit beside these
     // elements (24 q² + 8 n q ≤ the limit; the count goes as the inverse square of the size).
     let n = elements.len();
+    let planned = probe_bytes(q, n);
     crate::memory::check_then(
-        probe_bytes(q, n),
+        held + planned,
         max_memory,
-        || format!("2MSC's probing (q = {q} probes, n = {n} elements)"),
+        || format!("2MSC's probing (q = {q} probes, n = {n} elements) beside meshing"),
         |usable| {
-            let (nf, usable) = (n as f64, usable as f64);
+            let (nf, usable) = (n as f64, usable.saturating_sub(held) as f64);
             let fit = ((64.0 * nf * nf + 96.0 * usable).sqrt() - 8.0 * nf) / 48.0;
             if fit < 1.0 {
                 return format!("{}, or raise --max-memory", crate::memory::size_advice());
@@ -172,7 +176,7 @@ pub(crate) fn msc_inputs<'a>(
         probes.elements[e.patch as usize] += 1.0;
     }
     let materials = pieces.iter().map(|p| material(scene, p.face)).collect();
-    Ok((probes, materials))
+    Ok((probes, materials, planned))
 }
 
 /// Bytes 2MSC's probes need with `q` probes over `n` elements: the coarse system's factors,
@@ -322,8 +326,9 @@ impl Mesh {
         Self::build_within(scene, sizes, method, occluder, None)
     }
 
-    /// [`build`](Self::build), refusing 2MSC's probes when they need more than `max_memory`
-    /// bytes ([`probe_bytes`]; `None`: 80% of what is available).
+    /// Builds both meshes with the given patch method, refusing meshing, and then meshing with
+    /// 2MSC's probes ([`probe_bytes`]), when they would need more than `max_memory` bytes
+    /// (`None`: 80% of what is available).
     pub(crate) fn build_within(
         scene: &Scene,
         sizes: MeshSizes,
@@ -371,9 +376,15 @@ impl Mesh {
         max_memory: Option<u64>,
     ) -> Result<Self> {
         let (mut elements, pieces, mut meshing) = fine_mesh_within(scene, sizes, max_memory)?;
-        let (probes, materials) =
-            msc_inputs(scene, sizes, &pieces, &elements, occluder, max_memory)?;
-        meshing.planned_bytes += probe_bytes(probes.targets.len(), elements.len());
+        let (probes, materials, probes_planned) = msc_inputs(
+            scene,
+            sizes,
+            &pieces,
+            &elements,
+            occluder,
+            (meshing.planned_bytes, max_memory),
+        )?;
+        meshing.planned_bytes += probes_planned;
         let patches = match refinement.rule {
             CoherenceRule::Split => coherence::two_msc(
                 &pieces,

@@ -289,21 +289,30 @@ fn a_refusal_on_a_dense_mesh_gives_advice_that_works() {
     let scene =
         crate::util::generated_scene(&dir, "sphere", &["dense-sphere", "--subdivisions", "4"]);
     let out = dir.join("sphere.lrr");
-    // 8 MiB: the occlusion BVH and the smooth weights of its 5 130 faces plan 5 MiB each;
-    // meshing at 0.03 plans 34 368 pieces, 36 MiB.
+    // 12 MiB: the occlusion BVH and the smooth weights of its 5 130 faces plan 5 MiB each;
+    // meshing at 0.03 plans 34 368 pieces, 36 MiB; at the description's 0.125, 8 MiB and
+    // 2MSC's probes 0.9 MiB beside it.
     let err = bake(
         &scene,
         &out,
-        &["--max-memory", "8M", "--element-size", "0.03"],
+        &["--max-memory", "12M", "--element-size", "0.03"],
     )
     .unwrap_err();
-    assert!(
-        err.contains("meshing (5130 faces") && err.contains("use a larger --element-size"),
-        "{err}"
-    );
-    // The description's own element size, 0.125: larger than 0.03, as the advice says.
-    bake(&scene, &out, &["--max-memory", "8M"])
-        .unwrap_or_else(|e| panic!("the advice did not make the bake fit: {e}"));
+    assert!(err.contains("meshing (5130 faces"), "{err}");
+    // The advice names the smallest element size whose meshing fits in three quarters of the
+    // limit; following it, the whole bake fits.
+    let size = err
+        .split("use --element-size ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .unwrap_or_else(|| panic!("no element size in: {err}"));
+    assert!(size.parse::<f64>().is_ok_and(|h| h > 0.03), "{err}");
+    bake(
+        &scene,
+        &out,
+        &["--max-memory", "12M", "--element-size", size],
+    )
+    .unwrap_or_else(|e| panic!("the advice did not make the bake fit: {e}"));
     assert!(out.exists());
 }
 
@@ -375,12 +384,16 @@ fn probes_over_the_memory_limit_are_refused_with_advice_that_works() {
 fn a_bake_larger_than_memory_is_refused_before_allocating() {
     let dir = temp_dir("memory");
     let out = dir.join("big.lrr");
-    // By 2MF, which has no probes (the default 2MSC is refused at its probes first:
-    // probes_over_the_memory_limit_are_refused_with_advice_that_works): meshing (2 288
-    // pieces planned at 1 KiB each) is refused before its pieces exist.
-    let err = bake(&cornell(), &out, &["--max-memory", "1M", "--method", "2mf"]).unwrap_err();
+    // By 2MF, which has no probes (2MSC's are refused in
+    // probes_over_the_memory_limit_are_refused_with_advice_that_works), at 3 MiB: meshing
+    // (2 288 pieces at 1 KiB, 2.2 MiB) fits, the first pass's n × k matrix (3.9 MiB) does
+    // not. Under 2.2 MiB meshing is refused first (a_refusal_on_a_dense_mesh_gives_advice_
+    // that_works follows its advice).
+    let err = bake(&cornell(), &out, &["--max-memory", "3M", "--method", "2mf"]).unwrap_err();
     assert!(
-        err.contains("MiB but only 1.0 MiB") && err.contains("--element-size"),
+        err.contains("the first pass")
+            && err.contains("MiB but only 3.0 MiB")
+            && err.contains("--element-size"),
         "{err}"
     );
     let err = bake(&cornell(), &out, &["--element-size", "1e-4"]).unwrap_err();

@@ -371,8 +371,9 @@ fn estimate_against_oracle() {
     );
     // The probes and materials as `Mesh::two_msc` makes them.
     let (elements, pieces, _) = crate::mesh::fine_mesh(&scene, sizes).unwrap();
-    let (probes, materials) =
-        crate::patches::msc_inputs(&scene, sizes, &pieces, &elements, Some(&occ), None).unwrap();
+    let (probes, materials, _) =
+        crate::patches::msc_inputs(&scene, sizes, &pieces, &elements, Some(&occ), (0, None))
+            .unwrap();
     let ctx = Ctx {
         pieces: &pieces,
         units: pieces.iter().map(|p| Unit::of(&p.polygon)).collect(),
@@ -602,8 +603,8 @@ fn merge_oracle() {
     let views: Vec<Vec<f64>> = if estimate {
         assert!(probes, "the estimate needs LRR_MERGE_RECEIVERS=probes");
         let (elements, pieces, _) = crate::mesh::fine_mesh(&scene, sizes).unwrap();
-        let (pr, _) =
-            crate::patches::msc_inputs(&scene, sizes, &pieces, &elements, Some(&occ), None)
+        let (pr, _, _) =
+            crate::patches::msc_inputs(&scene, sizes, &pieces, &elements, Some(&occ), (0, None))
                 .unwrap();
         assert_eq!(pr.targets.len(), r);
         let views: Vec<Vec<f64>> = (0..n)
