@@ -111,7 +111,7 @@ pub(crate) fn fine_mesh_within(
         |usable| match larger_size_that_fits(scene, h, usable / 4 * 3) {
             Some(fits) => format!(
                 "use --element-size {} or larger (fewer pieces), or raise --max-memory",
-                length(fits)
+                length_up(fits)
             ),
             // Merged faces and grid cells have a floor of pieces whatever the size.
             None => "simplify the model (fewer triangles), or raise --max-memory".to_string(),
@@ -171,6 +171,22 @@ fn length(h: f64) -> String {
         format!("{h:.4}")
     } else {
         format!("{h:.4e}")
+    }
+}
+
+/// [`length`] of the smallest four-significant-digit value at or above `h`: an element size to
+/// advise, which must not be printed smaller than the size that fits.
+fn length_up(h: f64) -> String {
+    if !(h.is_finite() && h > 0.0) {
+        return length(h);
+    }
+    let step = 10f64.powi(h.log10().floor() as i32 - 3);
+    let up = (h / step).ceil() * step;
+    if (1e-3..1e6).contains(&up) {
+        let decimals = (-(up.log10().floor() as i32) + 3).max(0) as usize;
+        format!("{up:.decimals$}")
+    } else {
+        format!("{up:.3e}")
     }
 }
 
