@@ -141,13 +141,7 @@ fn mesh_bytes(faces: usize, pieces: f64) -> u128 {
 /// meshing fits in `usable` bytes; `None` when none up to a thousand times the scene's extent
 /// does (the planar merges and grid cells keep a floor of pieces per face).
 fn larger_size_that_fits(scene: &Scene, h: f64, usable: u128) -> Option<f64> {
-    let fits = |h: f64| {
-        let (roots, _) = region::plan(scene, h, &|p| subdivide::leaf_count(*p, h) as f64);
-        let pieces = subdivide::per_surface_estimate(scene, &roots, h, MAX_ELEMENTS as f64)
-            .iter()
-            .sum::<f64>();
-        mesh_bytes(scene.faces.len(), pieces) <= usable
-    };
+    let fits = |h: f64| mesh_bytes(scene.faces.len(), estimate_elements(scene, h)) <= usable;
     let cap = scene.extent() * 1e3;
     let (mut lo, mut hi) = (h, h * 2.0);
     while !fits(hi) {
