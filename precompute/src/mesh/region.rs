@@ -18,7 +18,9 @@
 //!   at most `A / (c_u c_v)` full cells plus the cells the boundary crosses (about `P / c` for a
 //!   perimeter `P`), whatever the input faces' shapes.
 
-use rustc_hash::FxHashMap;
+use std::hash::BuildHasher;
+
+use rustc_hash::{FxBuildHasher, FxHashMap};
 
 use glam::{DVec2, DVec3};
 
@@ -182,6 +184,13 @@ fn plane_groups(faces: &[Face], tolerance: f64) -> Vec<Vec<usize>> {
         )
     };
     let mut buckets: FxHashMap<Key, Vec<usize>> = FxHashMap::default();
+    // Which keys may have a bucket: one bit per key's hash, never a false negative. Most of a
+    // face's 81 neighbouring keys have none (on a tessellated sphere nearly all), and the map
+    // of a large scene is past the L2 cache while these bits are not: a look-up whose bit is
+    // clear is skipped, and the groups are the same.
+    let bits = (faces.len() * 32).next_power_of_two().max(64);
+    let mut occupied = vec![0u64; bits / 64];
+    let bit = |k: &Key| (FxBuildHasher.hash_one(k) >> 7) as usize & (bits - 1);
     let mut groups: Vec<Vec<usize>> = Vec::new();
     for (i, f) in faces.iter().enumerate() {
         let (s, m, q) = key(f);
@@ -191,6 +200,10 @@ fn plane_groups(faces: &[Face], tolerance: f64) -> Vec<Vec<usize>> {
                 for dz in -1..=1 {
                     for dd in -1..=1 {
                         let k = (s, m, [q[0] + dx, q[1] + dy, q[2] + dz, q[3] + dd]);
+                        let b = bit(&k);
+                        if occupied[b / 64] & (1 << (b % 64)) == 0 {
+                            continue;
+                        }
                         for &g in buckets.get(&k).into_iter().flatten() {
                             let first = &faces[groups[g][0]].polygon;
                             if coplanar(first, &f.polygon, tolerance) {
@@ -205,7 +218,10 @@ fn plane_groups(faces: &[Face], tolerance: f64) -> Vec<Vec<usize>> {
         match found {
             Some(g) => groups[g].push(i),
             None => {
-                buckets.entry((s, m, q)).or_default().push(groups.len());
+                let k = (s, m, q);
+                let b = bit(&k);
+                occupied[b / 64] |= 1 << (b % 64);
+                buckets.entry(k).or_default().push(groups.len());
                 groups.push(vec![i]);
             }
         }
