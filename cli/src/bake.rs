@@ -10,7 +10,7 @@ use clap::Args;
 use lrr_precompute::refine::DEFAULT_BUDGET;
 use serde::Serialize;
 
-use crate::{MeshArgs, load_scene_with, summary};
+use crate::{MeshArgs, load_scene_within, summary};
 use lrr_precompute::bake::bake;
 use lrr_precompute::checkpoint;
 use lrr_precompute::checkpoint::CheckpointSettings;
@@ -180,7 +180,8 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     let start = Instant::now();
     let progress = a.mesh.progress();
     let stage = progress.stage("import", 0);
-    let mut scene = load_scene_with(&a.scene, a.mesh.verbose)?;
+    let (mut scene, planned) = load_scene_within(&a.scene, a.mesh.verbose, a.mesh.max_memory)?;
+    progress.estimate("import", planned);
     a.mesh.apply_lightmap(&mut scene)?;
     stage.finish();
     let output = output_path(a, &scene.bake)?;

@@ -360,11 +360,21 @@ pub fn load_scene_with(
     path: &std::path::Path,
     verbose: bool,
 ) -> Result<lrr_precompute::scene::Scene> {
-    let scene = lrr_precompute::scene::load(path)?;
+    load_scene_within(path, verbose, None).map(|(scene, _)| scene)
+}
+
+/// [`load_scene_with`] planned against `max_memory` (`--max-memory`;
+/// [`lrr_precompute::scene::load_within`]); also answers the bytes the import planned.
+pub fn load_scene_within(
+    path: &std::path::Path,
+    verbose: bool,
+    max_memory: Option<u64>,
+) -> Result<(lrr_precompute::scene::Scene, u128)> {
+    let (scene, planned) = lrr_precompute::scene::load_within(path, max_memory)?;
     for line in warning_lines(&scene.warnings, verbose) {
         eprintln!("lrr: warning: {line}");
     }
-    Ok(scene)
+    Ok((scene, planned))
 }
 
 /// Warnings of one kind printed before the rest are counted.

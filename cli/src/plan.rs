@@ -10,7 +10,7 @@ use anyhow::Result;
 use clap::Args;
 use lrr_precompute::refine::DEFAULT_BUDGET;
 
-use crate::{MeshArgs, load_scene_with};
+use crate::{MeshArgs, load_scene_within};
 use lrr_precompute::shard::write_plan;
 
 #[derive(Debug, Args)]
@@ -33,7 +33,7 @@ pub struct PlanArgs {
 pub fn run(a: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let start = Instant::now();
     let progress = a.mesh.progress();
-    let mut scene = load_scene_with(&a.scene, a.mesh.verbose)?;
+    let (mut scene, _) = load_scene_within(&a.scene, a.mesh.verbose, a.mesh.max_memory)?;
     a.mesh.apply_lightmap(&mut scene)?;
     let mut settings = a.mesh.settings_for(&scene)?;
     settings.refine = Some(a.refine);

@@ -7,7 +7,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use serde::Serialize;
 
-use crate::{MeshArgs, load_scene_with};
+use crate::{MeshArgs, load_scene_within};
 use lrr_precompute::checkpoint::CheckpointSettings;
 use lrr_precompute::shard::{ShardSpec, bake_shard};
 
@@ -55,7 +55,8 @@ pub fn run(a: &ShardArgs, out: &mut dyn Write) -> Result<()> {
     let output = part_path(a.output, spec.index);
     let progress = a.mesh.progress();
     let stage = progress.stage("import", 0);
-    let mut scene = load_scene_with(a.scene, a.mesh.verbose)?;
+    let (mut scene, planned) = load_scene_within(a.scene, a.mesh.verbose, a.mesh.max_memory)?;
+    progress.estimate("import", planned);
     a.mesh.apply_lightmap(&mut scene)?;
     stage.finish();
     let mut settings = a.mesh.settings_for(&scene)?;

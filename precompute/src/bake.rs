@@ -10,7 +10,6 @@ use crate::cores::{Cores, OperatorInputs, build_cores};
 use crate::error::{Error, Result};
 use crate::formfactor::FormFactors;
 use crate::formfactor::enclosure::Enclosure;
-use crate::geometry::Polygon;
 use crate::mesh::MeshSizes;
 use crate::patches::{Mesh, PatchMethod};
 use crate::progress::Progress;
@@ -65,8 +64,29 @@ impl Default for BakeSettings {
 
 /// Which elements' rows must sum to one ([`Enclosure::probe`]). The test runs on the default
 /// backend's structure whatever answers the segments, so every backend rescales the same rows.
-fn enclosure_of(scene: &Scene, occ: &dyn Occluder, mesh: &Mesh) -> Enclosure {
-    let polygons: Vec<Polygon> = mesh.elements.iter().map(|e| e.polygon).collect();
+///
+/// Planned like the stages that allocate more (`stage`: the name the report gives it): an
+/// element's counts and mark, and the default backend's BVH where the bake's backend (Embree)
+/// has no closest-hit query of its own.
+fn enclosure_of(
+    scene: &Scene,
+    occ: &dyn Occluder,
+    mesh: &Mesh,
+    (stage, progress, max_memory): (&str, &Progress, Option<u64>),
+) -> Result<Enclosure> {
+    let n = mesh.elements.len();
+    let own_bvh = match occ.closest_hit() {
+        Some(_) => 0,
+        None => crate::visibility::build_bytes(scene),
+    };
+    let bytes = n as u128 * crate::formfactor::enclosure::BYTES_PER_ELEMENT + own_bvh;
+    crate::memory::check_then(
+        bytes,
+        max_memory,
+        || format!("the enclosure test ({n} elements)"),
+        |_| crate::memory::size_advice() + ", or raise --max-memory",
+    )?;
+    progress.estimate(stage, bytes);
     let own;
     let probe = match occ.closest_hit() {
         Some(o) => o,
@@ -75,7 +95,9 @@ fn enclosure_of(scene: &Scene, occ: &dyn Occluder, mesh: &Mesh) -> Enclosure {
             &own as &dyn ClosestHit
         }
     };
-    Enclosure::probe(probe, &polygons)
+    Ok(Enclosure::probe_each(probe, n, |i| {
+        mesh.elements[i].polygon
+    }))
 }
 
 /// Where [`Prepared::with_mesh`] takes its mesh from.
@@ -247,12 +269,16 @@ impl<'s> Prepared<'s> {
                 stage.finish();
                 // The first pass rescales the rows the bake would (a closed scene's rows sum
                 // to one there too, as far as its few samples let them: docs/MESHING.md).
-                let enclosure = occluder.as_deref().map(|occ| {
-                    let stage = progress.stage("first pass enclosure", 0);
-                    let e = enclosure_of(scene, occ, &mesh);
-                    stage.finish();
-                    e
-                });
+                let enclosure = match occluder.as_deref() {
+                    Some(occ) => {
+                        let name = "first pass enclosure";
+                        let stage = progress.stage(name, 0);
+                        let e = enclosure_of(scene, occ, &mesh, (name, progress, max_memory))?;
+                        stage.finish();
+                        Some(e)
+                    }
+                    None => None,
+                };
                 let first = crate::refine::FirstPass {
                     occluder: occluder.as_deref(),
                     closed: enclosure.as_ref().map(|e| e.closed.as_slice()),
@@ -284,12 +310,15 @@ impl<'s> Prepared<'s> {
                 (mesh, Some(budget), ckpt)
             }
         };
-        let enclosure = occluder.as_deref().map(|occ| {
-            let stage = progress.stage("enclosure", 0);
-            let e = enclosure_of(scene, occ, &mesh);
-            stage.finish();
-            e
-        });
+        let enclosure = match occluder.as_deref() {
+            Some(occ) => {
+                let stage = progress.stage("enclosure", 0);
+                let e = enclosure_of(scene, occ, &mesh, ("enclosure", progress, max_memory))?;
+                stage.finish();
+                Some(e)
+            }
+            None => None,
+        };
         Ok(Self {
             scene,
             sizes,

@@ -26,6 +26,9 @@ use crate::visibility::{ClosestHit, FirstHit};
 /// escape test it is what stands between an undetected opening and a rescaled row.
 pub const RAYS: u32 = 64;
 
+/// Bytes the test holds per element: its two ray counts (`u32` each) and its mark.
+pub const BYTES_PER_ELEMENT: u128 = 9;
+
 /// The outcome of the test over all elements.
 #[derive(Debug, Clone, Default)]
 pub struct Enclosure {
@@ -42,10 +45,19 @@ pub struct Enclosure {
 impl Enclosure {
     /// Tests every element (`polygons[i]` is element `i`).
     pub fn probe(occluder: &dyn ClosestHit, polygons: &[Polygon]) -> Self {
-        let counts: Vec<(u32, u32)> = polygons
-            .par_iter()
-            .enumerate()
-            .map(|(id, p)| element(occluder, p, id as u32))
+        Self::probe_each(occluder, polygons.len(), |i| polygons[i])
+    }
+
+    /// [`Enclosure::probe`] of `count` elements, `polygon(i)` giving element `i` (no copy of
+    /// the mesh's polygons: what it holds is [`BYTES_PER_ELEMENT`] an element).
+    pub fn probe_each(
+        occluder: &dyn ClosestHit,
+        count: usize,
+        polygon: impl Fn(usize) -> Polygon + Sync,
+    ) -> Self {
+        let counts: Vec<(u32, u32)> = (0..count)
+            .into_par_iter()
+            .map(|id| element(occluder, &polygon(id), id as u32))
             .collect();
         let escaped: u64 = counts.iter().map(|c| u64::from(c.0)).sum();
         let backs: u64 = counts.iter().map(|c| u64::from(c.1)).sum();
@@ -55,7 +67,7 @@ impl Enclosure {
             .collect();
         Self {
             closed,
-            rays: polygons.len() as u64 * u64::from(RAYS),
+            rays: count as u64 * u64::from(RAYS),
             escaped,
             backs,
         }

@@ -1250,6 +1250,15 @@ fn merge(scene: &mut Scene, sub: Scene, s: f64) {
 
 /// Loads a scene description file.
 pub fn load(path: &Path) -> Result<Scene> {
+    load_within(path, (0, None)).map(|(scene, _)| scene)
+}
+
+/// [`load`] with each include planned ([`super::import::check_import`]) beside `planned` bytes (the
+/// description's own) against `max_memory`; also answers the bytes planned in all.
+pub(crate) fn load_within(
+    path: &Path,
+    (planned, max_memory): (u128, Option<u64>),
+) -> Result<(Scene, u128)> {
     let origin = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let text = String::from_utf8(bytes).map_err(|e| {
@@ -1265,7 +1274,13 @@ pub fn load(path: &Path) -> Result<Scene> {
     })?;
     let desc = SceneDescription::parse(&text, &origin)?;
     let base = path.parent().unwrap_or(Path::new("."));
-    desc.build(&origin, base)
+    let mut planned = planned;
+    for inc in &desc.includes {
+        if let Some(file) = inc.obj.as_ref().or(inc.gltf.as_ref()) {
+            planned = super::import::check_import(&base.join(file), planned, max_memory)?;
+        }
+    }
+    Ok((desc.build(&origin, base)?, planned))
 }
 
 #[cfg(test)]

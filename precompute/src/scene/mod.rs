@@ -12,6 +12,7 @@ pub mod building;
 pub mod description;
 pub mod glb;
 pub mod gltf;
+mod import;
 mod model;
 pub mod obj;
 mod polygon;
@@ -24,20 +25,32 @@ pub use model::{
     Scene, SizeHints,
 };
 
+pub use import::IMPORT_BYTES_PER_FILE_BYTE;
+
 use crate::error::{Error, Result};
+use import::check_import;
 
 /// Loads a scene from an OBJ file, a glTF 2.0 file (`.gltf`, `.glb`) or a scene description
-/// (`.toml`), by extension.
+/// (`.toml`), by extension: [`load_within`] with no limit but the memory available.
 pub fn load(path: &std::path::Path) -> Result<Scene> {
+    load_within(path, None).map(|(scene, _)| scene)
+}
+
+/// [`load`] planned like a bake's stages: each file is refused before it is read when
+/// [`IMPORT_BYTES_PER_FILE_BYTE`] times its size does not fit `max_memory` (`--max-memory`; 80%
+/// of the available memory without one), a description's includes with the description's own
+/// bytes. Also answers the bytes planned.
+pub fn load_within(path: &std::path::Path, max_memory: Option<u64>) -> Result<(Scene, u128)> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
-    let mut scene = match ext.as_str() {
-        "obj" => obj::load(path)?,
-        "toml" => description::load(path)?,
-        "gltf" | "glb" => gltf::load(path)?,
+    let own = check_import(path, 0, max_memory)?;
+    let (mut scene, planned) = match ext.as_str() {
+        "obj" => (obj::load(path)?, own),
+        "toml" => description::load_within(path, (own, max_memory))?,
+        "gltf" | "glb" => (gltf::load(path)?, own),
         _ => {
             return Err(Error::scene(
                 path.display().to_string(),
@@ -49,5 +62,5 @@ pub fn load(path: &std::path::Path) -> Result<Scene> {
     if let Some(w) = scene.partial_lightmap_warning() {
         scene.warnings.push(format!("{}: {w}", path.display()));
     }
-    Ok(scene)
+    Ok((scene, planned))
 }

@@ -316,7 +316,7 @@ fn a_refusal_on_a_dense_mesh_gives_advice_that_works() {
     assert!(out.exists());
 }
 
-/// The BVHs, meshing's faces and the smooth weights follow the input's triangles, not the
+/// The import, the BVHs, meshing's faces and the smooth weights follow the input, not the
 /// element size: a model too dense for the memory is refused before any of them is built,
 /// with advice about the model.
 #[test]
@@ -325,17 +325,51 @@ fn a_model_too_dense_for_memory_is_refused_before_its_bvh() {
     let scene =
         crate::util::generated_scene(&dir, "sphere", &["dense-sphere", "--subdivisions", "4"]);
     let out = dir.join("sphere.lrr");
+    // The description (254 kB, its 2 562 vertices and 5 120 faces written out) plans 32 bytes
+    // of import a byte: 7.7 MiB.
     let err = bake(&scene, &out, &["--max-memory", "4M"]).unwrap_err();
     assert!(
-        err.contains("the occlusion BVH (5130 faces) needs about 5.0 MiB but only 4.0 MiB")
+        err.contains("importing ")
+            && err.contains("needs about 7.7 MiB but only 4.0 MiB")
             && err.contains("simplify the model"),
         "{err}"
     );
-    // With room for the occlusion BVH, meshing: each face is a piece at least (1.5 KiB a
-    // face, 7.5 MiB), so a larger element size cannot help.
-    let err = bake(&scene, &out, &["--max-memory", "6M"]).unwrap_err();
+    // With room for the import and the occlusion BVH (5.0 MiB), meshing: each face is a piece
+    // at least (1.5 KiB a face, 8.0 MiB with 2MSC's probes), so a larger element size cannot
+    // help.
+    let err = bake(&scene, &out, &["--max-memory", "7.8M"]).unwrap_err();
     assert!(
         err.contains("meshing (5130 faces") && err.contains("simplify the model"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    // Boxes are six faces in a few lines: 1 024 of them in a room import in 2.7 MiB but need
+    // an occlusion BVH of 6 151 faces (12 MiB).
+    let mut text = String::from(
+        "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
+         [[material]]\nname = \"l\"\nreflectance = [0.0, 0.0, 0.0]\nradiance = [1.0, 1.0, 1.0]\n\
+         [[box]]\nname = \"room\"\nmaterial = \"w\"\nmin = [0.0, 0.0, 0.0]\n\
+         max = [40.0, 10.0, 40.0]\ninward = true\n\
+         [[surface]]\nname = \"lamp\"\nmaterial = \"l\"\npolygons = [[[10.0, 9.9, 10.0], \
+         [10.0, 9.9, 30.0], [30.0, 9.9, 30.0], [30.0, 9.9, 10.0]]]\n",
+    );
+    for i in 0..32 {
+        for j in 0..32 {
+            let (x, z) = (1.0 + 1.2 * f64::from(i), 1.0 + 1.2 * f64::from(j));
+            text += &format!(
+                "[[box]]\nname = \"b{i}_{j}\"\nmaterial = \"w\"\nmin = [{x:.1}, 0.0, {z:.1}]\n\
+                 max = [{:.1}, 0.5, {:.1}]\n",
+                x + 0.5,
+                z + 0.5
+            );
+        }
+    }
+    let boxes = dir.join("boxes.toml");
+    std::fs::write(&boxes, text).unwrap();
+    let err = bake(&boxes, &out, &["--max-memory", "3M"]).unwrap_err();
+    assert!(
+        err.contains("the occlusion BVH (6151 faces) needs about 12.0 MiB but only 3.0 MiB")
+            && err.contains("simplify the model"),
         "{err}"
     );
     assert!(!out.exists());
