@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::Args;
 use serde::Serialize;
 
-use crate::{MeshArgs, load_scene_with};
+use crate::{MeshArgs, load_scene_within};
 use lrr_precompute::bake::{Prepared, bake};
 use lrr_precompute::exact::solve_exact;
 use lrr_precompute::mesh::MeshSizes;
@@ -130,7 +130,7 @@ pub fn solve(scene: &Scene, a: &MeshArgs, exact: bool) -> Result<Solution> {
 }
 
 pub fn run(a: &SolveArgs, out: &mut dyn Write) -> Result<()> {
-    let scene = load_scene_with(&a.scene, a.mesh.verbose)?;
+    let (scene, _) = load_scene_within(&a.scene, a.mesh.verbose, a.mesh.max_memory)?;
     lights_left_out(&scene, "lrr solve");
     let sol = solve(&scene, &a.mesh, a.exact)?;
     if a.json {

@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::Args;
 use serde::Serialize;
 
-use crate::{MeshArgs, load_scene_with};
+use crate::{MeshArgs, load_scene_within};
 use lrr_precompute::bake::Prepared;
 use lrr_precompute::mesh::MeshSizes;
 use lrr_precompute::pool::with_threads;
@@ -79,7 +79,7 @@ pub fn view_factors(scene: &Scene, a: &MeshArgs) -> Result<ViewFactors> {
 }
 
 pub fn run(a: &ViewFactorsArgs, out: &mut dyn Write) -> Result<()> {
-    let scene = load_scene_with(&a.scene, a.mesh.verbose)?;
+    let (scene, _) = load_scene_within(&a.scene, a.mesh.verbose, a.mesh.max_memory)?;
     let vf = view_factors(&scene, &a.mesh)?;
     if a.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&vf)?)?;

@@ -62,12 +62,12 @@ impl Default for BakeSettings {
     }
 }
 
-/// Which elements' rows must sum to one ([`Enclosure::probe`]). The test runs on the default
-/// backend's structure whatever answers the segments, so every backend rescales the same rows.
+/// Which elements' rows must sum to one ([`Enclosure::probe_each`]), as the stage `stage` of
+/// `progress`. The test runs on the default backend's structure whatever answers the segments,
+/// so every backend rescales the same rows.
 ///
-/// Planned like the stages that allocate more (`stage`: the name the report gives it): an
-/// element's counts and mark, and the default backend's BVH where the bake's backend (Embree)
-/// has no closest-hit query of its own.
+/// Planned like the stages that allocate more: an element's counts and mark, and the default
+/// backend's BVH where the bake's backend (Embree) has no closest-hit query of its own.
 fn enclosure_of(
     scene: &Scene,
     occ: &dyn Occluder,
@@ -84,9 +84,15 @@ fn enclosure_of(
         bytes,
         max_memory,
         || format!("the enclosure test ({n} elements)"),
-        |_| crate::memory::size_advice() + ", or raise --max-memory",
+        |_| match own_bvh {
+            0 => crate::memory::size_advice() + ", or raise --max-memory",
+            _ => "use --visibility obvhs (its BVH answers the test), or simplify the model \
+                  (fewer triangles), or raise --max-memory"
+                .to_string(),
+        },
     )?;
     progress.estimate(stage, bytes);
+    let running = progress.stage(stage, 0);
     let own;
     let probe = match occ.closest_hit() {
         Some(o) => o,
@@ -95,9 +101,9 @@ fn enclosure_of(
             &own as &dyn ClosestHit
         }
     };
-    Ok(Enclosure::probe_each(probe, n, |i| {
-        mesh.elements[i].polygon
-    }))
+    let enclosure = Enclosure::probe_each(probe, n, |i| mesh.elements[i].polygon);
+    running.finish();
+    Ok(enclosure)
 }
 
 /// Where [`Prepared::with_mesh`] takes its mesh from.
@@ -269,16 +275,12 @@ impl<'s> Prepared<'s> {
                 stage.finish();
                 // The first pass rescales the rows the bake would (a closed scene's rows sum
                 // to one there too, as far as its few samples let them: docs/MESHING.md).
-                let enclosure = match occluder.as_deref() {
-                    Some(occ) => {
-                        let name = "first pass enclosure";
-                        let stage = progress.stage(name, 0);
-                        let e = enclosure_of(scene, occ, &mesh, (name, progress, max_memory))?;
-                        stage.finish();
-                        Some(e)
-                    }
-                    None => None,
-                };
+                let enclosure = (occluder.as_deref())
+                    .map(|occ| {
+                        let stage = ("first pass enclosure", progress, max_memory);
+                        enclosure_of(scene, occ, &mesh, stage)
+                    })
+                    .transpose()?;
                 let first = crate::refine::FirstPass {
                     occluder: occluder.as_deref(),
                     closed: enclosure.as_ref().map(|e| e.closed.as_slice()),
@@ -310,15 +312,9 @@ impl<'s> Prepared<'s> {
                 (mesh, Some(budget), ckpt)
             }
         };
-        let enclosure = match occluder.as_deref() {
-            Some(occ) => {
-                let stage = progress.stage("enclosure", 0);
-                let e = enclosure_of(scene, occ, &mesh, ("enclosure", progress, max_memory))?;
-                stage.finish();
-                Some(e)
-            }
-            None => None,
-        };
+        let enclosure = (occluder.as_deref())
+            .map(|occ| enclosure_of(scene, occ, &mesh, ("enclosure", progress, max_memory)))
+            .transpose()?;
         Ok(Self {
             scene,
             sizes,

@@ -65,7 +65,7 @@ pub(crate) fn usable(limit: Option<u64>) -> u128 {
 }
 
 /// Bytes in GiB, or MiB below 1 GiB (so small limits do not all read "0.01 GiB").
-fn size(bytes: u128) -> String {
+pub(crate) fn size(bytes: u128) -> String {
     if bytes >= 1 << 30 {
         format!("{:.2} GiB", bytes as f64 / (1u64 << 30) as f64)
     } else {

@@ -1253,8 +1253,8 @@ pub fn load(path: &Path) -> Result<Scene> {
     load_within(path, (0, None)).map(|(scene, _)| scene)
 }
 
-/// [`load`] with each include planned ([`super::import::check_import`]) beside `planned` bytes (the
-/// description's own) against `max_memory`; also answers the bytes planned in all.
+/// [`load`] with its faces and each include planned ([`super::import::check_import`]) beside
+/// `planned` bytes (its parse's) against `max_memory`; also answers the bytes planned in all.
 pub(crate) fn load_within(
     path: &Path,
     (planned, max_memory): (u128, Option<u64>),
@@ -1274,10 +1274,17 @@ pub(crate) fn load_within(
     })?;
     let desc = SceneDescription::parse(&text, &origin)?;
     let base = path.parent().unwrap_or(Path::new("."));
-    let mut planned = planned;
+    // The faces it writes out, on top of its parse.
+    let faces: usize = (desc.surfaces.iter())
+        .map(|f| f.polygons.len() + f.faces.len())
+        .sum::<usize>()
+        + 6 * desc.boxes.len();
+    let mut planned = planned + faces as u128 * super::IMPORT_BYTES_PER_FACE;
+    super::import::check_planned(path, text.len() as u128, planned, max_memory)?;
     for inc in &desc.includes {
-        if let Some(file) = inc.obj.as_ref().or(inc.gltf.as_ref()) {
-            planned = super::import::check_import(&base.join(file), planned, max_memory)?;
+        if let Some(file) = inc.path() {
+            let per_byte = super::IMPORT_BYTES_PER_FILE_BYTE;
+            planned = super::import::check_import(&base.join(file), planned, per_byte, max_memory)?;
         }
     }
     Ok((desc.build(&origin, base)?, planned))

@@ -25,7 +25,7 @@ pub use model::{
     Scene, SizeHints,
 };
 
-pub use import::IMPORT_BYTES_PER_FILE_BYTE;
+pub use import::{DESCRIPTION_BYTES_PER_BYTE, IMPORT_BYTES_PER_FACE, IMPORT_BYTES_PER_FILE_BYTE};
 
 use crate::error::{Error, Result};
 use import::check_import;
@@ -37,25 +37,33 @@ pub fn load(path: &std::path::Path) -> Result<Scene> {
 }
 
 /// [`load`] planned like a bake's stages: each file is refused before it is read when
-/// [`IMPORT_BYTES_PER_FILE_BYTE`] times its size does not fit `max_memory` (`--max-memory`; 80%
-/// of the available memory without one), a description's includes with the description's own
-/// bytes. Also answers the bytes planned.
+/// [`IMPORT_BYTES_PER_FILE_BYTE`] times its size ([`DESCRIPTION_BYTES_PER_BYTE`] for a scene
+/// description) does not fit `max_memory` (`--max-memory`; 80% of the available memory
+/// without one); a description's faces ([`IMPORT_BYTES_PER_FACE`]) and includes are planned
+/// beside its own bytes once it is parsed. Also answers the bytes planned.
 pub fn load_within(path: &std::path::Path, max_memory: Option<u64>) -> Result<(Scene, u128)> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
-    let own = check_import(path, 0, max_memory)?;
+    if !["obj", "toml", "gltf", "glb"].contains(&ext.as_str()) {
+        return Err(Error::scene(
+            path.display().to_string(),
+            "unknown scene type; expected an OBJ file (.obj), glTF 2.0 (.gltf, .glb) or an lrr scene description (.toml)",
+        ));
+    }
     let (mut scene, planned) = match ext.as_str() {
-        "obj" => (obj::load(path)?, own),
-        "toml" => description::load_within(path, (own, max_memory))?,
-        "gltf" | "glb" => (gltf::load(path)?, own),
+        "toml" => {
+            let own = check_import(path, 0, DESCRIPTION_BYTES_PER_BYTE, max_memory)?;
+            description::load_within(path, (own, max_memory))?
+        }
         _ => {
-            return Err(Error::scene(
-                path.display().to_string(),
-                "unknown scene type; expected an OBJ file (.obj), glTF 2.0 (.gltf, .glb) or an lrr scene description (.toml)",
-            ));
+            let own = check_import(path, 0, IMPORT_BYTES_PER_FILE_BYTE, max_memory)?;
+            match ext.as_str() {
+                "obj" => (obj::load(path)?, own),
+                _ => (gltf::load(path)?, own),
+            }
         }
     };
     scene.validate(&path.display().to_string())?;

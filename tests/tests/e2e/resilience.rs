@@ -325,26 +325,25 @@ fn a_model_too_dense_for_memory_is_refused_before_its_bvh() {
     let scene =
         crate::util::generated_scene(&dir, "sphere", &["dense-sphere", "--subdivisions", "4"]);
     let out = dir.join("sphere.lrr");
-    // The description (254 kB, its 2 562 vertices and 5 120 faces written out) plans 32 bytes
-    // of import a byte: 7.7 MiB.
+    // The description (254 kB, its 2 562 vertices and 5 120 faces written out) plans its parse
+    // (16 bytes a byte) and its faces (640 bytes each): 7.0 MiB.
     let err = bake(&scene, &out, &["--max-memory", "4M"]).unwrap_err();
     assert!(
         err.contains("importing ")
-            && err.contains("needs about 7.7 MiB but only 4.0 MiB")
+            && err.contains("but only 4.0 MiB")
             && err.contains("simplify the model"),
         "{err}"
     );
-    // With room for the import and the occlusion BVH (5.0 MiB), meshing: each face is a piece
-    // at least (1.5 KiB a face, 8.0 MiB with 2MSC's probes), so a larger element size cannot
-    // help.
+    // With room for the import (7.0 MiB) and the occlusion BVH (5.0 MiB), meshing: each face
+    // is a piece at least (1.5 KiB a face, 8.0 MiB), so a larger element size cannot help.
     let err = bake(&scene, &out, &["--max-memory", "7.8M"]).unwrap_err();
     assert!(
         err.contains("meshing (5130 faces") && err.contains("simplify the model"),
         "{err}"
     );
     assert!(!out.exists());
-    // Boxes are six faces in a few lines: 1 024 of them in a room import in 2.7 MiB but need
-    // an occlusion BVH of 6 151 faces (12 MiB).
+    // Boxes are six faces in a few lines: 1 024 of them in a room import in 5.1 MiB (88 kB of
+    // text, 6 151 faces) but need an occlusion BVH of 12 MiB (two triangles a face).
     let mut text = String::from(
         "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
          [[material]]\nname = \"l\"\nreflectance = [0.0, 0.0, 0.0]\nradiance = [1.0, 1.0, 1.0]\n\
@@ -366,9 +365,9 @@ fn a_model_too_dense_for_memory_is_refused_before_its_bvh() {
     }
     let boxes = dir.join("boxes.toml");
     std::fs::write(&boxes, text).unwrap();
-    let err = bake(&boxes, &out, &["--max-memory", "3M"]).unwrap_err();
+    let err = bake(&boxes, &out, &["--max-memory", "8M"]).unwrap_err();
     assert!(
-        err.contains("the occlusion BVH (6151 faces) needs about 12.0 MiB but only 3.0 MiB")
+        err.contains("the occlusion BVH (6151 faces) needs about 12.0 MiB but only 8.0 MiB")
             && err.contains("simplify the model"),
         "{err}"
     );
