@@ -75,7 +75,8 @@ fn enclosure_of(
     (stage, progress, max_memory): (&str, &Progress, Option<u64>),
 ) -> Result<Enclosure> {
     let n = mesh.elements.len();
-    let own_bvh = match occ.closest_hit() {
+    let query = occ.closest_hit();
+    let own_bvh = match query {
         Some(_) => 0,
         None => crate::visibility::build_bytes(scene),
     };
@@ -94,7 +95,7 @@ fn enclosure_of(
     progress.estimate(stage, bytes);
     let running = progress.stage(stage, 0);
     let own;
-    let probe = match occ.closest_hit() {
+    let probe = match query {
         Some(o) => o,
         None => {
             own = ObvhsOccluder::build(scene);

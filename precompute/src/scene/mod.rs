@@ -53,18 +53,15 @@ pub fn load_within(path: &std::path::Path, max_memory: Option<u64>) -> Result<(S
             "unknown scene type; expected an OBJ file (.obj), glTF 2.0 (.gltf, .glb) or an lrr scene description (.toml)",
         ));
     }
+    let per_byte = match ext.as_str() {
+        "toml" => DESCRIPTION_BYTES_PER_BYTE,
+        _ => IMPORT_BYTES_PER_FILE_BYTE,
+    };
+    let own = check_import(path, 0, per_byte, max_memory)?;
     let (mut scene, planned) = match ext.as_str() {
-        "toml" => {
-            let own = check_import(path, 0, DESCRIPTION_BYTES_PER_BYTE, max_memory)?;
-            description::load_within(path, (own, max_memory))?
-        }
-        _ => {
-            let own = check_import(path, 0, IMPORT_BYTES_PER_FILE_BYTE, max_memory)?;
-            match ext.as_str() {
-                "obj" => (obj::load(path)?, own),
-                _ => (gltf::load(path)?, own),
-            }
-        }
+        "toml" => description::load_within(path, (own, max_memory))?,
+        "obj" => (obj::load(path)?, own),
+        _ => (gltf::load(path)?, own),
     };
     scene.validate(&path.display().to_string())?;
     if let Some(w) = scene.partial_lightmap_warning() {
