@@ -38,10 +38,19 @@ pub(crate) fn check_then(
     what: impl FnOnce() -> String,
     fix: impl FnOnce(u128) -> String,
 ) -> Result<()> {
+    let given = limit.is_some();
     let limit = usable(limit);
     if bytes > limit {
+        // Without --max-memory the bound is the machine's, and some commands (`lrr scene`,
+        // `accuracy`, the benches) have no flag: say where it comes from and what moves it.
+        let whence = if given {
+            ""
+        } else {
+            " (80% of the memory available; the environment variable LRR_MEMORY_LIMIT, in \
+             bytes, sets what is available)"
+        };
         return Err(Error::Limits(format!(
-            "{} needs about {} but only {} can be used; {}",
+            "{} needs about {} but only {} can be used{whence}; {}",
             what(),
             size(bytes),
             size(limit),

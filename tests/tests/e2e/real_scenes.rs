@@ -6,15 +6,14 @@
 //! promises, the bake's peak resident memory (its report's `peak_resident_bytes`, Linux) stays
 //! within issue #31's 4 GB, every stage that plans its buffers before allocating them
 //! ([`PLANNED`]: the import, the occlusion BVH, meshing with 2MSC's probes, the first pass's
-//! matrix and its solve's cores, the display BVH, the smooth weights, the form factors'
-//! matrix, the cores `(I − VᵀU)⁻¹`: what `--max-memory` is checked against)
+//! matrix and its solve's cores, the display BVH, the smooth weights, the lightmap's charts,
+//! the form factors' matrix, the cores `(I − VᵀU)⁻¹`: what `--max-memory` is checked against)
 //! stays within the estimate (the process's peak by the stage's end at most what was resident
 //! when it began plus the estimate and [`SCRATCH`], or the peak before it began: a stage that
 //! stays under an earlier peak is not seen), every surface's radiosity is finite, the surfaces
 //! the light reaches are lit, and `lrr render` of the file shows no NaN. (The enclosure tests
 //! are planned too, 9 bytes an element, too little to tell from the worker scratch; the
-//! lightmap's charts and the file's writing are not planned; the whole bake's peak is held to
-//! the 4 GB goal only.)
+//! file's writing is not planned; the whole bake's peak is held to the 4 GB goal only.)
 //!
 //! The bound on n is today's: `4 A / h² + 2 F` before the refinement's 20% (subdivision halves
 //! a face until its elements are at most the element size `h`, so they are at least `h² / 4`
@@ -47,7 +46,7 @@ const SCRATCH: f64 = THREADS as f64 * SCRATCH_PER_THREAD;
 
 /// The stages of a default bake that plan their buffers (`Progress::estimate`), each of
 /// which the report must give an estimate for.
-const PLANNED: [&str; 9] = [
+const PLANNED: [&str; 10] = [
     "import",
     "visibility",
     "mesh",
@@ -55,6 +54,7 @@ const PLANNED: [&str; 9] = [
     "first pass solve",
     "bvh",
     "smooth",
+    "lightmap",
     "form factors",
     "operator",
 ];
