@@ -115,21 +115,142 @@ pub(super) fn through(contacts: &[Contact], used: &[bool]) -> usize {
 
 /// Pieces cut by each contact in turn (pieces under `MIN_PIECE_FRACTION` of `area` are not cut
 /// off); `used[i]` is set when contact `i` cut something.
+///
+/// Each piece meets the contacts in order, and what a contact makes of one piece does not
+/// depend on the others: so a piece is followed on its own, from the first later contact that
+/// changes it, its pieces in its place. Past [`INDEXED_CONTACTS`] contacts, a piece is tested
+/// only against those whose edge comes near enough to touch it ([`Reach`]): a floor under
+/// 10 000 boxes (40 000 contacts) was cut in minutes, each contact copying every piece made so
+/// far. The pieces, their order and `used` are those of cutting every piece by each contact in
+/// turn.
 pub(super) fn cut_all(
-    mut pieces: Vec<Polygon>,
+    pieces: Vec<Polygon>,
     contacts: &[Contact],
     area: f64,
     used: &mut [bool],
 ) -> Vec<Polygon> {
-    for (c, used) in contacts.iter().zip(used) {
-        let before = pieces.len();
-        pieces = pieces
-            .into_iter()
-            .flat_map(|p| cut(&p, &c.plane, c.segment, area))
-            .collect();
-        *used |= pieces.len() > before;
+    let reach = (contacts.len() > INDEXED_CONTACTS)
+        .then(|| pieces.first().and_then(|p| Reach::new(p.normal, contacts)))
+        .flatten();
+    // Pieces each contact added (it is used when they are more than it removed).
+    let mut gained = vec![0i64; contacts.len()];
+    // Depth first, a piece's pieces pushed last to first so that they come out in order; each
+    // with the first contact that may still cut it (those before it came before the piece).
+    let mut stack: Vec<(Polygon, usize)> = pieces.into_iter().rev().map(|p| (p, 0)).collect();
+    let mut out = Vec::new();
+    let mut near = Vec::new();
+    while let Some((p, from)) = stack.pop() {
+        near.clear();
+        match reach.as_ref().and_then(|r| r.near(&p, from)) {
+            Some(found) => near.extend(found),
+            None => near.extend(from as u32..contacts.len() as u32),
+        }
+        let first = near.iter().find_map(|&c| {
+            let contact = &contacts[c as usize];
+            if !touches(&p, contact) {
+                return None;
+            }
+            cut_across(&p, &contact.plane, area).map(|pieces| (c as usize, pieces))
+        });
+        let Some((c, pieces)) = first else {
+            out.push(p);
+            continue;
+        };
+        gained[c] += pieces.len() as i64 - 1;
+        stack.extend(pieces.into_iter().rev().map(|q| (q, c + 1)));
     }
-    pieces
+    for (used, gained) in used.iter_mut().zip(gained) {
+        *used |= gained > 0;
+    }
+    out
+}
+
+/// Contacts up to which [`cut_all`] tests every piece against every later contact.
+const INDEXED_CONTACTS: usize = 64;
+
+/// The contacts' edges in the plane of the pieces (2D coordinates along two unit vectors
+/// across the normal), indexed, to find those that may touch a piece.
+struct Reach {
+    u: DVec3,
+    v: DVec3,
+    grid: BoxGrid,
+    /// The largest contact polygon's scale (the contact tolerance grows with it).
+    scale: f64,
+}
+
+impl Reach {
+    /// None where the normal gives no plane (then every contact is tested).
+    fn new(normal: DVec3, contacts: &[Contact]) -> Option<Self> {
+        let n = normal.try_normalize()?;
+        let u = if n.x.abs() < 0.9 {
+            n.cross(DVec3::X)
+        } else {
+            n.cross(DVec3::Y)
+        }
+        .try_normalize()?;
+        let v = n.cross(u);
+        let flat = |x: DVec3| DVec3::new(x.dot(u), x.dot(v), 0.0);
+        let boxes: Vec<(DVec3, DVec3)> = (contacts.iter())
+            .map(|c| {
+                let (a, b) = (flat(c.segment.0), flat(c.segment.1));
+                (a.min(b), a.max(b))
+            })
+            .collect();
+        let scale = contacts.iter().map(|c| c.plane.scale).fold(0.0, f64::max);
+        Some(Self {
+            u,
+            v,
+            grid: BoxGrid::new(&boxes),
+            scale,
+        })
+    }
+
+    /// Contacts from `from` on, in order, whose edge may touch `p` (a superset of those
+    /// [`touches`] says do), or None where `p` has no bound (then every later contact).
+    ///
+    /// [`segment_touches`] clips an edge to `p`'s sides each moved out by the tolerance `t`,
+    /// in the plane (the normal's component is ignored): a polygon whose corner of interior
+    /// angle θ moves out by `t / sin(θ/2)`. So a touching edge meets `p`'s box, in the plane,
+    /// grown by that at `p`'s sharpest corner.
+    fn near(&self, p: &Polygon, from: usize) -> Option<Vec<u32>> {
+        let flat: Vec<DVec3> = (p.vertices().iter())
+            .map(|x| DVec3::new(x.dot(self.u), x.dot(self.v), 0.0))
+            .collect();
+        let k = flat.len();
+        let mut sharpest = 1.0f64;
+        for i in 0..k {
+            let (before, at, after) = (flat[(i + k - 1) % k], flat[i], flat[(i + 1) % k]);
+            // Convex and counter-clockwise about the normal in the plane, else no bound.
+            let (e, f) = (at - before, after - at);
+            let turn = e.x * f.y - e.y * f.x;
+            if turn.is_nan() || turn <= 0.0 {
+                return None;
+            }
+            let a = (before - at).try_normalize()?;
+            let b = (after - at).try_normalize()?;
+            // sin(θ/2) = |a − b| / 2 for unit a, b at angle θ.
+            sharpest = sharpest.min(0.5 * (a - b).length());
+        }
+        if sharpest.is_nan() || sharpest <= 1e-6 {
+            return None;
+        }
+        let t = CONTACT_TOLERANCE * p.scale.max(self.scale);
+        // Past the bound by a margin for the rounding of the two planes' coordinates.
+        let grow = t / sharpest * (1.0 + 1e-6) + 1e-9 * p.scale;
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for &f in &flat {
+            (lo, hi) = (lo.min(f), hi.max(f));
+        }
+        let g = DVec3::new(grow, grow, 0.0);
+        if !(lo.is_finite() && hi.is_finite() && grow.is_finite()) {
+            return None;
+        }
+        let mut found: Vec<u32> = self.grid.candidates((lo - g, hi + g));
+        found.retain(|&c| c as usize >= from);
+        found.sort_unstable();
+        found.dedup();
+        Some(found)
+    }
 }
 
 impl Contact {
@@ -213,16 +334,21 @@ fn crossing(f: &Polygon, g: &Polygon) -> Option<((DVec3, DVec3), bool)> {
     (points.len() >= 2).then(|| ((points[0], points[points.len() - 1]), true))
 }
 
-/// Cuts `p` by the plane of `g` if the contact edge crosses `p`'s interior.
-fn cut(p: &Polygon, g: &Polygon, edge: (DVec3, DVec3), face_area: f64) -> Vec<Polygon> {
+/// Whether contact `c`'s edge meets `p` over a positive length (within the contact
+/// tolerance): where it does not, its plane leaves `p` whole.
+fn touches(p: &Polygon, c: &Contact) -> bool {
+    segment_touches(p, c.segment, CONTACT_TOLERANCE * p.scale.max(c.plane.scale))
+}
+
+/// `p` cut by the plane of `g` (whose contact edge touches `p`), or None where that leaves
+/// `p` whole: the plane does not pass through it, or a piece would be under
+/// `MIN_PIECE_FRACTION` of `face_area`.
+fn cut_across(p: &Polygon, g: &Polygon, face_area: f64) -> Option<Vec<Polygon>> {
     let tol = CONTACT_TOLERANCE * p.scale.max(g.scale);
-    if !segment_touches(p, edge, tol) {
-        return vec![*p];
-    }
     let side = |v: &DVec3| (*v - g.vertices[0]).dot(g.normal);
     let d: Vec<f64> = p.vertices().iter().map(side).collect();
     if !(d.iter().any(|&x| x > tol) && d.iter().any(|&x| x < -tol)) {
-        return vec![*p];
+        return None;
     }
     let front = clip(p.vertices(), &d, 1.0);
     let back = clip(p.vertices(), &d, -1.0);
@@ -232,9 +358,9 @@ fn cut(p: &Polygon, g: &Polygon, edge: (DVec3, DVec3), face_area: f64) -> Vec<Po
         .collect();
     let min_area = MIN_PIECE_FRACTION * face_area;
     if pieces.iter().any(|q| q.area() < min_area) {
-        return vec![*p];
+        return None;
     }
-    pieces
+    Some(pieces)
 }
 
 /// True when the segment meets the polygon (in its plane) over a positive length.
@@ -361,6 +487,141 @@ mod tests {
         let pieces = split_at_contacts(&scene.faces);
         // 8 block sides stand on the floor; each cut line crosses it.
         assert!(pieces.iter().filter(|(_, g)| *g == f).count() >= 9);
+    }
+
+    /// Every contact applied to every piece in turn: what [`cut_all`] must give.
+    fn cut_in_turn(
+        mut pieces: Vec<Polygon>,
+        contacts: &[Contact],
+        area: f64,
+        used: &mut [bool],
+    ) -> Vec<Polygon> {
+        for (c, used) in contacts.iter().zip(used) {
+            let before = pieces.len();
+            pieces = (pieces.into_iter())
+                .flat_map(|p| match touches(&p, c) {
+                    true => cut_across(&p, &c.plane, area).unwrap_or_else(|| vec![p]),
+                    false => vec![p],
+                })
+                .collect();
+            *used |= pieces.len() > before;
+        }
+        pieces
+    }
+
+    /// A floor under 64 boxes and 40 fins at odd angles (edges in the floor, or through it,
+    /// their pieces with sharp corners): past `INDEXED_CONTACTS`, the pieces found near each
+    /// contact are those of every contact applied to every piece in turn, in the same order,
+    /// bit for bit, and the same contacts are used.
+    #[test]
+    fn indexed_cuts_are_the_cuts_in_turn() {
+        let mut d = procedural::furnace(0.5, 1.0);
+        d.boxes[0].max = [4.0, 1.0, 4.0];
+        for i in 0..8 {
+            for j in 0..8 {
+                let (x, z) = (0.2 + 0.47 * f64::from(i), 0.3 + 0.45 * f64::from(j));
+                d.boxes.push(crate::scene::description::BoxDesc {
+                    name: format!("b{i}_{j}"),
+                    material: "wall".into(),
+                    min: [x, 0.0, z],
+                    max: [x + 0.2, 0.3, z + 0.15],
+                    inward: false,
+                    omit: vec![],
+                });
+            }
+        }
+        let mut state = 0x5eed_u64;
+        let mut next = move || {
+            state = crate::geometry::hash::mix(state);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut fins = Vec::new();
+        for k in 0..40 {
+            let (x, z) = (0.1 + 3.8 * next(), 0.1 + 3.8 * next());
+            let (dx, dz) = (0.9 * next() - 0.45, 0.9 * next() - 0.45);
+            // Half stand on the floor, half pass through it.
+            let low = if k % 2 == 0 { 0.0 } else { -0.05 };
+            fins.push(vec![
+                [x, low, z],
+                [x + dx, low, z + dz],
+                [x + 0.3 * next(), 0.2, z + 0.3 * next()],
+            ]);
+        }
+        d.surfaces.push(crate::scene::description::SurfaceDesc {
+            name: "fins".into(),
+            material: "wall".into(),
+            polygons: fins,
+            ..Default::default()
+        });
+        let scene = d.build("t", Path::new(".")).unwrap();
+        let floor = scene.surfaces.iter().position(|s| s == "cube.-y").unwrap();
+        let f = scene.faces.iter().position(|x| x.surface == floor).unwrap();
+        let imprinter = Imprinter::new(&scene.faces);
+        let polygon = scene.faces[f].polygon;
+        let contacts = imprinter.contacts(&polygon, bounds(&polygon), Some(f));
+        assert!(contacts.len() > 4 * INDEXED_CONTACTS, "{}", contacts.len());
+        let (mut used, mut expected_used) =
+            (vec![false; contacts.len()], vec![false; contacts.len()]);
+        let pieces = cut_all(vec![polygon], &contacts, polygon.area(), &mut used);
+        let expected = cut_in_turn(vec![polygon], &contacts, polygon.area(), &mut expected_used);
+        assert!(pieces.len() > 500, "{}", pieces.len());
+        assert_eq!(pieces, expected);
+        assert_eq!(used, expected_used);
+        assert!(used.iter().any(|&u| !u) && used.iter().filter(|&&u| u).count() > 100);
+    }
+
+    /// `Reach::near` answers every contact that `touches` a piece, however sharp its corners:
+    /// edges ending within the tolerance of a corner of 0.5° to 90°, in any direction, among
+    /// far ones that fill the index.
+    #[test]
+    fn near_contacts_include_every_touching_one() {
+        let mut state = 0xc0ffee_u64;
+        let mut next = move || {
+            state = crate::geometry::hash::mix(state);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let normal = DVec3::Y;
+        let flat = |x: f64, z: f64| DVec3::new(x, 0.0, z);
+        let plane = Polygon::new(&[flat(0.0, 0.0), flat(0.0, 1.0), flat(1.0, 0.0)]).unwrap();
+        let (mut touching, mut answered) = (0, 0);
+        for case in 0..2000 {
+            // A triangle with a corner of angle θ at the origin, counter-clockwise about +y.
+            let theta = (0.5 + 89.5 * next()).to_radians();
+            let r = 0.01 + next();
+            let (a, b) = (flat(0.0, 0.0), flat(r, 0.0));
+            let c = flat(r * theta.cos(), -r * theta.sin());
+            let p = Polygon::new(&[a, b, c]).unwrap();
+            assert!(p.normal.dot(normal) > 0.99, "{:?}", p.normal);
+            let t = CONTACT_TOLERANCE * p.scale.max(plane.scale);
+            // Edges ending up to 3 tolerances past the sharp corner's bisector, any direction.
+            let mid = -(b.normalize() + c.normalize()).normalize();
+            let end = mid * (t / (0.5 * theta).sin() * 3.0 * next());
+            let dir = flat(next() - 0.5, next() - 0.5).normalize() * r;
+            let mut contacts: Vec<Contact> = (0..80)
+                .map(|k| Contact {
+                    plane,
+                    segment: (flat(5.0 + f64::from(k), 5.0), flat(5.5 + f64::from(k), 5.0)),
+                    through: false,
+                    face: 0,
+                })
+                .collect();
+            contacts.push(Contact {
+                plane,
+                segment: (end, end + dir),
+                through: false,
+                face: 0,
+            });
+            let reach = Reach::new(normal, &contacts).unwrap();
+            if touches(&p, &contacts[80]) {
+                touching += 1;
+                let near = reach
+                    .near(&p, 0)
+                    .expect("a bound for corners of 0.5° and more");
+                assert!(near.contains(&80), "case {case}: θ {theta}");
+                answered += 1;
+            }
+        }
+        assert!(touching > 200 && answered == touching, "{touching}");
     }
 
     #[test]

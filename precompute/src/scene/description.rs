@@ -790,9 +790,10 @@ impl SceneDescription {
             }
         }
         // A surface left without faces is dropped (the ids of the others shift down).
-        let used: Vec<bool> = (0..scene.surfaces.len())
-            .map(|i| scene.faces.iter().any(|f| f.surface == i))
-            .collect();
+        let mut used = vec![false; scene.surfaces.len()];
+        for f in &scene.faces {
+            used[f.surface] = true;
+        }
         let mut new_id = vec![0; used.len()];
         let mut kept = Vec::new();
         for (i, name) in scene.surfaces.iter().enumerate() {
@@ -801,7 +802,7 @@ impl SceneDescription {
                 kept.push(name.clone());
             }
         }
-        scene.surfaces = kept;
+        scene.set_surfaces(kept);
         for f in &mut scene.faces {
             f.surface = new_id[f.surface];
         }

@@ -265,6 +265,9 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// Exact-duplicate detection: sorted quantised vertices → face index.
     seen: FxHashMap<Vec<[i64; 3]>, usize>,
+    /// Each name's index in `surfaces`, as [`surface`](Self::surface) added them (a scene of
+    /// 10 000 named boxes searched its names one by one for each face: 14 s of its import).
+    surface_ids: FxHashMap<String, usize>,
 }
 
 impl Scene {
@@ -277,13 +280,32 @@ impl Scene {
 
     /// Index of a surface, added if new.
     pub(crate) fn surface(&mut self, name: &str) -> usize {
-        match self.surfaces.iter().position(|s| s == name) {
-            Some(i) => i,
-            None => {
-                self.surfaces.push(name.to_string());
-                self.surfaces.len() - 1
-            }
+        // `surfaces` is public: where names were pushed other than here or by
+        // `set_surfaces`, index it again. Its names are distinct, so the index holds one
+        // entry a name.
+        let stale = self.surface_ids.len() != self.surfaces.len()
+            || (self.surface_ids.get(name))
+                .is_some_and(|&i| self.surfaces.get(i).is_none_or(|s| s != name));
+        if stale {
+            self.surface_ids = (self.surfaces.iter().enumerate())
+                .map(|(i, s)| (s.clone(), i))
+                .collect();
         }
+        if let Some(&i) = self.surface_ids.get(name) {
+            return i;
+        }
+        self.surfaces.push(name.to_string());
+        let i = self.surfaces.len() - 1;
+        self.surface_ids.insert(name.to_string(), i);
+        i
+    }
+
+    /// Replaces the surface names (faces' `surface` ids are the caller's to renumber).
+    pub(crate) fn set_surfaces(&mut self, names: Vec<String>) {
+        self.surfaces = names;
+        self.surface_ids = (self.surfaces.iter().enumerate())
+            .map(|(i, s)| (s.clone(), i))
+            .collect();
     }
 
     /// Adds a material (validated); `location` names where it was defined.
@@ -476,5 +498,26 @@ impl Scene {
         };
         let mean = texture::element_average(&self.textures[t.texture], lut, map, polygon);
         [0, 1, 2].map(|c| (t.scale[c] * mean[c]).min(MAX_TEXTURED_REFLECTANCE))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Names are found through the index, also after the list was replaced (as the light
+    /// groups drop surfaces left without faces) or pushed to directly.
+    #[test]
+    fn surface_names_are_found_after_the_list_changes() {
+        let mut s = Scene::default();
+        assert_eq!((s.surface("a"), s.surface("b"), s.surface("a")), (0, 1, 0));
+        s.set_surfaces(vec!["b".into()]);
+        assert_eq!((s.surface("b"), s.surface("a")), (0, 1));
+        // As many other names: the index follows.
+        s.set_surfaces(vec!["x".into(), "y".into()]);
+        assert_eq!((s.surface("y"), s.surface("a")), (1, 2));
+        s.surfaces.push("z".into());
+        assert_eq!((s.surface("z"), s.surface("x"), s.surface("c")), (3, 0, 4));
+        assert_eq!(s.surfaces, ["x", "y", "a", "z", "c"]);
     }
 }
