@@ -171,6 +171,8 @@ const INDEXED_CONTACTS: usize = 64;
 /// The contacts' edges in the plane of the pieces (2D coordinates along two unit vectors
 /// across the normal), indexed, to find those that may touch a piece.
 struct Reach {
+    /// The pieces' normal (as given), and two unit vectors across it.
+    normal: DVec3,
     u: DVec3,
     v: DVec3,
     grid: BoxGrid,
@@ -198,6 +200,7 @@ impl Reach {
             .collect();
         let scale = contacts.iter().map(|c| c.plane.scale).fold(0.0, f64::max);
         Some(Self {
+            normal,
             u,
             v,
             grid: BoxGrid::new(&boxes),
@@ -213,6 +216,15 @@ impl Reach {
     /// angle θ moves out by `t / sin(θ/2)`. So a touching edge meets `p`'s box, in the plane,
     /// grown by that at `p`'s sharpest corner.
     fn near(&self, p: &Polygon, from: usize) -> Option<Vec<u32>> {
+        // Another plane, or an edge so short that its direction in the plane is the rounding
+        // of the projection (`segment_touches` takes it from the 3D difference): no bound.
+        let vs = p.vertices();
+        let shortest = (0..vs.len())
+            .map(|i| vs[i].distance(vs[(i + 1) % vs.len()]))
+            .fold(f64::INFINITY, f64::min);
+        if p.normal != self.normal || shortest.is_nan() || shortest <= 1e-6 * p.scale {
+            return None;
+        }
         let flat: Vec<DVec3> = (p.vertices().iter())
             .map(|x| DVec3::new(x.dot(self.u), x.dot(self.v), 0.0))
             .collect();
@@ -510,9 +522,10 @@ mod tests {
     }
 
     /// A floor under 64 boxes and 40 fins at odd angles (edges in the floor, or through it,
-    /// their pieces with sharp corners): past `INDEXED_CONTACTS`, the pieces found near each
-    /// contact are those of every contact applied to every piece in turn, in the same order,
-    /// bit for bit, and the same contacts are used.
+    /// their pieces with sharp corners), as built and turned about an oblique axis: past
+    /// `INDEXED_CONTACTS`, the pieces found near each contact are those of every contact
+    /// applied to every piece in turn, in the same order, bit for bit, and the same contacts
+    /// are used.
     #[test]
     fn indexed_cuts_are_the_cuts_in_turn() {
         let mut d = procedural::furnace(0.5, 1.0);
@@ -553,21 +566,35 @@ mod tests {
             polygons: fins,
             ..Default::default()
         });
-        let scene = d.build("t", Path::new(".")).unwrap();
+        let mut scene = d.build("t", Path::new(".")).unwrap();
         let floor = scene.surfaces.iter().position(|s| s == "cube.-y").unwrap();
         let f = scene.faces.iter().position(|x| x.surface == floor).unwrap();
-        let imprinter = Imprinter::new(&scene.faces);
-        let polygon = scene.faces[f].polygon;
-        let contacts = imprinter.contacts(&polygon, bounds(&polygon), Some(f));
-        assert!(contacts.len() > 4 * INDEXED_CONTACTS, "{}", contacts.len());
-        let (mut used, mut expected_used) =
-            (vec![false; contacts.len()], vec![false; contacts.len()]);
-        let pieces = cut_all(vec![polygon], &contacts, polygon.area(), &mut used);
-        let expected = cut_in_turn(vec![polygon], &contacts, polygon.area(), &mut expected_used);
-        assert!(pieces.len() > 500, "{}", pieces.len());
-        assert_eq!(pieces, expected);
-        assert_eq!(used, expected_used);
-        assert!(used.iter().any(|&u| !u) && used.iter().filter(|&&u| u).count() > 100);
+        let original: Vec<Polygon> = scene.faces.iter().map(|x| x.polygon).collect();
+        // As built (a floor across an axis), and turned about an oblique axis (the plane's
+        // coordinates then round).
+        let turns = [
+            glam::DQuat::IDENTITY,
+            glam::DQuat::from_axis_angle(DVec3::new(0.3, 0.8, -0.5).normalize(), 0.7),
+        ];
+        for turn in turns {
+            for (face, p) in scene.faces.iter_mut().zip(&original) {
+                let v: Vec<DVec3> = p.vertices().iter().map(|&x| turn * x).collect();
+                face.polygon = Polygon::new(&v).unwrap();
+            }
+            let imprinter = Imprinter::new(&scene.faces);
+            let polygon = scene.faces[f].polygon;
+            let contacts = imprinter.contacts(&polygon, bounds(&polygon), Some(f));
+            assert!(contacts.len() > 4 * INDEXED_CONTACTS, "{}", contacts.len());
+            let mut used = vec![false; contacts.len()];
+            let mut expected_used = used.clone();
+            let pieces = cut_all(vec![polygon], &contacts, polygon.area(), &mut used);
+            let expected =
+                cut_in_turn(vec![polygon], &contacts, polygon.area(), &mut expected_used);
+            assert!(pieces.len() > 500, "{}", pieces.len());
+            assert_eq!(pieces, expected);
+            assert_eq!(used, expected_used);
+            assert!(used.iter().any(|&u| !u) && used.iter().filter(|&&u| u).count() > 100);
+        }
     }
 
     /// `Reach::near` answers every contact that `touches` a piece, however sharp its corners:
