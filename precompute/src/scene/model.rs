@@ -287,9 +287,7 @@ impl Scene {
             || (self.surface_ids.get(name))
                 .is_some_and(|&i| self.surfaces.get(i).is_none_or(|s| s != name));
         if stale {
-            self.surface_ids = (self.surfaces.iter().enumerate())
-                .map(|(i, s)| (s.clone(), i))
-                .collect();
+            self.index_surfaces();
         }
         if let Some(&i) = self.surface_ids.get(name) {
             return i;
@@ -303,6 +301,11 @@ impl Scene {
     /// Replaces the surface names (faces' `surface` ids are the caller's to renumber).
     pub(crate) fn set_surfaces(&mut self, names: Vec<String>) {
         self.surfaces = names;
+        self.index_surfaces();
+    }
+
+    /// Indexes `surfaces` anew (`surface_ids`).
+    fn index_surfaces(&mut self) {
         self.surface_ids = (self.surfaces.iter().enumerate())
             .map(|(i, s)| (s.clone(), i))
             .collect();

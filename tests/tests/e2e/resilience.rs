@@ -6,8 +6,10 @@ use std::time::{Duration, Instant};
 
 use crate::util::{bake, cornell, lrr_binary, temp_dir};
 
-fn spawn_bake(out: &std::path::Path, extra: &[&str]) -> Child {
-    Command::new(lrr_binary())
+/// `lrr bake` of the Cornell box into `out`, quiet, with `extra` flags.
+fn bake_command(out: &std::path::Path, extra: &[&str]) -> Command {
+    let mut command = Command::new(lrr_binary());
+    command
         .args([
             "bake",
             cornell().to_str().unwrap(),
@@ -15,7 +17,12 @@ fn spawn_bake(out: &std::path::Path, extra: &[&str]) -> Child {
             out.to_str().unwrap(),
             "-q",
         ])
-        .args(extra)
+        .args(extra);
+    command
+}
+
+fn spawn_bake(out: &std::path::Path, extra: &[&str]) -> Child {
+    bake_command(out, extra)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
@@ -447,15 +454,7 @@ fn a_refusal_without_max_memory_names_what_sets_the_limit() {
     let dir = temp_dir("machine-limit");
     let out = dir.join("cb.lrr");
     let run = |extra: &[&str]| {
-        Command::new(lrr_binary())
-            .args([
-                "bake",
-                cornell().to_str().unwrap(),
-                "-o",
-                out.to_str().unwrap(),
-                "-q",
-            ])
-            .args(extra)
+        bake_command(&out, extra)
             .env("LRR_MEMORY_LIMIT", (4u64 << 20).to_string())
             .output()
             .unwrap()
