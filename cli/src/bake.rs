@@ -187,6 +187,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     let output = output_path(a, &scene.bake)?;
     let mut settings = a.mesh.settings_for(&scene)?;
     settings.refine = Some(a.refine);
+    settings.storage = a.storage(&scene.bake);
     let checkpoint_path = checkpoint::path_for(&output);
     let first_pass_path = checkpoint::first_pass_path(&checkpoint_path);
     if !a.resume
@@ -218,7 +219,7 @@ pub fn run(a: &BakeArgs, out: &mut dyn Write) -> Result<()> {
     });
     let mut baked = bake(&scene, &settings, &progress)?;
     let stage = progress.stage("write", 0);
-    let file = write::write(&mut baked, &output, a.storage(&scene.bake))
+    let file = write::write(&mut baked, &output, settings.storage)
         .with_context(|| format!("writing the operator file {}", output.display()))?;
     let resumed_rows = baked.checkpoint.as_ref().map_or(0, |c| c.resumed_rows());
     let (resumed_first_pass_rows, first_pass_rows) = baked

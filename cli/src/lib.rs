@@ -266,6 +266,7 @@ impl MeshArgs {
             max_memory: self.max_memory,
             checkpoint: None,
             refine: None,
+            storage: Default::default(),
         })
     }
 

@@ -10,7 +10,7 @@
 
 use std::path::Path;
 
-use crate::atomic::{write_atomic, write_atomic_with};
+use crate::atomic::write_atomic_with;
 use crate::bytes::{self, checked_product};
 use crate::container::{Container, VERSION_MAJOR};
 use crate::display::Display;
@@ -55,31 +55,17 @@ impl OperatorFile {
         Self::from_bytes(&bytes).map_err(|e| e.context(path.display()))
     }
 
-    /// Validates, encodes and writes the file atomically (see [`write_atomic`]): readers see the
-    /// old file or the new one, never a mix. The bytes are [`to_bytes`](Self::to_bytes)'s, but a
-    /// factored file's `F_k` (most of it) goes to the file in pieces of [`FK_PIECE`] values
-    /// rather than through a copy of its own and one of the whole file.
+    /// Validates, encodes and writes the file atomically (see
+    /// [`write_atomic`](crate::write_atomic)): readers see the old file or the new one, never a
+    /// mix. The bytes are [`to_bytes`](Self::to_bytes)'s, but each section is encoded as it is
+    /// written and dropped after, and the matrix (`F_k` or `Y_k`, most of the file) goes to the
+    /// file in pieces of [`FK_PIECE`] values: writing holds the largest section but the matrix,
+    /// and one piece, rather than a copy of the file.
     pub fn write(&self, path: &Path) -> Result<(), FormatError> {
         self.validate().map_err(|e| e.context(path.display()))?;
-        let OperatorData::Factored { fk, .. } = &self.operator else {
-            return write_atomic(path, &encode(self));
-        };
-        let len = (fk.len() * fk.precision().size()) as u64;
-        self.write_fk_streamed(path, len, &mut |emit| {
-            let mut piece = Vec::new();
-            match fk {
-                StoredMatrix::F32(v) => v.chunks(FK_PIECE).try_for_each(|values| {
-                    piece.clear();
-                    bytes::put_f32s(&mut piece, values);
-                    emit(&piece)
-                }),
-                StoredMatrix::F16(v) => v.chunks(FK_PIECE).try_for_each(|values| {
-                    piece.clear();
-                    bytes::put_u16s(&mut piece, values);
-                    emit(&piece)
-                }),
-            }
-        })
+        let writer = encoder(self, true);
+        write_atomic_with(path, &mut |file| writer.write_to(file, None))
+            .map_err(|e| e.context(path.display()))
     }
 
     /// Writes the file atomically, every section but FK encoded from `self` (checked by the
@@ -180,33 +166,35 @@ pub(crate) fn encode(file: &OperatorFile) -> Vec<u8> {
     encoder(file, true).to_bytes()
 }
 
-/// The container's sections; `with_fk: false` leaves FK out (to be streamed in at
-/// [`SECTIONS_BEFORE_FK`]).
-fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter {
+/// The container's sections, each encoded when the container is written; `with_fk: false`
+/// leaves FK out (to be streamed in at [`SECTIONS_BEFORE_FK`]).
+fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter<'_> {
     let mut w = ContainerWriter::new();
     w.add(kind::METADATA, true, file.metadata_json.as_bytes().to_vec());
     w.add(kind::DIMS, true, encode_dims(file));
-    w.add(kind::ORDER, true, u32_payload(&file.order));
-    w.add(kind::INDEX, true, u32_payload(&file.index));
-    w.add(kind::WEIGHTS, true, f32_payload(&file.weights));
+    w.add_encoded(kind::ORDER, true, || u32_payload(&file.order));
+    w.add_encoded(kind::INDEX, true, || u32_payload(&file.index));
+    w.add_encoded(kind::WEIGHTS, true, || f32_payload(&file.weights));
     if let OperatorData::Factored { fk, cores } = &file.operator {
         debug_assert_eq!(w.len(), SECTIONS_BEFORE_FK);
         if with_fk {
-            w.add(kind::FK, true, matrix_payload(fk));
+            w.add_pieces(kind::FK, true, |emit| matrix_pieces(fk, emit));
         }
-        let mut payload = Vec::new();
-        bytes::put_f64s(&mut payload, cores);
-        w.add(kind::CORES, true, payload);
+        w.add_encoded(kind::CORES, true, || {
+            let mut payload = Vec::new();
+            bytes::put_f64s(&mut payload, cores);
+            payload
+        });
     }
-    w.add(kind::REFLECTANCE, true, f32_payload(&file.reflectance));
-    w.add(kind::EMISSION, true, f32_payload(&file.emission));
-    w.add(kind::GEOMETRY, true, encode_geometry(&file.geometry));
+    w.add_encoded(kind::REFLECTANCE, true, || f32_payload(&file.reflectance));
+    w.add_encoded(kind::EMISSION, true, || f32_payload(&file.emission));
+    w.add_encoded(kind::GEOMETRY, true, || encode_geometry(&file.geometry));
     if let OperatorData::PlainYk { yk } = &file.operator {
-        w.add(kind::YK, true, matrix_payload(yk));
+        w.add_pieces(kind::YK, true, |emit| matrix_pieces(yk, emit));
     }
     if !file.lights.is_empty() {
         // Optional: a reader of format 1.0 skips it and still evaluates per-element emission.
-        w.add(kind::LIGHTS, false, lights::encode(&file.lights));
+        w.add_encoded(kind::LIGHTS, false, || lights::encode(&file.lights));
     }
     add_display(&mut w, &file.display);
     let d = &file.display;
@@ -226,49 +214,67 @@ fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter {
     w
 }
 
+/// A matrix's payload in pieces of [`FK_PIECE`] values.
+fn matrix_pieces(
+    m: &StoredMatrix,
+    emit: &mut dyn FnMut(&[u8]) -> Result<(), FormatError>,
+) -> Result<(), FormatError> {
+    let mut piece = Vec::new();
+    match m {
+        StoredMatrix::F32(v) => v.chunks(FK_PIECE).try_for_each(|values| {
+            piece.clear();
+            bytes::put_f32s(&mut piece, values);
+            emit(&piece)
+        }),
+        StoredMatrix::F16(v) => v.chunks(FK_PIECE).try_for_each(|values| {
+            piece.clear();
+            bytes::put_u16s(&mut piece, values);
+            emit(&piece)
+        }),
+    }
+}
+
 /// The display sections of `d` (format 1.2), all optional (a reader that only evaluates skips
 /// them) but FACES (1.4), which is required: SMOOTH, LIGHTMAP and the BVH are defined on the
 /// faces when it is present, and a reader that does not know it would misread them.
-fn add_display(w: &mut ContainerWriter, d: &Display) {
+fn add_display<'a>(w: &mut ContainerWriter<'a>, d: &'a Display) {
     if let Some(s) = &d.smooth {
-        w.add(kind::SMOOTH, false, smooth::encode(s));
+        w.add_encoded(kind::SMOOTH, false, || smooth::encode(s));
     }
     if let Some(m) = &d.materials {
-        w.add(kind::MATERIALS, false, materials::encode(m));
+        w.add_encoded(kind::MATERIALS, false, || materials::encode(m));
     }
     if !d.point_lights.is_empty() {
-        w.add(
-            kind::POINT_LIGHTS,
-            false,
-            point_lights::encode(&d.point_lights),
-        );
+        w.add_encoded(kind::POINT_LIGHTS, false, || {
+            point_lights::encode(&d.point_lights)
+        });
     }
     if !d.cameras.is_empty() {
-        w.add(kind::CAMERAS, false, cameras::encode(&d.cameras));
+        w.add_encoded(kind::CAMERAS, false, || cameras::encode(&d.cameras));
     }
     if let Some(b) = &d.bvh {
-        w.add(kind::BVH, false, bvh::encode(b));
+        w.add_encoded(kind::BVH, false, || bvh::encode(b));
     }
     if let Some(l) = &d.lightmap {
-        w.add(kind::LIGHTMAP, false, lightmap::encode(l));
+        w.add_encoded(kind::LIGHTMAP, false, || lightmap::encode(l));
     }
     if let Some(f) = &d.faces {
-        w.add(kind::FACES, true, faces::encode(f));
+        w.add_encoded(kind::FACES, true, || faces::encode(f));
     }
     if !d.direct_lights.is_empty() {
-        w.add(
-            kind::DIRECT_LIGHTS,
-            false,
-            direct_lights::encode(&d.direct_lights),
-        );
+        w.add_encoded(kind::DIRECT_LIGHTS, false, || {
+            direct_lights::encode(&d.direct_lights)
+        });
     }
     if let Some(t) = &d.sky_transfer {
-        let mut payload = Vec::new();
-        bytes::put_f32s(&mut payload, t);
-        w.add(kind::SKY_TRANSFER, false, payload);
+        w.add_encoded(kind::SKY_TRANSFER, false, || {
+            let mut payload = Vec::new();
+            bytes::put_f32s(&mut payload, t);
+            payload
+        });
     }
     if let Some(a) = d.lightmap.as_ref().and_then(|l| l.atlas.as_ref()) {
-        w.add(kind::ATLAS, false, lightmap::encode_atlas(a));
+        w.add_encoded(kind::ATLAS, false, || lightmap::encode_atlas(a));
     }
 }
 
@@ -556,7 +562,8 @@ fn unknown_code(field: &str, code: u32) -> FormatError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testdata::{display_sample, faces_sample, sample};
+    use crate::display::{DirectLight, DirectLightKind};
+    use crate::testdata::{display_sample, faces_sample, plain_sample, sample};
 
     #[test]
     fn round_trip_is_exact() {
@@ -856,6 +863,106 @@ mod tests {
             assert_eq!(std::fs::read(&path).unwrap(), encode(&file));
         }
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn written_files_are_the_bytes_of_to_bytes() {
+        let dir = std::env::temp_dir().join(format!("lrr-formats-write-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("written.lrr");
+        for file in [
+            sample(Precision::F32, 3),
+            sample(Precision::F16, 1),
+            plain_sample(Precision::F32, 3),
+            plain_sample(Precision::F16, 1),
+            display_sample(),
+            faces_sample(),
+        ] {
+            file.write(&path).unwrap();
+            assert_eq!(std::fs::read(&path).unwrap(), file.to_bytes().unwrap());
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+        // A matrix of several pieces: the pieces, one after another, are its payload.
+        let values: Vec<f32> = (0..2 * FK_PIECE + 5).map(|i| i as f32 / 7.0).collect();
+        for m in [
+            StoredMatrix::F32(values.clone()),
+            StoredMatrix::from_f32(&values, Precision::F16),
+        ] {
+            let (mut joined, mut pieces) = (Vec::new(), 0);
+            matrix_pieces(&m, &mut |piece| {
+                joined.extend_from_slice(piece);
+                pieces += 1;
+                Ok(())
+            })
+            .unwrap();
+            assert_eq!(pieces, 3);
+            assert_eq!(joined, matrix_payload(&m));
+        }
+    }
+
+    #[test]
+    fn the_largest_display_payload_is_what_encoding_gives() {
+        for file in [display_sample(), faces_sample(), sample(Precision::F32, 3)] {
+            let d = &file.display;
+            let bytes = d.to_container_bytes();
+            let c = Container::parse(&bytes).unwrap();
+            let largest = c
+                .kinds()
+                .map(|kind| c.section(kind).unwrap().len())
+                .max()
+                .unwrap_or(0);
+            assert_eq!(d.largest_payload_bytes(), largest);
+        }
+        // Every record section and the sky, each alone the largest.
+        let mut d = display_sample().display;
+        d.smooth = None;
+        d.bvh = None;
+        d.direct_lights = (0..9)
+            .map(|i| DirectLight {
+                name: format!("sun {i}"),
+                kind: DirectLightKind::Directional,
+                position: [0.0; 3],
+                direction: [0.0, 0.0, -1.0],
+                strength: [1.0; 3],
+                extra: [0.0; 3],
+            })
+            .collect();
+        let bytes = d.to_container_bytes();
+        let c = Container::parse(&bytes).unwrap();
+        let lights = c.section(kind::DIRECT_LIGHTS).unwrap().len();
+        assert_eq!(d.largest_payload_bytes(), lights);
+        for kind in [kind::MATERIALS, kind::POINT_LIGHTS, kind::CAMERAS] {
+            let alone = Display {
+                direct_lights: Vec::new(),
+                materials: (kind == kind::MATERIALS)
+                    .then(|| d.materials.clone())
+                    .flatten(),
+                point_lights: match kind == kind::POINT_LIGHTS {
+                    true => d.point_lights.clone(),
+                    false => Vec::new(),
+                },
+                cameras: match kind == kind::CAMERAS {
+                    true => d.cameras.clone(),
+                    false => Vec::new(),
+                },
+                ..Display::default()
+            };
+            let bytes = alone.to_container_bytes();
+            let c = Container::parse(&bytes).unwrap();
+            assert_eq!(
+                alone.largest_payload_bytes(),
+                c.section(kind).unwrap().len(),
+                "{}",
+                kind::describe(kind)
+            );
+        }
+        d.sky_transfer = Some(vec![0.5; 9 * 6 * 50]);
+        let bytes = d.to_container_bytes();
+        let c = Container::parse(&bytes).unwrap();
+        assert_eq!(
+            d.largest_payload_bytes(),
+            c.section(kind::SKY_TRANSFER).unwrap().len()
+        );
     }
 
     #[test]

@@ -22,6 +22,25 @@ impl OperatorFile {
     /// Errors: `self` is already plain or invalid (`Invalid`); a `Y_k` value beyond the
     /// binary16 range (65504) in an f16 file (`Invalid`: convert an f32 file instead).
     pub fn to_plain_yk(&self, threads: usize) -> Result<OperatorFile, FormatError> {
+        let (channels, yk) = self.plain_yk(threads)?;
+        Ok(OperatorFile {
+            channels,
+            operator: OperatorData::PlainYk { yk },
+            ..self.clone_without_operator()
+        })
+    }
+
+    /// [`to_plain_yk`](Self::to_plain_yk) in place of `self`: every other section moves into
+    /// the result rather than being copied, and `F_k` is dropped once `Y_k` is made.
+    pub fn into_plain_yk(mut self, threads: usize) -> Result<OperatorFile, FormatError> {
+        let (channels, yk) = self.plain_yk(threads)?;
+        self.channels = channels;
+        self.operator = OperatorData::PlainYk { yk };
+        Ok(self)
+    }
+
+    /// The plain layout's channels and `Y_k` (see [`to_plain_yk`](Self::to_plain_yk)).
+    fn plain_yk(&self, threads: usize) -> Result<(u32, StoredMatrix), FormatError> {
         self.validate()?;
         let OperatorData::Factored { fk, cores } = &self.operator else {
             return Err(FormatError::invalid(
@@ -57,11 +76,7 @@ impl OperatorFile {
             Precision::F32 => StoredMatrix::F32(yk),
             Precision::F16 => StoredMatrix::F16(to_f16(&yk, n, k)?),
         };
-        Ok(OperatorFile {
-            channels: channels as u32,
-            operator: OperatorData::PlainYk { yk },
-            ..self.clone_without_operator()
-        })
+        Ok((channels as u32, yk))
     }
 
     /// A copy of every field but the operator (left as an empty plain `Y_k`).
@@ -191,6 +206,7 @@ mod tests {
             for threads in [2, 3, 7, 0] {
                 assert_eq!(f.to_plain_yk(threads).unwrap(), one);
             }
+            assert_eq!(f.clone().into_plain_yk(2).unwrap(), one);
             // The sample's reflectance is coloured: 3 blocks even from one core.
             assert_eq!(one.channels, 3);
             one.validate().unwrap();
@@ -225,7 +241,10 @@ mod tests {
         let want = expected(&f, 0, 3, 1);
         let got = f64::from(yk.get(3 * 2 + 1).unwrap());
         assert!((got - want).abs() <= want.abs() / 2048.0, "{got} vs {want}");
+        assert_eq!(f.into_plain_yk(1).unwrap(), plain);
         let e = plain.to_plain_yk(1).unwrap_err();
+        assert!(e.message.contains("already"), "{e}");
+        let e = plain.into_plain_yk(1).unwrap_err();
         assert!(e.message.contains("already"), "{e}");
     }
 }

@@ -274,6 +274,73 @@ pub struct Display {
     pub faces: Option<Faces>,
 }
 
+impl Display {
+    /// The length in bytes of the largest of the display sections' payloads as an operator
+    /// file encodes them: what writing the file (one section at a time,
+    /// [`OperatorFile::write`](crate::OperatorFile::write)) holds at once for its display.
+    pub fn largest_payload_bytes(&self) -> usize {
+        let names = |names: &mut dyn Iterator<Item = &str>| names.map(str::len).sum::<usize>();
+        let smooth = self.smooth.as_ref().map_or(0, |s| {
+            8 + 4 * (s.corners.len() + s.offsets.len() + s.positions.len() + s.weights.len())
+        });
+        let materials = self.materials.as_ref().map_or(0, |m| {
+            8 + 64 * m.materials.len()
+                + 4 * m.element_material.len()
+                + names(&mut m.materials.iter().map(|m| m.name.as_str()))
+        });
+        let records = |count: usize, rows: usize, name_bytes: usize| match count {
+            0 => 0,
+            _ => 8 + 16 * rows * count + name_bytes,
+        };
+        let point_lights = records(
+            self.point_lights.len(),
+            2,
+            names(&mut self.point_lights.iter().map(|l| l.name.as_str())),
+        );
+        let direct_lights = records(
+            self.direct_lights.len(),
+            4,
+            names(&mut self.direct_lights.iter().map(|l| l.name.as_str())),
+        );
+        let cameras = records(
+            self.cameras.len(),
+            3,
+            names(&mut self.cameras.iter().map(|c| c.name.as_str())),
+        );
+        let bvh = self
+            .bvh
+            .as_ref()
+            .map_or(0, |b| 8 + 32 * b.nodes.len() + 4 * b.triangles.len());
+        let lightmap = self.lightmap.as_ref().map_or(0, |l| 4 * l.uv.len());
+        let faces = self.faces.as_ref().map_or(0, |f| {
+            let count = f.element.len();
+            8 + 4 * count
+                + count.next_multiple_of(4)
+                + 4 * (f.geometry.vertices.len() + f.geometry.normals.len())
+        });
+        let sky = self.sky_transfer.as_ref().map_or(0, |t| 4 * t.len());
+        let atlas = match self.lightmap.as_ref().and_then(|l| l.atlas.as_ref()) {
+            Some(_) => 24,
+            None => 0,
+        };
+        [
+            smooth,
+            materials,
+            point_lights,
+            direct_lights,
+            cameras,
+            bvh,
+            lightmap,
+            faces,
+            sky,
+            atlas,
+        ]
+        .into_iter()
+        .max()
+        .unwrap_or(0)
+    }
+}
+
 /// Lightmap texture coordinates from the scene (glTF `TEXCOORD_1`): where each display face's
 /// corner lies in the user's lightmap atlas, `[0, 1]²` the atlas (values outside wrap or clamp as the
 /// user's sampler does; exports keep what falls inside).

@@ -25,21 +25,41 @@ pub(crate) struct Streamed<'a> {
     ) -> Result<(), FormatError>,
 }
 
-/// Builds a container: payloads are laid out in the order they are added.
-#[derive(Debug, Clone)]
-pub struct ContainerWriter {
-    major: u16,
-    minor: u16,
-    sections: Vec<(u32, u32, Vec<u8>)>,
+/// Hands a section's payload to its argument in consecutive pieces.
+type Pieces<'a> =
+    dyn Fn(&mut dyn FnMut(&[u8]) -> Result<(), FormatError>) -> Result<(), FormatError> + 'a;
+
+/// A section's payload: held, or made as the container is written (so that a writer holds one
+/// section's bytes at a time, or one piece of them, rather than the whole file).
+enum Payload<'a> {
+    Held(Vec<u8>),
+    Made(Box<Pieces<'a>>),
 }
 
-impl Default for ContainerWriter {
+/// Builds a container: payloads are laid out in the order they are added.
+pub struct ContainerWriter<'a> {
+    major: u16,
+    minor: u16,
+    sections: Vec<(u32, u32, Payload<'a>)>,
+}
+
+impl std::fmt::Debug for ContainerWriter<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let kinds: Vec<String> = self.sections.iter().map(|s| kind::describe(s.0)).collect();
+        f.debug_struct("ContainerWriter")
+            .field("version", &(self.major, self.minor))
+            .field("sections", &kinds)
+            .finish()
+    }
+}
+
+impl Default for ContainerWriter<'_> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl ContainerWriter {
+impl<'a> ContainerWriter<'a> {
     /// An empty container of version [`VERSION_MAJOR`].[`VERSION_MINOR`].
     pub fn new() -> Self {
         ContainerWriter {
@@ -60,6 +80,34 @@ impl ContainerWriter {
     /// # Panics
     /// If a section of `kind` was already added (a programming mistake: readers refuse such files).
     pub fn add(&mut self, kind: u32, required: bool, payload: Vec<u8>) {
+        self.push(kind, required, Payload::Held(payload));
+    }
+
+    /// Appends a section whose payload `encode` makes when the container is written, and
+    /// which is dropped once written.
+    pub(crate) fn add_encoded(
+        &mut self,
+        kind: u32,
+        required: bool,
+        encode: impl Fn() -> Vec<u8> + 'a,
+    ) {
+        self.add_pieces(kind, required, move |emit| emit(&encode()));
+    }
+
+    /// Appends a section whose payload `pieces` hands over in consecutive pieces when the
+    /// container is written. It must hand over the same bytes each time it is called, and fail
+    /// only where its argument does.
+    pub(crate) fn add_pieces(
+        &mut self,
+        kind: u32,
+        required: bool,
+        pieces: impl Fn(&mut dyn FnMut(&[u8]) -> Result<(), FormatError>) -> Result<(), FormatError>
+        + 'a,
+    ) {
+        self.push(kind, required, Payload::Made(Box::new(pieces)));
+    }
+
+    fn push(&mut self, kind: u32, required: bool, payload: Payload<'a>) {
         assert!(
             self.sections.iter().all(|s| s.0 != kind),
             "section {} added twice",
@@ -77,39 +125,11 @@ impl ContainerWriter {
     /// The file: header, table, then each payload at the next multiple of [`ALIGN`]. The file
     /// ends with the last payload (no trailing padding).
     pub fn to_bytes(&self) -> Vec<u8> {
-        let count = u32::try_from(self.sections.len()).expect("more than u32::MAX sections");
-        let table_end =
-            HEADER_LEN + (self.sections.len() * SECTION_ENTRY_LEN).next_multiple_of(ALIGN);
-        let total: usize = self.sections.iter().map(|s| s.2.len() + ALIGN).sum();
-        let mut out = Vec::with_capacity(table_end + total);
-        out.resize(table_end, 0);
-        let mut entries = Vec::with_capacity(self.sections.len());
-        for (kind, flags, payload) in &self.sections {
-            let offset = out.len().next_multiple_of(ALIGN);
-            out.resize(offset, 0);
-            out.extend_from_slice(payload);
-            entries.push([
-                u64::from(*kind) | u64::from(*flags) << 32,
-                offset as u64,
-                payload.len() as u64,
-                checksum(payload),
-                0,
-            ]);
-        }
-        out[..8].copy_from_slice(&MAGIC);
-        out[8..10].copy_from_slice(&self.major.to_le_bytes());
-        out[10..12].copy_from_slice(&self.minor.to_le_bytes());
-        out[12..16].copy_from_slice(&count.to_le_bytes());
-        // Bytes 16..20: header flags, 0. 20..28: checksum, zero while hashing.
-        for (i, entry) in entries.iter().enumerate() {
-            let at = HEADER_LEN + i * SECTION_ENTRY_LEN;
-            for (j, word) in entry.iter().enumerate() {
-                out[at + 8 * j..at + 8 * j + 8].copy_from_slice(&word.to_le_bytes());
-            }
-        }
-        let sum = header_checksum(&out[..table_end]);
-        out[HEADER_CHECKSUM_OFFSET..HEADER_CHECKSUM_OFFSET + 8].copy_from_slice(&sum.to_le_bytes());
-        out
+        let mut out = std::io::Cursor::new(Vec::new());
+        self.write_to(&mut out, None).expect(
+            "a container written to memory cannot fail: its pieces fail only where the writer does",
+        );
+        out.into_inner()
     }
 
     /// Writes the container with one more section, `streamed`, whose payload is never held
@@ -121,46 +141,80 @@ impl ContainerWriter {
         out: &mut (impl Write + Seek),
         streamed: Streamed<'_>,
     ) -> Result<(), FormatError> {
+        self.write_to(out, Some(streamed))
+    }
+
+    /// Writes the container (with `streamed` among its sections, when given) to `out`, which
+    /// must start empty: the payloads one after another, each made, written and dropped in
+    /// turn, then the header and table (their checksums need the payloads).
+    pub(crate) fn write_to(
+        &self,
+        out: &mut (impl Write + Seek),
+        mut streamed: Option<Streamed<'_>>,
+    ) -> Result<(), FormatError> {
         let io = |e: std::io::Error| FormatError::new(ErrorKind::Io, e.to_string());
-        let count = self.sections.len() + 1;
+        let count = self.sections.len() + usize::from(streamed.is_some());
         let count32 = u32::try_from(count).expect("more than u32::MAX sections");
         let table_end = HEADER_LEN + (count * SECTION_ENTRY_LEN).next_multiple_of(ALIGN);
         out.write_all(&vec![0u8; table_end]).map_err(io)?;
         let mut at = table_end as u64;
         let mut entries = Vec::with_capacity(count);
         let flags = |required: bool| if required { FLAG_REQUIRED } else { 0 };
+        let mut held = self.sections.iter();
         for i in 0..count {
             let offset = at.next_multiple_of(ALIGN as u64);
             out.write_all(&vec![0u8; (offset - at) as usize])
                 .map_err(io)?;
-            let (kind, flags, len, sum) = if i == streamed.at {
-                let mut hash = Xxh64::new();
-                let mut written = 0u64;
-                (streamed.fill)(&mut |piece: &[u8]| {
-                    written += piece.len() as u64;
-                    if written > streamed.len {
+            let (kind, flags, len, sum) = match streamed.as_mut().filter(|s| s.at == i) {
+                Some(streamed) => {
+                    let mut hash = Xxh64::new();
+                    let mut written = 0u64;
+                    (streamed.fill)(&mut |piece: &[u8]| {
+                        written += piece.len() as u64;
+                        if written > streamed.len {
+                            return Err(FormatError::invalid(format!(
+                                "section {}: more than the {} bytes announced",
+                                kind::describe(streamed.kind),
+                                streamed.len
+                            )));
+                        }
+                        hash.update(piece);
+                        out.write_all(piece).map_err(io)
+                    })?;
+                    if written != streamed.len {
                         return Err(FormatError::invalid(format!(
-                            "section {}: more than the {} bytes announced",
+                            "section {}: {written} bytes written, {} announced",
                             kind::describe(streamed.kind),
                             streamed.len
                         )));
                     }
-                    hash.update(piece);
-                    out.write_all(piece).map_err(io)
-                })?;
-                if written != streamed.len {
-                    return Err(FormatError::invalid(format!(
-                        "section {}: {written} bytes written, {} announced",
-                        kind::describe(streamed.kind),
-                        streamed.len
-                    )));
+                    (
+                        streamed.kind,
+                        flags(streamed.required),
+                        written,
+                        hash.finish(),
+                    )
                 }
-                let kind = streamed.kind;
-                (kind, flags(streamed.required), written, hash.finish())
-            } else {
-                let (kind, flags, payload) = &self.sections[i - usize::from(i > streamed.at)];
-                out.write_all(payload).map_err(io)?;
-                (*kind, *flags, payload.len() as u64, checksum(payload))
+                None => {
+                    let (kind, flags, payload) = held.next().expect("a section for each entry");
+                    let (len, sum) = match payload {
+                        Payload::Held(bytes) => {
+                            out.write_all(bytes).map_err(io)?;
+                            (bytes.len() as u64, checksum(bytes))
+                        }
+                        Payload::Made(pieces) => {
+                            let mut hash = Xxh64::new();
+                            let mut written = 0u64;
+                            pieces(&mut |piece: &[u8]| {
+                                written += piece.len() as u64;
+                                hash.update(piece);
+                                out.write_all(piece).map_err(io)
+                            })?;
+                            (written, hash.finish())
+                        }
+                    };
+                    (*kind, *flags, len, sum)
+                }
             };
             entries.push([
                 u64::from(kind) | u64::from(flags) << 32,
@@ -176,6 +230,7 @@ impl ContainerWriter {
         head[8..10].copy_from_slice(&self.major.to_le_bytes());
         head[10..12].copy_from_slice(&self.minor.to_le_bytes());
         head[12..16].copy_from_slice(&count32.to_le_bytes());
+        // Bytes 16..20: header flags, 0. 20..28: checksum, zero while hashing.
         for (i, entry) in entries.iter().enumerate() {
             let at = HEADER_LEN + i * SECTION_ENTRY_LEN;
             for (j, word) in entry.iter().enumerate() {

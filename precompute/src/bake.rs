@@ -44,6 +44,9 @@ pub struct BakeSettings {
     /// Refinement where light changes ([`crate::refine`]): split elements where a first
     /// solve jumps between neighbours, adding at most this share of n; `None`: no refinement.
     pub refine: Option<f64>,
+    /// How the operator file will be stored: planned with the other stages, before the form
+    /// factors ([`crate::storage::write_bytes`]).
+    pub storage: crate::storage::Storage,
 }
 
 impl Default for BakeSettings {
@@ -58,6 +61,7 @@ impl Default for BakeSettings {
             max_memory: None,
             checkpoint: None,
             refine: None,
+            storage: crate::storage::Storage::default(),
         }
     }
 }
@@ -495,6 +499,13 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             prepared.occluder.as_deref(),
             progress,
             settings.max_memory,
+        )?;
+        crate::storage::check_memory(
+            (prepared.mesh.n(), prepared.mesh.k(), prepared.channels()),
+            settings.storage,
+            scene.surfaces.len(),
+            &display,
+            (progress, settings.max_memory),
         )?;
         let ff = prepared.form_factors(settings.samples);
         let (fk, checkpoint) = prepared.element_patch_matrix(

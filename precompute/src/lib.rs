@@ -49,6 +49,7 @@ pub mod radiosity;
 pub mod refine;
 pub mod scene;
 pub mod shard;
+pub mod storage;
 pub mod visibility;
 pub mod write;
 

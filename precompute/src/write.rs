@@ -12,6 +12,7 @@ use crate::cores::Cores;
 use crate::error::Result;
 use crate::mesh::MeshSizes;
 use crate::patches::{Mesh, PatchMethod};
+pub use crate::storage::{Storage, WRITE_BYTES_PER_ELEMENT, write_bytes};
 
 /// Everything an operator file holds but `F_k` and the cores, in file order: what a bake
 /// writes around its matrix, and what every shard of a sharded bake carries to the merge
@@ -139,6 +140,30 @@ impl Skeleton {
     /// f32, without light groups (the display's point lights name them: add them with
     /// [`add_light_groups`](Self::add_light_groups) before the file is validated).
     pub(crate) fn file(&self, fk: StoredMatrix, cores: &Cores) -> OperatorFile {
+        OperatorFile {
+            order: self.order.clone(),
+            index: self.index.clone(),
+            geometry: self.geometry.clone(),
+            display: self.display.clone(),
+            ..self.bare_file(fk, cores)
+        }
+    }
+
+    /// [`file`](Self::file), its largest parts (the order, the index, the geometry and the
+    /// display) moved out of `self` rather than copied.
+    fn take_file(&mut self, fk: StoredMatrix, cores: &Cores) -> OperatorFile {
+        let file = self.bare_file(fk, cores);
+        OperatorFile {
+            order: std::mem::take(&mut self.order),
+            index: std::mem::take(&mut self.index),
+            geometry: std::mem::take(&mut self.geometry),
+            display: std::mem::take(&mut self.display),
+            ..file
+        }
+    }
+
+    /// [`file`](Self::file) without the order, the index, the geometry and the display.
+    fn bare_file(&self, fk: StoredMatrix, cores: &Cores) -> OperatorFile {
         let flat = |v: &[[f64; 3]]| {
             v.iter()
                 .flat_map(|x| x.map(|c| c as f32))
@@ -150,8 +175,8 @@ impl Skeleton {
             k: self.k() as u32,
             channels: cores.channels as u32,
             precision: fk.precision(),
-            order: self.order.clone(),
-            index: self.index.clone(),
+            order: Vec::new(),
+            index: Vec::new(),
             weights: self.weights.iter().map(|&w| w as f32).collect(),
             operator: OperatorData::Factored {
                 fk,
@@ -159,10 +184,29 @@ impl Skeleton {
             },
             reflectance: flat(&self.reflectance),
             emission: flat(&self.emission),
-            geometry: self.geometry.clone(),
+            geometry: Geometry::default(),
             lights: Vec::new(),
-            display: self.display.clone(),
+            display: Display::default(),
         }
+    }
+
+    /// The operator file stored as asked ([`stored_file`]), made from `self`.
+    fn into_stored(
+        mut self,
+        fk: StoredMatrix,
+        cores: &Cores,
+        storage: Storage,
+    ) -> Result<OperatorFile> {
+        let mut file = self.take_file(fk, cores);
+        self.add_light_groups(&mut file)?;
+        drop(self);
+        if storage.precision != file.precision {
+            store_matrix_as(&mut file, storage.precision);
+        }
+        if storage.layout == Layout::PlainYk {
+            file = file.into_plain_yk(0)?;
+        }
+        Ok(file)
     }
 
     /// The metadata section's JSON ([`Metadata`]).
@@ -219,24 +263,6 @@ pub(crate) fn f32_matrix(fk: &[f64]) -> StoredMatrix {
     StoredMatrix::F32(fk.iter().map(|&f| f as f32).collect())
 }
 
-/// How the operator is stored in the file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Storage {
-    /// Number format of the stored matrix (f32 or f16).
-    pub precision: Precision,
-    /// Factored (`F_k` + cores) or the plain per-channel `Y_k`.
-    pub layout: Layout,
-}
-
-impl Default for Storage {
-    fn default() -> Self {
-        Self {
-            precision: Precision::F32,
-            layout: Layout::Factored,
-        }
-    }
-}
-
 /// The operator file of a bake stored as asked, with one light group per emitting surface
 /// (named after the surface; its elements at their baked emission).
 pub(crate) fn stored_file(b: &Baked, storage: Storage) -> Result<OperatorFile> {
@@ -245,33 +271,33 @@ pub(crate) fn stored_file(b: &Baked, storage: Storage) -> Result<OperatorFile> {
 
 /// [`stored_file`] with `F_k` given in f32 (`fk`, file order).
 fn stored_file_with(b: &Baked, fk: StoredMatrix, storage: Storage) -> Result<OperatorFile> {
-    let skeleton = Skeleton::of(b);
-    let mut file = skeleton.file(fk, &b.cores);
-    skeleton.add_light_groups(&mut file)?;
-    if storage.precision != file.precision {
-        store_matrix_as(&mut file, storage.precision);
-    }
-    if storage.layout == Layout::PlainYk {
-        file = file.to_plain_yk(0)?;
-    }
-    Ok(file)
+    Skeleton::of(b).into_stored(fk, &b.cores, storage)
 }
 
 /// Stores a factored file's `F_k` in `precision` (rounding once from its current values).
 pub fn store_matrix_as(file: &mut OperatorFile, precision: Precision) {
     if let OperatorData::Factored { fk, .. } = &mut file.operator {
-        *fk = StoredMatrix::from_f32(&fk.to_f32(), precision);
+        let stored = match &*fk {
+            StoredMatrix::F32(v) => StoredMatrix::from_f32(v, precision),
+            other => StoredMatrix::from_f32(&other.to_f32(), precision),
+        };
+        *fk = stored;
     }
     file.precision = precision;
 }
 
 /// Writes the bake's operator file atomically (temporary file + rename) and returns it. The
 /// bake's `F_k` in f64 is released as its f32 copy is made ([`into_f32`]; `b.fk` is empty
-/// after), and the file's `F_k` goes to disk in pieces ([`OperatorFile::write`]): the write
-/// stage holds about what the bake held, not three more copies of the matrix.
+/// after), its display moves into the file (`b.display` is empty after), and the file is
+/// encoded section by section as it is written, its `F_k` in pieces
+/// ([`OperatorFile::write`]): the write stage holds about what the bake held, not copies of
+/// the matrix or of the display. [`write_bytes`] plans it.
 pub fn write(b: &mut Baked, path: &Path, storage: Storage) -> Result<OperatorFile> {
     let fk = into_f32(std::mem::take(&mut b.fk));
-    let file = stored_file_with(b, StoredMatrix::F32(fk), storage)?;
+    let display = std::mem::take(&mut b.display);
+    let mut skeleton = Skeleton::of(b);
+    skeleton.display = display;
+    let file = skeleton.into_stored(StoredMatrix::F32(fk), &b.cores, storage)?;
     file.write(path)?;
     Ok(file)
 }

@@ -82,6 +82,7 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use super::model::{BakeDefaults, Camera, DirectLight, Material, Optics, PointLight, Scene};
+use super::texture::Budget;
 use crate::error::{Error, Result};
 
 /// A parsed scene description file (the TOML above).
@@ -584,6 +585,17 @@ impl SceneDescription {
 
     /// Builds the scene; `base` is the folder relative includes are resolved against.
     pub fn build(&self, origin: &str, base: &Path) -> Result<Scene> {
+        let budget = Budget {
+            planned: 0,
+            max_memory: None,
+        };
+        self.build_within(origin, base, budget)
+            .map(|(scene, _)| scene)
+    }
+
+    /// [`build`](Self::build), the includes' images planned beside `budget` as they are
+    /// decoded; answers the bytes planned in all.
+    fn build_within(&self, origin: &str, base: &Path, mut budget: Budget) -> Result<(Scene, u128)> {
         let mut scene = Scene::new(self.name.clone().unwrap_or_else(|| stem(origin)));
         if !(self.scale.is_finite() && self.scale > 0.0) {
             return Err(Error::scene(
@@ -647,8 +659,16 @@ impl SceneDescription {
         }
         for (i, inc) in self.includes.iter().enumerate() {
             let sub = match (&inc.obj, &inc.gltf) {
-                (Some(obj), None) => super::obj::load(&base.join(obj))?,
-                (None, Some(gltf)) => super::gltf::load(&base.join(gltf))?,
+                (Some(obj), None) => {
+                    let (scene, planned) = super::obj::load_within(&base.join(obj), budget)?;
+                    budget.planned = planned;
+                    scene
+                }
+                (None, Some(gltf)) => {
+                    let (scene, planned) = super::gltf::load_within(&base.join(gltf), budget)?;
+                    budget.planned = planned;
+                    scene
+                }
                 _ => {
                     return Err(Error::scene(
                         origin,
@@ -688,7 +708,7 @@ impl SceneDescription {
                 ));
             }
         }
-        Ok(scene)
+        Ok((scene, budget.planned))
     }
 
     /// `[[material_override]]`: every material of the name changes; a name that matches none
@@ -1288,7 +1308,14 @@ pub(crate) fn load_within(
             planned = super::import::check_import(&base.join(file), planned, per_byte, max_memory)?;
         }
     }
-    Ok((desc.build(&origin, base)?, planned))
+    desc.build_within(
+        &origin,
+        base,
+        Budget {
+            planned,
+            max_memory,
+        },
+    )
 }
 
 #[cfg(test)]

@@ -35,7 +35,7 @@ use glam::{DMat4, DQuat, DVec3};
 use gltf::json;
 
 use super::model::{Camera, DirectLight, Material, Optics, PointLight, Scene, clamp_reflectance};
-use super::texture::{self, Texture, TextureBinding, UvMap, Wrap};
+use super::texture::{self, Budget, Texture, TextureBinding, UvMap, Wrap};
 use crate::error::{Error, Result};
 
 /// The extensions this importer reads (everything else is refused when required, warned about
@@ -56,16 +56,42 @@ const DEFAULT_REFLECTANCE: f64 = 0.5;
 
 /// Loads a `.gltf` or `.glb` file; external buffers and images must lie in its folder.
 pub fn load(path: &Path) -> Result<Scene> {
+    load_within(
+        path,
+        Budget {
+            planned: 0,
+            max_memory: None,
+        },
+    )
+    .map(|(scene, _)| scene)
+}
+
+/// [`load`], each image planned before it is decoded beside `budget`; answers the bytes
+/// planned in all.
+pub(crate) fn load_within(path: &Path, budget: Budget) -> Result<(Scene, u128)> {
     let origin = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("scene");
-    import(&bytes, base, name, &origin)
+    import_within(&bytes, (base, name, &origin), budget)
 }
 
 /// Imports glTF or GLB bytes; `base` is the folder relative URIs are resolved in (and must stay
 /// in), `name` the scene name, `origin` the file name for messages.
 pub fn import(bytes: &[u8], base: &Path, name: &str, origin: &str) -> Result<Scene> {
+    let budget = Budget {
+        planned: 0,
+        max_memory: None,
+    };
+    import_within(bytes, (base, name, origin), budget).map(|(scene, _)| scene)
+}
+
+/// [`import`] within `budget` (see [`load_within`]).
+fn import_within(
+    bytes: &[u8],
+    (base, name, origin): (&Path, &str, &str),
+    budget: Budget,
+) -> Result<(Scene, u128)> {
     let err = |msg: String| Error::scene(origin, msg);
     let (json_bytes, blob) = if bytes.starts_with(b"glTF") {
         split_glb(bytes).map_err(|m| err(format!("malformed GLB: {m}")))?
@@ -87,6 +113,7 @@ pub fn import(bytes: &[u8], base: &Path, name: &str, origin: &str) -> Result<Sce
         buffers: HashMap::new(),
         materials: HashMap::new(),
         textures: HashMap::new(),
+        budget,
         scene,
     };
     importer.buffers_checked()?;
@@ -111,7 +138,7 @@ pub fn import(bytes: &[u8], base: &Path, name: &str, origin: &str) -> Result<Sce
             stack.push((child.index(), world));
         }
     }
-    Ok(importer.scene)
+    Ok((importer.scene, importer.budget.planned))
 }
 
 /// The JSON chunk and the optional BIN chunk of a GLB container.
@@ -248,6 +275,8 @@ struct Importer<'a> {
     materials: HashMap<Option<usize>, usize>,
     /// glTF texture index → `Scene::textures`.
     textures: HashMap<usize, usize>,
+    /// What the import may use; each image is planned before it is decoded.
+    budget: Budget,
     scene: Scene,
 }
 
@@ -722,7 +751,7 @@ impl<'a> Importer<'a> {
             };
             match avg {
                 Ok(avg) => c = [0, 1, 2].map(|i| c[i] * avg[i]),
-                Err(e) => self.texture_left_out(e, "baseColorFactor"),
+                Err(e) => self.texture_left_out(e, "baseColorFactor")?,
             }
         }
         let clamp01 = |x: f32| f64::from(x).clamp(0.0, 1.0);
@@ -773,7 +802,7 @@ impl<'a> Importer<'a> {
                     let avg = t.average();
                     radiance = [0, 1, 2].map(|i| radiance[i] * avg[i]);
                 }
-                Err(e) => self.texture_left_out(e, "emissiveFactor"),
+                Err(e) => self.texture_left_out(e, "emissiveFactor")?,
             }
         }
         let transmission = c.map(|c| c * (1.0 - metal) * trans);
@@ -814,12 +843,18 @@ impl<'a> Importer<'a> {
 
     /// Warns that a texture that could not be read or decoded (`e` says which and why) is left
     /// out, the material's `factor` standing alone: a lighting bake needs the texture's colour,
-    /// not its presence, and a scene with one missing image still bakes.
-    fn texture_left_out(&mut self, e: Error, factor: &str) {
+    /// not its presence, and a scene with one missing image still bakes. An image too large
+    /// for the memory (`Error::Limits`) is refused instead: leaving it out would bake other
+    /// colours than the file's without being asked to.
+    fn texture_left_out(&mut self, e: Error, factor: &str) -> Result<()> {
+        if let Error::Limits(_) = e {
+            return Err(e);
+        }
         self.scene.warnings.push(format!(
             "{e}; the texture is left out and the material's {factor} used alone (put the \
              image next to the glTF, or convert it to PNG or JPEG)"
         ));
+        Ok(())
     }
 
     /// A base colour texture in `Scene::textures` (decoded once per glTF texture).
@@ -835,7 +870,7 @@ impl<'a> Importer<'a> {
     }
 
     /// A texture's image decoded, with its sampler's wrap modes.
-    fn decode(&self, texture: &gltf::Texture, user: &str) -> Result<Texture> {
+    fn decode(&mut self, texture: &gltf::Texture, user: &str) -> Result<Texture> {
         let index = texture.source().index();
         let image = &self.doc.as_json().images[index];
         let what = format!("{user}: image {index}");
@@ -858,6 +893,8 @@ impl<'a> Importer<'a> {
             gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
             gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
         };
+        let image_name = format!("{}: {what}", self.origin);
+        self.budget.room_for(&encoded, &image_name)?;
         let sampler = texture.sampler();
         let name = image
             .name

@@ -40,7 +40,9 @@ pub fn load(path: &std::path::Path) -> Result<Scene> {
 /// [`IMPORT_BYTES_PER_FILE_BYTE`] times its size ([`DESCRIPTION_BYTES_PER_BYTE`] for a scene
 /// description) does not fit `max_memory` (`--max-memory`; 80% of the available memory
 /// without one); a description's faces ([`IMPORT_BYTES_PER_FACE`]) and includes are planned
-/// beside its own bytes once it is parsed. Also answers the bytes planned.
+/// beside its own bytes once it is parsed, and each texture image, from the size its header
+/// declares, before it is decoded ([`texture::DECODE_BYTES_PER_TEXEL`]; 3 bytes a texel kept
+/// after). Also answers the bytes planned.
 pub fn load_within(path: &std::path::Path, max_memory: Option<u64>) -> Result<(Scene, u128)> {
     let ext = path
         .extension()
@@ -60,8 +62,20 @@ pub fn load_within(path: &std::path::Path, max_memory: Option<u64>) -> Result<(S
     let own = check_import(path, 0, per_byte, max_memory)?;
     let (mut scene, planned) = match ext.as_str() {
         "toml" => description::load_within(path, (own, max_memory))?,
-        "obj" => (obj::load(path)?, own),
-        _ => (gltf::load(path)?, own),
+        "obj" => obj::load_within(
+            path,
+            texture::Budget {
+                planned: own,
+                max_memory,
+            },
+        )?,
+        _ => gltf::load_within(
+            path,
+            texture::Budget {
+                planned: own,
+                max_memory,
+            },
+        )?,
     };
     scene.validate(&path.display().to_string())?;
     if let Some(w) = scene.partial_lightmap_warning() {

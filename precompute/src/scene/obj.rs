@@ -31,7 +31,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::model::{Material, Optics, Scene, clamp_reflectance};
-use super::texture::{self, TextureBinding, UvMap, Wrap};
+use super::texture::{self, Budget, TextureBinding, UvMap, Wrap};
 use crate::error::{Error, Result};
 
 /// Reflectance used for faces without a material (with a warning).
@@ -56,10 +56,14 @@ fn face_uv(vertices: &[DVec3], indices: &[u32], texcoords: &[f64]) -> Option<UvM
 /// The texture of a `map_Kd` statement (`spec`: options, then the image's path), decoded once
 /// per image into `scene.textures`. Of the options, `-clamp on` clamps the coordinates to the
 /// image (else it repeats); the others are skipped with a warning.
+#[allow(clippy::type_complexity)]
 fn diffuse_map(
     spec: &str,
-    folders: &[std::path::PathBuf],
-    images: &mut HashMap<(std::path::PathBuf, Wrap), usize>,
+    (folders, images, budget): (
+        &[std::path::PathBuf],
+        &mut HashMap<(std::path::PathBuf, Wrap), usize>,
+        &mut Budget,
+    ),
     scene: &mut Scene,
     location: &str,
 ) -> Result<usize> {
@@ -112,6 +116,7 @@ fn diffuse_map(
     }
     let what = format!("{location}: map_Kd image {}", path.display());
     let bytes = std::fs::read(&path).map_err(|e| Error::scene(&what, e.to_string()))?;
+    budget.room_for(&bytes, &what)?;
     let decoded = texture::decode(&bytes, file.clone(), [wrap, wrap])
         .map_err(|e| Error::scene(location, format!("map_Kd image {}{e}", path.display())))?;
     scene.textures.push(decoded);
@@ -122,6 +127,16 @@ fn diffuse_map(
 
 /// Loads an OBJ file (and the MTL files it names).
 pub fn load(path: &Path) -> Result<Scene> {
+    let budget = Budget {
+        planned: 0,
+        max_memory: None,
+    };
+    load_within(path, budget).map(|(scene, _)| scene)
+}
+
+/// [`load`], each `map_Kd` image planned before it is decoded beside `budget`; answers the
+/// bytes planned in all.
+pub(crate) fn load_within(path: &Path, mut budget: Budget) -> Result<(Scene, u128)> {
     let origin = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let face_lines = prescan(&bytes, &origin)?;
@@ -169,7 +184,8 @@ pub fn load(path: &Path) -> Result<Scene> {
         };
         let mut texture = None;
         if let Some(spec) = &m.diffuse_texture {
-            match diffuse_map(spec, &image_folders, &mut images, &mut scene, &mtl_location) {
+            let images = (&image_folders[..], &mut images, &mut budget);
+            match diffuse_map(spec, images, &mut scene, &mtl_location) {
                 Ok(id) => {
                     // The map multiplies Kd (1 where the MTL gives none).
                     let factor = m.diffuse.unwrap_or([1.0; 3]);
@@ -185,6 +201,9 @@ pub fn load(path: &Path) -> Result<Scene> {
                         scale: factor,
                     });
                 }
+                // Too large for the memory: refused, not left out (other colours than the
+                // file's, unasked).
+                Err(e @ Error::Limits(_)) => return Err(e),
                 Err(e) => scene.warnings.push(format!(
                     "{e}; the texture is left out and the material's Kd used alone (put the \
                      image next to the OBJ or its MTL, or convert it to PNG or JPEG)"
@@ -269,7 +288,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             scene.add_polygon_uv(&vertices, material, surface, [uv, None], &location)?;
         }
     }
-    Ok(scene)
+    Ok((scene, budget.planned))
 }
 
 fn materials_per_group(models: &[tobj::Model]) -> HashMap<String, usize> {

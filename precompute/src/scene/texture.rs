@@ -112,6 +112,54 @@ impl Texture {
 /// Largest image (width × height) a texture may decode to.
 const MAX_TEXELS: u64 = 1 << 26;
 
+/// Bytes an image may take per texel while it decodes: the decoder's image (up to 8 for
+/// 16-bit RGBA), its RGB8 copy (3) and the texture's own texels (3), rounded up.
+pub(crate) const DECODE_BYTES_PER_TEXEL: u128 = 16;
+/// Bytes a decoded texture keeps per texel (RGB8).
+const KEPT_BYTES_PER_TEXEL: u128 = 3;
+
+/// The memory an import plans against `--max-memory`: its files' estimate so far, then each
+/// image as it is decoded ([`Budget::room_for`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Budget {
+    /// Bytes planned so far (files, faces, textures kept).
+    pub planned: u128,
+    pub max_memory: Option<u64>,
+}
+
+impl Budget {
+    /// Refuses decoding `encoded` (the image `what`) when its texels, from its header, would
+    /// not fit beside what is planned: [`DECODE_BYTES_PER_TEXEL`] each; then counts the
+    /// texture it keeps. An image whose header cannot be read is left to [`decode`]'s error.
+    pub(crate) fn room_for(&mut self, encoded: &[u8], what: &str) -> crate::error::Result<()> {
+        let Some((width, height)) = dimensions(encoded) else {
+            return Ok(());
+        };
+        let texels = u128::from(width) * u128::from(height);
+        crate::memory::check_then(
+            self.planned + texels * DECODE_BYTES_PER_TEXEL,
+            self.max_memory,
+            || format!("decoding {what} ({width}×{height} texels)"),
+            |_| {
+                "use a smaller image (a bake needs its colours, not its detail), or raise \
+                 --max-memory"
+                    .to_string()
+            },
+        )?;
+        self.planned += texels * KEPT_BYTES_PER_TEXEL;
+        Ok(())
+    }
+}
+
+/// The width and height a PNG or JPEG image declares in its header, without decoding it.
+pub(crate) fn dimensions(encoded: &[u8]) -> Option<(u32, u32)> {
+    image::io::Reader::new(std::io::Cursor::new(encoded))
+        .with_guessed_format()
+        .ok()?
+        .into_dimensions()
+        .ok()
+}
+
 /// Decodes a PNG or JPEG image (`encoded`) into a texture with wrap modes `[u, v]`. The error
 /// reads on after the image's name: `": …"` or `" cannot be decoded …"`.
 pub(crate) fn decode(
@@ -381,5 +429,44 @@ mod tests {
         let l = element_average(&tex, &lut, &map, &quad(0.0, 0.5));
         let r = element_average(&tex, &lut, &map, &quad(0.5, 1.0));
         assert!(((l[0] + r[0]) / 2.0 - whole[0]).abs() < 1e-3);
+    }
+
+    #[test]
+    fn images_are_planned_from_their_headers_before_they_are_decoded() {
+        let png = |side: u32| {
+            let mut out = Vec::new();
+            image::ImageEncoder::write_image(
+                image::codecs::png::PngEncoder::new(&mut out),
+                &vec![7u8; (3 * side * side) as usize],
+                side,
+                side,
+                image::ColorType::Rgb8,
+            )
+            .unwrap();
+            out
+        };
+        let big = png(1024);
+        assert_eq!(dimensions(&big), Some((1024, 1024)));
+        assert_eq!(dimensions(b"not an image"), None);
+        // 2^20 texels: 16 MiB to decode beside 1 MiB already planned.
+        let mut budget = Budget {
+            planned: 1 << 20,
+            max_memory: Some(16 << 20),
+        };
+        let e = budget.room_for(&big, "floor.glb: image 0").unwrap_err();
+        assert!(matches!(e, crate::error::Error::Limits(_)), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("decoding floor.glb: image 0 (1024×1024 texels) needs about 17.0"),
+            "{e}"
+        );
+        assert_eq!(budget.planned, 1 << 20);
+        // With room: the texture it keeps (3 bytes a texel) is counted; an unreadable header
+        // is left to the decoder's own error.
+        budget.max_memory = Some(17 << 20);
+        budget.room_for(&big, "floor.glb: image 0").unwrap();
+        assert_eq!(budget.planned, (1 << 20) + 3 * (1 << 20));
+        budget.room_for(b"not an image", "x").unwrap();
+        assert_eq!(budget.planned, 4 << 20);
     }
 }

@@ -176,7 +176,7 @@ fn write_plain(
     if settings.storage.precision != file.precision {
         write::store_matrix_as(&mut file, settings.storage.precision);
     }
-    file.to_plain_yk(0)?.write(output)?;
+    file.into_plain_yk(0)?.write(output)?;
     Ok(())
 }
 

@@ -72,6 +72,11 @@ fn texcoords(b: &mut Builder, uv: &[[f64; 2]], component: u32) -> usize {
 /// seen from above) under the textured material, and a lamp above it; `component` encodes the
 /// texture coordinates.
 pub fn textured_floor(component: u32) -> Builder {
+    textured_floor_with(component, &png_blocks())
+}
+
+/// [`textured_floor`] with the image `png`.
+fn textured_floor_with(component: u32, png: &[u8]) -> Builder {
     let mut b = Builder::default();
     let floor = b.positions(&[
         [0.0, 0.0, 0.0],
@@ -92,8 +97,7 @@ pub fn textured_floor(component: u32) -> Builder {
         [1.5, 0.5, 1.0],
     ]);
     let lamp_idx = b.indices(&[0, 1, 2, 0, 2, 3]);
-    let png = png_blocks();
-    let img = b.view(&png, None);
+    let img = b.view(png, None);
     b.push(
         "images",
         json!({"bufferView": img, "mimeType": "image/png"}),
@@ -412,4 +416,38 @@ fn bad_texture_coordinates_are_refused_with_the_accessor_named() {
         }
         assert!(e.starts_with("floor.gltf"), "{e}");
     }
+}
+
+/// An image is planned from the size its header declares before it is decoded (16 bytes a
+/// texel): a 2048 × 2048 PNG of one grey (tens of kB of file) plans 64 MiB beside the file's
+/// own, so at 32 MiB the bake is refused in one line naming the image, not left to allocate;
+/// within the default limit it bakes.
+#[test]
+fn an_image_too_large_for_the_memory_is_refused_before_it_is_decoded() {
+    let dir = temp_dir("gltf-texture-memory");
+    let side = 2048u32;
+    let mut png = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut png),
+        &vec![128u8; (3 * side * side) as usize],
+        side,
+        side,
+        image::ColorType::Rgb8,
+    )
+    .unwrap();
+    assert!(png.len() < 1 << 20, "{} bytes", png.len());
+    let path = dir.join("floor.glb");
+    std::fs::write(&path, textured_floor_with(5126, &png).glb()).unwrap();
+    let out = dir.join("floor.lrr");
+    let err = bake(&path, &out, &["--max-memory", "32M"]).unwrap_err();
+    assert!(
+        err.contains("decoding ")
+            && err.contains("image 0 (2048×2048 texels) needs about ")
+            && err.contains("but only 32.0 MiB can be used")
+            && err.contains("use a smaller image"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    bake(&path, &out, &FLOOR_BAKE).unwrap();
+    assert!(out.exists());
 }

@@ -7,13 +7,14 @@
 //! within issue #31's 4 GB, every stage that plans its buffers before allocating them
 //! ([`PLANNED`]: the import, the occlusion BVH, meshing with 2MSC's probes, the first pass's
 //! matrix and its solve's cores, the display BVH, the smooth weights, the lightmap's charts,
-//! the form factors' matrix, the cores `(I − VᵀU)⁻¹`: what `--max-memory` is checked against)
+//! the form factors' matrix, the cores `(I − VᵀU)⁻¹`, the file's writing: what `--max-memory`
+//! is checked against)
 //! stays within the estimate (the process's peak by the stage's end at most what was resident
 //! when it began plus the estimate and [`SCRATCH`], or the peak before it began: a stage that
 //! stays under an earlier peak is not seen), every surface's radiosity is finite, the surfaces
 //! the light reaches are lit, and `lrr render` of the file shows no NaN. (The enclosure tests
-//! are planned too, 9 bytes an element, too little to tell from the worker scratch; the
-//! file's writing is not planned; the whole bake's peak is held to the 4 GB goal only.)
+//! are planned too, 9 bytes an element, too little to tell from the worker scratch; the whole
+//! bake's peak is held to the 4 GB goal only.)
 //!
 //! The bound on n is today's: `4 A / h² + 2 F` before the refinement's 20% (subdivision halves
 //! a face until its elements are at most the element size `h`, so they are at least `h² / 4`
@@ -46,7 +47,7 @@ const SCRATCH: f64 = THREADS as f64 * SCRATCH_PER_THREAD;
 
 /// The stages of a default bake that plan their buffers (`Progress::estimate`), each of
 /// which the report must give an estimate for.
-const PLANNED: [&str; 10] = [
+const PLANNED: [&str; 11] = [
     "import",
     "visibility",
     "mesh",
@@ -57,6 +58,7 @@ const PLANNED: [&str; 10] = [
     "lightmap",
     "form factors",
     "operator",
+    "write",
 ];
 
 /// A scene of the corpus.

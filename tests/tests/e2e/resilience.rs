@@ -475,3 +475,28 @@ fn a_refusal_without_max_memory_names_what_sets_the_limit() {
     );
     assert!(!out.exists());
 }
+
+/// The file's writing is planned before the form factors: the plain layout in f16 makes its
+/// `Y_k` in f32 and f16 beside `F_k` (11.0 MiB on the Cornell box, more than any stage before
+/// it, whose largest is meshing at 7.5 MiB), so at 9 MiB the bake is refused before its form
+/// factors run, and the advice (the factored layout) bakes within the same limit.
+#[test]
+fn a_file_too_large_to_write_is_refused_before_the_form_factors() {
+    let dir = temp_dir("memory-write");
+    let out = dir.join("cb.lrr");
+    let limit = ["--max-memory", "9M"];
+    let plain = [&limit[..], &["--layout", "plain", "--precision", "f16"]].concat();
+    let err = bake(&cornell(), &out, &plain).unwrap_err();
+    assert!(
+        err.contains("writing the operator file in the plain layout (n = ")
+            && err.contains("but only 9.0 MiB can be used")
+            && err.contains("use the factored layout"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    // The form factors did not start: they open their checkpoint first.
+    assert!(!dir.join("cb.lrr.ckpt").exists());
+    let factored = [&limit[..], &["--precision", "f16"]].concat();
+    bake(&cornell(), &out, &factored).unwrap();
+    assert!(out.exists());
+}
