@@ -170,7 +170,9 @@ pub(crate) fn encode(file: &OperatorFile) -> Vec<u8> {
 /// leaves FK out (to be streamed in at [`SECTIONS_BEFORE_FK`]).
 fn encoder(file: &OperatorFile, with_fk: bool) -> ContainerWriter<'_> {
     let mut w = ContainerWriter::new();
-    w.add(kind::METADATA, true, file.metadata_json.as_bytes().to_vec());
+    w.add_encoded(kind::METADATA, true, || {
+        file.metadata_json.as_bytes().to_vec()
+    });
     w.add(kind::DIMS, true, encode_dims(file));
     w.add_encoded(kind::ORDER, true, || u32_payload(&file.order));
     w.add_encoded(kind::INDEX, true, || u32_payload(&file.index));

@@ -388,6 +388,19 @@ impl<'s> Prepared<'s> {
         self.mesh.file_order_materials(self.scene)
     }
 
+    /// Surfaces with an emitting element: the light groups the file will hold (one each,
+    /// `write::Skeleton::add_light_groups`).
+    pub(crate) fn emitting_surfaces(&self) -> usize {
+        let (_, emission) = self.file_order_materials();
+        let mut emits = vec![false; self.scene.surfaces.len()];
+        for (s, e) in emission.iter().enumerate() {
+            if e.iter().any(|&x| x > 0.0) {
+                emits[self.mesh.element_at(s).surface as usize] = true;
+            }
+        }
+        emits.iter().filter(|&&e| e).count()
+    }
+
     /// Channels of the cores: 1 for a grey scene, else 3.
     pub(crate) fn channels(&self) -> usize {
         if self.scene.is_grey() { 1 } else { 3 }
@@ -503,7 +516,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
         crate::storage::check_memory(
             (prepared.mesh.n(), prepared.mesh.k(), prepared.channels()),
             settings.storage,
-            scene.surfaces.len(),
+            prepared.emitting_surfaces(),
             &display,
             (progress, settings.max_memory),
         )?;

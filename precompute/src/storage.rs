@@ -30,28 +30,24 @@ impl Default for Storage {
 /// 24).
 pub const WRITE_BYTES_PER_ELEMENT: u128 = 256;
 
-/// Below this size a block freed by the allocator may stay resident (glibc's largest dynamic mmap
-/// threshold on 64-bit systems, 32 MiB): the f64 `F_k` released by [`write`](crate::write::write)
-/// lowers the resident memory only when it is at least this large.
-const RELEASED_FROM: u128 = 32 << 20;
-
-/// The working memory of [`write`](crate::write::write) over what the bake holds when it starts
-/// (its f64 `F_k` included), for `n` elements, `k` patches and `channels` cores stored as
-/// `storage`, with `surfaces` named surfaces and `display`:
-/// - per element, [`WRITE_BYTES_PER_ELEMENT`];
-/// - the matrices it makes: `F_k` in f32, in f16 when stored so, and the plain layout's `Y_k`
-///   (`channels` blocks of n·k f32, and their f16 copy). When the f64 `F_k` it releases is large
-///   enough to leave the process ([`RELEASED_FROM`]), less that, but at least the first sixteenth
-///   of the f32 `F_k`, made before any f64 is released (`write::into_f32`);
+/// The working memory of [`write`](crate::write::write), for `n` elements, `k` patches and
+/// `channels` cores stored as `storage`, with `groups` light groups (the emitting surfaces) and
+/// `display`:
+/// - the matrices: the bake's f64 `F_k` while it is converted (with the first sixteenth of the
+///   f32 `F_k`, made before any f64 is released: `write::into_f32`), or what the write makes
+///   when that is more: `F_k` in f32, in f16 when stored so, and the plain layout's `Y_k`
+///   (`channels` blocks of n·k f32, and their f16 copy), none of it counted as released;
+/// - per element, [`WRITE_BYTES_PER_ELEMENT`]; the file's copy of the cores (`channels` k×k
+///   f64); the light groups (each 3k f64 and its name);
 /// - the largest section but the matrix, encoded as it is written
 ///   ([`OperatorFile::write`](lrr_formats::OperatorFile::write)).
 pub fn write_bytes(
     (n, k, channels): (usize, usize, usize),
     storage: Storage,
-    surfaces: usize,
+    groups: usize,
     display: &Display,
 ) -> u128 {
-    let (n, k, c) = (n as u128, k as u128, channels as u128);
+    let (n, k, c, g) = (n as u128, k as u128, channels as u128, groups as u128);
     let nk = n * k;
     let per_value = match (storage.layout, storage.precision) {
         (Layout::Factored, Precision::F32) => 4,
@@ -59,25 +55,25 @@ pub fn write_bytes(
         (Layout::PlainYk, Precision::F32) => 4 + 4 * c,
         (Layout::PlainYk, Precision::F16) => 4 + 2 + 6 * c,
     };
-    let matrices = match 8 * nk >= RELEASED_FROM {
-        true => (per_value * nk)
-            .saturating_sub(8 * nk)
-            .max(4 * (nk / 16).max(1 << 16)),
-        false => per_value * nk,
-    };
+    let converting = 8 * nk + 4 * (nk / 16).max(1 << 16);
+    let matrices = converting.max(per_value * nk);
+    let cores = 8 * c * k * k;
+    // A light group: 3k f64 (its value on the patches per channel) and its name (256 bytes
+    // allowed); its members' positions and emission are in the per-element figure.
+    let group = 24 * k + 256;
     // The largest section: a display section, the geometry (4 corners and a normal in f32 and
-    // a count byte, padded), the cores (f64), or the light groups (each its k values in f64
-    // and name, each emitter's position and emission).
+    // a count byte, padded), the cores, or the light groups (each also 16 bytes of header,
+    // each emitter's position and emission).
     let sections = [
         display.largest_payload_bytes() as u128,
         n.next_multiple_of(4) + 60 * n,
-        8 * c * k * k,
-        8 + surfaces as u128 * (24 + 8 * k + 256) + 16 * n,
+        cores,
+        8 + g * (16 + group) + 16 * n,
     ]
     .into_iter()
     .max()
     .unwrap_or(0);
-    WRITE_BYTES_PER_ELEMENT * n + matrices + sections
+    matrices + WRITE_BYTES_PER_ELEMENT * n + cores + g * group + sections
 }
 
 /// Refuses a bake whose [`write`](crate::write::write) ([`write_bytes`]) would exceed `max_memory`,
@@ -85,11 +81,11 @@ pub fn write_bytes(
 pub(crate) fn check_memory(
     dims: (usize, usize, usize),
     storage: Storage,
-    surfaces: usize,
+    groups: usize,
     display: &Display,
     (progress, max_memory): (&crate::progress::Progress, Option<u64>),
 ) -> Result<()> {
-    let bytes = write_bytes(dims, storage, surfaces, display);
+    let bytes = write_bytes(dims, storage, groups, display);
     let (n, k, _) = dims;
     let (what, advice) = match storage.layout {
         Layout::Factored => (

@@ -583,7 +583,8 @@ impl SceneDescription {
         toml::to_string(self).expect("a scene description always serialises")
     }
 
-    /// Builds the scene; `base` is the folder relative includes are resolved against.
+    /// Builds the scene; `base` is the folder relative includes are resolved against. The
+    /// includes' images are planned as [`super::gltf::load`] plans them.
     pub fn build(&self, origin: &str, base: &Path) -> Result<Scene> {
         let budget = Budget {
             planned: 0,

@@ -54,7 +54,9 @@ pub const MAX_REFLECTANCE: f64 = super::model::MAX_TEXTURED_REFLECTANCE;
 /// Reflectance of primitives without a material (with a warning; OBJ uses the same).
 const DEFAULT_REFLECTANCE: f64 = 0.5;
 
-/// Loads a `.gltf` or `.glb` file; external buffers and images must lie in its folder.
+/// Loads a `.gltf` or `.glb` file; external buffers and images must lie in its folder. Each
+/// image is planned before it is decoded against 80% of the available memory
+/// (`LRR_MEMORY_LIMIT` sets what is available; [`crate::scene::load_within`] takes a limit).
 pub fn load(path: &Path) -> Result<Scene> {
     load_within(
         path,
@@ -77,7 +79,8 @@ pub(crate) fn load_within(path: &Path, budget: Budget) -> Result<(Scene, u128)> 
 }
 
 /// Imports glTF or GLB bytes; `base` is the folder relative URIs are resolved in (and must stay
-/// in), `name` the scene name, `origin` the file name for messages.
+/// in), `name` the scene name, `origin` the file name for messages. Images are planned as in
+/// [`load`].
 pub fn import(bytes: &[u8], base: &Path, name: &str, origin: &str) -> Result<Scene> {
     let budget = Budget {
         planned: 0,
@@ -747,7 +750,8 @@ impl<'a> Importer<'a> {
                      1, so the texture's mean over the image is used",
                     self.origin
                 ));
-                self.decode(&info.texture(), &what).map(|t| t.average())
+                self.decode(&info.texture(), &what, false)
+                    .map(|t| t.average())
             };
             match avg {
                 Ok(avg) => c = [0, 1, 2].map(|i| c[i] * avg[i]),
@@ -797,7 +801,7 @@ impl<'a> Importer<'a> {
             && radiance.iter().any(|r| *r != 0.0)
         {
             // Emission is per material: only the mean is kept, not the image.
-            match self.decode(&info.texture(), &what) {
+            match self.decode(&info.texture(), &what, false) {
                 Ok(t) => {
                     let avg = t.average();
                     radiance = [0, 1, 2].map(|i| radiance[i] * avg[i]);
@@ -862,15 +866,16 @@ impl<'a> Importer<'a> {
         if let Some(&id) = self.textures.get(&texture.index()) {
             return Ok(id);
         }
-        let decoded = self.decode(texture, user)?;
+        let decoded = self.decode(texture, user, true)?;
         self.scene.textures.push(decoded);
         let id = self.scene.textures.len() - 1;
         self.textures.insert(texture.index(), id);
         Ok(id)
     }
 
-    /// A texture's image decoded, with its sampler's wrap modes.
-    fn decode(&mut self, texture: &gltf::Texture, user: &str) -> Result<Texture> {
+    /// A texture's image decoded, with its sampler's wrap modes; planned first, and counted
+    /// as kept when it is (not when only its mean is wanted).
+    fn decode(&mut self, texture: &gltf::Texture, user: &str, kept: bool) -> Result<Texture> {
         let index = texture.source().index();
         let image = &self.doc.as_json().images[index];
         let what = format!("{user}: image {index}");
@@ -894,7 +899,7 @@ impl<'a> Importer<'a> {
             gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
         };
         let image_name = format!("{}: {what}", self.origin);
-        self.budget.room_for(&encoded, &image_name)?;
+        self.budget.room_for(&encoded, &image_name, kept)?;
         let sampler = texture.sampler();
         let name = image
             .name

@@ -116,7 +116,7 @@ fn diffuse_map(
     }
     let what = format!("{location}: map_Kd image {}", path.display());
     let bytes = std::fs::read(&path).map_err(|e| Error::scene(&what, e.to_string()))?;
-    budget.room_for(&bytes, &what)?;
+    budget.room_for(&bytes, &what, true)?;
     let decoded = texture::decode(&bytes, file.clone(), [wrap, wrap])
         .map_err(|e| Error::scene(location, format!("map_Kd image {}{e}", path.display())))?;
     scene.textures.push(decoded);
@@ -125,7 +125,9 @@ fn diffuse_map(
     Ok(id)
 }
 
-/// Loads an OBJ file (and the MTL files it names).
+/// Loads an OBJ file (and the MTL files it names). Each `map_Kd` image is planned before it is
+/// decoded against 80% of the available memory (`LRR_MEMORY_LIMIT` sets what is available;
+/// [`crate::scene::load_within`] takes a limit).
 pub fn load(path: &Path) -> Result<Scene> {
     let budget = Budget {
         planned: 0,

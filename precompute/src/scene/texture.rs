@@ -130,12 +130,22 @@ pub(crate) struct Budget {
 impl Budget {
     /// Refuses decoding `encoded` (the image `what`) when its texels, from its header, would
     /// not fit beside what is planned: [`DECODE_BYTES_PER_TEXEL`] each; then counts the
-    /// texture it keeps. An image whose header cannot be read is left to [`decode`]'s error.
-    pub(crate) fn room_for(&mut self, encoded: &[u8], what: &str) -> crate::error::Result<()> {
+    /// texture when it is `kept` (not when only its mean is taken). An image whose header
+    /// cannot be read, or that declares more than [`decode`] takes, is left to its error
+    /// (a texture left out with a warning: more memory would not help).
+    pub(crate) fn room_for(
+        &mut self,
+        encoded: &[u8],
+        what: &str,
+        kept: bool,
+    ) -> crate::error::Result<()> {
         let Some((width, height)) = dimensions(encoded) else {
             return Ok(());
         };
         let texels = u128::from(width) * u128::from(height);
+        if texels > u128::from(MAX_TEXELS) {
+            return Ok(());
+        }
         crate::memory::check_then(
             self.planned + texels * DECODE_BYTES_PER_TEXEL,
             self.max_memory,
@@ -146,7 +156,9 @@ impl Budget {
                     .to_string()
             },
         )?;
-        self.planned += texels * KEPT_BYTES_PER_TEXEL;
+        if kept {
+            self.planned += texels * KEPT_BYTES_PER_TEXEL;
+        }
         Ok(())
     }
 }
@@ -453,7 +465,9 @@ mod tests {
             planned: 1 << 20,
             max_memory: Some(16 << 20),
         };
-        let e = budget.room_for(&big, "floor.glb: image 0").unwrap_err();
+        let e = budget
+            .room_for(&big, "floor.glb: image 0", true)
+            .unwrap_err();
         assert!(matches!(e, crate::error::Error::Limits(_)), "{e}");
         assert!(
             e.to_string()
@@ -464,9 +478,34 @@ mod tests {
         // With room: the texture it keeps (3 bytes a texel) is counted; an unreadable header
         // is left to the decoder's own error.
         budget.max_memory = Some(17 << 20);
-        budget.room_for(&big, "floor.glb: image 0").unwrap();
+        budget.room_for(&big, "floor.glb: image 0", false).unwrap();
+        assert_eq!(budget.planned, 1 << 20);
+        budget.room_for(&big, "floor.glb: image 0", true).unwrap();
         assert_eq!(budget.planned, (1 << 20) + 3 * (1 << 20));
-        budget.room_for(b"not an image", "x").unwrap();
+        budget.room_for(b"not an image", "x", true).unwrap();
         assert_eq!(budget.planned, 4 << 20);
+        // A header declaring more than a texture may hold (2^26 texels) is left to the
+        // decoder's refusal, whatever the memory.
+        let mut huge = png(1);
+        let ihdr = huge.windows(4).position(|w| w == b"IHDR").unwrap() + 4;
+        huge[ihdr..ihdr + 4].copy_from_slice(&16384u32.to_be_bytes());
+        huge[ihdr + 4..ihdr + 8].copy_from_slice(&16384u32.to_be_bytes());
+        // The chunk's CRC-32 (over its type and 13 data bytes) made again.
+        let crc = huge[ihdr - 4..ihdr + 13].iter().fold(!0u32, |mut c, &b| {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 == 1 {
+                    (c >> 1) ^ 0xEDB8_8320
+                } else {
+                    c >> 1
+                };
+            }
+            c
+        });
+        huge[ihdr + 13..ihdr + 17].copy_from_slice(&(!crc).to_be_bytes());
+        assert_eq!(dimensions(&huge), Some((16384, 16384)));
+        budget.max_memory = Some(1 << 20);
+        budget.room_for(&huge, "x", true).unwrap();
+        assert!(decode(&huge, "x".into(), [Wrap::Repeat; 2]).is_err());
     }
 }

@@ -13,7 +13,8 @@
 //!    leaves no output).
 //!
 //! Memory: the process itself (8 MiB reserved), the skeleton (about 250 bytes per element,
-//! plus three copies of the display sections: about 400 bytes per element more with a BVH),
+//! plus two copies of the display sections, the skeleton's and the file's, and the section
+//! being written: about 300 bytes per element more with a BVH),
 //! the systems and cores
 //! (about `(2c + 3)·k²·8` bytes) and a buffer of rows sized to what `--max-memory` leaves;
 //! never `F_k` itself. The plain layout (`Y_k`) is assembled in memory and refused when it
