@@ -155,7 +155,7 @@ impl OperatorFile {
                 }
                 check_fk(piece, k).map_err(|e| e.context(format_args!("rows from element {row}")))?;
                 row += piece.len() / k.max(1);
-                emit(&matrix_payload(piece))
+                matrix_pieces(piece, emit)
             })
         })
     }
@@ -361,6 +361,8 @@ fn sky_transfer(payload: &[u8], n: usize) -> Result<Vec<f32>, FormatError> {
         .collect())
 }
 
+/// A matrix's payload whole (what [`matrix_pieces`] hands over, joined).
+#[cfg(test)]
 fn matrix_payload(m: &StoredMatrix) -> Vec<u8> {
     let mut out = Vec::new();
     match m {
