@@ -82,7 +82,7 @@ fn enclosure_of(
     let query = occ.closest_hit();
     let own_bvh = match query {
         Some(_) => 0,
-        None => crate::visibility::build_bytes(scene),
+        None => crate::visibility::Backend::Obvhs.build_bytes(scene),
     };
     let bytes = n as u128 * crate::formfactor::enclosure::BYTES_PER_ELEMENT + own_bvh;
     crate::memory::check_then(
@@ -120,6 +120,10 @@ pub(crate) enum MeshFrom {
         budget: f64,
         /// The bake's samples per pair (the first pass takes at most these).
         samples: u32,
+        /// A whole bake's storage, whose write is checked before the first pass
+        /// (`storage::check_memory_unrefined`); none for a shard or a plan, which write no
+        /// operator file.
+        storage: Option<crate::storage::Storage>,
         /// Where the first pass's rows are checkpointed (`checkpoint::first_pass_path` of the
         /// bake's checkpoint), if the bake checkpoints.
         checkpoint: Option<CheckpointSettings>,
@@ -138,6 +142,7 @@ impl MeshFrom {
             Some(budget) if budget > 0.0 => Self::Refine {
                 budget,
                 samples: settings.samples,
+                storage: None,
                 checkpoint: settings.checkpoint.as_ref().map(|c| {
                     let path = checkpoint::first_pass_path(&c.path);
                     CheckpointSettings {
@@ -148,6 +153,24 @@ impl MeshFrom {
                 }),
             },
             _ => Self::Build,
+        }
+    }
+
+    /// [`meshing`](Self::meshing) for a bake that writes the operator file itself.
+    pub(crate) fn meshing_to_write(settings: &BakeSettings) -> Self {
+        match Self::meshing(settings) {
+            Self::Refine {
+                budget,
+                samples,
+                checkpoint,
+                ..
+            } => Self::Refine {
+                budget,
+                samples,
+                storage: Some(settings.storage),
+                checkpoint,
+            },
+            from => from,
         }
     }
 }
@@ -245,7 +268,7 @@ impl<'s> Prepared<'s> {
         let occluder = if !needs_occluder(scene) {
             None
         } else {
-            let bytes = crate::visibility::build_bytes(scene);
+            let bytes = visibility.build_bytes(scene);
             crate::memory::check_with(
                 bytes,
                 max_memory,
@@ -253,7 +276,7 @@ impl<'s> Prepared<'s> {
                 "simplify the model (fewer triangles), or raise --max-memory",
             )?;
             progress.estimate("visibility", bytes);
-            Some(visibility.build(scene)?)
+            Some(visibility.build_within(scene, max_memory)?)
         };
         stage.finish();
         let stage = progress.stage("mesh", 0);
@@ -272,6 +295,7 @@ impl<'s> Prepared<'s> {
             MeshFrom::Refine {
                 budget,
                 samples,
+                storage,
                 checkpoint,
             } => {
                 let mesh =
@@ -290,6 +314,7 @@ impl<'s> Prepared<'s> {
                     occluder: occluder.as_deref(),
                     closed: enclosure.as_ref().map(|e| e.closed.as_slice()),
                     samples,
+                    storage,
                 };
                 // The first pass's rows depend on the unrefined mesh and the first pass's
                 // sampling only (its light comes after): keyed as a bake of that mesh, tagged.
@@ -503,7 +528,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             settings.visibility,
             progress,
             settings.max_memory,
-            MeshFrom::meshing(settings),
+            MeshFrom::meshing_to_write(settings),
         )?;
         // Before the form factors: bad point lights and cameras are refused early.
         let display = crate::display::build(

@@ -221,6 +221,10 @@ pub(crate) struct FirstPass<'a> {
     pub closed: Option<&'a [bool]>,
     /// The bake's samples per pair: the first pass takes at most these.
     pub samples: u32,
+    /// A whole bake's storage: its file's writing is checked with the first pass's own
+    /// memory (`storage::check_memory_unrefined`). None for a shard or a plan, which write no
+    /// operator file.
+    pub storage: Option<crate::storage::Storage>,
 }
 
 impl FirstPass<'_> {
@@ -264,6 +268,10 @@ pub(crate) fn refine_mesh(
     // Its cores, the bake's own after it (the same k): refused before the hours of work.
     let channels = if scene.is_grey() { 1 } else { 3 };
     let cores = crate::cores::check_memory(k, channels, n0, max_memory)?;
+    // And the file's writing, which the refined mesh can only make larger.
+    if let Some(storage) = first.storage {
+        crate::storage::check_memory_unrefined((n0, k, channels), storage, max_memory)?;
+    }
     let mut ff =
         FormFactors::new(first.first_pass_samples(), first.occluder).with_enclosure(first.closed);
     ff.adaptive = 1;
@@ -413,6 +421,7 @@ mod tests {
                     occluder: Some(&occ),
                     closed: None,
                     samples: 16,
+                    storage: None,
                 };
                 refine_mesh(
                     &scene,

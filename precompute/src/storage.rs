@@ -42,10 +42,25 @@ pub const WRITE_BYTES_PER_ELEMENT: u128 = 256;
 /// - the largest section but the matrix, encoded as it is written
 ///   ([`OperatorFile::write`](lrr_formats::OperatorFile::write)).
 pub fn write_bytes(
-    (n, k, channels): (usize, usize, usize),
+    dims: (usize, usize, usize),
     storage: Storage,
     groups: usize,
     display: &Display,
+) -> u128 {
+    write_bytes_with(
+        dims,
+        storage,
+        groups,
+        display.largest_payload_bytes() as u128,
+    )
+}
+
+/// [`write_bytes`] with the largest display section's length given.
+fn write_bytes_with(
+    (n, k, channels): (usize, usize, usize),
+    storage: Storage,
+    groups: usize,
+    largest_display: u128,
 ) -> u128 {
     let (n, k, c, g) = (n as u128, k as u128, channels as u128, groups as u128);
     let nk = n * k;
@@ -65,7 +80,7 @@ pub fn write_bytes(
     // a count byte, padded), the cores, or the light groups (each also 16 bytes of header,
     // each emitter's position and emission).
     let sections = [
-        display.largest_payload_bytes() as u128,
+        largest_display,
         n.next_multiple_of(4) + 60 * n,
         cores,
         8 + g * (16 + group) + 16 * n,
@@ -86,21 +101,45 @@ pub(crate) fn check_memory(
     (progress, max_memory): (&crate::progress::Progress, Option<u64>),
 ) -> Result<()> {
     let bytes = write_bytes(dims, storage, groups, display);
-    let (n, k, _) = dims;
+    refuse(bytes, dims, storage, "", max_memory)?;
+    progress.estimate("write", bytes);
+    Ok(())
+}
+
+/// Refuses, before `--refine`'s first pass, a bake whose write cannot fit whatever the
+/// refinement does: it keeps the patches and only adds elements (`refine`), so the write of the
+/// unrefined mesh's `n0` elements, without light groups and display sections, is at most the
+/// final plan [`check_memory`] makes once the mesh is refined. `dims`: `(n0, k, channels)`.
+pub(crate) fn check_memory_unrefined(
+    dims: (usize, usize, usize),
+    storage: Storage,
+    max_memory: Option<u64>,
+) -> Result<()> {
+    let bytes = write_bytes_with(dims, storage, 0, 0);
+    refuse(bytes, dims, storage, " before refinement", max_memory)
+}
+
+/// The refusal of a write planned at `bytes`; `more` follows the element count.
+fn refuse(
+    bytes: u128,
+    (n, k, _): (usize, usize, usize),
+    storage: Storage,
+    more: &str,
+    max_memory: Option<u64>,
+) -> Result<()> {
     let (what, advice) = match storage.layout {
         Layout::Factored => (
-            format!("writing the operator file (n = {n} elements, k = {k} patches)"),
+            format!("writing the operator file (n = {n} elements{more}, k = {k} patches)"),
             "use a larger --element-size or --patch-size, or raise --max-memory",
         ),
         Layout::PlainYk => (
             format!(
-                "writing the operator file in the plain layout (n = {n} elements, k = {k} patches)"
+                "writing the operator file in the plain layout (n = {n} elements{more}, \
+                 k = {k} patches)"
             ),
             "use the factored layout (the default, without --layout plain), a larger \
              --element-size or --patch-size, or raise --max-memory",
         ),
     };
-    crate::memory::check_with(bytes, max_memory, &what, advice)?;
-    progress.estimate("write", bytes);
-    Ok(())
+    crate::memory::check_with(bytes, max_memory, &what, advice)
 }

@@ -30,6 +30,7 @@
 use std::cell::Cell;
 use std::ffi::c_void;
 use std::ptr::null_mut;
+use std::sync::atomic::{AtomicI64, Ordering};
 
 use embree4_sys as sys;
 use glam::DVec3;
@@ -52,6 +53,16 @@ struct Exact {
     tris: Vec<[DVec3; 3]>,
     planes: Vec<(DVec3, f64)>,
     plane_tolerance: f64,
+}
+
+/// Bytes this crate holds beside Embree while it builds over `scene`: the faces (a copy each,
+/// merged into convex planar groups: about 300 bytes, `Backend::build`), and per triangle the
+/// exact f64 triangle (72) and its plane (32) that [`Exact`] keeps for the filter.
+pub(crate) fn kept_bytes(scene: &Scene) -> u128 {
+    let triangles: u128 = (scene.faces.iter())
+        .map(|f| f.polygon.count.saturating_sub(2) as u128)
+        .sum();
+    300 * scene.faces.len() as u128 + 104 * triangles
 }
 
 /// The query in flight on this thread, for the filter.
@@ -80,6 +91,37 @@ pub struct EmbreeOccluder {
     exact: Box<Exact>,
     centre: DVec3,
     extent: f64,
+    /// Embree's own allocations, as its memory monitor reports them; released after the
+    /// device (its user pointer).
+    memory: Box<Monitor>,
+}
+
+/// What a device has allocated, as Embree's memory monitor callback reports it (each block
+/// once: bytes > 0 allocated, < 0 freed, `post` whether it already happened), and what it may
+/// allocate: a block that would go over `limit` is refused, and Embree then cancels the build
+/// with `RTC_ERROR_OUT_OF_MEMORY`.
+struct Monitor {
+    current: AtomicI64,
+    peak: AtomicI64,
+    limit: i64,
+}
+
+/// Embree's memory monitor ([`Monitor`]); Embree may call it from several threads at once.
+unsafe extern "C" fn memory_monitor(user: *mut c_void, bytes: isize, post: bool) -> bool {
+    // SAFETY: `user` is the device's `Monitor`, which outlives the device (`EmbreeOccluder`
+    // releases the device in `drop`, before its fields).
+    let m = unsafe { &*(user as *const Monitor) };
+    let bytes = bytes as i64;
+    let now = m.current.fetch_add(bytes, Ordering::Relaxed) + bytes;
+    if bytes > 0 && now > m.limit {
+        if !post {
+            // Refused before it happened: it never will.
+            m.current.fetch_sub(bytes, Ordering::Relaxed);
+        }
+        return false;
+    }
+    m.peak.fetch_max(now, Ordering::Relaxed);
+    true
 }
 
 // SAFETY: a committed Embree scene is safe to query from any number of threads at once
@@ -105,6 +147,13 @@ fn check(device: sys::RTCDevice, what: &str) -> Result<()> {
 impl EmbreeOccluder {
     /// Builds Embree's BVH over the scene's faces (quads as two triangles).
     pub fn build(scene: &Scene) -> Result<Self> {
+        Self::build_within(scene, None)
+    }
+
+    /// [`build`](Self::build), Embree's own allocations (the triangle buffers and the BVH, as
+    /// its memory monitor reports them) held to `limit` bytes: over it, Embree cancels the
+    /// build and this is an [`Error::Limits`] naming what to change.
+    pub fn build_within(scene: &Scene, limit: Option<u128>) -> Result<Self> {
         let (lo, hi) = scene.bounds();
         let centre = (lo + hi) * 0.5;
         let extent = (hi - lo).length();
@@ -134,6 +183,13 @@ impl EmbreeOccluder {
                         .into(),
                 ));
             }
+            let memory = Box::new(Monitor {
+                current: AtomicI64::new(0),
+                peak: AtomicI64::new(0),
+                limit: limit.map_or(i64::MAX, |l| l.min(i64::MAX as u128) as i64),
+            });
+            let user = &*memory as *const Monitor as *mut c_void;
+            sys::rtcSetDeviceMemoryMonitorFunction(device, Some(memory_monitor), user);
             let scene_handle = sys::rtcNewScene(device);
             let occ = Self {
                 device,
@@ -141,6 +197,7 @@ impl EmbreeOccluder {
                 exact,
                 centre,
                 extent,
+                memory,
             };
             check(device, "creating the scene")?;
             sys::rtcSetSceneFlags(occ.scene, sys::RTCSceneFlags::ROBUST);
@@ -167,6 +224,7 @@ impl EmbreeOccluder {
             ) as *mut u32;
             if vertices.is_null() || indices.is_null() {
                 sys::rtcReleaseGeometry(geometry);
+                occ.within_limit()?;
                 check(device, "allocating the triangle buffers")?;
                 return Err(Error::Settings(
                     "Embree: could not allocate the triangle buffers".into(),
@@ -188,7 +246,7 @@ impl EmbreeOccluder {
             sys::rtcReleaseGeometry(geometry); // the scene holds it now
             check(device, "committing the triangle geometry")?;
             sys::rtcCommitScene(occ.scene);
-            check(device, "building the BVH")?;
+            occ.within_limit()?;
             Ok(occ)
         }
     }
@@ -196,6 +254,34 @@ impl EmbreeOccluder {
     /// Triangles in the scene (quads count two).
     pub fn triangle_count(&self) -> usize {
         self.exact.tris.len()
+    }
+
+    /// An error when the device stopped with `RTC_ERROR_OUT_OF_MEMORY`: its memory monitor
+    /// refused a block over the limit (or the system had none left). Takes the device's error,
+    /// so call it where [`check`] would be.
+    fn within_limit(&self) -> Result<()> {
+        // SAFETY: `self.device` is a live device handle.
+        let code = unsafe { sys::rtcGetDeviceError(self.device) };
+        match code {
+            sys::RTCError::NONE => Ok(()),
+            sys::RTCError::OUT_OF_MEMORY => Err(Error::Limits(format!(
+                "Embree's BVH over {} triangles needs more than the {} its build may take \
+                 under the memory limit; use the default --visibility obvhs, simplify the \
+                 model (fewer triangles), or raise --max-memory",
+                self.exact.tris.len(),
+                crate::memory::size(self.memory.limit as u128)
+            ))),
+            code => Err(Error::Settings(format!(
+                "Embree: building the BVH failed ({code:?}); check the library installed by \
+                 scripts/setup-embree.sh, or bake with --visibility obvhs"
+            ))),
+        }
+    }
+
+    /// The most Embree's own allocations have held at once (its memory monitor's figure: the
+    /// triangle buffers and the BVH, not the exact triangles kept beside them).
+    pub fn embree_peak_bytes(&self) -> u64 {
+        self.memory.peak.load(Ordering::Relaxed).max(0) as u64
     }
 }
 
@@ -312,6 +398,36 @@ mod tests {
         let occ = EmbreeOccluder::build(&scene).unwrap();
         assert_eq!(occ.triangle_count(), 2 * scene.faces.len());
         fixtures::assert_block_casts_a_shadow(&occ);
+    }
+
+    #[test]
+    fn embree_builds_within_its_memory_limit_or_says_it_cannot() {
+        let scene = fixtures::two_rooms([1, 1, 0]);
+        let occ = EmbreeOccluder::build_within(&scene, None).unwrap();
+        let used = occ.embree_peak_bytes();
+        assert!(used > 0, "the memory monitor saw no allocation");
+        // Embree's own blocks are the triangle buffers (48 bytes a triangle) and the BVH.
+        assert!(
+            used >= 48 * occ.triangle_count() as u64,
+            "{used} bytes for {} triangles",
+            occ.triangle_count()
+        );
+        drop(occ);
+        for limit in [0, used as u128 / 2] {
+            let err = EmbreeOccluder::build_within(&scene, Some(limit))
+                .err()
+                .expect("refused");
+            let text = err.to_string();
+            assert!(
+                matches!(err, Error::Limits(_))
+                    && text.contains("Embree's BVH over")
+                    && text.contains("--visibility obvhs"),
+                "{text}"
+            );
+        }
+        // Exactly what it used is enough.
+        let again = EmbreeOccluder::build_within(&scene, Some(used as u128)).unwrap();
+        assert_eq!(again.embree_peak_bytes(), used);
     }
 
     #[test]

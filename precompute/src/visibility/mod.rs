@@ -55,6 +55,18 @@ impl Backend {
     /// (`mesh::occluder_faces`), so that a finer tessellation of the same surfaces does not
     /// deepen every ray's traversal.
     pub fn build(self, scene: &Scene) -> Result<Box<dyn Occluder>> {
+        self.build_within(scene, None)
+    }
+
+    /// [`build`](Self::build) under `max_memory` (`--max-memory`; none: 80% of what is
+    /// available). Embree's own allocations are held by its memory monitor to what the limit
+    /// leaves beside the arrays kept for its filter (`EmbreeOccluder::build_within`); the
+    /// default backend allocates what [`build_bytes`](Self::build_bytes) plans.
+    pub fn build_within(
+        self,
+        scene: &Scene,
+        #[cfg_attr(not(feature = "embree"), allow(unused_variables))] max_memory: Option<u64>,
+    ) -> Result<Box<dyn Occluder>> {
         let merged = crate::mesh::occluder_faces(scene).map(|faces| {
             let mut s = Scene::default();
             s.faces = faces;
@@ -64,10 +76,31 @@ impl Backend {
         match self {
             Backend::Obvhs => Ok(Box::new(obvhs::ObvhsOccluder::build(scene))),
             #[cfg(feature = "embree")]
-            Backend::Embree => Ok(Box::new(embree::EmbreeOccluder::build(scene)?)),
+            Backend::Embree => {
+                let limit =
+                    crate::memory::usable(max_memory).saturating_sub(embree::kept_bytes(scene));
+                Ok(Box::new(embree::EmbreeOccluder::build_within(
+                    scene,
+                    Some(limit),
+                )?))
+            }
             #[cfg(not(feature = "embree"))]
             Backend::Embree => Err(crate::error::Error::Settings(EMBREE_MISSING.into())),
         }
+    }
+
+    /// What this backend's build over `scene` may hold at once, planned before it starts:
+    /// [`BUILD_BYTES_PER_TRIANGLE`] for each triangle of its faces, and Embree's device
+    /// ([`EMBREE_DEVICE_BYTES`]).
+    pub(crate) fn build_bytes(self, scene: &Scene) -> u128 {
+        let triangles: u128 = (scene.faces.iter())
+            .map(|f| f.polygon.count.saturating_sub(2) as u128)
+            .sum();
+        let device = match self {
+            Backend::Obvhs => 0,
+            Backend::Embree => EMBREE_DEVICE_BYTES,
+        };
+        triangles * BUILD_BYTES_PER_TRIANGLE + device
     }
 }
 
@@ -79,18 +112,19 @@ impl Backend {
 /// leaf nodes (48 each), the binary tree's two nodes (96), Morton codes and indices (40), all
 /// freed before the leaf collapse copies the tree (96); then the 4-wide tree (under 64).
 /// About 1 KiB at the most, 0.85 KiB with the PLOC buffers gone before the collapse.
-/// Measured: zdm2's 56 900 triangles (scenes/real) raised the resident memory by 40.1 MB over
-/// the stage, 705 bytes a triangle. Embree's build is held to the same figure, unmeasured.
+///
+/// Measured as the rise of the resident peak over the build, the peak reset as it began
+/// (2 threads; 2026-11-29): zdm2's 57 645 triangles 694 bytes a triangle, a box-sphere's
+/// 397 650 478, the 256× dense sphere's 20 500 587. Embree (`--visibility embree`, build
+/// quality HIGH) holds less on the same scenes: 564, 453 and 666, of which 144–150 are its
+/// own allocations (its memory monitor's peak: the triangle buffers and the BVH) and the rest
+/// the merged faces and the exact triangles and planes its filter reads.
 pub(crate) const BUILD_BYTES_PER_TRIANGLE: u128 = 1024;
 
-/// What the occlusion structure of `scene` may take to build: [`BUILD_BYTES_PER_TRIANGLE`]
-/// for each triangle of its faces.
-pub(crate) fn build_bytes(scene: &Scene) -> u128 {
-    let triangles: u128 = (scene.faces.iter())
-        .map(|f| f.polygon.count.saturating_sub(2) as u128)
-        .sum();
-    triangles * BUILD_BYTES_PER_TRIANGLE
-}
+/// What an Embree device takes whatever the scene, planned beside its triangles: measured
+/// 1.8 MB (the Cornell box, 38 triangles) and 2.5 MB (the building, 930) on 2 cores. Its task
+/// scheduler starts a thread per core, so a larger machine takes somewhat more.
+pub(crate) const EMBREE_DEVICE_BYTES: u128 = 8 << 20;
 
 /// What `--visibility embree` says in a build without the feature.
 #[cfg(not(feature = "embree"))]

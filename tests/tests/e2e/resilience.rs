@@ -480,6 +480,8 @@ fn a_refusal_without_max_memory_names_what_sets_the_limit() {
 /// `Y_k` in f32 and f16 beside `F_k` (11.6 MiB on the Cornell box, more than any stage before
 /// it, whose largest is meshing at 7.5 MiB), so at 9 MiB the bake is refused before its form
 /// factors run, and the advice (the factored layout: 5.3 MiB) bakes within the same limit.
+/// Already the unrefined mesh's 2 116 elements need 9.9 MiB to write, so the refusal comes
+/// before the refinement's first pass too.
 #[test]
 fn a_file_too_large_to_write_is_refused_before_the_form_factors() {
     let dir = temp_dir("memory-write");
@@ -494,7 +496,11 @@ fn a_file_too_large_to_write_is_refused_before_the_form_factors() {
         "{err}"
     );
     assert!(!out.exists());
-    // The form factors did not start: they open their checkpoint first.
+    // Refused before `--refine`'s first pass (refinement keeps k and adds elements, so the
+    // unrefined mesh's write is a lower bound), and so before the form factors: both open
+    // their checkpoints first.
+    assert!(err.contains("elements before refinement"), "{err}");
+    assert!(!dir.join("cb.lrr.first-pass.ckpt").exists());
     assert!(!dir.join("cb.lrr.ckpt").exists());
     let factored = [&limit[..], &["--precision", "f16"]].concat();
     bake(&cornell(), &out, &factored).unwrap();
