@@ -38,17 +38,9 @@ pub(crate) fn check_then(
     what: impl FnOnce() -> String,
     fix: impl FnOnce(u128) -> String,
 ) -> Result<()> {
-    let given = limit.is_some();
+    let whence = whence(limit);
     let limit = usable(limit);
     if bytes > limit {
-        // Without --max-memory the bound is the machine's, and some commands (`lrr scene`,
-        // `accuracy`, the benches) have no flag: say where it comes from and what moves it.
-        let whence = if given {
-            ""
-        } else {
-            " (80% of the memory available; the environment variable LRR_MEMORY_LIMIT, in \
-             bytes, sets what is available)"
-        };
         return Err(Error::Limits(format!(
             "{} needs about {} but only {} can be used{whence}; {}",
             what(),
@@ -66,6 +58,19 @@ pub(crate) fn check_then(
 /// lowers k and the probes.
 pub(crate) fn size_advice() -> String {
     "use a larger --element-size or --patch-size".to_string()
+}
+
+/// Where the limit of a refusal comes from, after its figure: nothing when `--max-memory` gave
+/// it; without it the bound is the machine's, and some commands (`lrr scene`, `accuracy`, the
+/// benches) have no flag, so say where it comes from and what moves it.
+pub(crate) fn whence(limit: Option<u64>) -> &'static str {
+    match limit {
+        Some(_) => "",
+        None => {
+            " (80% of the memory available; the environment variable LRR_MEMORY_LIMIT, in \
+             bytes, sets what is available)"
+        }
+    }
 }
 
 /// The bytes a job may use: `limit` (`--max-memory`), or 80% of what is available.

@@ -1,6 +1,7 @@
 //! How the operator file is stored (`--precision`, `--layout`) and what writing it costs in
 //! memory: planned with the bake's other stages, before the form factors, so that a file too
-//! large to write is refused before hours of baking ([`check_memory`]).
+//! large to write is refused before hours of baking ([`check_memory`]); with `--refine`, its
+//! lower bound before the first pass too ([`check_memory_unrefined`]).
 
 use lrr_formats::{Display, Layout, Precision};
 

@@ -56,9 +56,9 @@ struct Exact {
 }
 
 /// Bytes this crate holds beside Embree while it builds over `scene`: the faces (a copy each,
-/// merged into convex planar groups: about 300 bytes, `Backend::build`), and per triangle the
-/// exact f64 triangle (72) and its plane (32) that [`Exact`] keeps for the filter.
-pub(crate) fn kept_bytes(scene: &Scene) -> u128 {
+/// merged into convex planar groups: about 300 bytes, `Backend::build_within`), and per
+/// triangle the exact f64 triangle (72) and its plane (32) that [`Exact`] keeps for the filter.
+fn kept_bytes(scene: &Scene) -> u128 {
     let triangles: u128 = (scene.faces.iter())
         .map(|f| f.polygon.count.saturating_sub(2) as u128)
         .sum();
@@ -94,6 +94,8 @@ pub struct EmbreeOccluder {
     /// Embree's own allocations, as its memory monitor reports them; released after the
     /// device (its user pointer).
     memory: Box<Monitor>,
+    /// `--max-memory` as given (None: 80% of what is available), for a refusal's words.
+    max_memory: Option<u64>,
 }
 
 /// What a device has allocated, as Embree's memory monitor callback reports it (each block
@@ -145,15 +147,24 @@ fn check(device: sys::RTCDevice, what: &str) -> Result<()> {
 }
 
 impl EmbreeOccluder {
-    /// Builds Embree's BVH over the scene's faces (quads as two triangles).
+    /// Builds Embree's BVH over the scene's faces (quads as two triangles), with no limit but
+    /// the machine's.
     pub fn build(scene: &Scene) -> Result<Self> {
-        Self::build_within(scene, None)
+        Self::build_limited(scene, None, None)
     }
 
-    /// [`build`](Self::build), Embree's own allocations (the triangle buffers and the BVH, as
-    /// its memory monitor reports them) held to `limit` bytes: over it, Embree cancels the
-    /// build and this is an [`Error::Limits`] naming what to change.
-    pub fn build_within(scene: &Scene, limit: Option<u128>) -> Result<Self> {
+    /// [`build`](Self::build) under `max_memory` (`--max-memory`; None: 80% of what is
+    /// available): Embree's own allocations (the triangle buffers and the BVH, as its memory
+    /// monitor reports them) are held to what the limit leaves beside the arrays kept for the
+    /// filter ([`kept_bytes`]). Over it, Embree cancels the build and this is an
+    /// [`Error::Limits`] naming what to change.
+    pub fn build_within(scene: &Scene, max_memory: Option<u64>) -> Result<Self> {
+        let limit = crate::memory::usable(max_memory).saturating_sub(kept_bytes(scene));
+        Self::build_limited(scene, Some(limit), max_memory)
+    }
+
+    /// The build, Embree's own allocations held to `limit` bytes (None: not held).
+    fn build_limited(scene: &Scene, limit: Option<u128>, max_memory: Option<u64>) -> Result<Self> {
         let (lo, hi) = scene.bounds();
         let centre = (lo + hi) * 0.5;
         let extent = (hi - lo).length();
@@ -198,6 +209,7 @@ impl EmbreeOccluder {
                 centre,
                 extent,
                 memory,
+                max_memory,
             };
             check(device, "creating the scene")?;
             sys::rtcSetSceneFlags(occ.scene, sys::RTCSceneFlags::ROBUST);
@@ -224,8 +236,7 @@ impl EmbreeOccluder {
             ) as *mut u32;
             if vertices.is_null() || indices.is_null() {
                 sys::rtcReleaseGeometry(geometry);
-                occ.within_limit()?;
-                check(device, "allocating the triangle buffers")?;
+                occ.within_limit("allocating the triangle buffers")?;
                 return Err(Error::Settings(
                     "Embree: could not allocate the triangle buffers".into(),
                 ));
@@ -246,7 +257,7 @@ impl EmbreeOccluder {
             sys::rtcReleaseGeometry(geometry); // the scene holds it now
             check(device, "committing the triangle geometry")?;
             sys::rtcCommitScene(occ.scene);
-            occ.within_limit()?;
+            occ.within_limit("building the BVH")?;
             Ok(occ)
         }
     }
@@ -256,23 +267,28 @@ impl EmbreeOccluder {
         self.exact.tris.len()
     }
 
-    /// An error when the device stopped with `RTC_ERROR_OUT_OF_MEMORY`: its memory monitor
-    /// refused a block over the limit (or the system had none left). Takes the device's error,
-    /// so call it where [`check`] would be.
-    fn within_limit(&self) -> Result<()> {
+    /// The device's last error (taken: it is cleared), as [`check`] would give it, but
+    /// `RTC_ERROR_OUT_OF_MEMORY` as a refusal: the memory monitor refused a block over the
+    /// limit, or the system had none left.
+    fn within_limit(&self, what: &str) -> Result<()> {
         // SAFETY: `self.device` is a live device handle.
         let code = unsafe { sys::rtcGetDeviceError(self.device) };
+        let triangles = self.exact.tris.len();
+        let advice = "simplify the model (fewer triangles), or raise --max-memory";
         match code {
             sys::RTCError::NONE => Ok(()),
+            sys::RTCError::OUT_OF_MEMORY if self.memory.limit == i64::MAX => Err(Error::Limits(
+                format!("Embree ran out of memory {what} over {triangles} triangles; {advice}"),
+            )),
             sys::RTCError::OUT_OF_MEMORY => Err(Error::Limits(format!(
-                "Embree's BVH over {} triangles needs more than the {} its build may take \
-                 under the memory limit; use the default --visibility obvhs, simplify the \
-                 model (fewer triangles), or raise --max-memory",
-                self.exact.tris.len(),
-                crate::memory::size(self.memory.limit as u128)
+                "Embree's BVH over {triangles} triangles needs more than the {} it may take \
+                 beside the rest of the bake, but only {} can be used{}; {advice}",
+                crate::memory::size(self.memory.limit as u128),
+                crate::memory::size(crate::memory::usable(self.max_memory)),
+                crate::memory::whence(self.max_memory),
             ))),
             code => Err(Error::Settings(format!(
-                "Embree: building the BVH failed ({code:?}); check the library installed by \
+                "Embree: {what} failed ({code:?}); check the library installed by \
                  scripts/setup-embree.sh, or bake with --visibility obvhs"
             ))),
         }
@@ -403,7 +419,7 @@ mod tests {
     #[test]
     fn embree_builds_within_its_memory_limit_or_says_it_cannot() {
         let scene = fixtures::two_rooms([1, 1, 0]);
-        let occ = EmbreeOccluder::build_within(&scene, None).unwrap();
+        let occ = EmbreeOccluder::build(&scene).unwrap();
         let used = occ.embree_peak_bytes();
         assert!(used > 0, "the memory monitor saw no allocation");
         // Embree's own blocks are the triangle buffers (48 bytes a triangle) and the BVH.
@@ -414,20 +430,25 @@ mod tests {
         );
         drop(occ);
         for limit in [0, used as u128 / 2] {
-            let err = EmbreeOccluder::build_within(&scene, Some(limit))
+            let err = EmbreeOccluder::build_limited(&scene, Some(limit), Some(1 << 30))
                 .err()
                 .expect("refused");
             let text = err.to_string();
             assert!(
                 matches!(err, Error::Limits(_))
                     && text.contains("Embree's BVH over")
-                    && text.contains("--visibility obvhs"),
+                    && text.contains("but only 1.00 GiB can be used; simplify the model"),
                 "{text}"
             );
         }
-        // Exactly what it used is enough.
-        let again = EmbreeOccluder::build_within(&scene, Some(used as u128)).unwrap();
-        assert_eq!(again.embree_peak_bytes(), used);
+        // What it used is enough.
+        EmbreeOccluder::build_limited(&scene, Some(used as u128), None).unwrap();
+        // Under --max-memory, what the limit leaves beside the kept arrays.
+        let kept = kept_bytes(&scene);
+        let max = |extra: u128| Some(u64::try_from(kept + extra).unwrap());
+        EmbreeOccluder::build_within(&scene, max(used as u128)).unwrap();
+        let err = EmbreeOccluder::build_within(&scene, max(used as u128 / 2)).err();
+        assert!(matches!(err, Some(Error::Limits(_))), "{err:?}");
     }
 
     #[test]

@@ -53,7 +53,8 @@ impl Backend {
     /// Builds the backend's acceleration structure over the scene's surfaces: its faces, with
     /// each planar group whose union is one convex polygon taken whole
     /// (`mesh::occluder_faces`), so that a finer tessellation of the same surfaces does not
-    /// deepen every ray's traversal.
+    /// deepen every ray's traversal. Embree is held to 80% of the memory available, as
+    /// [`build_within`](Self::build_within) without `--max-memory`.
     pub fn build(self, scene: &Scene) -> Result<Box<dyn Occluder>> {
         self.build_within(scene, None)
     }
@@ -76,14 +77,9 @@ impl Backend {
         match self {
             Backend::Obvhs => Ok(Box::new(obvhs::ObvhsOccluder::build(scene))),
             #[cfg(feature = "embree")]
-            Backend::Embree => {
-                let limit =
-                    crate::memory::usable(max_memory).saturating_sub(embree::kept_bytes(scene));
-                Ok(Box::new(embree::EmbreeOccluder::build_within(
-                    scene,
-                    Some(limit),
-                )?))
-            }
+            Backend::Embree => Ok(Box::new(embree::EmbreeOccluder::build_within(
+                scene, max_memory,
+            )?)),
             #[cfg(not(feature = "embree"))]
             Backend::Embree => Err(crate::error::Error::Settings(EMBREE_MISSING.into())),
         }
@@ -114,11 +110,12 @@ impl Backend {
 /// About 1 KiB at the most, 0.85 KiB with the PLOC buffers gone before the collapse.
 ///
 /// Measured as the rise of the resident peak over the build, the peak reset as it began
-/// (2 threads; 2026-11-29): zdm2's 57 645 triangles 694 bytes a triangle, a box-sphere's
-/// 397 650 478, the 256× dense sphere's 20 500 587. Embree (`--visibility embree`, build
-/// quality HIGH) holds less on the same scenes: 564, 453 and 666, of which 144–150 are its
-/// own allocations (its memory monitor's peak: the triangle buffers and the BVH) and the rest
-/// the merged faces and the exact triangles and planes its filter reads.
+/// (2 threads; 2026-11-29; triangles of the faces as imported, before the planar merge):
+/// zdm2's 57 645 triangles 694 bytes a triangle, a box-sphere's 397 650 478, the 256× dense
+/// sphere's 20 500 587. Embree (`--visibility embree`, build quality HIGH) on the same scenes:
+/// 564, 453 and 666, of which 144–150 are its own allocations (its memory monitor's peak: the
+/// triangle buffers and the BVH) and the rest the merged faces and the exact triangles and
+/// planes its filter reads.
 pub(crate) const BUILD_BYTES_PER_TRIANGLE: u128 = 1024;
 
 /// What an Embree device takes whatever the scene, planned beside its triangles: measured
