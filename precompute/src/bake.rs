@@ -158,20 +158,11 @@ impl MeshFrom {
 
     /// [`meshing`](Self::meshing) for a bake that writes the operator file itself.
     pub(crate) fn meshing_to_write(settings: &BakeSettings) -> Self {
-        match Self::meshing(settings) {
-            Self::Refine {
-                budget,
-                samples,
-                checkpoint,
-                ..
-            } => Self::Refine {
-                budget,
-                samples,
-                storage: Some(settings.storage),
-                checkpoint,
-            },
-            from => from,
+        let mut from = Self::meshing(settings);
+        if let Self::Refine { storage, .. } = &mut from {
+            *storage = Some(settings.storage);
         }
+        from
     }
 }
 

@@ -37,6 +37,7 @@ use glam::DVec3;
 
 use super::occluder::{
     Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, own_face, relative_segment, triangle_plane,
+    triangles,
 };
 use super::watertight::ShearedRay;
 use crate::error::{Error, Result};
@@ -59,10 +60,7 @@ struct Exact {
 /// merged into convex planar groups: about 300 bytes, `Backend::build_within`), and per
 /// triangle the exact f64 triangle (72) and its plane (32) that [`Exact`] keeps for the filter.
 fn kept_bytes(scene: &Scene) -> u128 {
-    let triangles: u128 = (scene.faces.iter())
-        .map(|f| f.polygon.count.saturating_sub(2) as u128)
-        .sum();
-    300 * scene.faces.len() as u128 + 104 * triangles
+    300 * scene.faces.len() as u128 + 104 * triangles(scene)
 }
 
 /// The query in flight on this thread, for the filter.

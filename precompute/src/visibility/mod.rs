@@ -89,14 +89,11 @@ impl Backend {
     /// [`BUILD_BYTES_PER_TRIANGLE`] for each triangle of its faces, and Embree's device
     /// ([`EMBREE_DEVICE_BYTES`]).
     pub(crate) fn build_bytes(self, scene: &Scene) -> u128 {
-        let triangles: u128 = (scene.faces.iter())
-            .map(|f| f.polygon.count.saturating_sub(2) as u128)
-            .sum();
         let device = match self {
             Backend::Obvhs => 0,
             Backend::Embree => EMBREE_DEVICE_BYTES,
         };
-        triangles * BUILD_BYTES_PER_TRIANGLE + device
+        occluder::triangles(scene) * BUILD_BYTES_PER_TRIANGLE + device
     }
 }
 

@@ -5,6 +5,7 @@
 use glam::DVec3;
 
 use crate::geometry::Polygon;
+use crate::scene::Scene;
 
 /// Fraction of a segment excluded at each end: only a guard against a zero parameter. The
 /// faces the end points lie on are skipped by plane and orientation instead (see
@@ -112,4 +113,11 @@ pub struct Segment {
     pub from: DVec3,
     /// End point, on the target, in scene units.
     pub to: DVec3,
+}
+
+/// Triangles of `scene`'s faces (a polygon of c corners is c − 2), as the backends build them.
+pub(crate) fn triangles(scene: &Scene) -> u128 {
+    (scene.faces.iter())
+        .map(|f| f.polygon.count.saturating_sub(2) as u128)
+        .sum()
 }
