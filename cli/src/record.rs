@@ -16,7 +16,7 @@ use lrr_precompute::bake::Prepared;
 use lrr_precompute::geometry::Polygon;
 use lrr_precompute::geometry::Region;
 use lrr_precompute::geometry::sampling::quadrature;
-use lrr_precompute::visibility::{Occluder, Segment};
+use lrr_precompute::visibility::{Clear, Occluder, Segment};
 
 /// The rays of one element-target pair, as one `occluded_bundle` call received them.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -73,6 +73,7 @@ impl RaySet {
             occ.occluded_bundle(
                 &b.element,
                 &b.target,
+                [occ.clear_of(&b.element), occ.clear_of(&b.target)],
                 &self.segments[b.start..b.end],
                 &mut blocked[b.start..b.end],
             );
@@ -88,6 +89,10 @@ struct Recorder<'a> {
 }
 
 impl Occluder for Recorder<'_> {
+    fn clear_of(&self, p: &Polygon) -> Clear {
+        self.inner.clear_of(p)
+    }
+
     fn occluded(&self, from: DVec3, from_normal: DVec3, to: DVec3, to_normal: DVec3) -> bool {
         // Only the fallback of fully grazing pairs asks single rays; they are not recorded
         // (a bundle needs the polygons) but answered like the bake answers them.
@@ -98,10 +103,11 @@ impl Occluder for Recorder<'_> {
         &self,
         e: &Polygon,
         t: &Polygon,
+        ends: [Clear; 2],
         segments: &[Segment],
         blocked: &mut [bool],
     ) {
-        self.inner.occluded_bundle(e, t, segments, blocked);
+        self.inner.occluded_bundle(e, t, ends, segments, blocked);
         if segments.is_empty() {
             return;
         }

@@ -80,6 +80,7 @@ pub(crate) fn element_patch_matrix(
         .unwrap_or_else(|| (1usize << 20) / (k.max(1) * ff.samples as usize))
         .clamp(1, n.max(1));
     let blocks = n.div_ceil(block_rows);
+    let ends = crate::formfactor::Ends::of(ff.occluder, &targets);
     let mut done = vec![false; blocks];
     let mut file = None;
     if let Some((c, key)) = checkpoint {
@@ -109,9 +110,14 @@ pub(crate) fn element_patch_matrix(
     for b in (0..blocks).filter(|&b| !done[b]) {
         let (r0, r1) = (b * block_rows, ((b + 1) * block_rows).min(n));
         let out = &mut fk[r0 * k..r1 * k];
-        ff.matrix(&polygons[r0..r1], &ids[r0..r1], &targets, out, &|i| {
-            stage.inc(i)
-        });
+        ff.matrix_with(
+            &polygons[r0..r1],
+            &ids[r0..r1],
+            &targets,
+            &ends,
+            out,
+            &|i| stage.inc(i),
+        );
         if let Some(f) = &mut file {
             f.append(b as u64, out)?;
         }

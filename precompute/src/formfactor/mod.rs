@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use crate::geometry::Polygon;
 use crate::geometry::Region;
 use crate::geometry::sampling::{Sample, quadrature};
-use crate::visibility::Occluder;
+use crate::visibility::{Clear, Occluder};
 use contour::point_to_polygon;
 use visible::{Shape, faces_away, visible_fraction};
 
@@ -129,6 +129,27 @@ impl<'a> FormFactors<'a> {
         out: &mut [f64],
         progress: &(dyn Fn(u64) + Sync),
     ) {
+        self.matrix_with(
+            rows,
+            row_ids,
+            targets,
+            &Ends::of(self.occluder, targets),
+            out,
+            progress,
+        );
+    }
+
+    /// [`matrix`](Self::matrix) with the targets' hints `ends` worked out beforehand
+    /// ([`Ends::of`] of the same targets), for a caller that fills the matrix in blocks.
+    pub(crate) fn matrix_with(
+        &self,
+        rows: &[Polygon],
+        row_ids: &[u32],
+        targets: &[Region],
+        ends: &Ends,
+        out: &mut [f64],
+        progress: &(dyn Fn(u64) + Sync),
+    ) {
         let k = targets.len();
         assert_eq!(out.len(), rows.len() * k, "output must be rows × targets");
         if k == 0 {
@@ -138,7 +159,7 @@ impl<'a> FormFactors<'a> {
             .enumerate()
             .for_each_init(Vec::new, |points, (i, row)| {
                 quadrature(&rows[i], self.row_samples(row_ids[i]), points);
-                self.row(&rows[i], row_ids[i], points, targets, row);
+                self.row_with(&rows[i], row_ids[i], points, targets, ends, row);
                 progress(1);
             });
     }
@@ -166,6 +187,21 @@ impl<'a> FormFactors<'a> {
         targets: &[Region],
         row: &mut [f64],
     ) {
+        self.row_with(e, e_id, points, targets, &Ends::default(), row);
+    }
+
+    /// [`row`](Self::row) with the occluder's hints for the targets' parts (`ends`; the
+    /// element's are asked here). The values are the same with or without them.
+    fn row_with(
+        &self,
+        e: &Polygon,
+        e_id: u32,
+        points: &[Sample],
+        targets: &[Region],
+        ends: &Ends,
+        row: &mut [f64],
+    ) {
+        let e_end = self.occluder.map_or(Clear::NONE, |o| o.clear_of(e));
         let mut culled = 0u64;
         let mut rays = 0u64;
         let closed = self
@@ -183,7 +219,16 @@ impl<'a> FormFactors<'a> {
             *out = 0.0;
             let Some(t) = target.as_single() else {
                 let seed = (u64::from(e_id) << 32) | t_id as u64;
-                match union::multi_part(self.occluder, e, points, target, seed, self.adaptive) {
+                let hints = (e_end, ends.of_target(t_id));
+                match union::multi_part(
+                    self.occluder,
+                    e,
+                    points,
+                    target,
+                    seed,
+                    self.adaptive,
+                    hints,
+                ) {
                     None => culled += 1,
                     Some((f, r, v)) => {
                         *out = f;
@@ -208,8 +253,17 @@ impl<'a> FormFactors<'a> {
                 None => 1.0,
                 Some(occ) => {
                     let seed = (u64::from(e_id) << 32) | t_id as u64;
-                    let (v, r) =
-                        visible_fraction(occ, e, Shape::One(t), points, seed, self.adaptive, 1);
+                    let hints = (e_end, ends.of_target(t_id));
+                    let (v, r) = visible_fraction(
+                        occ,
+                        e,
+                        Shape::One(t),
+                        hints,
+                        points,
+                        seed,
+                        self.adaptive,
+                        1,
+                    );
                     rays += r;
                     v
                 }
@@ -225,6 +279,44 @@ impl<'a> FormFactors<'a> {
             .fetch_add(targets.len() as u64, Ordering::Relaxed);
         self.stats.culled_pairs.fetch_add(culled, Ordering::Relaxed);
         self.stats.rays.fetch_add(rays, Ordering::Relaxed);
+    }
+}
+
+/// The occluder's hints ([`Occluder::clear_of`]) for every part of every target of a pass,
+/// asked once: the rows' rays that end on a part pass them on.
+#[derive(Default)]
+pub(crate) struct Ends {
+    /// Target `t`'s parts' hints are `clears[start[t]..start[t + 1]]`; empty: none at all.
+    start: Vec<usize>,
+    clears: Vec<Clear>,
+}
+
+impl Ends {
+    /// The hints of `targets`' parts (none without an occluder).
+    pub(crate) fn of(occluder: Option<&dyn Occluder>, targets: &[Region]) -> Self {
+        let Some(occ) = occluder else {
+            return Self::default();
+        };
+        let per: Vec<Vec<Clear>> = targets
+            .par_iter()
+            .map(|t| t.parts().iter().map(|p| occ.clear_of(p)).collect())
+            .collect();
+        let mut start = Vec::with_capacity(targets.len() + 1);
+        start.push(0);
+        let mut clears = Vec::with_capacity(per.iter().map(Vec::len).sum());
+        for c in per {
+            clears.extend(c);
+            start.push(clears.len());
+        }
+        Self { start, clears }
+    }
+
+    /// Target `t`'s parts' hints (empty: none).
+    fn of_target(&self, t: usize) -> &[Clear] {
+        match (self.start.get(t), self.start.get(t + 1)) {
+            (Some(&a), Some(&b)) => &self.clears[a..b],
+            _ => &[],
+        }
     }
 }
 

@@ -23,7 +23,7 @@ use super::visible::{Shape, faces_away, visible_fraction};
 use crate::geometry::Outline;
 use crate::geometry::Polygon;
 use crate::geometry::sampling::Sample;
-use crate::visibility::Occluder;
+use crate::visibility::{Clear, Occluder};
 
 /// `F(e → target)` for a target of several parts, the rays cast and the visible fraction
 /// (`None` when every part faces away from `e`: a culled pair).
@@ -34,6 +34,7 @@ pub(super) fn multi_part(
     target: &Region,
     seed: u64,
     adaptive: u32,
+    ends: (Clear, &[Clear]),
 ) -> Option<(f64, u64, f64)> {
     let mut unoccluded = 0.0;
     let mut any = false;
@@ -74,6 +75,7 @@ pub(super) fn multi_part(
         occ,
         e,
         Shape::Union(target),
+        ends,
         points,
         seed,
         adaptive,

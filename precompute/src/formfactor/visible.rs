@@ -7,7 +7,7 @@ use glam::DVec3;
 
 use crate::geometry::sampling::{Sample, pair_point};
 use crate::geometry::{Polygon, Region};
-use crate::visibility::{Occluder, Segment};
+use crate::visibility::{Clear, Occluder, Segment};
 
 /// True when the pair cannot exchange light: the target lies entirely behind (or in) the
 /// element's plane, or the element entirely behind (or in) the target's plane.
@@ -29,10 +29,14 @@ pub(crate) fn faces_away(e: &Polygon, t: &Polygon) -> bool {
 ///
 /// `rounds` (1 but for curved targets of several parts, `union::rounds`) multiplies the
 /// first rays; the adaptive refinement still ends at `adaptive` times `points.len()`.
+/// `ends` are the occluder's hints ([`Occluder::clear_of`]) for `e` and for each of `t`'s parts
+/// (empty: none).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn visible_fraction(
     occ: &dyn Occluder,
     e: &Polygon,
     t: Shape<'_>,
+    ends: (Clear, &[Clear]),
     points: &[Sample],
     seed: u64,
     adaptive: u32,
@@ -40,11 +44,11 @@ pub(crate) fn visible_fraction(
 ) -> (f64, u64) {
     let mut acc = Visibility::default();
     let first = points.len() as u32 * rounds;
-    acc.cast(occ, e, t, points, seed, 0..first);
+    acc.cast(occ, e, t, ends, points, seed, 0..first);
     let adaptive_end = points.len() as u32 * adaptive;
     if adaptive_end > first && acc.visible > 0.0 && acc.visible < acc.total {
         // A shadow boundary crosses the pair: binary visibility is noisy here, so refine.
-        acc.cast(occ, e, t, points, seed, first..adaptive_end);
+        acc.cast(occ, e, t, ends, points, seed, first..adaptive_end);
     }
     if acc.total <= 0.0 {
         // Every sampled segment was grazing: fall back to one ray between the element's
@@ -114,11 +118,13 @@ struct Visibility {
 impl Visibility {
     /// Casts rays `i` in `range`: from quadrature point `i mod S` to the `i`-th pair point,
     /// answered per part by one bundle each (parts in order, rays in order within a part).
+    #[allow(clippy::too_many_arguments)]
     fn cast(
         &mut self,
         occ: &dyn Occluder,
         e: &Polygon,
         t: Shape<'_>,
+        (e_end, t_ends): (Clear, &[Clear]),
         points: &[Sample],
         seed: u64,
         range: std::ops::Range<u32>,
@@ -151,7 +157,9 @@ impl Visibility {
             segments.extend(group.iter().map(|g| g.1));
             blocked.clear();
             blocked.resize(segments.len(), false);
-            occ.occluded_bundle(e, t.part(group[0].0), &segments, &mut blocked);
+            let j = group[0].0;
+            let t_end = t_ends.get(j).copied().unwrap_or(Clear::NONE);
+            occ.occluded_bundle(e, t.part(j), [e_end, t_end], &segments, &mut blocked);
             self.rays += segments.len() as u64;
             for ((_, _, w), b) in group.iter().zip(&blocked) {
                 self.total += w;

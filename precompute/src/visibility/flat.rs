@@ -40,7 +40,10 @@ struct Node {
     /// Inner child: its node index. Leaf child: its first primitive.
     child: [u32; 4],
     /// Leaf child: its number of primitives; 0 for an inner child (and an unused slot).
-    count: [u32; 4],
+    count: [u16; 4],
+    /// The group (`groups`) every primitive under the child belongs to, or [`NO_GROUP`] (mixed,
+    /// ungrouped, unused): [`FlatBvh::any_hit_by_group`] asks whether to enter the child.
+    group: [u16; 4],
 }
 
 const _: () = assert!(size_of::<Node>() == 128);
@@ -96,6 +99,9 @@ impl FlatRay {
     }
 }
 
+/// The tag of a child whose primitives are not all of one group ([`FlatBvh::tag`]).
+pub(super) const NO_GROUP: u16 = 0;
+
 /// The flat 4-wide BVH over primitive boxes.
 pub(super) struct FlatBvh {
     nodes: Vec<Node>,
@@ -108,7 +114,9 @@ pub(super) struct FlatBvh {
 impl FlatBvh {
     /// Builds over `boxes` (one per primitive) with obvhs' PLOC builder, then collapses the
     /// binary tree into 4-wide nodes.
-    pub(super) fn build(boxes: &[Aabb], params: BvhBuildParams) -> Self {
+    pub(super) fn build(boxes: &[Aabb], mut params: BvhBuildParams) -> Self {
+        // A leaf's count is a u16 (obvhs' leaves hold at most `max_prims_per_leaf`).
+        params.max_prims_per_leaf = params.max_prims_per_leaf.min(u32::from(u16::MAX));
         let mut flat = Self {
             nodes: Vec::new(),
             order: Vec::with_capacity(boxes.len()),
@@ -175,10 +183,47 @@ impl FlatBvh {
             let first = n.first_index as usize;
             let count = n.prim_count as usize;
             self.nodes[at].child[slot] = self.order.len() as u32;
-            self.nodes[at].count[slot] = n.prim_count;
+            self.nodes[at].count[slot] = n.prim_count as u16;
             self.order
                 .extend_from_slice(&bvh.primitive_indices[first..first + count]);
         }
+    }
+
+    /// Tags every child with the group all its primitives belong to (`group[p]` of primitive
+    /// `p` in [`FlatBvh::order`]'s order, [`NO_GROUP`] for none), or [`NO_GROUP`] when they
+    /// differ.
+    pub(super) fn tag(&mut self, group: &[u16]) {
+        if !self.nodes.is_empty() {
+            self.tag_node(0, group);
+        }
+    }
+
+    /// Tags node `i`'s children; returns the tag its whole subtree takes.
+    fn tag_node(&mut self, i: usize, group: &[u16]) -> u16 {
+        let mut all: Option<u16> = None;
+        for slot in 0..4 {
+            let (c, count) = (self.nodes[i].child[slot], self.nodes[i].count[slot]);
+            let tag = if count > 0 {
+                let first = c as usize;
+                let g = group[first];
+                if group[first..first + count as usize].iter().all(|&x| x == g) {
+                    g
+                } else {
+                    NO_GROUP
+                }
+            } else if c != 0 {
+                self.tag_node(c as usize, group) // an inner child (none points at the root)
+            } else {
+                continue; // an unused slot
+            };
+            self.nodes[i].group[slot] = tag;
+            all = Some(match all {
+                None => tag,
+                Some(a) if a == tag => a,
+                Some(_) => NO_GROUP,
+            });
+        }
+        all.unwrap_or(NO_GROUP)
     }
 
     /// Offers every primitive (its index in [`FlatBvh::order`]'s order) whose leaf box the ray
@@ -189,13 +234,30 @@ impl FlatBvh {
         ray: &FlatRay,
         blocks: impl FnMut(usize) -> bool,
     ) -> Option<usize> {
+        match self.any_hit_by_group(ray, |_| Enter::Yes, blocks) {
+            Hit::Primitive(p) => Some(p),
+            Hit::Group | Hit::Nothing => None,
+        }
+    }
+
+    /// [`any_hit`](Self::any_hit), but a child tagged with a group ([`FlatBvh::tag`]) is
+    /// entered as `decide(tag)` says: [`Enter::No`] (the caller knows the ray cannot meet the
+    /// group), [`Enter::Blocked`] (it knows the ray meets the group: the traversal stops) or
+    /// [`Enter::Yes`].
+    #[inline]
+    pub(super) fn any_hit_by_group(
+        &self,
+        ray: &FlatRay,
+        decide: impl FnMut(u16) -> Enter,
+        blocks: impl FnMut(usize) -> bool,
+    ) -> Hit {
         if self.nodes.is_empty() {
-            return None;
+            return Hit::Nothing;
         }
         if self.depth <= INLINE_STACK {
-            self.traverse(&mut [0; INLINE_STACK], ray, blocks)
+            self.traverse(&mut [0; INLINE_STACK], ray, decide, blocks)
         } else {
-            self.traverse(&mut vec![0; self.depth], ray, blocks)
+            self.traverse(&mut vec![0; self.depth], ray, decide, blocks)
         }
     }
 
@@ -206,8 +268,9 @@ impl FlatBvh {
         &self,
         stack: &mut [u32],
         ray: &FlatRay,
+        mut decide: impl FnMut(u16) -> Enter,
         mut blocks: impl FnMut(usize) -> bool,
-    ) -> Option<usize> {
+    ) -> Hit {
         let mut top = 0;
         let mut i = 0;
         loop {
@@ -216,6 +279,14 @@ impl FlatBvh {
             while mask != 0 {
                 let slot = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
+                let group = node.group[slot];
+                if group != NO_GROUP {
+                    match decide(group) {
+                        Enter::Yes => {}
+                        Enter::No => continue,
+                        Enter::Blocked => return Hit::Group,
+                    }
+                }
                 let (c, count) = (node.child[slot], node.count[slot]);
                 if count == 0 {
                     stack[top] = c;
@@ -225,17 +296,36 @@ impl FlatBvh {
                 let first = c as usize;
                 for p in first..first + count as usize {
                     if blocks(p) {
-                        return Some(p);
+                        return Hit::Primitive(p);
                     }
                 }
             }
             if top == 0 {
-                return None;
+                return Hit::Nothing;
             }
             top -= 1;
             i = stack[top] as usize;
         }
     }
+}
+
+/// Whether a traversal enters a child tagged with a group ([`FlatBvh::any_hit_by_group`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Enter {
+    Yes,
+    No,
+    /// The ray is known to meet the group: the answer is found.
+    Blocked,
+}
+
+/// What [`FlatBvh::any_hit_by_group`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Hit {
+    /// A primitive `blocks` said yes to.
+    Primitive(usize),
+    /// A group `decide` said the ray meets.
+    Group,
+    Nothing,
 }
 
 /// A node with four unused slots.
@@ -245,6 +335,7 @@ fn empty_node() -> Node {
         hi: [Vec4::NEG_INFINITY; 3],
         child: [0; 4],
         count: [0; 4],
+        group: [NO_GROUP; 4],
     }
 }
 

@@ -14,6 +14,7 @@
 #[cfg(feature = "embree")]
 pub mod embree;
 mod flat;
+mod groups;
 pub mod obvhs;
 mod occluder;
 mod watertight;
@@ -21,7 +22,7 @@ mod watertight;
 use crate::error::Result;
 use crate::scene::Scene;
 
-pub use occluder::{ClosestHit, FirstHit, Occluder, Segment};
+pub use occluder::{Clear, ClosestHit, FirstHit, Occluder, Segment};
 
 /// Which implementation answers the occlusion queries of a bake (`--visibility`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

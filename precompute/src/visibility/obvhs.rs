@@ -25,12 +25,14 @@ use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::triangle::Triangle;
 
-use super::flat::{FlatBvh, FlatRay};
+use super::flat::{Enter, FlatBvh, FlatRay, Hit, NO_GROUP};
+use super::groups::{Ball, Groups, MARGIN};
 use super::occluder::{
-    ClosestHit, FirstHit, Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, own_face, relative_segment,
-    triangle_plane,
+    Clear, ClosestHit, FirstHit, NO_SKIP, Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, Segment,
+    own_face, relative_segment, triangle_plane,
 };
 use super::watertight::ShearedRay;
+use crate::geometry::Polygon;
 use crate::scene::Scene;
 
 /// The scene's diagonal in the f32 coordinates of the BVH is scaled (by a power of two) into
@@ -48,6 +50,15 @@ use crate::scene::Scene;
 /// candidates; the own-face rule answers those.
 const F32_DIAGONAL: f64 = 4096.0;
 
+/// How far outside a group's outer ball, relative to the scene's diagonal, both ends of a
+/// segment must lie for its inner ball to answer "blocked" (`groups::Ball`): far above the
+/// part of the segment the exact test leaves out at each end (`SEGMENT_EPSILON` of its
+/// length), and far enough that an end within the own-face rule's tolerance
+/// ([`PLANE_TOLERANCE`]) of a plane keeps the segment within `2 × PLANE_TOLERANCE /
+/// BALL_CLEARANCE` of the outer radius of that plane over the ball (the inner ball is taken
+/// that much smaller).
+const BALL_CLEARANCE: f64 = 1e-3;
+
 /// The default occluder: a flat 4-wide BVH (f32 traversal, built by obvhs) with the exact f64
 /// triangle test.
 pub struct ObvhsOccluder {
@@ -63,6 +74,9 @@ pub struct ObvhsOccluder {
     plane_tolerance: f64,
     /// The scene's bounding-box diagonal: no ray from inside the box is longer inside it.
     diagonal: f64,
+    /// The connected pieces the BVH's children are tagged with (`groups`), for the hints of
+    /// [`Occluder::clear_of`].
+    groups: Groups,
 }
 
 impl ObvhsOccluder {
@@ -101,8 +115,10 @@ impl ObvhsOccluder {
                 Aabb::new(b.min - pad, b.max + pad)
             })
             .collect();
-        let bvh = FlatBvh::build(&boxes, params);
+        let mut bvh = FlatBvh::build(&boxes, params);
         let exact: Vec<[DVec3; 3]> = bvh.order.iter().map(|&i| exact_tris[i as usize]).collect();
+        let groups = Groups::of(&exact);
+        bvh.tag(&groups.tags);
         let planes = exact.iter().map(triangle_plane).collect();
         let plane_tolerance = PLANE_TOLERANCE * (hi - lo).length();
         Self {
@@ -113,7 +129,111 @@ impl ObvhsOccluder {
             scale,
             plane_tolerance,
             diagonal: (hi - lo).length(),
+            groups,
         }
+    }
+
+    /// Whether the segment (relative to `centre`: start, end, unit direction, length) is
+    /// blocked, the children tagged with a group in `skip` not entered, and a closed group
+    /// answered by its balls where they decide (`groups::Ball`); `None`: by the triangles
+    /// alone (what the groups must agree with, for tests).
+    #[inline]
+    fn segment_blocked(
+        &self,
+        (origin, target, direction, length): (DVec3, DVec3, DVec3, f64),
+        from_normal: DVec3,
+        to_normal: DVec3,
+        skip: Option<[u16; 2]>,
+    ) -> bool {
+        // The BVH is traversed in f32 (scaled coordinates, see `F32_DIAGONAL`) over a slightly
+        // longer range (culling stays conservative under rounding); the decision is the exact
+        // f64 test over the segment. A face crossed at the very start is still entered: its
+        // padded box reaches past t = 0. (Zero and -0.0 direction components are handled by
+        // `FlatRay`, consistently with the near side it picks.)
+        let scaled = length * self.scale;
+        let ray = FlatRay::new(
+            Vec3A::from((origin * self.scale).as_vec3()),
+            Vec3A::from(direction.as_vec3()),
+            0.0,
+            (scaled * (1.0 + 1e-5)) as f32,
+        );
+        let eps = f64::from(SEGMENT_EPSILON) * length;
+        let sheared = ShearedRay::new(origin, direction, eps, length - eps);
+        let mut known = (NO_GROUP, Enter::Yes);
+        let decide = |group: u16| {
+            let Some(skip) = skip else {
+                return Enter::Yes;
+            };
+            if group == skip[0] || group == skip[1] {
+                return Enter::No;
+            }
+            if group != known.0 {
+                let ball = self.groups.balls[group as usize - 1];
+                let answer = ball.map_or(Enter::Yes, |b| {
+                    self.by_ball(&b, (origin, target, direction, length))
+                });
+                known = (group, answer);
+            }
+            known.1
+        };
+        let hit = self.bvh.any_hit_by_group(&ray, decide, |id| {
+            // The face an end point lies on (or a coincident back face) meets the segment
+            // only at that end point: skip it, whatever the rounding says. Every other face
+            // counts over the whole segment, however close to an end point it is crossed.
+            if self.own_face(id, origin, from_normal) || self.own_face(id, target, to_normal) {
+                return false;
+            }
+            let [a, b, c] = self.exact[id];
+            sheared.hit(a, b, c).is_some()
+        });
+        hit != Hit::Nothing
+    }
+
+    /// What a closed convex group's balls say of the segment: it keeps out of the outer ball
+    /// ([`Enter::No`]); it passes through the inner one, both ends outside the outer one by
+    /// [`BALL_CLEARANCE`] (so that the surface is crossed well inside the part of the segment
+    /// the exact test looks at): [`Enter::Blocked`]; otherwise the group's triangles decide.
+    #[inline]
+    fn by_ball(
+        &self,
+        ball: &Ball,
+        (origin, target, direction, length): (DVec3, DVec3, DVec3, f64),
+    ) -> Enter {
+        let margin = MARGIN * self.diagonal;
+        let t = (ball.centre - origin).dot(direction).clamp(0.0, length);
+        let distance = (origin + direction * t).distance(ball.centre);
+        if distance > ball.outer + margin {
+            return Enter::No;
+        }
+        let outside = ball.outer + BALL_CLEARANCE * self.diagonal;
+        // An end within the own-face rule's tolerance of the plane of the triangle the
+        // segment crosses by keeps the segment within this of that plane over the ball.
+        let tilt = 2.0 * PLANE_TOLERANCE / BALL_CLEARANCE * ball.outer;
+        if distance < ball.inner - tilt - margin
+            && origin.distance(ball.centre) > outside
+            && target.distance(ball.centre) > outside
+        {
+            return Enter::Blocked;
+        }
+        Enter::Yes
+    }
+
+    /// [`Occluder::occluded`] by the triangles alone, without the groups' hints and balls.
+    #[cfg(test)]
+    fn occluded_by_triangles(
+        &self,
+        from: DVec3,
+        from_normal: DVec3,
+        to: DVec3,
+        to_normal: DVec3,
+    ) -> bool {
+        relative_segment(self.centre, from, to)
+            .is_some_and(|s| self.segment_blocked(s, from_normal, to_normal, None))
+    }
+
+    /// Number of groups of faces the BVH's children are tagged with (`groups`).
+    pub fn group_count(&self) -> usize {
+        self.groups.len()
     }
 
     /// Which triangles block the segment, tested one by one without the BVH (a cross-check of
@@ -205,36 +325,49 @@ impl Occluder for ObvhsOccluder {
     }
 
     fn occluded(&self, from: DVec3, from_normal: DVec3, to: DVec3, to_normal: DVec3) -> bool {
-        let Some((origin, target, direction, length)) = relative_segment(self.centre, from, to)
-        else {
+        let Some(segment) = relative_segment(self.centre, from, to) else {
             return false; // a point does not block itself
         };
-        // The BVH is traversed in f32 (scaled coordinates, see `F32_DIAGONAL`) over a slightly
-        // longer range (culling stays conservative under rounding); the decision is the exact
-        // f64 test over the segment. A face crossed at the very start is still entered: its
-        // padded box reaches past t = 0. (Zero and -0.0 direction components are handled by
-        // `FlatRay`, consistently with the near side it picks.)
-        let scaled = length * self.scale;
-        let ray = FlatRay::new(
-            Vec3A::from((origin * self.scale).as_vec3()),
-            Vec3A::from(direction.as_vec3()),
-            0.0,
-            (scaled * (1.0 + 1e-5)) as f32,
-        );
-        let eps = f64::from(SEGMENT_EPSILON) * length;
-        let sheared = ShearedRay::new(origin, direction, eps, length - eps);
-        self.bvh
-            .any_hit(&ray, |id| {
-                // The face an end point lies on (or a coincident back face) meets the segment
-                // only at that end point: skip it, whatever the rounding says. Every other face
-                // counts over the whole segment, however close to an end point it is crossed.
-                if self.own_face(id, origin, from_normal) || self.own_face(id, target, to_normal) {
-                    return false;
+        self.segment_blocked(segment, from_normal, to_normal, Some([NO_SKIP; 2]))
+    }
+
+    /// One by one, as [`Occluder::occluded`], but a segment that keeps clear of an end's
+    /// group (`groups`: `clearance + ε·s` above the group's support plane, `s` the cosine
+    /// at that end) does not enter the BVH children of that group.
+    fn occluded_bundle(
+        &self,
+        e: &Polygon,
+        t: &Polygon,
+        ends: [Clear; 2],
+        segments: &[Segment],
+        blocked: &mut [bool],
+    ) {
+        debug_assert_eq!(segments.len(), blocked.len());
+        let margin = MARGIN * self.diagonal;
+        for (s, b) in segments.iter().zip(blocked.iter_mut()) {
+            let Some(segment) = relative_segment(self.centre, s.from, s.to) else {
+                *b = false; // a point does not block itself
+                continue;
+            };
+            let (direction, length) = (segment.2, segment.3);
+            let eps = f64::from(SEGMENT_EPSILON) * length;
+            let clear = |end: Clear, cosine: f64| {
+                if end.clearance + eps * cosine > margin {
+                    end.group
+                } else {
+                    NO_SKIP
                 }
-                let [a, b, c] = self.exact[id];
-                sheared.hit(a, b, c).is_some()
-            })
-            .is_some()
+            };
+            let skip = [
+                clear(ends[0], direction.dot(e.normal)),
+                clear(ends[1], -direction.dot(t.normal)),
+            ];
+            *b = self.segment_blocked(segment, e.normal, t.normal, Some(skip));
+        }
+    }
+
+    fn clear_of(&self, p: &Polygon) -> Clear {
+        self.groups.clear_of(p, self.centre, MARGIN * self.diagonal)
     }
 }
 
@@ -368,6 +501,130 @@ mod tests {
                 "{x0:?} → {x1:?}"
             );
         }
+    }
+
+    /// A room 4 units wide holding a sphere of radius 1 (an icosphere of 5 120 triangles, one
+    /// closed group) and a second sphere of radius 0.5 (320 triangles) 1e-7 from the first.
+    fn spheres_in_a_room() -> (Scene, Vec<[DVec3; 3]>) {
+        use crate::scene::description::{SceneDescription, SurfaceDesc};
+        let text = "[[material]]\nname = \"w\"\nreflectance = [0.5, 0.5, 0.5]\n\
+             [[box]]\nname = \"room\"\nmaterial = \"w\"\nmin = [0, 0, 0]\nmax = [4, 4, 4]\ninward = true\n";
+        let mut d = SceneDescription::parse(text, "t").unwrap();
+        let mut tris = Vec::new();
+        for (name, centre, radius, levels) in [
+            ("big", [2.0, 2.0, 2.0], 1.0, 4),
+            ("small", [2.0, 2.0, 3.5 + 1e-7], 0.5, 2),
+        ] {
+            let polygons = crate::scene::procedural::icosphere(levels, centre, radius);
+            tris.extend(
+                polygons
+                    .iter()
+                    .map(|p| [0, 1, 2].map(|i| DVec3::from_array(p[i]))),
+            );
+            let surface = SurfaceDesc {
+                name: name.into(),
+                material: "w".into(),
+                polygons,
+                ..Default::default()
+            };
+            d.surfaces.push(surface.indexed());
+        }
+        (d.build("t", std::path::Path::new(".")).unwrap(), tris)
+    }
+
+    /// The balls and the hints answer every segment as the triangles do: segments between the
+    /// walls, the spheres' faces, points just outside a sphere's outer ball and points inside
+    /// it, with the balls and hints deciding many of them.
+    #[test]
+    fn groups_answer_as_the_triangles_do() {
+        let (scene, tris) = spheres_in_a_room();
+        let occ = ObvhsOccluder::build(&scene);
+        assert_eq!(occ.group_count(), 2);
+        let balls: Vec<Ball> = occ.groups.balls.iter().map(|b| b.unwrap()).collect();
+        let mut state = 0x5eed_u64;
+        let mut next = move || {
+            state = crate::geometry::hash::mix(state);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        // A point and its normal: on a wall, on a sphere's face (outwards), just outside the
+        // big sphere's outer ball, or inside it.
+        let mut point = |kind: u32| -> (DVec3, DVec3, Option<Polygon>) {
+            match kind {
+                0 => {
+                    let (u, v) = (4.0 * next(), 4.0 * next());
+                    let (p, n) = match (next() * 6.0) as u32 {
+                        0 => (DVec3::new(u, v, 0.0), DVec3::Z),
+                        1 => (DVec3::new(u, v, 4.0), -DVec3::Z),
+                        2 => (DVec3::new(0.0, u, v), DVec3::X),
+                        3 => (DVec3::new(4.0, u, v), -DVec3::X),
+                        4 => (DVec3::new(u, 0.0, v), DVec3::Y),
+                        _ => (DVec3::new(u, 4.0, v), -DVec3::Y),
+                    };
+                    // A small square of the wall about the point, facing the room.
+                    let (a, b) = n.any_orthonormal_pair();
+                    let mut square = [-a - b, a - b, a + b, b - a].map(|c| p + c * 0.01);
+                    if (square[1] - square[0]).cross(square[2] - square[0]).dot(n) < 0.0 {
+                        square.reverse();
+                    }
+                    (p, n, Polygon::new(&square))
+                }
+                1 => {
+                    let t = tris[(next() * tris.len() as f64) as usize];
+                    let (a, b) = (next(), next());
+                    let (a, b) = if a + b > 1.0 {
+                        (1.0 - a, 1.0 - b)
+                    } else {
+                        (a, b)
+                    };
+                    let p = t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b;
+                    let face = Polygon::new(&t).unwrap();
+                    (p, face.normal, Some(face))
+                }
+                2 => {
+                    let d = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize();
+                    let r = balls[0].outer + 1e-3 * (4.0 * 3f64.sqrt()) * (1.0 + next());
+                    (occ.centre + balls[0].centre + d * r, d, None)
+                }
+                _ => {
+                    let d = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize();
+                    (occ.centre + balls[0].centre + d * 0.9 * next(), d, None)
+                }
+            }
+        };
+        let (mut by_ball, mut hinted, mut blocked) = (0, 0, 0);
+        for i in 0..40_000u32 {
+            let (from, from_normal, from_face) = point(i % 4);
+            let (to, to_normal, to_face) = point((i / 4) % 4);
+            let want = occ.occluded_by_triangles(from, from_normal, to, to_normal);
+            assert_eq!(
+                occ.occluded(from, from_normal, to, to_normal),
+                want,
+                "{from} → {to}"
+            );
+            blocked += u32::from(want);
+            let segment = relative_segment(occ.centre, from, to).unwrap();
+            if balls.iter().any(|b| occ.by_ball(b, segment) != Enter::Yes) {
+                by_ball += 1;
+            }
+            // The bundle, with the hints of the faces the ends lie on, where the segment
+            // leaves the first to its front and reaches the second's front.
+            let (Some(e), Some(t)) = (from_face, to_face) else {
+                continue;
+            };
+            let d = to - from;
+            if d.dot(e.normal) <= 0.0 || d.dot(t.normal) >= 0.0 {
+                continue;
+            }
+            let ends = [occ.clear_of(&e), occ.clear_of(&t)];
+            hinted += u32::from(ends != [Clear::NONE; 2]);
+            let mut got = [false];
+            occ.occluded_bundle(&e, &t, ends, &[Segment { from, to }], &mut got);
+            assert_eq!(got[0], want, "bundle {from} → {to}");
+        }
+        assert!(
+            by_ball > 10_000 && hinted > 500 && blocked > 5_000,
+            "{by_ball} {hinted} {blocked}"
+        );
     }
 
     #[test]

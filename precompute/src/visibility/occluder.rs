@@ -27,20 +27,32 @@ pub trait Occluder: Sync {
 
     /// Answers [`Occluder::occluded`] for a bundle of segments from points of polygon `e` to
     /// points of polygon `t` (the rays of one element-target pair: short of the polygons' own
-    /// faces, a coherent bundle inside the shaft between them). `blocked[i]` answers
-    /// `segments[i]`. A backend may exploit the bundle (shaft culling, packets); its answers
-    /// must equal the single queries'. The default asks them one by one.
+    /// faces, a coherent bundle inside the shaft between them), each leaving `e` to its front
+    /// and arriving at `t`'s front. `blocked[i]` answers `segments[i]`. `ends` are
+    /// [`clear_of`](Self::clear_of) `e` and `t` (or [`Clear::NONE`]). A backend may exploit
+    /// the bundle (shaft culling, packets) and the hints; its answers must equal the single
+    /// queries'. The default asks them one by one.
     fn occluded_bundle(
         &self,
         e: &Polygon,
         t: &Polygon,
+        ends: [Clear; 2],
         segments: &[Segment],
         blocked: &mut [bool],
     ) {
         debug_assert_eq!(segments.len(), blocked.len());
+        let _ = ends;
         for (s, b) in segments.iter().zip(blocked.iter_mut()) {
             *b = self.occluded(s.from, e.normal, s.to, t.normal);
         }
+    }
+
+    /// A hint for the segments that leave polygon `p` to its front, or arrive at its front:
+    /// the faces they cannot meet, for [`occluded_bundle`](Self::occluded_bundle). Answers
+    /// never depend on it. The default knows none.
+    fn clear_of(&self, p: &Polygon) -> Clear {
+        let _ = p;
+        Clear::NONE
     }
 
     /// The closest-hit query of this backend, when it is the one that decides which rows must
@@ -49,6 +61,28 @@ pub trait Occluder: Sync {
     fn closest_hit(&self) -> Option<&dyn ClosestHit> {
         None
     }
+}
+
+/// Which of a backend's faces the segments leaving a polygon to its front (or arriving at
+/// its front) cannot meet ([`Occluder::clear_of`]; the default backend's groups,
+/// `visibility::groups`): opaque to callers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Clear {
+    /// The group's tag; `u16::MAX`: none.
+    pub(super) group: u16,
+    /// How far the polygon stands above the group's support plane along its normal.
+    pub(super) clearance: f64,
+}
+
+/// A [`Clear`] group that skips nothing: never a group's tag.
+pub(super) const NO_SKIP: u16 = u16::MAX;
+
+impl Clear {
+    /// No hint.
+    pub const NONE: Clear = Clear {
+        group: NO_SKIP,
+        clearance: f64::NEG_INFINITY,
+    };
 }
 
 /// What a ray from a surface meets first ([`ClosestHit::first_hit`]).
