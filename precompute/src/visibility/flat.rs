@@ -401,4 +401,90 @@ mod tests {
             }
         }
     }
+
+    /// The primitives (in `order`'s order) under slot `slot` of node `i`.
+    fn under(bvh: &FlatBvh, i: usize, slot: usize, out: &mut Vec<usize>) {
+        let (c, count) = (bvh.nodes[i].child[slot], bvh.nodes[i].count[slot]);
+        if count > 0 {
+            out.extend(c as usize..c as usize + count as usize);
+        } else if c != 0 {
+            for s in 0..4 {
+                under(bvh, c as usize, s, out);
+            }
+        }
+    }
+
+    /// Every child is tagged with the group all its primitives share, or none; a traversal
+    /// told a group is not to be entered offers none of its primitives, and one told the ray
+    /// meets it stops.
+    #[test]
+    fn children_are_tagged_with_their_primitives_group() {
+        // Four clusters of boxes far apart (groups 1, 2, 3 and none), then boxes of groups 1
+        // and 2 mixed in a fifth cluster.
+        let mut boxes = Vec::new();
+        let mut of_box = Vec::new();
+        for (cluster, group) in [
+            (0.0, 1),
+            (100.0, 2),
+            (200.0, 3),
+            (300.0, NO_GROUP),
+            (400.0, 9),
+        ] {
+            for i in 0..40 {
+                let c = Vec3A::new(cluster + (i % 7) as f32, (i / 7) as f32, 0.0);
+                boxes.push(Aabb::new(c, c + 0.5));
+                of_box.push(if group == 9 {
+                    1 + (i % 2) as u16
+                } else {
+                    group
+                });
+            }
+        }
+        let mut bvh = FlatBvh::build(&boxes, BvhBuildParams::medium_build());
+        let group: Vec<u16> = bvh.order.iter().map(|&b| of_box[b as usize]).collect();
+        bvh.tag(&group);
+        let mut tagged = 0;
+        for i in 0..bvh.nodes.len() {
+            for slot in 0..4 {
+                let mut prims = Vec::new();
+                under(&bvh, i, slot, &mut prims);
+                let Some(&first) = prims.first() else {
+                    continue;
+                };
+                let same = prims.iter().all(|&p| group[p] == group[first]);
+                let want = if same { group[first] } else { NO_GROUP };
+                assert_eq!(bvh.nodes[i].group[slot], want, "node {i} slot {slot}");
+                tagged += usize::from(want != NO_GROUP);
+            }
+        }
+        assert!(tagged > 3);
+        // A ray along the row of every cluster: group 2 skipped, group 3 said to block.
+        let ray = FlatRay::new(Vec3A::new(-10.0, 0.25, 0.25), Vec3A::X, 0.0, 1000.0);
+        let mut offered = Vec::new();
+        let hit = bvh.any_hit_by_group(
+            &ray,
+            |g| if g == 2 { Enter::No } else { Enter::Yes },
+            |p| {
+                offered.push(p);
+                false
+            },
+        );
+        assert_eq!(hit, Hit::Nothing);
+        let x = |p: usize| boxes[bvh.order[p] as usize].min.x;
+        assert!(
+            offered.iter().all(|&p| !(100.0..150.0).contains(&x(p))),
+            "group 2 skipped"
+        );
+        assert!(
+            offered.iter().any(|&p| (300.0..350.0).contains(&x(p))),
+            "ungrouped offered"
+        );
+        assert!(offered.iter().any(|&p| group[p] == 1) && offered.iter().any(|&p| group[p] == 3));
+        let hit = bvh.any_hit_by_group(
+            &ray,
+            |g| if g == 3 { Enter::Blocked } else { Enter::Yes },
+            |_| false,
+        );
+        assert_eq!(hit, Hit::Group);
+    }
 }
