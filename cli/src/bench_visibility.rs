@@ -6,11 +6,13 @@
 //! each exactly as a bake calls it: [`Occluder::occluded_bundle`] per element-target pair
 //! (rayon over the pairs):
 //! - `embree`: Embree 4 (only in builds with the feature `embree`), one `rtcOccluded1` per ray;
-//! - `obvhs`: the default backend, the project's BVH with the exact f64 triangle test.
+//! - `obvhs`: the default backend, the project's BVH with the exact f64 triangle test, its
+//!   groups' balls and the bundles' hints ([`Occluder::clear_of`], asked before the clock, as
+//!   a bake asks them once per row and target part).
 //!
 //! Each row is its own measurement: one backend on one thread count. (An earlier `default` row
-//! timed the default backend's `occluded_bundle`, which for obvhs is the per-ray loop the
-//! `obvhs` row already timed: the same code under a second name.)
+//! timed the default backend's `occluded_bundle` under a second name beside the `obvhs` row,
+//! when both were the same per-ray loop.)
 //!
 //! Protocol: `--runs` runs; in each, every thread count (one thread, then `--threads`) times
 //! every backend once, in alternating order (forward in even runs, reversed in odd ones, so

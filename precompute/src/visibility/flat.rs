@@ -10,7 +10,8 @@
 //! nodes answer the same rays faster than both (docs/PERFORMANCE.md).
 //!
 //! The traversal only proposes candidates: a child is entered when the f32 ray meets its box
-//! within `[tmin, tmax]`; the caller decides every candidate exactly. Culling is conservative as
+//! within `[tmin, tmax]` (and, for a child tagged with a group, when the caller says so);
+//! the caller decides every candidate exactly. Culling is conservative as
 //! long as the boxes are padded by more than the f32 rounding of the ray (`obvhs.rs` pads them).
 
 use glam::{Vec3A, Vec4};

@@ -1,26 +1,32 @@
-//! Groups of an occluder's triangles that the rays leaving a polygon cannot meet: the
-//! [`Clear`] hint of [`Occluder::clear_of`](super::Occluder::clear_of).
+//! Groups of an occluder's triangles, and what a traversal can know of them without testing
+//! their triangles.
 //!
 //! A group is a connected piece of the occluder (triangles joined by shared corners) of at
-//! least [`MIN_TRIANGLES`] triangles: a sphere, a box, a column. Every point of it lies at or
-//! below its support plane in any direction `n`, `n · x ≤ h(n)` with `h(n)` the largest
-//! `n · v` over its corners. A segment from a point `p` of a polygon with normal `n` whose
-//! every corner is at or above that plane (`min n · v ≥ h(n)`, the polygon's *clearance*
-//! `min n · v − h(n)` ≥ 0), going to the polygon's front (`n · d = s > 0`), rises above the
-//! plane from its start: at `t` it is `clearance + t·s` above it, so over the part of the
-//! segment the exact test looks at (`t ≥ ε`, `SEGMENT_EPSILON` of its length) it stays
-//! `clearance + ε·s` above the group, and nothing of the group can block it. The same holds at
-//! the segment's end, which arrives at the target's front.
+//! least [`MIN_TRIANGLES`] triangles: a sphere, a box, a column. The 4-wide BVH tags each
+//! child whose triangles are all of one group (`FlatBvh::tag`), and the traversal asks the
+//! occluder whether to enter it.
 //!
-//! What this is for: a polygon of a convex group (its face, or the planar proxy of a dense
-//! mesh's grouped faces, which stands on their highest corner) has a clearance of 0 against
-//! its own group, up to rounding. Its rays start among the group's triangles, so without the
-//! hint a traversal enters the nodes around the start point on every level and tests the
-//! triangles there (the 20 480-triangle sphere's rays cost about twice the 80-triangle
-//! sphere's, docs/PERFORMANCE.md). With it the BVH's children whose triangles are all of that
-//! group ([`FlatBvh::tag`](super::flat::FlatBvh::tag)) are not entered. The answers are the
-//! same: a group is skipped only where `clearance + ε·s` exceeds a margin far above the
-//! rounding of the terms (`MARGIN`, relative to the scene's diagonal).
+//! - **Balls** ([`Ball`]): a closed group about its centre answers the segments that keep out
+//!   of its outer ball (not entered) and the ones through its inner ball (blocked) without a
+//!   descent. This is what makes a finely tessellated sphere's rays as cheap as a coarse
+//!   one's: a third of the 256× dense sphere's rays cross it, and each descended about seven
+//!   levels of its 20 480 triangles to find the face it hits (docs/PERFORMANCE.md).
+//! - **Hints** ([`Clear`], [`Occluder::clear_of`](super::Occluder::clear_of)): every point
+//!   of a group lies at or below its support plane in any direction `n`, `n · x ≤ h(n)` with
+//!   `h(n)` the largest `n · v` over its corners. A segment from a point `p` of a polygon with
+//!   normal `n` whose every corner is at or above that plane (`min n · v ≥ h(n)`, the
+//!   polygon's *clearance* `min n · v − h(n)` ≥ 0), going to the polygon's front
+//!   (`n · d = s > 0`), is `clearance + t·s` above the plane at `t`, so over the part of the
+//!   segment the exact test looks at (`t ≥ ε`, `SEGMENT_EPSILON` of its length) it stays
+//!   `clearance + ε·s` above the group, and nothing of the group can block it; the same at the
+//!   segment's end, which arrives at the target's front. A face of a convex group, or the
+//!   planar proxy of a dense mesh's grouped faces (which stands on their highest corner), has
+//!   a clearance of 0 against its own group, up to rounding: its rays skip the group where
+//!   `clearance + ε·s` exceeds [`MARGIN`]. Only about 5 % of the 256× sphere's rays start
+//!   or end on it; the hints' own gain was not measured apart from the balls'.
+//!
+//! Both give the answers the triangles give (`obvhs`' unit tests hold them to it), so bakes
+//! are the same bytes with them.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -41,16 +47,16 @@ const MAX_GROUPS: usize = u16::MAX as usize - 1;
 /// Corners per leaf of a group's corner tree.
 const LEAF: usize = 8;
 
-/// The distance, relative to the scene's diagonal, a segment must keep above a group's
-/// support plane for the group to be skipped: about 10⁴ times the rounding of the dot
-/// products that place the segment and the group against the plane.
+/// The distance, relative to the scene's size (its diagonal plus its largest coordinate: the
+/// sample points are rounded in world coordinates), a segment must keep above a group's
+/// support plane for the group to be skipped, and the distance from a ball's surface the
+/// balls leave to the triangles: about 10⁴ times the rounding of the dot products that place
+/// them.
 pub(super) const MARGIN: f64 = 1e-12;
 
 /// The groups of one occluder.
 pub(super) struct Groups {
-    /// Each primitive's group tag, in the BVH's primitive order ([`NO_GROUP`]: none).
-    pub(super) tags: Vec<u16>,
-    /// Group `g`'s balls when it is a closed convex surface (tag `g + 1`).
+    /// Group `g`'s balls when it is a closed surface about its centre (tag `g + 1`).
     pub(super) balls: Vec<Option<Ball>>,
     /// Group `g`'s corners (tag `g + 1`).
     hulls: Vec<Corners>,
@@ -61,10 +67,11 @@ pub(super) struct Groups {
 
 impl Groups {
     /// The groups of `triangles` (coordinates relative to the occluder's centre, in the BVH's
-    /// primitive order): connected pieces of at least [`MIN_TRIANGLES`], numbered in the order
-    /// of their first triangle. Corners are shared when their coordinates are bit for bit the
-    /// same.
-    pub(super) fn of(triangles: &[[DVec3; 3]]) -> Self {
+    /// primitive order, with their `planes` as the own-face rule takes them): connected
+    /// pieces of at least [`MIN_TRIANGLES`], numbered in the order of their first triangle,
+    /// and each triangle's tag ([`NO_GROUP`]: none). Corners are shared when their
+    /// coordinates are bit for bit the same.
+    pub(super) fn of(triangles: &[[DVec3; 3]], planes: &[(DVec3, f64)]) -> (Self, Vec<u16>) {
         // Corners by their bits, then the pieces by union-find over the corners.
         let key = |v: DVec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
         let mut id: FxHashMap<[u64; 3], u32> = FxHashMap::default();
@@ -93,7 +100,7 @@ impl Groups {
         let mut tag_of_root = vec![NO_GROUP; position.len()];
         let mut groups = 0usize;
         let mut tags = vec![NO_GROUP; triangles.len()];
-        let mut members: Vec<Vec<[u32; 3]>> = Vec::new();
+        let mut members: Vec<Vec<u32>> = Vec::new();
         for (i, t) in corners.iter().enumerate() {
             let root = find(&mut parent, t[0]) as usize;
             if (size[root] as usize) < MIN_TRIANGLES {
@@ -108,7 +115,7 @@ impl Groups {
                 members.push(Vec::new());
             }
             tags[i] = tag_of_root[root];
-            members[tags[i] as usize - 1].push(*t);
+            members[tags[i] as usize - 1].push(i as u32);
         }
         let mut points: Vec<Vec<DVec3>> = vec![Vec::new(); groups];
         for (i, p) in position.iter().enumerate() {
@@ -120,15 +127,21 @@ impl Groups {
         let hulls: Vec<Corners> = points.into_iter().map(Corners::new).collect();
         let boxes: Vec<(DVec3, DVec3)> = hulls.iter().map(|h| h.bounds()).collect();
         let balls = (members.par_iter().zip(&hulls))
-            .map(|(m, h)| Ball::of(m, &position, h))
+            .map(|(m, h)| {
+                let triangles: Vec<([u32; 3], (DVec3, f64))> = m
+                    .iter()
+                    .map(|&i| (corners[i as usize], planes[i as usize]))
+                    .collect();
+                Ball::of(&triangles, &position, h)
+            })
             .collect();
-        Self {
-            tags,
+        let groups = Self {
             balls,
             grid: BoxGrid::new(&boxes),
             boxes,
             hulls,
-        }
+        };
+        (groups, tags)
     }
 
     /// Number of groups.
@@ -136,23 +149,21 @@ impl Groups {
         self.hulls.len()
     }
 
-    /// The group near polygon `p` (coordinates relative to the occluder's centre, `centre`
-    /// subtracted here) with the largest clearance ([module docs](self)), when it is at
-    /// least `-margin`; otherwise [`Clear::NONE`].
+    /// The group polygon `p` stands on or above (coordinates relative to the occluder's
+    /// centre, `centre` subtracted here): among the groups near it whose support plane along
+    /// `p`'s normal its lowest corner is at most `margin` below ([module docs](self)), the one
+    /// it stands nearest (its own, which its rays start among); otherwise [`Clear::NONE`].
     pub(super) fn clear_of(&self, p: &Polygon, centre: DVec3, margin: f64) -> Clear {
         let n = p.normal;
         if self.hulls.is_empty() || !n.is_finite() {
             return Clear::NONE;
         }
-        let vertices = p.vertices();
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        let mut low = f64::INFINITY;
-        for v in vertices {
-            let v = *v - centre;
-            lo = lo.min(v);
-            hi = hi.max(v);
-            low = low.min(n.dot(v));
+        for v in p.vertices() {
+            lo = lo.min(*v - centre);
+            hi = hi.max(*v - centre);
         }
+        let low = lowest(p, centre);
         // The groups within the polygon's size of it: its own (a proxy stands a little in
         // front of its faces), the ones it touches.
         let reach = DVec3::splat((hi - lo).length());
@@ -160,38 +171,53 @@ impl Groups {
         if !(query.0.is_finite() && query.1.is_finite() && low.is_finite()) {
             return Clear::NONE;
         }
-        let mut best = Clear::NONE;
-        for g in self.grid.candidates(query) {
+        let mut candidates = self.grid.candidates(query);
+        candidates.sort_unstable();
+        candidates.dedup();
+        let mut best = (Clear::NONE, f64::INFINITY);
+        for g in candidates {
             let g = g as usize;
             if !overlaps(query, self.boxes[g]) {
                 continue;
             }
-            let clearance = low - self.hulls[g].support(n);
-            if clearance >= -margin && clearance > best.clearance {
-                best = Clear {
+            let support = self.hulls[g].support(n);
+            let clearance = low - support;
+            if clearance >= -margin && clearance < best.1 {
+                let clear = Clear {
                     group: g as u16 + 1,
-                    clearance,
+                    normal: n,
+                    support,
                 };
+                best = (clear, clearance);
             }
         }
-        best
+        best.0
     }
 }
 
+/// The least `p.normal · (v - centre)` over `p`'s corners: where `p` stands along its normal.
+pub(super) fn lowest(p: &Polygon, centre: DVec3) -> f64 {
+    (p.vertices().iter())
+        .map(|v| p.normal.dot(*v - centre))
+        .fold(f64::INFINITY, f64::min)
+}
+
 /// Two balls of a group that is a closed, consistently oriented surface (each edge used once
-/// each way), about the mean of its corners: the outer one holds every corner; the inner one
-/// meets no triangle's plane, and the centre lies inside the surface (its winding number is
-/// not 0). A sphere, a box, a column: any closed surface whose centre sees every plane at a
-/// distance.
+/// each way), about the mean of its corners, when the centre lies inside the surface (its
+/// winding number is ±1): the outer one holds every corner; the inner one meets no plane of
+/// its triangles (nor so any triangle). A sphere, a box, a column: any closed surface whose
+/// centre sees every plane at a distance; convexity is not needed.
 ///
 /// - A segment that keeps out of the outer ball cannot meet the group.
 /// - A segment whose ends lie outside the outer ball and that passes through the inner ball
-///   goes from where the winding number is 0 to where it is not (the inner ball meets no
+///   goes from where the winding number is 0 to where it is ±1 (the inner ball meets no
 ///   triangle, so all of it has the centre's): it crosses the surface, through a triangle
 ///   (or an edge or corner between triangles, which the watertight exact test does not let
 ///   through), away from its ends. Neither end lies in that triangle's plane, which would
 ///   hold the whole segment and so a point of the inner ball (up to the own-face rule's
 ///   tolerance, which `BALL_CLEARANCE` in `obvhs` bounds): the exact test finds it blocking.
+///   (The exact test is watertight along edges; at a corner shared by many triangles its
+///   f64 signs could in principle leave a hair-wide gap that the balls would not.)
 ///
 /// A sphere tessellated finely has balls a hair apart, so the rays that cross it are answered
 /// without a descent through its thousands of triangles.
@@ -203,12 +229,17 @@ pub(super) struct Ball {
 }
 
 impl Ball {
-    /// The balls of the group of `triangles` (corner indices into `position`) with corners
-    /// `corners`, when it is a closed surface about its centre (above).
-    fn of(triangles: &[[u32; 3]], position: &[DVec3], corners: &Corners) -> Option<Self> {
+    /// The balls of the group of `triangles` (corner indices into `position`, and the plane
+    /// the own-face rule takes for each) with corners `corners`, when it is a closed surface
+    /// about its centre (above).
+    fn of(
+        triangles: &[([u32; 3], (DVec3, f64))],
+        position: &[DVec3],
+        corners: &Corners,
+    ) -> Option<Self> {
         // Closed and consistently oriented: each edge used once each way.
         let mut edges: Vec<(u32, u32, bool)> = Vec::with_capacity(3 * triangles.len());
-        for &[a, b, c] in triangles {
+        for &([a, b, c], _) in triangles {
             for (u, v) in [(a, b), (b, c), (c, a)] {
                 if u == v {
                     return None;
@@ -230,25 +261,32 @@ impl Ball {
             .iter()
             .map(|p| p.distance(centre))
             .fold(0.0, f64::max);
-        let (inner, solid) = triangles
-            .par_iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| position[i as usize] - centre);
-                let n = (b - a).cross(c - a).normalize_or_zero();
-                let plane = if n == DVec3::ZERO {
-                    f64::INFINITY // a degenerate triangle has no plane, and no area
+        let mut inner = f64::INFINITY;
+        let mut solid = 0.0;
+        for &(t, (n, _)) in triangles {
+            let [a, b, c] = t.map(|i| position[i as usize] - centre);
+            // The centre's distance to the triangle, bounded below along the own-face plane's
+            // normal (whatever its rounding): the least of the corners' heights when they lie
+            // on one side; 0 when they do not.
+            if n != DVec3::ZERO {
+                let h = [n.dot(a), n.dot(b), n.dot(c)];
+                let (min, max) = (h[0].min(h[1]).min(h[2]), h[0].max(h[1]).max(h[2]));
+                inner = inner.min(if min > 0.0 {
+                    min
+                } else if max < 0.0 {
+                    -max
                 } else {
-                    n.dot(a).abs()
-                };
-                // The solid angle the triangle subtends at the centre (Van Oosterom and
-                // Strackee), signed by its orientation.
-                let (la, lb, lc) = (a.length(), b.length(), c.length());
-                let below = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
-                (plane, 2.0 * a.dot(b.cross(c)).atan2(below))
-            })
-            .reduce(|| (f64::INFINITY, 0.0), |x, y| (x.0.min(y.0), x.1 + y.1));
+                    0.0
+                });
+            } // (a degenerate triangle has no plane and no area: no own face, no crossing)
+            // The solid angle the triangle subtends at the centre (Van Oosterom and
+            // Strackee, on unit vectors: the same at any scale), signed by its orientation.
+            let (a, b, c) = (a.normalize(), b.normalize(), c.normalize());
+            let below = 1.0 + a.dot(b) + b.dot(c) + c.dot(a);
+            solid += 2.0 * a.dot(b.cross(c)).atan2(below);
+        }
         let winding = solid / (4.0 * std::f64::consts::PI);
-        let inside = (winding.abs() - 1.0).abs() < 0.25;
+        let inside = winding.is_finite() && (winding.abs() - 1.0).abs() < 1e-6;
         (inside && inner > 0.0 && inner.is_finite() && outer.is_finite()).then_some(Self {
             centre,
             inner,
@@ -266,7 +304,7 @@ fn find(parent: &mut [u32], mut i: u32) -> u32 {
     i
 }
 
-/// Joins the sets of `a` and `b` (the smaller root under the larger: deterministic).
+/// Joins the sets of `a` and `b` (the larger root under the smaller: deterministic).
 fn union(parent: &mut [u32], a: u32, b: u32) {
     let (ra, rb) = (find(parent, a), find(parent, b));
     if ra != rb {
@@ -438,6 +476,15 @@ mod tests {
         }
     }
 
+    /// The groups of `tris` with the own-face rule's planes.
+    fn groups_of(tris: &[[DVec3; 3]]) -> (Groups, Vec<u16>) {
+        let planes: Vec<(DVec3, f64)> = tris
+            .iter()
+            .map(super::super::occluder::triangle_plane)
+            .collect();
+        Groups::of(tris, &planes)
+    }
+
     #[test]
     fn a_sphere_is_one_group_and_its_faces_clear_it() {
         let centre = DVec3::new(1.0, 2.0, 3.0);
@@ -455,15 +502,19 @@ mod tests {
             ],
         ];
         tris.extend(floor);
-        let groups = Groups::of(&tris);
+        let (groups, tags) = groups_of(&tris);
         assert_eq!(
             groups.len(),
             1,
             "the floor's two triangles are too few to be a group"
         );
-        assert!(groups.tags[..320].iter().all(|&t| t == 1));
-        assert_eq!(groups.tags[320..], [NO_GROUP, NO_GROUP]);
+        assert!(tags[..320].iter().all(|&t| t == 1));
+        assert_eq!(tags[320..], [NO_GROUP, NO_GROUP]);
+        let ball = groups.balls[0].expect("a closed sphere about its centre");
+        assert!((ball.centre - centre).length() < 1e-12);
+        assert!(ball.outer <= 1.0 + 1e-12 && ball.inner > 0.98 && ball.inner < ball.outer);
         let margin = 1e-12 * 20.0;
+        let clearance = |p: &Polygon, c: Clear| lowest(p, DVec3::ZERO) - c.support;
         for t in &tris[..320] {
             // Each face, oriented outwards, clears the sphere (up to rounding).
             let p = Polygon::new(&[t[0], t[1], t[2]]).unwrap();
@@ -474,8 +525,8 @@ mod tests {
                 Polygon::new(&[t[0], t[2], t[1]]).unwrap()
             };
             let c = groups.clear_of(&p, DVec3::ZERO, margin);
-            assert_eq!(c.group, 1);
-            assert!(c.clearance.abs() <= margin, "{}", c.clearance);
+            assert_eq!((c.group, c.normal), (1, p.normal));
+            assert!(clearance(&p, c).abs() <= margin, "{}", clearance(&p, c));
             // Turned inwards it does not.
             let q = Polygon::new(&[p.vertices()[0], p.vertices()[2], p.vertices()[1]]).unwrap();
             assert_eq!(groups.clear_of(&q, DVec3::ZERO, margin), Clear::NONE);
@@ -505,8 +556,61 @@ mod tests {
             groups.clear_of(&up(below), DVec3::ZERO, margin),
             Clear::NONE
         );
-        let c = groups.clear_of(&up(above), DVec3::ZERO, margin);
+        let above = up(above);
+        let c = groups.clear_of(&above, DVec3::ZERO, margin);
         assert_eq!(c.group, 1);
-        assert!((c.clearance - 1e-3).abs() < 1e-9, "{}", c.clearance);
+        assert!(
+            (clearance(&above, c) - 1e-3).abs() < 1e-9,
+            "{}",
+            clearance(&above, c)
+        );
+    }
+
+    /// A closed torus whose corners' mean lies in its hole (winding number 0), an open
+    /// hemisphere and a sphere with one face turned over get no balls, at any scale; a sphere
+    /// gets them from 1e-30 to 1e30 (beyond about 1e±100 its triangles' planes under- or
+    /// overflow, and a group without planes gets none).
+    #[test]
+    fn only_closed_surfaces_about_their_centre_get_balls() {
+        let torus = |scale: f64| {
+            let (big, small, m, k) = (1.0, 0.3, 24, 12);
+            let at = |i: usize, j: usize| {
+                let (u, v) = (
+                    std::f64::consts::TAU * (i % m) as f64 / m as f64,
+                    std::f64::consts::TAU * (j % k) as f64 / k as f64,
+                );
+                let r = big + small * v.cos();
+                DVec3::new(r * u.cos(), r * u.sin(), small * v.sin()) * scale
+            };
+            let mut tris = Vec::new();
+            for i in 0..m {
+                for j in 0..k {
+                    let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                    tris.push([a, b, c]);
+                    tris.push([a, c, d]);
+                }
+            }
+            tris
+        };
+        for scale in [1e-100, 1.0, 1e100, 1.0555e103] {
+            let (groups, _) = groups_of(&torus(scale));
+            assert_eq!(groups.len(), 1);
+            assert_eq!(groups.balls[0], None, "a torus at {scale}");
+        }
+        let whole = sphere(DVec3::ZERO, 2);
+        let half: Vec<[DVec3; 3]> = whole
+            .iter()
+            .filter(|t| t[0].y + t[1].y + t[2].y > 0.0)
+            .copied()
+            .collect();
+        assert_eq!(groups_of(&half).0.balls[0], None, "an open hemisphere");
+        let mut flipped = whole.clone();
+        flipped[7].swap(1, 2);
+        assert_eq!(groups_of(&flipped).0.balls[0], None, "a face turned over");
+        for scale in [1e-30, 1.0, 1e30] {
+            let scaled: Vec<[DVec3; 3]> = whole.iter().map(|t| t.map(|v| v * scale)).collect();
+            let ball = groups_of(&scaled).0.balls[0].expect("a sphere");
+            assert!(ball.inner > 0.98 * scale && ball.outer <= scale * (1.0 + 1e-12));
+        }
     }
 }

@@ -11,8 +11,9 @@
 //! Coordinates are shifted to the scene's centre before the f32 conversion to keep precision,
 //! and scaled by a power of two to a diagonal of 2048..4096 (see `F32_DIAGONAL`).
 //!
-//! The BVH only proposes candidates; every decision is the exact f64 test, so the traversal
-//! must never cull a face the exact test would call crossed. obvhs' own traversal did: its
+//! The BVH only proposes candidates; every decision is the exact f64 test, or what it must
+//! answer (the groups of `groups`: a closed surface's balls, a polygon's hint), so the
+//! traversal must never cull a face the exact test would call crossed. obvhs' own traversal did: its
 //! node test ignores `Ray::tmin` and culls every box the ray leaves before t = 1e-4 in absolute
 //! units, so in a scene a few units across a wall crossed within ~1e-4 of a segment's start
 //! (its padded box left before 1e-4) was never tested (5365 of 16 000 segments starting
@@ -26,7 +27,7 @@ use obvhs::aabb::Aabb;
 use obvhs::triangle::Triangle;
 
 use super::flat::{Enter, FlatBvh, FlatRay, Hit, NO_GROUP};
-use super::groups::{Ball, Groups, MARGIN};
+use super::groups::{Ball, Groups, MARGIN, lowest};
 use super::occluder::{
     Clear, ClosestHit, FirstHit, NO_SKIP, Occluder, PLANE_TOLERANCE, SEGMENT_EPSILON, Segment,
     own_face, relative_segment, triangle_plane,
@@ -116,10 +117,13 @@ impl ObvhsOccluder {
             })
             .collect();
         let mut bvh = FlatBvh::build(&boxes, params);
+        drop((tris, boxes));
         let exact: Vec<[DVec3; 3]> = bvh.order.iter().map(|&i| exact_tris[i as usize]).collect();
-        let groups = Groups::of(&exact);
-        bvh.tag(&groups.tags);
-        let planes = exact.iter().map(triangle_plane).collect();
+        drop(exact_tris);
+        let planes: Vec<(DVec3, f64)> = exact.iter().map(triangle_plane).collect();
+        let (groups, tags) = Groups::of(&exact, &planes);
+        bvh.tag(&tags);
+        drop(tags);
         let plane_tolerance = PLANE_TOLERANCE * (hi - lo).length();
         Self {
             bvh,
@@ -189,7 +193,7 @@ impl ObvhsOccluder {
         hit != Hit::Nothing
     }
 
-    /// What a closed convex group's balls say of the segment: it keeps out of the outer ball
+    /// What a closed group's balls say of the segment: it keeps out of the outer ball
     /// ([`Enter::No`]); it passes through the inner one, both ends outside the outer one by
     /// [`BALL_CLEARANCE`] (so that the surface is crossed well inside the part of the segment
     /// the exact test looks at): [`Enter::Blocked`]; otherwise the group's triangles decide.
@@ -229,6 +233,13 @@ impl ObvhsOccluder {
     ) -> bool {
         relative_segment(self.centre, from, to)
             .is_some_and(|s| self.segment_blocked(s, from_normal, to_normal, None))
+    }
+
+    /// How far above a group's support plane a segment must stay for a hint to skip the
+    /// group (`groups::MARGIN` of the scene's size: its sample points are rounded in world
+    /// coordinates).
+    fn hint_margin(&self) -> f64 {
+        MARGIN * (self.diagonal + self.centre.abs().max_element())
     }
 
     /// Number of groups of faces the BVH's children are tagged with (`groups`).
@@ -343,7 +354,17 @@ impl Occluder for ObvhsOccluder {
         blocked: &mut [bool],
     ) {
         debug_assert_eq!(segments.len(), blocked.len());
-        let margin = MARGIN * self.diagonal;
+        let margin = self.hint_margin();
+        // Each hint checked against the polygon it is given with: made for its normal, and
+        // the polygon's height over the group's support plane worked out here.
+        let clearance = |p: &Polygon, end: Clear| {
+            if end.group == NO_SKIP || p.normal != end.normal {
+                f64::NEG_INFINITY
+            } else {
+                lowest(p, self.centre) - end.support
+            }
+        };
+        let clearances = [clearance(e, ends[0]), clearance(t, ends[1])];
         for (s, b) in segments.iter().zip(blocked.iter_mut()) {
             let Some(segment) = relative_segment(self.centre, s.from, s.to) else {
                 *b = false; // a point does not block itself
@@ -351,23 +372,25 @@ impl Occluder for ObvhsOccluder {
             };
             let (direction, length) = (segment.2, segment.3);
             let eps = f64::from(SEGMENT_EPSILON) * length;
-            let clear = |end: Clear, cosine: f64| {
-                if end.clearance + eps * cosine > margin {
-                    end.group
+            // At `t` from the end the segment is `clearance + t · cosine` above the plane;
+            // the exact test looks from `t = eps` on.
+            let clear = |end: usize, cosine: f64| {
+                if cosine > 0.0 && clearances[end] + eps * cosine > margin {
+                    ends[end].group
                 } else {
                     NO_SKIP
                 }
             };
             let skip = [
-                clear(ends[0], direction.dot(e.normal)),
-                clear(ends[1], -direction.dot(t.normal)),
+                clear(0, direction.dot(e.normal)),
+                clear(1, -direction.dot(t.normal)),
             ];
             *b = self.segment_blocked(segment, e.normal, t.normal, Some(skip));
         }
     }
 
     fn clear_of(&self, p: &Polygon) -> Clear {
-        self.groups.clear_of(p, self.centre, MARGIN * self.diagonal)
+        self.groups.clear_of(p, self.centre, self.hint_margin())
     }
 }
 

@@ -48,8 +48,9 @@ pub trait Occluder: Sync {
     }
 
     /// A hint for the segments that leave polygon `p` to its front, or arrive at its front:
-    /// the faces they cannot meet, for [`occluded_bundle`](Self::occluded_bundle). Answers
-    /// never depend on it. The default knows none.
+    /// the faces they cannot meet, for [`occluded_bundle`](Self::occluded_bundle), which
+    /// checks it against the polygons it is given: answers never depend on it. The default
+    /// knows none.
     fn clear_of(&self, p: &Polygon) -> Clear {
         let _ = p;
         Clear::NONE
@@ -65,13 +66,17 @@ pub trait Occluder: Sync {
 
 /// Which of a backend's faces the segments leaving a polygon to its front (or arriving at
 /// its front) cannot meet ([`Occluder::clear_of`]; the default backend's groups,
-/// `visibility::groups`): opaque to callers.
+/// `visibility::groups`): opaque to callers. A backend checks a hint against the polygon it
+/// is given with, so a wrong one costs time, never an answer.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Clear {
-    /// The group's tag; `u16::MAX`: none.
+    /// The group's tag; [`NO_SKIP`]: none.
     pub(super) group: u16,
-    /// How far the polygon stands above the group's support plane along its normal.
-    pub(super) clearance: f64,
+    /// The polygon's normal the hint was made for.
+    pub(super) normal: DVec3,
+    /// The group's support along `normal`: the largest `normal · v` over its corners
+    /// (relative to the backend's centre).
+    pub(super) support: f64,
 }
 
 /// A [`Clear`] group that skips nothing: never a group's tag.
@@ -81,7 +86,8 @@ impl Clear {
     /// No hint.
     pub const NONE: Clear = Clear {
         group: NO_SKIP,
-        clearance: f64::NEG_INFINITY,
+        normal: DVec3::ZERO,
+        support: f64::INFINITY,
     };
 }
 
