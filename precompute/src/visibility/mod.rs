@@ -107,8 +107,9 @@ impl Backend {
 /// freed before the leaf collapse copies the tree (96); then the 4-wide tree (under 64);
 /// then its groups (`groups`, counted, not measured: a corner's id in a hash map, its
 /// position twice and its union-find entries, a triangle's corner ids, tag and place in its
-/// group, and a closed group's edges, about 100 bytes a triangle while they are made, 20
-/// kept). About 1 KiB at the most, 0.85 KiB with the PLOC buffers gone before the collapse.
+/// group, and a closed group's edges, about 100 bytes a triangle while they are made where
+/// corners are shared, up to about 400 for a soup of triangles that share none; 20 kept,
+/// after the f32 triangles, their boxes and the input-order f64 copy are freed). About 1 KiB at the most, 0.85 KiB with the PLOC buffers gone before the collapse.
 ///
 /// Measured as the rise of the resident peak over the build, the peak reset as it began
 /// (2 threads; 2026-11-29; triangles of the faces as imported, before the planar merge):
