@@ -217,9 +217,9 @@ impl<'a> FormFactors<'a> {
         };
         for (t_id, (target, out)) in targets.iter().zip(row.iter_mut()).enumerate() {
             *out = 0.0;
+            let seed = (u64::from(e_id) << 32) | t_id as u64;
+            let hints = (e_end, ends.of_target(t_id));
             let Some(t) = target.as_single() else {
-                let seed = (u64::from(e_id) << 32) | t_id as u64;
-                let hints = (e_end, ends.of_target(t_id));
                 match union::multi_part(
                     self.occluder,
                     e,
@@ -252,8 +252,6 @@ impl<'a> FormFactors<'a> {
             let visible = match self.occluder {
                 None => 1.0,
                 Some(occ) => {
-                    let seed = (u64::from(e_id) << 32) | t_id as u64;
-                    let hints = (e_end, ends.of_target(t_id));
                     let (v, r) = visible_fraction(
                         occ,
                         e,

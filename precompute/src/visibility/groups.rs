@@ -352,32 +352,12 @@ impl Corners {
     }
 
     /// The largest `n · v` over the corners (branch and bound: a node whose box cannot beat
-    /// the best so far is not opened).
+    /// the best so far is not opened; the more promising child is opened first).
     fn support(&self, n: DVec3) -> f64 {
-        let best = std::cell::Cell::new(f64::NEG_INFINITY);
-        self.search(
-            n,
-            |bound| bound <= best.get(),
-            |value| {
-                best.set(best.get().max(value));
-                false
-            },
-        );
-        best.get()
-    }
-
-    /// Visits the corners by their nodes, the more promising child first, skipping the nodes
-    /// whose bound on `n · v` `prune` says cannot matter, until `found` says yes of a corner's
-    /// `n · v`; returns whether it did.
-    fn search(
-        &self,
-        n: DVec3,
-        mut prune: impl FnMut(f64) -> bool,
-        mut found: impl FnMut(f64) -> bool,
-    ) -> bool {
         let bound = |node: &CornerNode| (n * node.lo).max(n * node.hi).element_sum();
+        let mut best = f64::NEG_INFINITY;
         let Some(root) = self.nodes.first() else {
-            return false;
+            return best;
         };
         // Depth is at most log2 of the corners (median splits): two entries a level. Each
         // entry keeps its node's bound.
@@ -387,15 +367,13 @@ impl Corners {
         while top > 0 {
             top -= 1;
             let (i, b) = stack[top];
-            if prune(b) {
+            if b <= best {
                 continue;
             }
             let node = &self.nodes[i as usize];
             if node.right == 0 {
                 for p in &self.points[node.start as usize..node.end as usize] {
-                    if found(n.dot(*p)) {
-                        return true;
-                    }
+                    best = best.max(n.dot(*p));
                 }
                 continue;
             }
@@ -413,7 +391,7 @@ impl Corners {
             stack[top + 1] = first;
             top += 2;
         }
-        false
+        best
     }
 }
 
