@@ -140,6 +140,9 @@ pub struct MeshingSummary {
     pub grid_regions: usize,
     pub grid_faces: usize,
     pub grid_elements: usize,
+    /// Faces whose contacts would have cut them into strips, meshed as grids (counted in
+    /// `grid_elements`).
+    pub sliver_faces: usize,
     /// Pieces of small faces and grid cells grouped into elements of about the element size
     /// (issue #31), and the elements they became.
     pub grouped_pieces: usize,
@@ -168,6 +171,7 @@ impl MeshingSummary {
             grid_regions: m.regions.grid_groups,
             grid_faces: m.regions.grid_faces,
             grid_elements: m.grid_elements,
+            sliver_faces: m.sliver_faces,
             grouped_pieces: m.grouped.faces,
             grouped_elements: m.grouped.elements,
             min_element_angle_degrees: m.min_angle,
@@ -204,13 +208,21 @@ impl MeshingSummary {
         writeln!(
             out,
             "meshing: {} region(s) of {} faces merged into one face, {} region(s) of {} faces \
-             remeshed as grids ({} elements), {} small piece(s) grouped into {} element(s), \
+             remeshed as grids ({} elements{}), {} small piece(s) grouped into {} element(s), \
              smallest element angle {:.1}°{}; {}",
             self.merged_regions,
             self.merged_faces,
             self.grid_regions,
             self.grid_faces,
             self.grid_elements,
+            if self.sliver_faces > 0 {
+                format!(
+                    ", with {} face(s) under many contacts meshed as grids",
+                    self.sliver_faces
+                )
+            } else {
+                String::new()
+            },
             self.grouped_pieces,
             self.grouped_elements,
             self.min_element_angle_degrees,

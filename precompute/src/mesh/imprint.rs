@@ -95,12 +95,16 @@ impl<'f> Imprinter<'f> {
     }
 
     /// Face `f`'s `polygon` (the face itself or a merged region) cut at its contact lines;
-    /// also the number of cuts by faces passing through it.
-    pub(super) fn split(&self, polygon: Polygon, f: usize) -> (Vec<Polygon>, usize) {
+    /// also its contacts and which of them cut something.
+    pub(super) fn split(
+        &self,
+        polygon: Polygon,
+        f: usize,
+    ) -> (Vec<Polygon>, Vec<Contact>, Vec<bool>) {
         let contacts = self.contacts(&polygon, bounds(&polygon), Some(f));
         let mut used = vec![false; contacts.len()];
         let pieces = cut_all(vec![polygon], &contacts, polygon.area(), &mut used);
-        (pieces, through(&contacts, &used))
+        (pieces, contacts, used)
     }
 }
 
@@ -280,6 +284,11 @@ impl Contact {
         (a + ab * t).distance(mid) <= tol
     }
 
+    /// Length of the contact segment.
+    pub(super) fn length(&self) -> f64 {
+        self.segment.0.distance(self.segment.1)
+    }
+
     /// Bounding box of the contact segment.
     pub(super) fn bounds(&self) -> (DVec3, DVec3) {
         let (a, b) = self.segment;
@@ -303,7 +312,7 @@ pub(super) fn split_at_contacts(faces: &[Face]) -> Vec<(Polygon, usize)> {
     let imprinter = Imprinter::new(faces);
     let mut out = Vec::with_capacity(faces.len());
     for (f, face) in faces.iter().enumerate() {
-        let (pieces, _) = imprinter.split(face.polygon, f);
+        let (pieces, _, _) = imprinter.split(face.polygon, f);
         out.extend(pieces.into_iter().map(|p| (p, f)));
     }
     out

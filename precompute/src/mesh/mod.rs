@@ -319,6 +319,59 @@ mod tests {
         }
     }
 
+    /// A 5 × 5 floor under 400 boxes of 0.08 (16 in each unit cell, at h = 1): cut at the
+    /// boxes' feet, the floor's strips would each cross it and subdivide along their length;
+    /// as a grid it is its cells, each cut by the boxes standing in it. The elements cover
+    /// the floor exactly, each within one cell, and come to no more than what the floor
+    /// makes uncut and what its cuts add (`subdivide::face_cut`).
+    #[test]
+    fn a_floor_under_many_boxes_meshes_by_area_and_cuts() {
+        let mut d = crate::scene::procedural::furnace(0.5, 1.0);
+        d.boxes[0].max = [5.0, 5.0, 2.0];
+        for i in 0..20 {
+            for j in 0..20 {
+                // Off the cell lines, each a little off the others' rows (no shared lines).
+                let x = 0.25 * i as f64 + 0.1 + 0.001 * j as f64;
+                let y = 0.25 * j as f64 + 0.05 + 0.0007 * i as f64;
+                d.boxes.push(crate::scene::description::BoxDesc {
+                    name: format!("box{i}.{j}"),
+                    material: "wall".into(),
+                    min: [x, y, 0.0],
+                    max: [x + 0.08, y + 0.08, 0.3],
+                    inward: false,
+                    omit: vec![],
+                });
+            }
+        }
+        let scene = d.build("t", std::path::Path::new(".")).unwrap();
+        let sizes = MeshSizes {
+            element_size: 1.0,
+            patch_size: 3.0,
+        };
+        let (elements, _, report) = fine_mesh(&scene, sizes).unwrap();
+        let floor = scene.surfaces.iter().position(|s| s == "cube.-z").unwrap();
+        let on_floor: Vec<&Element> = (elements.iter())
+            .filter(|e| e.surface as usize == floor)
+            .collect();
+        let area: f64 = on_floor.iter().map(|e| e.polygon.area()).sum();
+        assert!((area - 25.0).abs() < 1e-9, "area {area}");
+        assert!(
+            on_floor
+                .iter()
+                .all(|e| e.parts.is_empty() && within(e.polygon.size(), 1.0))
+        );
+        // What the floor makes uncut (64), two pieces along each unit of the cuts (1 600 ×
+        // 0.08 long) and two a cut: 3 520 (`subdivide::face_cut`). The strips gave 10 761;
+        // the grid gives 3 402.
+        assert_eq!(report.sliver_faces, 1);
+        let bound = 64.0 + 2.0 * 1600.0 * 0.08 + 2.0 * 1600.0;
+        assert!(
+            on_floor.len() as f64 <= bound,
+            "{} elements",
+            on_floor.len()
+        );
+    }
+
     #[test]
     fn a_refusal_names_the_surface_its_area_and_a_size_that_fits() {
         let scene = needle(2000.0);

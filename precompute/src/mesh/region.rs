@@ -54,6 +54,9 @@ pub(crate) enum Root {
 pub(crate) struct Grid {
     /// Input faces, in scene order (the first names the elements' face).
     pub faces: Vec<usize>,
+    /// The region when it is one polygon other than its face's (a face root meshed as a grid,
+    /// [`Grid::of_polygon`]); `None`: the faces themselves.
+    own: Option<Polygon>,
     origin: DVec3,
     u: DVec3,
     v: DVec3,
@@ -381,15 +384,27 @@ fn merge_convex(faces: &[Polygon], tolerance: f64) -> Option<Polygon> {
 
 impl Grid {
     fn new(all: &[Face], faces: Vec<usize>) -> Self {
-        let sum: DVec3 = faces
-            .iter()
-            .map(|&f| all[f].polygon.normal * all[f].polygon.area())
-            .sum();
+        Self::over(all, faces, None)
+    }
+
+    /// The grid over one polygon: a face root (the face `f` itself, or the region merged
+    /// into one convex polygon that `f` names) whose contacts cut it into slivers
+    /// (`subdivide::fine`).
+    pub(crate) fn of_polygon(all: &[Face], polygon: Polygon, f: usize) -> Self {
+        Self::over(all, vec![f], Some(polygon))
+    }
+
+    fn over(all: &[Face], faces: Vec<usize>, own: Option<Polygon>) -> Self {
+        let polygons: Vec<&Polygon> = match &own {
+            Some(p) => vec![p],
+            None => faces.iter().map(|&f| &all[f].polygon).collect(),
+        };
+        let sum: DVec3 = polygons.iter().map(|p| p.normal * p.area()).sum();
         let normal = sum.normalize();
         // Along the longest edge: a strip or a needle is then one row of cells.
         let mut best = (0.0, DVec3::ZERO);
-        for &f in &faces {
-            let v = all[f].polygon.vertices();
+        for p in &polygons {
+            let v = p.vertices();
             for i in 0..v.len() {
                 let e = v[(i + 1) % v.len()] - v[i];
                 let e = e - normal * e.dot(normal);
@@ -400,24 +415,33 @@ impl Grid {
         }
         let u = best.1.normalize();
         let v = normal.cross(u);
-        let origin = all[faces[0]].polygon.vertices[0];
-        let mut grid = Self {
+        let origin = polygons[0].vertices[0];
+        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        let to_plane = |p: DVec3| DVec2::new((p - origin).dot(u), (p - origin).dot(v));
+        for p in &polygons {
+            for x in p.vertices() {
+                (lo, hi) = (lo.min(to_plane(*x)), hi.max(to_plane(*x)));
+            }
+        }
+        drop(polygons);
+        Self {
             faces,
+            own,
             origin,
             u,
             v,
             normal,
-            lo: DVec2::splat(f64::INFINITY),
-            hi: DVec2::splat(f64::NEG_INFINITY),
-        };
-        for &f in &grid.faces {
-            for p in all[f].polygon.vertices() {
-                let q = grid.to_plane(*p);
-                grid.lo = grid.lo.min(q);
-                grid.hi = grid.hi.max(q);
-            }
+            lo,
+            hi,
         }
-        grid
+    }
+
+    /// The polygons the grid covers: its own, or its faces'.
+    fn polygons<'a>(&'a self, all: &'a [Face]) -> Vec<&'a Polygon> {
+        match &self.own {
+            Some(p) => vec![p],
+            None => self.faces.iter().map(|&f| &all[f].polygon).collect(),
+        }
     }
 
     fn to_plane(&self, p: DVec3) -> DVec2 {
@@ -445,9 +469,8 @@ impl Grid {
     pub(crate) fn estimate(&self, all: &[Face], element_size: f64, cap: f64) -> f64 {
         let (n, c) = self.cells(element_size);
         let mut total = 0.0;
-        for &f in &self.faces {
-            let poly: Vec<DVec2> = all[f]
-                .polygon
+        for polygon in self.polygons(all) {
+            let poly: Vec<DVec2> = polygon
                 .vertices()
                 .iter()
                 .map(|p| self.to_plane(*p))
@@ -476,9 +499,8 @@ impl Grid {
     pub(crate) fn elements(&self, all: &[Face], element_size: f64) -> (Vec<Polygon>, f64) {
         let (n, c) = self.cells(element_size);
         let mut pieces: Vec<(usize, usize, Vec<DVec2>)> = Vec::new();
-        for &f in &self.faces {
-            let poly: Vec<DVec2> = all[f]
-                .polygon
+        for polygon in self.polygons(all) {
+            let poly: Vec<DVec2> = polygon
                 .vertices()
                 .iter()
                 .map(|p| self.to_plane(*p))
@@ -590,8 +612,8 @@ impl Grid {
     pub(crate) fn bounds(&self, all: &[Face]) -> (DVec3, DVec3) {
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for &f in &self.faces {
-            for p in all[f].polygon.vertices() {
+        for polygon in self.polygons(all) {
+            for p in polygon.vertices() {
                 lo = lo.min(*p);
                 hi = hi.max(*p);
             }
