@@ -324,7 +324,11 @@ pub(crate) fn refine_mesh(
     let values = first_pass(&mesh, &fk, &reflectance, &emission, channels)?;
     drop(fk);
     stage.finish();
+    // The smooth weights of the whole mesh, the indicator and the split: minutes on a mesh of
+    // 10⁵ elements, so a stage of its own that says it still runs.
+    let stage = progress.stage("refine", 0);
     let (mut refined, split) = refine_by(scene, &mesh, &values, budget)?;
+    stage.finish();
     refined.meshing.refined = split;
     Ok((refined, saved))
 }
