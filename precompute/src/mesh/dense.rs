@@ -27,7 +27,7 @@
 use glam::DVec3;
 
 use super::element::{Element, within};
-use super::subdivide::{Grouped, Piece};
+use super::subdivide::{Grouped, Piece, PieceKind};
 use crate::geometry::Polygon;
 use crate::geometry::cluster::{Unit, by_size_within};
 use crate::scene::Scene;
@@ -59,7 +59,13 @@ pub(crate) fn group(
     // planar region meshed as a grid (a cell clipped to one of its faces).
     let whole = |p: &Piece| {
         p.count == 1
-            && (p.grid || within(scene.faces[p.face as usize].polygon.size(), element_size))
+            && match p.kind {
+                PieceKind::RegionGrid => true,
+                PieceKind::FaceGrid => false,
+                PieceKind::Subdivided => {
+                    within(scene.faces[p.face as usize].polygon.size(), element_size)
+                }
+            }
     };
     let mut sets: std::collections::BTreeMap<(u32, usize), Vec<usize>> = Default::default();
     for (i, p) in pieces.iter().enumerate() {
@@ -118,7 +124,7 @@ pub(crate) fn group(
                 surface: piece.surface,
                 first,
                 count: 1,
-                grid: false,
+                kind: PieceKind::Subdivided,
             });
             continue;
         }

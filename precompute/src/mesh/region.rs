@@ -10,7 +10,8 @@
 //!   a group of quads only (quads grid well), or a group
 //!   whose union is one convex quad, or a triangle no larger than the element size (a quad
 //!   written as two triangles or as a fan meshes exactly as the quad would). These go through
-//!   imprinting and the subdivision hierarchy as before.
+//!   imprinting and the subdivision hierarchy as before, except a face whose contacts would
+//!   cut it into strips, which is meshed as a grid of its own (`subdivide::face_cut`).
 //! - **as a grid** ([`Root::Grid`]): everything else with a triangle in it. A grid of cells of at
 //!   most the element size, aligned with the group's longest edge and fitted to its bounding box,
 //!   is laid over the plane; a cell the faces cover entirely is one (rectangular) element, a cell
@@ -400,7 +401,11 @@ impl Grid {
             None => faces.iter().map(|&f| &all[f].polygon).collect(),
         };
         let sum: DVec3 = polygons.iter().map(|p| p.normal * p.area()).sum();
-        let normal = sum.normalize();
+        // One polygon keeps its own normal exactly, as its subdivided pieces would.
+        let normal = match &own {
+            Some(p) => p.normal,
+            None => sum.normalize(),
+        };
         // Along the longest edge: a strip or a needle is then one row of cells.
         let mut best = (0.0, DVec3::ZERO);
         for p in &polygons {

@@ -111,9 +111,22 @@ pub(crate) struct Piece {
     pub surface: u32,
     pub first: u32,
     pub count: u32,
-    /// Whether it is a cell of a planar region meshed as a grid (`region`), which `dense` may
-    /// group with others (not the cells of a face under many contacts, `face_cut`).
-    pub grid: bool,
+    /// How it was made, which decides whether `dense` may group it.
+    pub kind: PieceKind,
+}
+
+/// How a [`Piece`] was made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum PieceKind {
+    /// A face root (or a piece of one cut at its contacts), subdivided: `dense` groups it when
+    /// it is one element of a face no larger than the element size.
+    Subdivided,
+    /// A cell of a planar region meshed as a grid (`region`), clipped to one of its faces:
+    /// `dense` groups it.
+    RegionGrid,
+    /// A cell of a face under many contacts meshed as a grid ([`face_cut`]): never grouped,
+    /// since a group's proxy would stand partly under what stands on the face.
+    FaceGrid,
 }
 
 /// What building the fine mesh found and how long its stages took.
@@ -135,7 +148,7 @@ pub struct MeshReport {
     /// Smallest interior angle of a grid element, degrees (180 when there are none).
     pub grid_min_angle: f64,
     /// (stage, seconds): `regions` (grouping and merging), `grid` (clipped grids),
-    /// `imprint` (contact and crossing cuts), `subdivide` (the hierarchy's leaves), `group`
+    /// `imprint` (contact and crossing cuts, and the grids of faces under many contacts), `subdivide` (the hierarchy's leaves), `group`
     /// (small pieces grouped, `dense`).
     pub stages: Vec<(&'static str, f64)>,
     /// Elements split by refinement where light changes (`lrr bake --refine`), 0 without.
@@ -161,7 +174,8 @@ pub struct Grouped {
 
 /// The fine mesh: planar regions planned (`region`), faces cut at their contacts and
 /// subdivided depth-first until their nodes' size ([`Polygon::size`]) drops to the element
-/// size, grid regions cut into cells (each element its own piece) and at their contacts. It
+/// size (or, under many contacts, meshed as a grid: [`face_cut`]), grid regions cut into
+/// cells (each element its own piece) and at their contacts. It
 /// does not depend on the patch method; `patch` is left unset (`u32::MAX`) for the coarse mesh
 /// to fill.
 pub(crate) fn fine(
@@ -200,7 +214,7 @@ pub(crate) fn fine(
                         cut.pieces,
                         f,
                         surface,
-                        false,
+                        PieceKind::FaceGrid,
                         report,
                         &mut elements,
                         &mut pieces,
@@ -227,7 +241,7 @@ pub(crate) fn fine(
                         surface,
                         first,
                         count: elements.len() as u32 - first,
-                        grid: false,
+                        kind: PieceKind::Subdivided,
                     });
                 }
                 t_subdivide += t.elapsed().as_secs_f64();
@@ -243,7 +257,8 @@ pub(crate) fn fine(
                 let (cut, used) = cut_cells(cells, &contacts, plane.scale);
                 let f = grid.faces[0];
                 let surface = scene.faces[f].surface as u32;
-                grid_pieces(cut, f, surface, true, report, &mut elements, &mut pieces);
+                let kind = PieceKind::RegionGrid;
+                grid_pieces(cut, f, surface, kind, report, &mut elements, &mut pieces);
                 report.interpenetrations += through(&contacts, &used);
                 t_imprint += t.elapsed().as_secs_f64();
             }
@@ -271,9 +286,10 @@ struct FaceCut {
 /// segment crosses, and the pieces are then subdivided along their length: a floor under
 /// many boxes becomes strips that each cross the floor, and subdivide into far more elements
 /// than its area and contacts call for (1 000 boxes on a floor: 43 900 elements where its
-/// area gives 198). Where the pieces would subdivide into more than twice what the face makes
-/// uncut and what its cuts add (below), the face is also meshed as a grid whose cells are cut
-/// by the contacts near them,
+/// area gives 198). Where the pieces would subdivide into more than twice the sum of what the
+/// face makes uncut and what its cuts add (below; a cut's length is its whole segment, so a
+/// cut running past the face counts more than it adds), the face is also meshed as a grid
+/// whose cells are cut by the contacts near them,
 /// so that a cut ends at the cell's side; that is kept when it makes at most half the
 /// elements (the 1 000 boxes: 7 796, the bake's surface means within
 /// 0.5 % of the strips', docs/MESHING.md).
@@ -308,8 +324,11 @@ fn face_cut(
         return subdivided;
     }
     let bound = 2.0 * (leaf_count(polygon, h) as f64 + 2.0 * length / h + 2.0 * m);
+    // The strips are counted only as far as a decision needs: past the bound, then past twice
+    // the grid's elements.
+    let mut strips = subdivided.pieces.iter();
     let mut count = 0.0;
-    for p in &subdivided.pieces {
+    for p in strips.by_ref() {
         count += leaf_count(*p, h) as f64;
         if count > bound {
             break;
@@ -318,15 +337,17 @@ fn face_cut(
     if count <= bound {
         return subdivided;
     }
-    let count: f64 = subdivided
-        .pieces
-        .iter()
-        .map(|p| leaf_count(*p, h) as f64)
-        .sum();
     let grid = region::Grid::of_polygon(&scene.faces, polygon, f);
     let (cells, dropped) = grid.elements(&scene.faces, h);
     let (pieces, used) = cut_cells(cells, &contacts, polygon.scale);
-    if pieces.len() as f64 > 0.5 * count {
+    let enough = 2.0 * pieces.len() as f64;
+    for p in strips {
+        if count >= enough {
+            break;
+        }
+        count += leaf_count(*p, h) as f64;
+    }
+    if count < enough {
         return subdivided;
     }
     FaceCut {
@@ -379,14 +400,12 @@ fn cut_cells(cells: Vec<Polygon>, contacts: &[Contact], scale: f64) -> (Vec<Poly
 /// Contacts past which [`cut_cells`] finds those near a cell through an index.
 const INDEXED_CONTACTS: usize = 64;
 
-/// Grid pieces of face `f`, each one element and its own piece; `grouped`: pieces that
-/// `dense::group` may group (those of planar regions meshed as grids, not those of a face
-/// under many contacts, see [`face_cut`]).
+/// Grid pieces of face `f`, each one element and its own piece of the given kind.
 fn grid_pieces(
     cut: Vec<Polygon>,
     f: usize,
     surface: u32,
-    grouped: bool,
+    kind: PieceKind,
     report: &mut MeshReport,
     elements: &mut Vec<Element>,
     pieces: &mut Vec<Piece>,
@@ -402,7 +421,7 @@ fn grid_pieces(
             surface,
             first: elements.len() as u32,
             count: 1,
-            grid: grouped,
+            kind,
         });
         elements.push(Element {
             polygon,
