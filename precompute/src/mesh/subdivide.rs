@@ -292,7 +292,7 @@ struct FaceCut {
 /// whose cells are cut by the contacts near them,
 /// so that a cut ends at the cell's side; that is kept when it makes at most half the
 /// elements (the 1 000 boxes: 7 796, the bake's surface means within
-/// 0.5 % of the strips', docs/MESHING.md).
+/// 0.9 % of the strips', docs/MESHING.md).
 ///
 /// Those grid pieces are not grouped (`dense`): a group's planar proxy stands where its
 /// pieces' area is, so about the feet of boxes it stands partly under them, where its rays
