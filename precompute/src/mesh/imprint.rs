@@ -169,8 +169,9 @@ pub(super) fn cut_all(
     out
 }
 
-/// Contacts up to which [`cut_all`] tests every piece against every later contact.
-const INDEXED_CONTACTS: usize = 64;
+/// Contacts up to which [`cut_all`] tests every piece against every later contact (and
+/// `subdivide::cut_cells` every cell against every contact).
+pub(super) const INDEXED_CONTACTS: usize = 64;
 
 /// The contacts' edges in the plane of the pieces (2D coordinates along two unit vectors
 /// across the normal), indexed, to find those that may touch a piece.

@@ -396,15 +396,25 @@ impl Grid {
     }
 
     fn over(all: &[Face], faces: Vec<usize>, own: Option<Polygon>) -> Self {
-        let polygons: Vec<&Polygon> = match &own {
-            Some(p) => vec![p],
-            None => faces.iter().map(|&f| &all[f].polygon).collect(),
+        let mut grid = Self {
+            faces,
+            own,
+            origin: DVec3::ZERO,
+            u: DVec3::ZERO,
+            v: DVec3::ZERO,
+            normal: DVec3::ZERO,
+            lo: DVec2::splat(f64::INFINITY),
+            hi: DVec2::splat(f64::NEG_INFINITY),
         };
-        let sum: DVec3 = polygons.iter().map(|p| p.normal * p.area()).sum();
+        let polygons = grid.polygons(all);
         // One polygon keeps its own normal exactly, as its subdivided pieces would.
-        let normal = match &own {
+        let normal = match &grid.own {
             Some(p) => p.normal,
-            None => sum.normalize(),
+            None => polygons
+                .iter()
+                .map(|p| p.normal * p.area())
+                .sum::<DVec3>()
+                .normalize(),
         };
         // Along the longest edge: a strip or a needle is then one row of cells.
         let mut best = (0.0, DVec3::ZERO);
@@ -418,27 +428,21 @@ impl Grid {
                 }
             }
         }
-        let u = best.1.normalize();
-        let v = normal.cross(u);
         let origin = polygons[0].vertices[0];
-        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-        let to_plane = |p: DVec3| DVec2::new((p - origin).dot(u), (p - origin).dot(v));
-        for p in &polygons {
+        drop(polygons);
+        grid.normal = normal;
+        grid.u = best.1.normalize();
+        grid.v = normal.cross(grid.u);
+        grid.origin = origin;
+        let (mut lo, mut hi) = (grid.lo, grid.hi);
+        for p in grid.polygons(all) {
             for x in p.vertices() {
-                (lo, hi) = (lo.min(to_plane(*x)), hi.max(to_plane(*x)));
+                let q = grid.to_plane(*x);
+                (lo, hi) = (lo.min(q), hi.max(q));
             }
         }
-        drop(polygons);
-        Self {
-            faces,
-            own,
-            origin,
-            u,
-            v,
-            normal,
-            lo,
-            hi,
-        }
+        (grid.lo, grid.hi) = (lo, hi);
+        grid
     }
 
     /// The polygons the grid covers: its own, or its faces'.

@@ -6,7 +6,9 @@ use rayon::prelude::*;
 use std::time::Instant;
 
 use super::element::{Element, MeshSizes, face_estimate, within};
-use super::imprint::{Contact, Imprinter, boxes_meet, cut_all, polygon_bounds, through};
+use super::imprint::{
+    Contact, INDEXED_CONTACTS, Imprinter, boxes_meet, cut_all, polygon_bounds, through,
+};
 use super::region::{self, PlanCounts, Root};
 use crate::geometry::Polygon;
 use crate::geometry::boxes::BoxGrid;
@@ -148,8 +150,8 @@ pub struct MeshReport {
     /// Smallest interior angle of a grid element, degrees (180 when there are none).
     pub grid_min_angle: f64,
     /// (stage, seconds): `regions` (grouping and merging), `grid` (clipped grids),
-    /// `imprint` (contact and crossing cuts, and the grids of faces under many contacts), `subdivide` (the hierarchy's leaves), `group`
-    /// (small pieces grouped, `dense`).
+    /// `imprint` (contact and crossing cuts, and the grids of faces under many contacts),
+    /// `subdivide` (the hierarchy's leaves), `group` (small pieces grouped, `dense`).
     pub stages: Vec<(&'static str, f64)>,
     /// Elements split by refinement where light changes (`lrr bake --refine`), 0 without.
     pub refined: usize,
@@ -175,9 +177,8 @@ pub struct Grouped {
 /// The fine mesh: planar regions planned (`region`), faces cut at their contacts and
 /// subdivided depth-first until their nodes' size ([`Polygon::size`]) drops to the element
 /// size (or, under many contacts, meshed as a grid: [`face_cut`]), grid regions cut into
-/// cells (each element its own piece) and at their contacts. It
-/// does not depend on the patch method; `patch` is left unset (`u32::MAX`) for the coarse mesh
-/// to fill.
+/// cells (each element its own piece) and at their contacts. It does not depend on the patch
+/// method; `patch` is left unset (`u32::MAX`) for the coarse mesh to fill.
 pub(crate) fn fine(
     scene: &Scene,
     roots: Vec<Root>,
@@ -289,10 +290,9 @@ struct FaceCut {
 /// area gives 198). Where the pieces would subdivide into more than twice the sum of what the
 /// face makes uncut and what its cuts add (below; a cut's length is its whole segment, so a
 /// cut running past the face counts more than it adds), the face is also meshed as a grid
-/// whose cells are cut by the contacts near them,
-/// so that a cut ends at the cell's side; that is kept when it makes at most half the
-/// elements (the 1 000 boxes: 7 796, the bake's surface means within
-/// 0.9 % of the strips', docs/MESHING.md).
+/// whose cells are cut by the contacts near them, so that a cut ends at the cell's side;
+/// that is kept when it makes at most half the elements (the 1 000 boxes: 7 796, the bake's
+/// surface means within 0.9 % of the strips', docs/MESHING.md).
 ///
 /// Those grid pieces are not grouped (`dense`): a group's planar proxy stands where its
 /// pieces' area is, so about the feet of boxes it stands partly under them, where its rays
@@ -396,9 +396,6 @@ fn cut_cells(cells: Vec<Polygon>, contacts: &[Contact], scale: f64) -> (Vec<Poly
     }
     (out, used)
 }
-
-/// Contacts past which [`cut_cells`] finds those near a cell through an index.
-const INDEXED_CONTACTS: usize = 64;
 
 /// Grid pieces of face `f`, each one element and its own piece of the given kind.
 fn grid_pieces(
