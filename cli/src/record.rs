@@ -15,7 +15,6 @@ use rayon::prelude::*;
 use lrr_precompute::bake::Prepared;
 use lrr_precompute::geometry::Polygon;
 use lrr_precompute::geometry::Region;
-use lrr_precompute::geometry::sampling::quadrature;
 use lrr_precompute::visibility::{Clear, Occluder, Segment};
 
 /// The rays of one element-target pair, as one `occluded_bundle` call received them.
@@ -135,7 +134,8 @@ pub fn record(prepared: &Prepared, samples: u32, min_rays: usize) -> RaySet {
         inner: occ,
         set: Mutex::new(RaySet::default()),
     };
-    let ff = lrr_precompute::formfactor::FormFactors::new(samples, Some(&recorder));
+    let ff = lrr_precompute::formfactor::FormFactors::new(samples, Some(&recorder))
+        .with_elements(&prepared.mesh.elements);
     let n = prepared.mesh.n();
     let targets: Vec<Region> = prepared
         .mesh
@@ -153,7 +153,7 @@ pub fn record(prepared: &Prepared, samples: u32, min_rays: usize) -> RaySet {
     for j in 0..n {
         let s = (j * stride) % n;
         let e = prepared.mesh.element_at(s);
-        quadrature(&e.polygon, ff.samples, &mut points);
+        ff.row_points(&e.polygon, prepared.mesh.order[s], &mut points);
         ff.row(
             &e.polygon,
             prepared.mesh.order[s],

@@ -106,7 +106,7 @@ fn enclosure_of(
             &own as &dyn ClosestHit
         }
     };
-    let enclosure = Enclosure::probe_each(probe, n, |i| mesh.elements[i].polygon);
+    let enclosure = Enclosure::probe_each(probe, n, |i| mesh.elements[i].on_surface());
     running.finish();
     Ok(enclosure)
 }
@@ -356,6 +356,7 @@ impl<'s> Prepared<'s> {
         if !self.mesh.siblings.is_empty() {
             ff.siblings = Some(&self.mesh.siblings);
         }
+        ff.elements = Some(&self.mesh.elements);
         ff
     }
 

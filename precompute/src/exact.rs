@@ -8,6 +8,7 @@ use crate::formfactor::FormFactors;
 use crate::geometry::Polygon;
 use crate::geometry::Region;
 use crate::memory;
+use crate::mesh::Element;
 use crate::patches::Mesh;
 use crate::radiosity::{ElementData, solve_dense};
 
@@ -38,7 +39,7 @@ pub fn solve_exact(
     let polygons: Vec<Polygon> = mesh.elements.iter().map(|e| e.polygon).collect();
     let ids: Vec<u32> = (0..n as u32).collect();
     let mut f = vec![0.0; n * n];
-    let targets: Vec<Region> = polygons.iter().map(|&p| Region::single(p)).collect();
+    let targets: Vec<Region> = mesh.elements.iter().map(Element::lit_region).collect();
     ff.matrix(&polygons, &ids, &targets, &mut f, progress);
     let radiosity = solve_dense(&f, data)?;
     Ok(ExactSolution {

@@ -244,7 +244,8 @@ pub const SKY_SAMPLES: usize = 4;
 /// projects a file that has none).
 pub const SKY_DIRECTIONS: usize = 64;
 
-/// The sky's transfer of each polygon (an element's, in file order): its order-2 spherical
+/// The sky's transfer of each element (its polygons: its own, or the parts it is lit on; in
+/// file order): its order-2 spherical
 /// harmonic coefficients `T_lm = ∫ V(x, ω) max(0, n·ω) Y_lm(ω) dω` averaged over
 /// [`SKY_SAMPLES`] points (equal-area strata of its fan triangles), each from
 /// [`SKY_DIRECTIONS`] cosine-weighted directions (stratified, turned per point by a hash of
@@ -252,7 +253,7 @@ pub const SKY_DIRECTIONS: usize = 64;
 /// direction counts when nothing of the scene blocks it within 4 extents. What section
 /// SKY_TRANSFER stores (`lrr_runtime::lights::DirectLighting` reads it).
 pub fn sky_transfer(
-    polygons: &[&crate::geometry::Polygon],
+    polygons: &[Vec<&crate::geometry::Polygon>],
     occluder: Option<&dyn Occluder>,
     extent: f64,
 ) -> Vec<f32> {
@@ -262,7 +263,7 @@ pub fn sky_transfer(
         .par_iter()
         .enumerate()
         .map(|(e, polygon)| {
-            let normal = polygon.normal;
+            let normal = polygon[0].normal;
             let (t, b) = normal.any_orthonormal_pair();
             let mut sum = [0.0f64; 9];
             for (j, x) in sample_points(polygon).into_iter().enumerate() {
@@ -309,14 +310,17 @@ fn sh9(w: DVec3) -> [f64; 9] {
     ]
 }
 
-/// [`SKY_SAMPLES`] points of a convex polygon: equal-area strata along its fan triangles, the
-/// van der Corput sequence across (a Hammersley set).
-fn sample_points(polygon: &crate::geometry::Polygon) -> Vec<DVec3> {
-    let v = polygon.vertices();
-    let tris: Vec<(DVec3, DVec3, DVec3, f64)> = (1..v.len() - 1)
-        .map(|i| {
-            let (a, b, c) = (v[0], v[i], v[i + 1]);
-            (a, b, c, 0.5 * (b - a).cross(c - a).length())
+/// [`SKY_SAMPLES`] points of convex polygons (one element's): equal-area strata along their
+/// fan triangles, the van der Corput sequence across (a Hammersley set).
+fn sample_points(polygons: &[&crate::geometry::Polygon]) -> Vec<DVec3> {
+    let tris: Vec<(DVec3, DVec3, DVec3, f64)> = polygons
+        .iter()
+        .flat_map(|p| {
+            let v = p.vertices();
+            (1..v.len() - 1).map(move |i| {
+                let (a, b, c) = (v[0], v[i], v[i + 1]);
+                (a, b, c, 0.5 * (b - a).cross(c - a).length())
+            })
         })
         .collect();
     let total: f64 = tris.iter().map(|t| t.3).sum();
@@ -391,7 +395,7 @@ mod tests {
         // Unoccluded: T_00 = π Y00 exactly (every direction counts), so a uniform sky L gives
         // π L; the other coefficients are the clamped cosine's, estimated.
         let square = crate::geometry::rectangle(0.0, 1.0, 0.0, 1.0, 0.0, false);
-        let t = sky_transfer(&[&square], None, 1.0);
+        let t = sky_transfer(&[vec![&square]], None, 1.0);
         let y00 = 0.5 / std::f64::consts::PI.sqrt();
         assert!(
             (f64::from(t[0]) - std::f64::consts::PI * y00).abs() < 1e-6,

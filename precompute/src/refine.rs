@@ -275,6 +275,7 @@ pub(crate) fn refine_mesh(
     let mut ff =
         FormFactors::new(first.first_pass_samples(), first.occluder).with_enclosure(first.closed);
     ff.adaptive = 1;
+    ff.elements = Some(&mesh.elements);
     let run = |resume: bool| {
         let settings = checkpoint.map(|(c, key)| {
             let c = CheckpointSettings {

@@ -84,8 +84,16 @@ pub fn build(
         .any(|l| l.kind.is_sky())
         .then(|| {
             let stage = progress.stage("sky", 0);
-            let polygons: Vec<&Polygon> =
-                (0..mesh.n()).map(|s| &mesh.element_at(s).polygon).collect();
+            let polygons: Vec<Vec<&Polygon>> = (0..mesh.n())
+                .map(|s| {
+                    let e = mesh.element_at(s);
+                    if e.on_parts {
+                        e.parts.iter().map(|(_, p)| p).collect()
+                    } else {
+                        vec![&e.polygon]
+                    }
+                })
+                .collect();
             let t = crate::lights::sky_transfer(&polygons, occluder, scene.extent());
             stage.finish();
             t

@@ -25,10 +25,11 @@ use rayon::prelude::*;
 
 use crate::geometry::Polygon;
 use crate::geometry::Region;
-use crate::geometry::sampling::{Sample, quadrature};
+use crate::geometry::sampling::{Sample, quadrature, quadrature_parts};
+use crate::mesh::Element;
 use crate::visibility::{Clear, Occluder};
 use contour::point_to_polygon;
-use visible::{Shape, faces_away, visible_fraction};
+use visible::{Shape, faces_away, faces_away_from, visible_fraction};
 
 /// Counters of one form-factor pass.
 #[derive(Debug, Default)]
@@ -78,6 +79,10 @@ pub struct FormFactors<'a> {
     /// Per element id: the pieces its parent was split into (`Mesh::siblings`); its row takes
     /// `samples` divided among them. `None`: every row takes `samples`.
     pub(crate) siblings: Option<&'a [u8]>,
+    /// The mesh's elements by id, for the rows of elements lit on their parts
+    /// ([`Element::on_parts`]: points and vertex tests on the parts). `None`: every row is
+    /// its polygon.
+    pub(crate) elements: Option<&'a [Element]>,
     pub(crate) stats: Stats,
 }
 
@@ -90,6 +95,7 @@ impl<'a> FormFactors<'a> {
             closed: None,
             adaptive: visible::ADAPTIVE_FACTOR,
             siblings: None,
+            elements: None,
             stats: Stats::default(),
         }
     }
@@ -103,6 +109,33 @@ impl<'a> FormFactors<'a> {
             .unwrap_or(1)
             .max(1);
         (self.samples / u32::from(share.min(MAX_SAMPLE_SHARE))).max(1)
+    }
+
+    /// The same pass, its rows looked up in `elements` (by id) for the ones lit on their
+    /// parts ([`Element::on_parts`]), as a bake's pass does.
+    pub fn with_elements(mut self, elements: &'a [Element]) -> Self {
+        self.elements = Some(elements);
+        self
+    }
+
+    /// The parts the row of element `id` is lit on ([`Element::on_parts`]); empty: its
+    /// polygon.
+    pub(crate) fn lit_parts(&self, id: u32) -> &'a [(u32, Polygon)] {
+        match self.elements.and_then(|e| e.get(id as usize)) {
+            Some(e) if e.on_parts => &e.parts,
+            _ => &[],
+        }
+    }
+
+    /// The quadrature points of the row of element `id` (polygon `e`) into `points`: on its
+    /// polygon, or over its parts when it is lit on them.
+    pub fn row_points(&self, e: &Polygon, id: u32, points: &mut Vec<Sample>) {
+        let parts = self.lit_parts(id);
+        if parts.is_empty() {
+            quadrature(e, self.row_samples(id), points);
+        } else {
+            quadrature_parts(parts, self.row_samples(id), points);
+        }
     }
 
     /// Occlusion rays cast so far by this pass.
@@ -158,7 +191,7 @@ impl<'a> FormFactors<'a> {
         out.par_chunks_mut(k)
             .enumerate()
             .for_each_init(Vec::new, |points, (i, row)| {
-                quadrature(&rows[i], self.row_samples(row_ids[i]), points);
+                self.row_points(&rows[i], row_ids[i], points);
                 self.row_with(&rows[i], row_ids[i], points, targets, ends, row);
                 progress(1);
             });
@@ -202,6 +235,7 @@ impl<'a> FormFactors<'a> {
         row: &mut [f64],
     ) {
         let e_end = self.occluder.map_or(Clear::NONE, |o| o.clear_of(e));
+        let e_parts = self.lit_parts(e_id);
         let mut culled = 0u64;
         let mut rays = 0u64;
         let closed = self
@@ -222,7 +256,7 @@ impl<'a> FormFactors<'a> {
             let Some(t) = target.as_single() else {
                 match union::multi_part(
                     self.occluder,
-                    e,
+                    (e, e_parts),
                     points,
                     target,
                     seed,
@@ -238,7 +272,7 @@ impl<'a> FormFactors<'a> {
                 }
                 continue;
             };
-            if faces_away(e, t) {
+            if faces_away_from(e, e_parts, t) {
                 culled += 1;
                 continue;
             }

@@ -19,7 +19,7 @@
 use crate::geometry::Region;
 
 use super::contour::{point_to_outline, point_to_polygon};
-use super::visible::{Shape, faces_away, visible_fraction};
+use super::visible::{Shape, faces_away_from, visible_fraction};
 use crate::geometry::Outline;
 use crate::geometry::Polygon;
 use crate::geometry::sampling::Sample;
@@ -29,7 +29,7 @@ use crate::visibility::{Clear, Occluder};
 /// (`None` when every part faces away from `e`: a culled pair).
 pub(super) fn multi_part(
     occluder: Option<&dyn Occluder>,
-    e: &Polygon,
+    (e, e_parts): (&Polygon, &[(u32, Polygon)]),
     points: &[Sample],
     target: &Region,
     seed: u64,
@@ -38,7 +38,7 @@ pub(super) fn multi_part(
 ) -> Option<(f64, u64, f64)> {
     let mut unoccluded = 0.0;
     let mut any = false;
-    let outline = target.outline().filter(|o| outline_applies(e, o));
+    let outline = target.outline().filter(|o| outline_applies(e, e_parts, o));
     if let Some(outline) = outline {
         // Every part faces `e` unclipped: the outline's contour integral is their sum.
         any = true;
@@ -53,7 +53,7 @@ pub(super) fn multi_part(
         target.kernel_parts()
     };
     for part in parts {
-        if faces_away(e, part) {
+        if faces_away_from(e, e_parts, part) {
             continue;
         }
         any = true;
@@ -109,10 +109,16 @@ fn rounds(e: &Polygon, target: &Region) -> u32 {
 /// `e`: `e` lies strictly in front of the region's plane (no part faces away from it, and
 /// none has `e`'s points in its plane) and every outline vertex is on or above `e`'s plane
 /// (the region is planar, so its lowest point is an outline vertex: nothing is clipped).
-fn outline_applies(e: &Polygon, o: &Outline) -> bool {
+/// For an element lit on its parts (`e_parts`, in `e`'s plane) every part must lie in front.
+fn outline_applies(e: &Polygon, e_parts: &[(u32, Polygon)], o: &Outline) -> bool {
     let eps = 1e-9 * o.scale;
-    e.vertices().iter().all(|&v| o.height(v) > eps)
-        && o.edges.iter().all(|&(a, _)| e.height(a) >= 0.0)
+    let front = |p: &Polygon| p.vertices().iter().all(|&v| o.height(v) > eps);
+    let front = if e_parts.is_empty() {
+        front(e)
+    } else {
+        e_parts.iter().all(|(_, p)| front(p))
+    };
+    front && o.edges.iter().all(|&(a, _)| e.height(a) >= 0.0)
 }
 
 #[cfg(test)]

@@ -18,6 +18,20 @@ pub(crate) fn faces_away(e: &Polygon, t: &Polygon) -> bool {
         || e.vertices().iter().all(|v| t.height(*v) <= eps_t)
 }
 
+/// [`faces_away`] for an element lit on its parts (`parts`; empty: `e` alone), which lie in
+/// `e`'s plane but not inside `e`: the element lies behind `t`'s plane when every part does.
+pub(crate) fn faces_away_from(e: &Polygon, parts: &[(u32, Polygon)], t: &Polygon) -> bool {
+    if parts.is_empty() {
+        return faces_away(e, t);
+    }
+    let eps_t = 1e-12 * t.scale;
+    let eps_e = 1e-12 * e.scale;
+    t.vertices().iter().all(|v| e.height(*v) <= eps_e)
+        || parts
+            .iter()
+            .all(|(_, p)| p.vertices().iter().all(|v| t.height(*v) <= eps_t))
+}
+
 /// Kernel-weighted fraction of unblocked segments between the element's points and
 /// pair-specific points on the target, and the number of rays cast. Partly visible pairs get
 /// `adaptive` times the rays ([`ADAPTIVE_FACTOR`] in a bake; 1: none).

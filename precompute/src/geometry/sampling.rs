@@ -68,6 +68,42 @@ pub fn quadrature(polygon: &Polygon, count: u32, out: &mut Vec<Sample>) {
     }
 }
 
+/// Quadrature points on a union of polygons (`parts`, with anything beside each), `count` of
+/// them: the R2 sequence's first coordinate picks the part by area and places the point
+/// across it, the second along it (as [`crate::geometry::Region::pair_point`] does, unshifted),
+/// each weighted by the part's local area density so that the weights integrate uniformly
+/// over the union and sum to 1. An element lit on its parts (`Element::on_parts`) is
+/// integrated with them.
+pub fn quadrature_parts<T>(parts: &[(T, Polygon)], count: u32, out: &mut Vec<Sample>) {
+    out.clear();
+    let total: f64 = parts.iter().map(|(_, p)| p.area()).sum();
+    if parts.is_empty() || total.is_nan() || total <= 0.0 {
+        return;
+    }
+    for i in 0..count.max(1) {
+        let (u, w) = r2(i, (0.0, 0.0));
+        let a = u * total;
+        let mut lo = 0.0;
+        let mut pick = parts.len() - 1;
+        for (j, (_, p)) in parts.iter().enumerate() {
+            if a < lo + p.area() {
+                pick = j;
+                break;
+            }
+            lo += p.area();
+        }
+        let part = &parts[pick].1;
+        let area = part.area();
+        let u = ((a - lo) / area).clamp(0.0, 1.0);
+        let mut s = map_unit_square(part.vertices(), u, w);
+        if part.count == 4 {
+            s.weight /= area; // the bilinear Jacobian relative to the part's area
+        }
+        out.push(s);
+    }
+    normalise(out);
+}
+
 /// The `i`-th point of a pair-specific sequence on a polygon (for the far end of a ray), with
 /// its area density relative to uniform (the bilinear Jacobian of a quad; 1 on triangles).
 /// Ray weights must include it: a wedge-shaped quad's bilinear map crowds points toward its

@@ -1,8 +1,8 @@
 //! What the fine mesh is made of: elements, and the element and patch sizes meshing works to.
 
 use crate::error::{Error, Result};
-use crate::geometry::Polygon;
 pub(crate) use crate::geometry::within;
+use crate::geometry::{Polygon, Region};
 use crate::scene::Scene;
 
 /// A fine-mesh element.
@@ -20,6 +20,11 @@ pub struct Element {
     /// with its input face, in piece order: `polygon` is then their planar proxy, and they are
     /// what is drawn. Empty for an element that is its own polygon.
     pub parts: Vec<(u32, Polygon)>,
+    /// Its light is computed on `parts`, not on `polygon`: the pieces of one cell of a face
+    /// under many contacts, all in the face's plane (`mesh::dense`). Its form-factor points
+    /// and the patches it joins lie on the parts; `polygon` gives its plane, area and hints.
+    /// False for every other element (a dense mesh's proxy stands in for its faces).
+    pub on_parts: bool,
 }
 
 impl Element {
@@ -29,6 +34,31 @@ impl Element {
         let own = self.parts.is_empty().then_some((self.face, &self.polygon));
         own.into_iter()
             .chain(self.parts.iter().map(|(f, p)| (*f, p)))
+    }
+
+    /// A polygon on the element's surface: its largest part when it is lit on its parts
+    /// (its proxy may stand partly under what stands on the face), else its polygon. What the
+    /// enclosure probe casts its rays from.
+    pub fn on_surface(&self) -> Polygon {
+        if !self.on_parts {
+            return self.polygon;
+        }
+        let largest = self
+            .parts
+            .iter()
+            .map(|(_, p)| p)
+            .reduce(|a, b| if b.area() > a.area() { b } else { a });
+        largest.copied().unwrap_or(self.polygon)
+    }
+
+    /// The element as a form-factor target: its parts when it is lit on them
+    /// ([`on_parts`](Self::on_parts)), else its polygon.
+    pub fn lit_region(&self) -> Region {
+        if self.on_parts {
+            Region::new(self.parts.iter().map(|(_, p)| *p).collect())
+        } else {
+            Region::single(self.polygon)
+        }
     }
 }
 

@@ -285,6 +285,26 @@ impl Contact {
         (a + ab * t).distance(mid) <= tol
     }
 
+    /// Distance from `x` (on the cut face, whose unit normal is `normal`) to the contact
+    /// segment, and whether `x` lies behind the other face there: the other face's normal,
+    /// taken in the cut face's plane, points away from `x` (a point under a box standing on
+    /// the face lies behind the box's sides). A face lying along the cut plane has nothing
+    /// behind it.
+    pub(super) fn behind(&self, x: DVec3, normal: DVec3) -> (f64, bool) {
+        let (a, b) = self.segment;
+        let ab = b - a;
+        let len2 = ab.length_squared();
+        let t = if len2 > 0.0 {
+            ((x - a).dot(ab) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let q = a + ab * t;
+        let n = self.plane.normal - normal * self.plane.normal.dot(normal);
+        let behind = n.length_squared() > 1e-12 && (x - q).dot(n) < 0.0;
+        (q.distance(x), behind)
+    }
+
     /// Length of the contact segment.
     pub(super) fn length(&self) -> f64 {
         self.segment.0.distance(self.segment.1)

@@ -355,32 +355,40 @@ mod tests {
             .collect();
         let area: f64 = on_floor.iter().map(|e| e.polygon.area()).sum();
         assert!((area - 25.0).abs() < 1e-9, "area {area}");
-        assert!(
-            on_floor
-                .iter()
-                .all(|e| e.parts.is_empty() && within(e.polygon.size(), 1.0))
-        );
-        // The strips, as subdivision would make them.
-        let imprinter = imprint::Imprinter::new(&scene.faces);
-        let f = scene.faces.iter().position(|x| x.surface == floor).unwrap();
-        let (strips, _, _) = imprinter.split(scene.faces[f].polygon, f);
-        let strips: u32 = strips.iter().map(|p| subdivide::leaf_count(*p, 1.0)).sum();
         assert_eq!(report.sliver_faces, 1);
-        assert!(
-            2 * on_floor.len() <= strips as usize,
-            "{} of {strips}",
-            on_floor.len()
-        );
-        // What the floor makes uncut (64), two pieces along each unit of the cuts (1 600 ×
-        // 0.08 long) and two a cut: 3 520, half what the switch compares the strips (10 761)
-        // with. Not a bound the grid holds in general (a cell crossed by many cuts can pass
-        // it), but this lattice's grid (3 402) should stay under it.
-        let bound = 64.0 + 2.0 * 1600.0 * 0.08 + 2.0 * 1600.0;
-        assert!(
-            on_floor.len() as f64 <= bound,
-            "{} elements",
-            on_floor.len()
-        );
+        // Each unit cell cut by its 16 feet is two elements lit on their parts: the floor
+        // about the feet and the floor under them. A part is under a foot when its centroid
+        // is inside one (the parts do not cross the feet's outlines).
+        let under = |p: &Polygon| {
+            let c = p.centroid();
+            let (i, j) = ((c.x - 0.1) / 0.25, (c.y - 0.05) / 0.25);
+            let (i, j) = (i.floor(), j.floor());
+            if !(0.0..20.0).contains(&i) || !(0.0..20.0).contains(&j) {
+                return false;
+            }
+            let x = 0.25 * i + 0.1 + 0.001 * j;
+            let y = 0.25 * j + 0.05 + 0.0007 * i;
+            (x..x + 0.08).contains(&c.x) && (y..y + 0.08).contains(&c.y)
+        };
+        let mut covered = 0.0;
+        for e in &on_floor {
+            assert!(e.on_parts && e.parts.len() >= 2, "{e:?}");
+            let below = under(&e.parts[0].1);
+            for (_, p) in &e.parts {
+                assert_eq!(under(p), below, "a part {p:?} on the wrong side");
+                let n = e.polygon.normal;
+                assert!(p.normal.dot(n) > 1.0 - 1e-12, "{p:?}");
+                assert!(e.polygon.height(p.centroid()).abs() < 1e-12, "{p:?}");
+            }
+            let parts: f64 = e.parts.iter().map(|(_, p)| p.area()).sum();
+            assert!((parts - e.polygon.area()).abs() < 1e-12 * parts.max(1.0));
+            if below {
+                covered += parts;
+            }
+        }
+        assert!((covered - 400.0 * 0.08 * 0.08).abs() < 1e-9, "{covered}");
+        // 25 cells, each one element about the feet and one under them.
+        assert_eq!(on_floor.len(), 50);
     }
 
     #[test]

@@ -126,9 +126,11 @@ pub(crate) enum PieceKind {
     /// A cell of a planar region meshed as a grid (`region`), clipped to one of its faces:
     /// `dense` groups it.
     RegionGrid,
-    /// A cell of a face under many contacts meshed as a grid ([`face_cut`]): never grouped,
-    /// since a group's proxy would stand partly under what stands on the face.
-    FaceGrid,
+    /// A piece of cell `cell` of a face under many contacts meshed as a grid ([`face_cut`]),
+    /// `covered` when it lies behind what stands on the face there (under a box):
+    /// `dense` groups the pieces of a cell on either side into one element lit on its parts
+    /// ([`Element::on_parts`]).
+    FaceGrid { cell: u32, covered: bool },
 }
 
 /// What building the fine mesh found and how long its stages took.
@@ -211,11 +213,14 @@ pub(crate) fn fine(
                     report.dropped_area += cut.dropped;
                     report.sliver_faces += 1;
                     let t = Instant::now();
+                    let kinds = cut
+                        .cells
+                        .iter()
+                        .map(|&(cell, covered)| PieceKind::FaceGrid { cell, covered });
                     grid_pieces(
-                        cut.pieces,
+                        cut.pieces.into_iter().zip(kinds),
                         f,
                         surface,
-                        PieceKind::FaceGrid,
                         report,
                         &mut elements,
                         &mut pieces,
@@ -234,6 +239,7 @@ pub(crate) fn fine(
                             surface,
                             patch: u32::MAX,
                             parts: Vec::new(),
+                            on_parts: false,
                         })
                     });
                     pieces.push(Piece {
@@ -255,11 +261,11 @@ pub(crate) fn fine(
                 let t = Instant::now();
                 let plane = grid.plane_polygon();
                 let contacts = imprinter.contacts(&plane, grid.bounds(&scene.faces), None);
-                let (cut, used) = cut_cells(cells, &contacts, plane.scale);
+                let (cut, _, used) = cut_cells(cells, &contacts, plane.scale);
                 let f = grid.faces[0];
                 let surface = scene.faces[f].surface as u32;
-                let kind = PieceKind::RegionGrid;
-                grid_pieces(cut, f, surface, kind, report, &mut elements, &mut pieces);
+                let cut = cut.into_iter().map(|p| (p, PieceKind::RegionGrid));
+                grid_pieces(cut, f, surface, report, &mut elements, &mut pieces);
                 report.interpenetrations += through(&contacts, &used);
                 t_imprint += t.elapsed().as_secs_f64();
             }
@@ -277,6 +283,8 @@ pub(crate) fn fine(
 /// grid.
 struct FaceCut {
     pieces: Vec<Polygon>,
+    /// With `grid`: each piece's cell and whether it is covered ([`PieceKind::FaceGrid`]).
+    cells: Vec<(u32, bool)>,
     through: usize,
     grid: bool,
     /// Area of grid pieces too small to be elements.
@@ -310,6 +318,7 @@ fn face_cut(
     let subdivided = FaceCut {
         through: through(&contacts, &used),
         pieces,
+        cells: Vec::new(),
         grid: false,
         dropped: 0.0,
     };
@@ -339,7 +348,7 @@ fn face_cut(
     }
     let grid = region::Grid::of_polygon(&scene.faces, polygon, f);
     let (cells, dropped) = grid.elements(&scene.faces, h);
-    let (pieces, used) = cut_cells(cells, &contacts, polygon.scale);
+    let (pieces, tags, used) = cut_cells(cells, &contacts, polygon.scale);
     let enough = 2.0 * pieces.len() as f64;
     for p in strips {
         if count >= enough {
@@ -353,15 +362,21 @@ fn face_cut(
     FaceCut {
         through: through(&contacts, &used),
         pieces,
+        cells: tags,
         grid: true,
         dropped,
     }
 }
 
 /// Grid cells each cut by the contacts whose segments come near it (a cut ends at the cell's
-/// sides), in cell order; `used[i]` when contact `i` cut something. `scale` sets the
-/// tolerance of "near".
-fn cut_cells(cells: Vec<Polygon>, contacts: &[Contact], scale: f64) -> (Vec<Polygon>, Vec<bool>) {
+/// sides), in cell order, each piece with its cell's index and whether it is covered
+/// ([`covered`]); `used[i]` when contact `i` cut something. `scale` sets the tolerance of
+/// "near".
+fn cut_cells(
+    cells: Vec<Polygon>,
+    contacts: &[Contact],
+    scale: f64,
+) -> (Vec<Polygon>, Vec<(u32, bool)>, Vec<bool>) {
     let mut used = vec![false; contacts.len()];
     let grow = 1e-7 * scale;
     let index = (contacts.len() > INDEXED_CONTACTS).then(|| {
@@ -369,7 +384,9 @@ fn cut_cells(cells: Vec<Polygon>, contacts: &[Contact], scale: f64) -> (Vec<Poly
         BoxGrid::new(&boxes)
     });
     let mut out = Vec::with_capacity(cells.len());
-    for cell in cells {
+    let mut tags = Vec::with_capacity(cells.len());
+    for (c, cell) in cells.into_iter().enumerate() {
+        let c = c as u32;
         let bounds = polygon_bounds(&cell);
         let mut near: Vec<usize> = match &index {
             Some(index) => {
@@ -384,30 +401,46 @@ fn cut_cells(cells: Vec<Polygon>, contacts: &[Contact], scale: f64) -> (Vec<Poly
         near.retain(|&i| boxes_meet(bounds, contacts[i].bounds(), grow));
         if near.is_empty() {
             out.push(cell);
+            tags.push((c, false));
             continue;
         }
         let picked: Vec<Contact> = near.iter().map(|&i| contacts[i]).collect();
         let mut u = vec![false; near.len()];
         let area = cell.area();
-        out.extend(cut_all(vec![cell], &picked, area, &mut u));
+        for piece in cut_all(vec![cell], &picked, area, &mut u) {
+            tags.push((c, covered(&piece, &picked)));
+            out.push(piece);
+        }
         for (k, &i) in near.iter().enumerate() {
             used[i] |= u[k];
         }
     }
-    (out, used)
+    (out, tags, used)
+}
+
+/// Whether a piece of a cut cell lies under what stands on its face: behind the contact
+/// nearest its centroid (behind every one of those as near, within rounding: at a box's
+/// corner both sides decide). Only the cell's contacts are asked; a piece whose nearest
+/// contact is farther is taken as open. Grouping by it keeps the floor about a box's foot
+/// apart from the floor under it, which sees nothing.
+fn covered(piece: &Polygon, contacts: &[Contact]) -> bool {
+    let x = piece.centroid();
+    let sides: Vec<(f64, bool)> = contacts.iter().map(|c| c.behind(x, piece.normal)).collect();
+    let nearest = sides.iter().map(|s| s.0).fold(f64::INFINITY, f64::min);
+    let tie = nearest + 1e-9 * piece.scale;
+    nearest.is_finite() && sides.iter().all(|&(d, behind)| d > tie || behind)
 }
 
 /// Grid pieces of face `f`, each one element and its own piece of the given kind.
 fn grid_pieces(
-    cut: Vec<Polygon>,
+    cut: impl Iterator<Item = (Polygon, PieceKind)>,
     f: usize,
     surface: u32,
-    kind: PieceKind,
     report: &mut MeshReport,
     elements: &mut Vec<Element>,
     pieces: &mut Vec<Piece>,
 ) {
-    for polygon in cut {
+    for (polygon, kind) in cut {
         let angle = region::min_angle(&polygon);
         report.min_angle = report.min_angle.min(angle);
         report.grid_min_angle = report.grid_min_angle.min(angle);
@@ -426,6 +459,7 @@ fn grid_pieces(
             surface,
             patch: u32::MAX,
             parts: Vec::new(),
+            on_parts: false,
         });
     }
 }

@@ -407,7 +407,10 @@ impl Mesh {
     }
 
     /// Sorts elements by patch (stable: generation order within a patch) and computes weights.
+    /// A patch holding an element lit on its parts ([`Element::on_parts`]) holds those parts
+    /// in place of its proxy.
     pub(crate) fn from_parts(elements: Vec<Element>, patches: Vec<Patch>) -> Self {
+        let patches = lit_on_parts(&elements, patches);
         let mut order: Vec<u32> = (0..elements.len() as u32).collect();
         order.sort_by_key(|&e| elements[e as usize].patch);
         let mut index = vec![0u32; patches.len() + 1];
@@ -559,6 +562,38 @@ fn outside_by(e: &Polygon, part: &Polygon) -> f64 {
                 .fold(part.height(x).abs(), f64::max)
         })
         .fold(0.0, f64::max)
+}
+
+/// `patches` with the proxy of each element lit on its parts ([`Element::on_parts`]) among
+/// its patch's parts replaced by those parts, so that the light leaving or reaching the
+/// patch there is sampled where the surface is (a proxy about the feet of boxes stands
+/// partly under them). A patch that holds no such proxy (already replaced: a refined mesh's
+/// patches) is left as it is.
+fn lit_on_parts(elements: &[Element], mut patches: Vec<Patch>) -> Vec<Patch> {
+    let mut by_patch: std::collections::BTreeMap<u32, Vec<&Element>> = Default::default();
+    for e in elements.iter().filter(|e| e.on_parts) {
+        by_patch.entry(e.patch).or_default().push(e);
+    }
+    for (p, lit) in by_patch {
+        let Some(patch) = patches.get_mut(p as usize) else {
+            continue;
+        };
+        let mut replaced = false;
+        let mut parts = Vec::with_capacity(patch.shape.parts().len());
+        for q in patch.shape.parts() {
+            match lit.iter().find(|e| e.polygon == *q) {
+                Some(e) => {
+                    parts.extend(e.parts.iter().map(|(_, p)| *p));
+                    replaced = true;
+                }
+                None => parts.push(*q),
+            }
+        }
+        if replaced {
+            patch.shape = Region::new(parts);
+        }
+    }
+    patches
 }
 
 impl Mesh {

@@ -41,6 +41,7 @@ pub(crate) fn write(path: &Path, id: &PlanIdentity, mesh: &Mesh) -> Result<()> {
         for v in [el.face, el.surface, el.patch] {
             e.u64(u64::from(v));
         }
+        e.u64(u64::from(el.on_parts));
         e.u64(el.parts.len() as u64);
         for (face, p) in &el.parts {
             e.u64(u64::from(*face));
@@ -166,6 +167,11 @@ fn mesh(d: &mut Dec) -> Decoded<Mesh> {
     for _ in 0..d.count(8 * 16)? {
         let polygon = read_polygon(d)?;
         let [face, surface, patch] = [d.u32()?, d.u32()?, d.u32()?];
+        let on_parts = match d.u64()? {
+            0 => false,
+            1 => true,
+            other => return Err(format!("an element's on_parts flag is {other}, not 0 or 1")),
+        };
         let mut parts = Vec::new();
         for _ in 0..d.count(8 * 15)? {
             parts.push((d.u32()?, read_polygon(d)?));
@@ -176,6 +182,7 @@ fn mesh(d: &mut Dec) -> Decoded<Mesh> {
             surface,
             patch,
             parts,
+            on_parts,
         });
     }
     let mut patches = Vec::new();

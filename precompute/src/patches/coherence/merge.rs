@@ -325,9 +325,13 @@ pub(crate) fn merge(
         .zip(materials)
         .map(|(e, m)| {
             let mut f = vec![0.0; q];
-            far.view(probes, e.polygon.centroid(), e.polygon.normal, &mut f);
+            // Seen from the surface: an element lit on its parts is seen from its largest
+            // part, not from its proxy (which may stand under a box while its parts do not,
+            // or the other way round).
+            let x = e.on_surface().centroid();
+            far.view(probes, x, e.polygon.normal, &mut f);
             let gathered: f64 = f.iter().zip(&probes.radiosity).map(|(f, b)| f * b).sum();
-            let direct = probes.direct(m.reflectance, e.polygon.centroid(), e.polygon.normal);
+            let direct = probes.direct(m.reflectance, x, e.polygon.normal);
             let b = m.emission + direct + m.reflectance * gathered;
             let a = e.polygon.area();
             let s = f
