@@ -20,6 +20,12 @@
 //!   weights and lightmap coordinates those of the input vertices;
 //! - its reflectance is the area-weighted mean of its faces'.
 //!
+//! The pieces of one cell of a face under many contacts (`PieceKind::FaceGrid`) are grouped
+//! apart, per side of what stands on the face: one element of the pieces about it, one of
+//! those under it. Such an element is lit on its parts (`Element::on_parts`: its form-factor
+//! points, its patch's shape and its views lie on them), all in the face's plane; its proxy
+//! gives only that plane, its area and the occluder's hints.
+//!
 //! The grouping is what Enlighten calls lighting a detail mesh through a simplified target:
 //! n ≈ area / h² whatever the tessellation. Occlusion still uses the input faces. A lone small
 //! piece keeps its own polygon, so scenes without dense parts mesh exactly as before.

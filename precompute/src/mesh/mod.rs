@@ -225,6 +225,30 @@ fn refusal(scene: &Scene, element_size: f64, per_surface: &[f64]) -> Error {
     ))
 }
 
+/// A 5 × 5 furnace floor under 400 boxes of 0.08 × 0.08 × 0.3, 16 in each unit cell (for
+/// `h = 1`), off the cell lines: a face under many contacts (`subdivide::face_cut`).
+#[cfg(test)]
+pub(crate) fn boxes_on_floor() -> Scene {
+    let mut d = crate::scene::procedural::furnace(0.5, 1.0);
+    d.boxes[0].max = [5.0, 5.0, 2.0];
+    for i in 0..20 {
+        for j in 0..20 {
+            // Off the cell lines, each a little off the others' rows (no shared lines).
+            let x = 0.25 * i as f64 + 0.1 + 0.001 * j as f64;
+            let y = 0.25 * j as f64 + 0.05 + 0.0007 * i as f64;
+            d.boxes.push(crate::scene::description::BoxDesc {
+                name: format!("box{i}.{j}"),
+                material: "wall".into(),
+                min: [x, y, 0.0],
+                max: [x + 0.08, y + 0.08, 0.3],
+                inward: false,
+                omit: vec![],
+            });
+        }
+    }
+    d.build("t", std::path::Path::new(".")).unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -321,29 +345,12 @@ mod tests {
 
     /// A 5 × 5 floor under 400 boxes of 0.08 (16 in each unit cell, at h = 1): cut at the
     /// boxes' feet, the floor's strips would each cross it and subdivide along their length;
-    /// as a grid it is its cells, each cut by the boxes standing in it. The floor's elements
-    /// keep its area, are no larger than a cell and not grouped, and are at most half the
-    /// strips (`subdivide::face_cut`).
+    /// as a grid it is its cells, each cut by the boxes standing in it and grouped into two
+    /// elements lit on their parts, the floor about the feet and the floor under them
+    /// (`subdivide::face_cut`, `dense`). They keep the floor's area and plane.
     #[test]
     fn a_floor_under_many_boxes_meshes_by_area_and_cuts() {
-        let mut d = crate::scene::procedural::furnace(0.5, 1.0);
-        d.boxes[0].max = [5.0, 5.0, 2.0];
-        for i in 0..20 {
-            for j in 0..20 {
-                // Off the cell lines, each a little off the others' rows (no shared lines).
-                let x = 0.25 * i as f64 + 0.1 + 0.001 * j as f64;
-                let y = 0.25 * j as f64 + 0.05 + 0.0007 * i as f64;
-                d.boxes.push(crate::scene::description::BoxDesc {
-                    name: format!("box{i}.{j}"),
-                    material: "wall".into(),
-                    min: [x, y, 0.0],
-                    max: [x + 0.08, y + 0.08, 0.3],
-                    inward: false,
-                    omit: vec![],
-                });
-            }
-        }
-        let scene = d.build("t", std::path::Path::new(".")).unwrap();
+        let scene = boxes_on_floor();
         let sizes = MeshSizes {
             element_size: 1.0,
             patch_size: 3.0,

@@ -111,10 +111,7 @@ pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
                     b,
                     x,
                     [ea.face, eb.face],
-                    [
-                        &contacts[ea.face as usize][..],
-                        &contacts[eb.face as usize][..],
-                    ],
+                    [&contacts[ea.face as usize], &contacts[eb.face as usize]],
                     tol,
                 )
         };
@@ -436,21 +433,54 @@ impl Incident {
         other: &Incident,
         x: DVec3,
         faces: [u32; 2],
-        contacts: [&[Contact]; 2],
+        contacts: [&FaceContacts; 2],
         tol: f64,
     ) -> bool {
         self.rays.iter().any(|&(d, la)| {
             other.rays.iter().any(|&(e, lb)| {
                 d.dot(e) > 1.0 - RAY_TOLERANCE && {
                     let mid = x + d * (0.5 * la.min(lb));
-                    !contacts.iter().any(|cs| {
-                        cs.iter().any(|c| {
-                            !faces.contains(&(c.face as u32)) && c.holds(mid, d, 10.0 * tol)
-                        })
-                    })
+                    !contacts
+                        .iter()
+                        .any(|cs| cs.on_edge(mid, d, faces, 10.0 * tol))
                 }
             })
         })
+    }
+}
+
+/// The contact lines in one face's plane, indexed by their boxes past
+/// [`INDEXED_CONTACTS`](super::imprint::INDEXED_CONTACTS) of them: the floor of a hall of
+/// 10 000 boxes has 40 000, and every edge met at every position of the floor asked them all
+/// (the smooth stage ran for minutes).
+#[derive(Default)]
+struct FaceContacts {
+    list: Vec<Contact>,
+    index: Option<BoxGrid>,
+}
+
+impl FaceContacts {
+    fn new(list: Vec<Contact>) -> Self {
+        let index = (list.len() > super::imprint::INDEXED_CONTACTS).then(|| {
+            let boxes: Vec<(DVec3, DVec3)> = list.iter().map(Contact::bounds).collect();
+            BoxGrid::new(&boxes)
+        });
+        Self { list, index }
+    }
+
+    /// Whether a segment along `d` with midpoint `mid` lies on a contact line of a face
+    /// other than `faces` (within `tol`: [`Contact::holds`]), the index narrowing the
+    /// search to the contacts whose boxes come within `tol` of `mid`.
+    fn on_edge(&self, mid: DVec3, d: DVec3, faces: [u32; 2], tol: f64) -> bool {
+        let holds = |c: &Contact| !faces.contains(&(c.face as u32)) && c.holds(mid, d, tol);
+        match &self.index {
+            None => self.list.iter().any(holds),
+            Some(index) => {
+                let g = DVec3::splat(tol);
+                let near = index.candidates((mid - g, mid + g));
+                near.into_iter().any(|i| holds(&self.list[i as usize]))
+            }
+        }
     }
 }
 
@@ -570,7 +600,7 @@ fn components<T>(items: &[T], joined: impl Fn(&T, &T) -> bool) -> Vec<Vec<usize>
 
 /// The contact lines (`imprint`) in the plane of each face that has elements, by face index
 /// (none for the others); the faces are searched in parallel.
-fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> Vec<Vec<Contact>> {
+fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> Vec<FaceContacts> {
     let mut bounds: Vec<Option<(DVec3, DVec3)>> = vec![None; scene.faces.len()];
     for e in elements {
         let (lo, hi) = polygon_bounds(&e.polygon);
@@ -582,8 +612,8 @@ fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> Vec<Vec<Contact>> 
         .par_iter()
         .enumerate()
         .map(|(f, b)| match b {
-            Some(b) => imprinter.contacts(&scene.faces[f].polygon, *b, Some(f)),
-            None => Vec::new(),
+            Some(b) => FaceContacts::new(imprinter.contacts(&scene.faces[f].polygon, *b, Some(f))),
+            None => FaceContacts::default(),
         })
         .collect()
 }

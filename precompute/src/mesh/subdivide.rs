@@ -302,11 +302,10 @@ struct FaceCut {
 /// that is kept when it makes at most half the elements (the 1 000 boxes: 7 796, the bake's
 /// surface means within 0.9 % of the strips', docs/MESHING.md).
 ///
-/// Those grid pieces are not grouped (`dense`): a group's planar proxy stands where its
-/// pieces' area is, so about the feet of boxes it stands partly under them, where its rays
-/// are blocked. Grouping them all made the floor 4 % darker on those boxes, the ceiling 11 %;
-/// grouping only the pieces outside the boxes' outlines (a winding number of the faces
-/// standing on the floor), 22 %.
+/// `dense` then groups each cell's pieces into at most two elements lit on their parts
+/// ([`Element::on_parts`]): the pieces about what stands on the face and the pieces under it
+/// ([`covered`]). A proxy lit in their place stands partly under the boxes, where its rays are
+/// blocked: grouping them so made the floor 4 % darker on those boxes, the ceiling 11 %.
 fn face_cut(
     scene: &Scene,
     imprinter: &Imprinter,

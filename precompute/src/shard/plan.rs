@@ -5,7 +5,8 @@
 //! N = 7), but 2MSC builds its patches from probe solves: half a shard's form-factor time at
 //! N = 7, repeated by every shard (docs/DISTRIBUTED.md). The plan stores the mesh exactly
 //! (every f64 by its bits), so a shard that reads it computes the same rows and the merge
-//! writes the same bytes. Layout: magic `LRRPLAN2` (2: elements list the face pieces they group), body length, XXH64 of the body, body
+//! writes the same bytes. Layout: magic `LRRPLAN3` (2: elements list the face pieces they group; 3: and whether they are lit
+//! on them, `Element::on_parts`), body length, XXH64 of the body, body
 //! (lrr version, scene content hash, settings text, then the mesh).
 
 use std::path::Path;
@@ -20,7 +21,7 @@ use crate::mesh::Element;
 use crate::patches::{Mesh, Patch};
 use crate::scene::Scene;
 
-const MAGIC: &[u8; 8] = b"LRRPLAN2";
+const MAGIC: &[u8; 8] = b"LRRPLAN3";
 
 /// What a plan must match: the shard's lrr version, scene and settings.
 pub(crate) struct PlanIdentity<'a> {
@@ -77,7 +78,7 @@ pub(crate) fn read(path: &Path, id: &PlanIdentity, scene: &Scene) -> Result<Mesh
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     if bytes.len() < 24 || &bytes[..8] != MAGIC {
         return Err(bad(
-            "not a plan (no LRRPLAN2 header): write one with `lrr plan`".into(),
+            "not a plan of this lrr (no LRRPLAN3 header): write one with `lrr plan`".into(),
         ));
     }
     let word = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().expect("8 bytes"));
@@ -144,7 +145,27 @@ fn fits(mesh: &Mesh, scene: &Scene) -> std::result::Result<(), String> {
                 faces, surfaces
             ));
         }
-        if !inside(&e.polygon) || !e.parts.iter().all(|(_, p)| inside(p)) {
+        // An element lit on its parts stands for them by a proxy of their area in their
+        // plane, which may reach past them (a rotated rectangle about a cell at the floor's
+        // edge): it must lie within its parts' box grown by that box's diagonal.
+        let proxy_near_parts = || {
+            let (mut a, mut b) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+            for v in e.parts.iter().flat_map(|(_, p)| p.vertices().iter()) {
+                (a, b) = (a.min(*v), b.max(*v));
+            }
+            let grow = DVec3::splat((b - a).length());
+            let (a, b) = (a - grow, b + grow);
+            let p = &e.polygon;
+            p.normal.is_finite()
+                && p.scale.is_finite()
+                && p.vertices().iter().all(|v| v.cmpge(a).all() && v.cmple(b).all())
+        };
+        let polygon_fits = if e.on_parts {
+            !e.parts.is_empty() && proxy_near_parts()
+        } else {
+            inside(&e.polygon)
+        };
+        if !polygon_fits || !e.parts.iter().all(|(_, p)| inside(p)) {
             return Err(format!("element {i} lies outside the scene"));
         }
     }
@@ -245,4 +266,43 @@ fn read_polygon(d: &mut Dec) -> Decoded<Polygon> {
         normal: v[4],
         scale: d.f64()?,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::MeshSizes;
+    use crate::patches::PatchMethod;
+
+    /// A plan keeps the elements lit on their parts (`Element::on_parts`: the flag, the parts)
+    /// and their patches' parts: the mesh read back equals the mesh written.
+    #[test]
+    fn a_plan_keeps_elements_lit_on_their_parts() {
+        let scene = crate::mesh::boxes_on_floor();
+        let sizes = MeshSizes {
+            element_size: 1.0,
+            patch_size: 3.0,
+        };
+        let mesh = Mesh::build(&scene, sizes, PatchMethod::TwoFixed, None).unwrap();
+        assert!(mesh.elements.iter().filter(|e| e.on_parts).count() >= 50);
+        let path = std::env::temp_dir().join(format!("lrr-plan-{}.plan", std::process::id()));
+        let id = PlanIdentity {
+            version: "test",
+            scene_hash: 7,
+            settings: "h 1",
+        };
+        write(&path, &id, &mesh).unwrap();
+        let back = read(&path, &id, &scene);
+        std::fs::remove_file(&path).ok();
+        let back = back.unwrap();
+        assert_eq!(back.elements, mesh.elements);
+        let shapes = |m: &Mesh| {
+            m.patches
+                .iter()
+                .map(|p| p.shape.clone())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(shapes(&back), shapes(&mesh));
+        assert_eq!(back.weights, mesh.weights);
+    }
 }
