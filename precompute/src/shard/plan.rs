@@ -158,7 +158,9 @@ fn fits(mesh: &Mesh, scene: &Scene) -> std::result::Result<(), String> {
             let p = &e.polygon;
             p.normal.is_finite()
                 && p.scale.is_finite()
-                && p.vertices().iter().all(|v| v.cmpge(a).all() && v.cmple(b).all())
+                && p.vertices()
+                    .iter()
+                    .all(|v| v.cmpge(a).all() && v.cmple(b).all())
         };
         let polygon_fits = if e.on_parts {
             !e.parts.is_empty() && proxy_near_parts()
