@@ -305,14 +305,15 @@ pub(crate) fn refine_mesh(
     let stage = progress.stage("first pass solve", 0);
     let (reflectance, mut emission) = mesh.file_order_materials(scene);
     // The lights that are not surfaces light the first pass as the runtime will: their
-    // reflected direct light at each element's centroid is emission.
+    // reflected direct light at each element's centroid (an element lit on its parts: its
+    // largest part's, `Element::on_surface`) is emission.
     let owned = crate::lights::LightsOwned::of(scene);
     if !owned.is_empty() {
         let lights = crate::lights::SceneLights::new(&owned, first.occluder);
         let direct: Vec<[f64; 3]> = (0..mesh.n())
             .into_par_iter()
             .map(|s| {
-                let p = &mesh.element_at(s).polygon;
+                let p = mesh.element_at(s).on_surface();
                 lights.irradiance(p.centroid(), p.normal)
             })
             .collect();

@@ -106,14 +106,14 @@ pub(crate) fn group(
         }
     }
     // The pieces of one cell of a face under many contacts, on either side of what stands on
-    // it (`PieceKind::FaceGrid`): one element each side, lit on its parts, which lie in the
-    // face's plane. Its proxy only gives that plane, its area and its hints; a proxy lit in
+    // it, that meet freely (`PieceKind::FaceGrid`): one element a group, lit on its parts,
+    // which lie in the face's plane. Its proxy only gives that plane, its area and its hints; a proxy lit in
     // their place stood under the boxes and darkened the floor by 4 %, the ceiling by 11 %
     // (docs/MESHING.md).
-    let mut cells: std::collections::BTreeMap<(u32, u32, bool), Vec<usize>> = Default::default();
+    let mut cells: std::collections::BTreeMap<(u32, u32), Vec<usize>> = Default::default();
     for (i, p) in pieces.iter().enumerate() {
-        if let PieceKind::FaceGrid { cell, covered } = p.kind {
-            cells.entry((p.face, cell, covered)).or_default().push(i);
+        if let PieceKind::FaceGrid { group, .. } = p.kind {
+            cells.entry((p.face, group)).or_default().push(i);
         }
     }
     for g in cells.into_values().filter(|g| g.len() >= 2) {

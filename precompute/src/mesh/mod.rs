@@ -229,6 +229,12 @@ fn refusal(scene: &Scene, element_size: f64, per_surface: &[f64]) -> Error {
 /// `h = 1`), off the cell lines: a face under many contacts (`subdivide::face_cut`).
 #[cfg(test)]
 pub(crate) fn boxes_on_floor() -> Scene {
+    boxes_on_floor_and(&[])
+}
+
+/// [`boxes_on_floor`] with more boxes (min and max corners) standing on the floor, 0.3 high.
+#[cfg(test)]
+pub(crate) fn boxes_on_floor_and(more: &[([f64; 2], [f64; 2])]) -> Scene {
     let mut d = crate::scene::procedural::furnace(0.5, 1.0);
     d.boxes[0].max = [5.0, 5.0, 2.0];
     for i in 0..20 {
@@ -245,6 +251,16 @@ pub(crate) fn boxes_on_floor() -> Scene {
                 omit: vec![],
             });
         }
+    }
+    for (k, (lo, hi)) in more.iter().enumerate() {
+        d.boxes.push(crate::scene::description::BoxDesc {
+            name: format!("more{k}"),
+            material: "wall".into(),
+            min: [lo[0], lo[1], 0.0],
+            max: [hi[0], hi[1], 0.3],
+            inward: false,
+            omit: vec![],
+        });
     }
     d.build("t", std::path::Path::new(".")).unwrap()
 }
@@ -396,6 +412,75 @@ mod tests {
         assert!((covered - 400.0 * 0.08 * 0.08).abs() < 1e-9, "{covered}");
         // 25 cells, each one element about the feet and one under them.
         assert_eq!(on_floor.len(), 50);
+    }
+
+    /// The floor of [`boxes_on_floor`] with a thin wall across it (y 2.45 to 2.47, x 0.3 to
+    /// 4.7: across the three cells between x = 1 and 4, into two more), a box flush against
+    /// the room's wall (x 0 to 0.06) and two boxes side by side (touching at x = 0.05). In
+    /// the cells the wall crosses, no element holds floor from both of its sides (its light
+    /// would leak under the wall; in the cells of its ends the floor meets round them), and
+    /// the floor under every box, the flush and touching ones included, is in elements of
+    /// floor under boxes only.
+    #[test]
+    fn grouped_floor_keeps_to_one_side_of_what_stands_on_it() {
+        let feet = [
+            ([0.3, 2.45], [4.7, 2.47]),
+            ([0.0, 3.1], [0.06, 3.16]),
+            ([0.01, 1.1], [0.05, 1.14]),
+            ([0.05, 1.1], [0.09, 1.14]),
+        ];
+        let scene = boxes_on_floor_and(&feet);
+        let sizes = MeshSizes {
+            element_size: 1.0,
+            patch_size: 3.0,
+        };
+        let (elements, _, report) = fine_mesh(&scene, sizes).unwrap();
+        assert_eq!(report.sliver_faces, 1);
+        let floor = scene.surfaces.iter().position(|s| s == "cube.-z").unwrap();
+        let mut rects: Vec<([f64; 2], [f64; 2])> = feet.to_vec();
+        for i in 0..20 {
+            for j in 0..20 {
+                let x = 0.25 * i as f64 + 0.1 + 0.001 * j as f64;
+                let y = 0.25 * j as f64 + 0.05 + 0.0007 * i as f64;
+                rects.push(([x, y], [x + 0.08, y + 0.08]));
+            }
+        }
+        let under = |p: &Polygon| {
+            let c = p.centroid();
+            (rects.iter())
+                .any(|(lo, hi)| (lo[0]..hi[0]).contains(&c.x) && (lo[1]..hi[1]).contains(&c.y))
+        };
+        let (mut covered, mut grouped) = (0.0, 0);
+        for e in elements.iter().filter(|e| e.surface as usize == floor) {
+            let parts: Vec<&Polygon> = if e.on_parts {
+                e.parts.iter().map(|(_, p)| p).collect()
+            } else {
+                vec![&e.polygon]
+            };
+            grouped += usize::from(e.on_parts);
+            let below = under(parts[0]);
+            assert!(parts.iter().all(|p| under(p) == below), "{e:?}");
+            if below {
+                covered += parts.iter().map(|p| p.area()).sum::<f64>();
+                continue;
+            }
+            let crossed = parts.iter().all(|p| (1.0..4.0).contains(&p.centroid().x));
+            let south = parts.iter().any(|p| p.centroid().y < 2.45);
+            let north = parts.iter().any(|p| p.centroid().y > 2.47);
+            assert!(
+                !(crossed && south && north),
+                "floor from both sides of the wall: {e:?}"
+            );
+        }
+        let feet_area: f64 = rects
+            .iter()
+            .map(|(lo, hi)| (hi[0] - lo[0]) * (hi[1] - lo[1]))
+            .sum();
+        assert!(
+            (covered - feet_area).abs() < 1e-9,
+            "{covered} of {feet_area}"
+        );
+        assert!(grouped >= 50, "{grouped} elements lit on their parts");
     }
 
     #[test]

@@ -126,11 +126,11 @@ pub(crate) enum PieceKind {
     /// A cell of a planar region meshed as a grid (`region`), clipped to one of its faces:
     /// `dense` groups it.
     RegionGrid,
-    /// A piece of cell `cell` of a face under many contacts meshed as a grid ([`face_cut`]),
-    /// `covered` when it lies behind what stands on the face there (under a box):
-    /// `dense` groups the pieces of a cell on either side into one element lit on its parts
-    /// ([`Element::on_parts`]).
-    FaceGrid { cell: u32, covered: bool },
+    /// A piece of a face under many contacts meshed as a grid ([`face_cut`]), `covered` when
+    /// it lies behind what stands on the face there (under a box), in `group` with the
+    /// pieces of its cell on its side that it meets freely ([`groups`]): `dense` makes each
+    /// group one element lit on its parts ([`Element::on_parts`]).
+    FaceGrid { group: u32, covered: bool },
 }
 
 /// What building the fine mesh found and how long its stages took.
@@ -216,7 +216,7 @@ pub(crate) fn fine(
                     let kinds = cut
                         .cells
                         .iter()
-                        .map(|&(cell, covered)| PieceKind::FaceGrid { cell, covered });
+                        .map(|&(group, covered)| PieceKind::FaceGrid { group, covered });
                     grid_pieces(
                         cut.pieces.into_iter().zip(kinds),
                         f,
@@ -283,7 +283,7 @@ pub(crate) fn fine(
 /// grid.
 struct FaceCut {
     pieces: Vec<Polygon>,
-    /// With `grid`: each piece's cell and whether it is covered ([`PieceKind::FaceGrid`]).
+    /// With `grid`: each piece's group and whether it is covered ([`PieceKind::FaceGrid`]).
     cells: Vec<(u32, bool)>,
     through: usize,
     grid: bool,
@@ -368,9 +368,10 @@ fn face_cut(
 }
 
 /// Grid cells each cut by the contacts whose segments come near it (a cut ends at the cell's
-/// sides), in cell order, each piece with its cell's index and whether it is covered
-/// ([`covered`]); `used[i]` when contact `i` cut something. `scale` sets the tolerance of
-/// "near".
+/// sides), in cell order, each piece with its group and whether it is covered ([`covered`]):
+/// the pieces of one cell on one side that meet along an edge no contact lies on share a
+/// group ([`groups`]), numbered from 0 in cell order. `used[i]` when contact `i` cut
+/// something. `scale` sets the tolerance of "near".
 fn cut_cells(
     cells: Vec<Polygon>,
     contacts: &[Contact],
@@ -384,8 +385,8 @@ fn cut_cells(
     });
     let mut out = Vec::with_capacity(cells.len());
     let mut tags = Vec::with_capacity(cells.len());
-    for (c, cell) in cells.into_iter().enumerate() {
-        let c = c as u32;
+    let mut next = 0u32;
+    for cell in cells {
         let bounds = polygon_bounds(&cell);
         let mut near: Vec<usize> = match &index {
             Some(index) => {
@@ -400,16 +401,19 @@ fn cut_cells(
         near.retain(|&i| boxes_meet(bounds, contacts[i].bounds(), grow));
         if near.is_empty() {
             out.push(cell);
-            tags.push((c, false));
+            tags.push((next, false));
+            next += 1;
             continue;
         }
         let picked: Vec<Contact> = near.iter().map(|&i| contacts[i]).collect();
         let mut u = vec![false; near.len()];
         let area = cell.area();
-        for piece in cut_all(vec![cell], &picked, area, &mut u) {
-            tags.push((c, covered(&piece, &picked)));
-            out.push(piece);
-        }
+        let pieces = cut_all(vec![cell], &picked, area, &mut u);
+        let sides: Vec<bool> = pieces.iter().map(|p| covered(p, &picked)).collect();
+        let (group, count) = groups(&pieces, &sides, &picked, grow);
+        tags.extend(group.iter().zip(&sides).map(|(&g, &c)| (next + g, c)));
+        next += count;
+        out.extend(pieces);
         for (k, &i) in near.iter().enumerate() {
             used[i] |= u[k];
         }
@@ -417,17 +421,94 @@ fn cut_cells(
     (out, tags, used)
 }
 
-/// Whether a piece of a cut cell lies under what stands on its face: behind the contact
-/// nearest its centroid (behind every one of those as near, within rounding: at a box's
-/// corner both sides decide). Only the cell's contacts are asked; a piece whose nearest
-/// contact is farther is taken as open. Grouping by it keeps the floor about a box's foot
-/// apart from the floor under it, which sees nothing.
+/// Whether a piece of a cut cell lies under what stands on its face: behind a contact
+/// nearest its centroid. Several as near (within rounding) decide together, and one behind
+/// is enough: under a box against a wall, or against another box, the box's side and the
+/// wall's foot (or the other box's side, which faces away) lie on one line; at a box's
+/// corner outside, the point is in front of both sides. Only the cell's contacts are asked.
+/// Grouping by it keeps the floor about a box's foot apart from the floor under it, which
+/// sees nothing.
 fn covered(piece: &Polygon, contacts: &[Contact]) -> bool {
     let x = piece.centroid();
     let sides: Vec<(f64, bool)> = contacts.iter().map(|c| c.behind(x, piece.normal)).collect();
     let nearest = sides.iter().map(|s| s.0).fold(f64::INFINITY, f64::min);
     let tie = nearest + 1e-9 * piece.scale;
-    nearest.is_finite() && sides.iter().all(|&(d, behind)| d > tie || behind)
+    nearest.is_finite() && sides.iter().any(|&(d, behind)| d <= tie && behind)
+}
+
+/// The groups of one cell's pieces: the covered ones (`covered`: under what stands on the
+/// face, seeing nothing) one group; the open ones by connection, two joining when an edge of
+/// one runs along an edge of the other (collinear, opposite, overlapping by more than `tol`)
+/// and no contact lies on the middle of that overlap. The floor on either side of a wall
+/// crossing the cell stays apart, as the pieces of a strip would. Returns each piece's group
+/// (numbered from 0 in the order of its first piece) and the number of groups.
+fn groups(pieces: &[Polygon], covered: &[bool], contacts: &[Contact], tol: f64) -> (Vec<u32>, u32) {
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let mut parent: Vec<usize> = (0..pieces.len()).collect();
+    let bounds: Vec<(DVec3, DVec3)> = pieces.iter().map(polygon_bounds).collect();
+    for i in 0..pieces.len() {
+        for j in i + 1..pieces.len() {
+            if covered[i] != covered[j] {
+                continue;
+            }
+            let join = covered[i]
+                || (boxes_meet(bounds[i], bounds[j], tol)
+                    && meet_freely(&pieces[i], &pieces[j], contacts, tol));
+            if join {
+                let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+                parent[a.max(b)] = a.min(b);
+            }
+        }
+    }
+    let mut number = vec![u32::MAX; pieces.len()];
+    let mut count = 0;
+    let mut out = Vec::with_capacity(pieces.len());
+    for i in 0..pieces.len() {
+        let r = root(&mut parent, i);
+        if number[r] == u32::MAX {
+            number[r] = count;
+            count += 1;
+        }
+        out.push(number[r]);
+    }
+    (out, count)
+}
+
+/// Whether `a` and `b` share a stretch of edge (collinear, opposite, overlapping by more than
+/// `tol`) whose middle no contact lies on ([`Contact::holds`]).
+fn meet_freely(a: &Polygon, b: &Polygon, contacts: &[Contact], tol: f64) -> bool {
+    let (va, vb) = (a.vertices(), b.vertices());
+    for i in 0..va.len() {
+        let (p, q) = (va[i], va[(i + 1) % va.len()]);
+        let len = p.distance(q);
+        if len <= tol {
+            continue;
+        }
+        let d = (q - p) / len;
+        // Distance of `x` from the line of a's edge.
+        let off = |x: DVec3| (x - p - d * (x - p).dot(d)).length();
+        for k in 0..vb.len() {
+            let (r, t) = (vb[k], vb[(k + 1) % vb.len()]);
+            if (t - r).dot(d) >= 0.0 || off(r) > tol || off(t) > tol {
+                continue;
+            }
+            let (lo, hi) = ((t - p).dot(d).max(0.0), (r - p).dot(d).min(len));
+            if hi - lo <= tol {
+                continue;
+            }
+            let mid = p + d * (0.5 * (lo + hi));
+            if !contacts.iter().any(|c| c.holds(mid, d, tol)) {
+                return true;
+            }
+        }
+    }
+    false
 }
 
 /// Grid pieces of face `f`, each one element and its own piece of the given kind.
@@ -528,4 +609,37 @@ pub(crate) fn cut(
         count += cut(child, first + count, sizes, visit);
     }
     count
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The floor under a box is covered where another box touches it (their sides on one
+    /// line, the other's facing the first) and where it stands flush against the room's
+    /// wall; the floor beside a box, at its corner, is open.
+    #[test]
+    fn the_floor_under_touching_boxes_is_covered() {
+        let scene = crate::mesh::boxes_on_floor_and(&[
+            ([0.0, 3.1], [0.06, 3.16]),
+            ([0.01, 1.1], [0.05, 1.14]),
+            ([0.05, 1.1], [0.09, 1.14]),
+        ]);
+        let floor = scene.surfaces.iter().position(|s| s == "cube.-z").unwrap();
+        let f = scene.faces.iter().position(|x| x.surface == floor).unwrap();
+        let imprinter = Imprinter::new(&scene.faces);
+        let plane = scene.faces[f].polygon;
+        let contacts = imprinter.contacts(&plane, polygon_bounds(&plane), Some(f));
+        let square = |x0: f64, y0: f64, x1: f64, y1: f64| {
+            let v = [[x0, y0], [x1, y0], [x1, y1], [x0, y1]].map(|[x, y]| DVec3::new(x, y, 0.0));
+            Polygon::new(&v).unwrap()
+        };
+        // Under the first of the touching boxes, under the second, under the flush one.
+        assert!(covered(&square(0.01, 1.1, 0.05, 1.14), &contacts));
+        assert!(covered(&square(0.05, 1.1, 0.09, 1.14), &contacts));
+        assert!(covered(&square(0.0, 3.1, 0.06, 3.16), &contacts));
+        // Beside the touching pair's corner, and between two boxes of the lattice.
+        assert!(!covered(&square(0.09, 1.14, 0.095, 1.145), &contacts));
+        assert!(!covered(&square(0.181, 0.05, 0.35, 0.13), &contacts));
+    }
 }

@@ -25,6 +25,7 @@ use crate::mesh::subdivide;
 use crate::mesh::{Element, MeshReport, MeshSizes, fine_mesh_within};
 use crate::scene::Scene;
 use crate::visibility::Occluder;
+use rustc_hash::FxHashMap;
 
 /// The fine mesh (elements) and the coarse mesh (patches) of a bake, with the file order.
 #[derive(Debug, Clone)]
@@ -115,6 +116,7 @@ pub(crate) fn msc_inputs<'a>(
     // equal error on the Cornell box.
     let mut probed = elements.to_vec();
     let probe_patches = two_fixed_patches(pieces, sizes, &mut probed);
+    let probe_patches = lit_on_parts(&probed, probe_patches);
     let budget = probe_budget(elements.len());
     let q = probe_patches.len().min(budget);
     // The probes are the 2MF patches at the patch size: a larger patch size makes fewer,
@@ -582,9 +584,14 @@ fn outside_by(e: &Polygon, part: &Polygon) -> f64 {
 /// partly under them). A patch that holds no such proxy (already replaced: a refined mesh's
 /// patches) is left as it is.
 fn lit_on_parts(elements: &[Element], mut patches: Vec<Patch>) -> Vec<Patch> {
-    let mut by_patch: std::collections::BTreeMap<u32, Vec<&Element>> = Default::default();
+    // Per patch, its elements lit on their parts by their proxies' corners (exact bits).
+    type Corners = [[u64; 3]; 4];
+    let corners = |p: &Polygon| -> Corners { p.vertices.map(|v| v.to_array().map(f64::to_bits)) };
+    let mut by_patch: std::collections::BTreeMap<u32, FxHashMap<Corners, &Element>> =
+        Default::default();
     for e in elements.iter().filter(|e| e.on_parts) {
-        by_patch.entry(e.patch).or_default().push(e);
+        let lit = by_patch.entry(e.patch).or_default();
+        lit.insert(corners(&e.polygon), e);
     }
     for (p, lit) in by_patch {
         let Some(patch) = patches.get_mut(p as usize) else {
@@ -593,7 +600,7 @@ fn lit_on_parts(elements: &[Element], mut patches: Vec<Patch>) -> Vec<Patch> {
         let mut replaced = false;
         let mut parts = Vec::with_capacity(patch.shape.parts().len());
         for q in patch.shape.parts() {
-            match lit.iter().find(|e| e.polygon == *q) {
+            match lit.get(&corners(q)).filter(|e| e.polygon == *q) {
                 Some(e) => {
                     parts.extend(e.parts.iter().map(|(_, p)| *p));
                     replaced = true;
