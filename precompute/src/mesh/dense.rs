@@ -86,40 +86,12 @@ pub(crate) fn group(
     let mut lead: Vec<Option<(Vec<usize>, Polygon, bool)>> = vec![None; pieces.len()];
     let mut member = vec![false; pieces.len()];
     let mut grouped = Grouped::default();
-    for set in sets.into_values().filter(|s| s.len() >= 2) {
-        let (size, area) = (SIDE_FACTOR * element_size, element_size * element_size);
-        for g in by_size_within(&units, set, size, area, ELEMENT_CONE_DEGREES) {
-            if g.len() < 2 {
-                continue;
-            }
-            let polygons: Vec<&Polygon> = g.iter().map(|&i| &pieces[i].polygon).collect();
-            let Some(polygon) = proxy(&polygons, element_size) else {
-                continue;
-            };
-            grouped.faces += g.len();
-            grouped.elements += 1;
-            for &i in &g {
-                member[i] = true;
-            }
-            let first = g[0];
-            lead[first] = Some((g, polygon, false));
-        }
-    }
-    // The pieces of one cell of a face under many contacts, on either side of what stands on
-    // it, that meet freely (`PieceKind::FaceGrid`): one element a group, lit on its parts,
-    // which lie in the face's plane. Its proxy only gives that plane, its area and its hints; a proxy lit in
-    // their place stood under the boxes and darkened the floor by 4 %, the ceiling by 11 %
-    // (docs/MESHING.md).
-    let mut cells: std::collections::BTreeMap<(u32, u32), Vec<usize>> = Default::default();
-    for (i, p) in pieces.iter().enumerate() {
-        if let PieceKind::FaceGrid { group, .. } = p.kind {
-            cells.entry((p.face, group)).or_default().push(i);
-        }
-    }
-    for g in cells.into_values().filter(|g| g.len() >= 2) {
+    // Group `g` (two or more pieces) becomes one element, its proxy's sides at most
+    // `max_side`, lit on its parts or not; a group whose proxy is degenerate stays apart.
+    let mut take = |g: Vec<usize>, max_side: f64, on_parts: bool| {
         let polygons: Vec<&Polygon> = g.iter().map(|&i| &pieces[i].polygon).collect();
-        let Some(polygon) = proxy(&polygons, f64::INFINITY) else {
-            continue;
+        let Some(polygon) = proxy(&polygons, max_side) else {
+            return;
         };
         grouped.faces += g.len();
         grouped.elements += 1;
@@ -127,7 +99,29 @@ pub(crate) fn group(
             member[i] = true;
         }
         let first = g[0];
-        lead[first] = Some((g, polygon, true));
+        lead[first] = Some((g, polygon, on_parts));
+    };
+    for set in sets.into_values().filter(|s| s.len() >= 2) {
+        let (size, area) = (SIDE_FACTOR * element_size, element_size * element_size);
+        for g in by_size_within(&units, set, size, area, ELEMENT_CONE_DEGREES) {
+            if g.len() >= 2 {
+                take(g, element_size, false);
+            }
+        }
+    }
+    // The pieces of one cell of a face under many contacts, on either side of what stands on
+    // it, that meet freely (`PieceKind::FaceGrid`): one element a group, lit on its parts,
+    // which lie in the face's plane. Its proxy gives that plane, its area and its hints; a
+    // proxy lit in their place stood under the boxes and darkened the floor by 4 %, the
+    // ceiling by 11 % (docs/MESHING.md).
+    let mut cells: std::collections::BTreeMap<(u32, u32), Vec<usize>> = Default::default();
+    for (i, p) in pieces.iter().enumerate() {
+        if let PieceKind::FaceGrid { group, .. } = p.kind {
+            cells.entry((p.face, group)).or_default().push(i);
+        }
+    }
+    for g in cells.into_values().filter(|g| g.len() >= 2) {
+        take(g, f64::INFINITY, true);
     }
     if grouped.elements == 0 {
         return (elements, pieces, grouped);

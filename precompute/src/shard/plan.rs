@@ -5,8 +5,9 @@
 //! N = 7), but 2MSC builds its patches from probe solves: half a shard's form-factor time at
 //! N = 7, repeated by every shard (docs/DISTRIBUTED.md). The plan stores the mesh exactly
 //! (every f64 by its bits), so a shard that reads it computes the same rows and the merge
-//! writes the same bytes. Layout: magic `LRRPLAN3` (2: elements list the face pieces they group; 3: and whether they are lit
-//! on them, `Element::on_parts`), body length, XXH64 of the body, body
+//! writes the same bytes. Layout: magic `LRRPLAN3` (2: elements list the face pieces they
+//! group; 3: and whether they are lit on them, `Element::on_parts`), body length, XXH64 of
+//! the body, body
 //! (lrr version, scene content hash, settings text, then the mesh).
 
 use std::path::Path;
