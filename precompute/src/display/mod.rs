@@ -85,14 +85,7 @@ pub fn build(
         .then(|| {
             let stage = progress.stage("sky", 0);
             let polygons: Vec<Vec<&Polygon>> = (0..mesh.n())
-                .map(|s| {
-                    let e = mesh.element_at(s);
-                    if e.on_parts {
-                        e.parts.iter().map(|(_, p)| p).collect()
-                    } else {
-                        vec![&e.polygon]
-                    }
-                })
+                .map(|s| mesh.element_at(s).lit().collect())
                 .collect();
             let t = crate::lights::sky_transfer(&polygons, occluder, scene.extent());
             stage.finish();

@@ -12,10 +12,13 @@ use crate::visibility::{Clear, Occluder, Segment};
 /// True when the pair cannot exchange light: the target lies entirely behind (or in) the
 /// element's plane, or the element entirely behind (or in) the target's plane.
 pub(crate) fn faces_away(e: &Polygon, t: &Polygon) -> bool {
-    let eps_t = 1e-12 * t.scale;
-    let eps_e = 1e-12 * e.scale;
-    t.vertices().iter().all(|v| e.height(*v) <= eps_e)
-        || e.vertices().iter().all(|v| t.height(*v) <= eps_t)
+    behind(t, e) || behind(e, t)
+}
+
+/// True when every vertex of `p` lies behind (or in) the plane of `plane`.
+fn behind(p: &Polygon, plane: &Polygon) -> bool {
+    let eps = 1e-12 * plane.scale;
+    p.vertices().iter().all(|v| plane.height(*v) <= eps)
 }
 
 /// [`faces_away`] for an element lit on its parts (`parts`; empty: `e` alone), which lie in
@@ -24,12 +27,7 @@ pub(crate) fn faces_away_from(e: &Polygon, parts: &[(u32, Polygon)], t: &Polygon
     if parts.is_empty() {
         return faces_away(e, t);
     }
-    let eps_t = 1e-12 * t.scale;
-    let eps_e = 1e-12 * e.scale;
-    t.vertices().iter().all(|v| e.height(*v) <= eps_e)
-        || parts
-            .iter()
-            .all(|(_, p)| p.vertices().iter().all(|v| t.height(*v) <= eps_t))
+    behind(t, e) || parts.iter().all(|(_, p)| behind(p, t))
 }
 
 /// Kernel-weighted fraction of unblocked segments between the element's points and

@@ -76,23 +76,24 @@ pub fn quadrature(polygon: &Polygon, count: u32, out: &mut Vec<Sample>) {
 /// integrated with them.
 pub fn quadrature_parts<T>(parts: &[(T, Polygon)], count: u32, out: &mut Vec<Sample>) {
     out.clear();
-    let total: f64 = parts.iter().map(|(_, p)| p.area()).sum();
+    // Running sums of the parts' areas, from 0, worked out once.
+    let mut cumulative = Vec::with_capacity(parts.len() + 1);
+    cumulative.push(0.0);
+    for (_, p) in parts {
+        cumulative.push(cumulative[cumulative.len() - 1] + p.area());
+    }
+    let total = cumulative[parts.len()];
     if parts.is_empty() || total.is_nan() || total <= 0.0 {
         return;
     }
     for i in 0..count.max(1) {
         let (u, w) = r2(i, (0.0, 0.0));
         let a = u * total;
-        let mut lo = 0.0;
-        let mut pick = parts.len() - 1;
-        for (j, (_, p)) in parts.iter().enumerate() {
-            if a < lo + p.area() {
-                pick = j;
-                break;
-            }
-            lo += p.area();
-        }
-        let part = &parts[pick].1;
+        // The first part whose running sum exceeds a.
+        let pick = cumulative[1..]
+            .partition_point(|&c| c <= a)
+            .min(parts.len() - 1);
+        let (part, lo) = (&parts[pick].1, cumulative[pick]);
         let area = part.area();
         let u = ((a - lo) / area).clamp(0.0, 1.0);
         let mut s = map_unit_square(part.vertices(), u, w);

@@ -51,14 +51,17 @@ impl Element {
         largest.copied().unwrap_or(self.polygon)
     }
 
-    /// The element as a form-factor target: its parts when it is lit on them
-    /// ([`on_parts`](Self::on_parts)), else its polygon.
+    /// The polygons the element is lit on: its parts when it is lit on them
+    /// ([`on_parts`](Self::on_parts)), else its own polygon.
+    pub fn lit(&self) -> impl Iterator<Item = &Polygon> + '_ {
+        let own = (!self.on_parts).then_some(&self.polygon);
+        let parts = self.parts.iter().filter(|_| self.on_parts);
+        own.into_iter().chain(parts.map(|(_, p)| p))
+    }
+
+    /// The element as a form-factor target: the region of [`lit`](Self::lit).
     pub fn lit_region(&self) -> Region {
-        if self.on_parts {
-            Region::new(self.parts.iter().map(|(_, p)| *p).collect())
-        } else {
-            Region::single(self.polygon)
-        }
+        Region::new(self.lit().copied().collect())
     }
 }
 

@@ -516,21 +516,10 @@ impl Mesh {
             // Each polygon the element is lit on (its parts when it is lit on them) lies in
             // one of the patch's parts.
             let parts = self.patches[p].shape.parts();
-            let lit = |s: usize| -> Vec<Polygon> {
-                let e = self.element_at(s);
-                if e.on_parts {
-                    e.parts.iter().map(|(_, q)| *q).collect()
-                } else {
-                    vec![e.polygon]
-                }
-            };
             let off_patch = |s: usize| {
-                lit(s)
-                    .into_iter()
-                    .find(|e| !parts.iter().any(|part| inside(e, part)))
+                (self.element_at(s).lit()).find(|e| !parts.iter().any(|part| inside(e, part)))
             };
             if let Some((s, e)) = (a..b).find_map(|s| off_patch(s).map(|e| (s, e))) {
-                let e = &e;
                 let off = parts
                     .iter()
                     .map(|part| outside_by(e, part) / part.max_edge())
