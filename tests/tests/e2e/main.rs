@@ -24,4 +24,5 @@ mod scene_description;
 mod scene_lightmap;
 mod shards;
 mod storage;
+mod tessellation;
 mod util;
