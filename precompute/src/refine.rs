@@ -328,11 +328,46 @@ pub(crate) fn refine_mesh(
     stage.finish();
     // The smooth weights of the whole mesh, the indicator and the split: minutes on a mesh of
     // 10⁵ elements, so a stage of its own that says it still runs.
+    let bytes = refine_bytes(&mesh, budget);
+    memory::check_with(
+        bytes,
+        max_memory,
+        &format!(
+            "refining the mesh where light changes ({} elements)",
+            mesh.n()
+        ),
+        "use a smaller --refine (0 refines nothing) or a larger --element-size, or raise \
+         --max-memory",
+    )?;
+    progress.estimate("refine", bytes);
     let stage = progress.stage("refine", 0);
     let (mut refined, split) = refine_by(scene, &mesh, &values, budget)?;
     stage.finish();
     refined.meshing.refined = split;
     Ok((refined, saved))
+}
+
+/// Bytes [`indicator`] holds per element besides the smooth weights: the element
+/// references, areas and indicator values (24), and the elements at each smooth vertex (a
+/// list of 24 bytes at each of up to four vertices an element and 8 bytes a member, twice
+/// over for the lists' growth: 160).
+const INDICATOR_BYTES_PER_ELEMENT: u128 = 184;
+
+/// Bytes the refine stage ([`refine_by`]) may hold at once beside `mesh`, planned before it
+/// starts: the larger of the indicator's (smooth weights over the n elements,
+/// `smooth::build_bytes`, and [`INDICATOR_BYTES_PER_ELEMENT`]) and the split's (the refined
+/// mesh, a copy of this one with up to `budget · n` more elements, and the ranking, marks and
+/// parents: 17 bytes an element).
+pub(crate) fn refine_bytes(mesh: &Mesh, budget: f64) -> u128 {
+    let indicator = smooth::build_bytes(mesh.n()) + INDICATOR_BYTES_PER_ELEMENT * mesh.n() as u128;
+    indicator.max(split_bytes(mesh, budget))
+}
+
+/// The split's share of [`refine_bytes`].
+fn split_bytes(mesh: &Mesh, budget: f64) -> u128 {
+    let added = (budget.max(0.0) * mesh.n() as f64).floor() as u128;
+    let per_added = (size_of::<Element>() + size_of::<u32>() * 2 + size_of::<f64>() + 1) as u128;
+    mesh.heap_bytes() + added * per_added + 17 * mesh.n() as u128
 }
 
 /// The mesh with the elements that the first pass's radiosity `values` (per file position)
@@ -409,6 +444,28 @@ mod tests {
                 (x - mid).abs() <= sizes.element_size,
                 "a child at x = {x}, step at {mid}"
             );
+        }
+    }
+
+    /// The refine stage's plan for its split covers the mesh it makes: a dense sphere's
+    /// grouped elements (their parts copied) beside its room's walls, split as far as the
+    /// budget lets.
+    #[test]
+    fn the_plan_covers_the_refined_mesh() {
+        let scene = procedural::dense_sphere(3)
+            .build("s", Path::new("."))
+            .unwrap();
+        let sizes = MeshSizes::resolve(&scene, None, None).unwrap();
+        let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
+        assert!(mesh.elements.iter().any(|e| !e.parts.is_empty()));
+        // Every other element lit: every element has a jump at a corner.
+        let values: Vec<f64> = (0..mesh.n()).map(|s| (s % 2) as f64).collect();
+        for budget in [0.2, 1.0, 3.0] {
+            let (refined, split) = refine_by(&scene, &mesh, &values, budget).unwrap();
+            assert!(split > 0);
+            let (made, planned) = (refined.heap_bytes(), split_bytes(&mesh, budget));
+            println!("budget {budget}: {split} split, {made} bytes made, {planned} planned");
+            assert!(made <= planned, "budget {budget}: {made} > {planned}");
         }
     }
 

@@ -288,6 +288,16 @@ impl Region {
         self.outline.as_ref()
     }
 
+    /// Bytes the region holds on the heap (its parts, their running areas, the outline's
+    /// edges and the coarsened parts), for memory plans.
+    pub(crate) fn heap_bytes(&self) -> u128 {
+        let polygons = self.parts.capacity() + self.kernel.capacity();
+        let edges = self.outline.as_ref().map_or(0, |o| o.edges.capacity());
+        (polygons * size_of::<Polygon>()
+            + self.cumulative.capacity() * size_of::<f64>()
+            + edges * size_of::<(DVec3, DVec3)>()) as u128
+    }
+
     /// A region of one polygon.
     pub fn single(p: Polygon) -> Self {
         Self::new(vec![p])

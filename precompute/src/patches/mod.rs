@@ -444,6 +444,24 @@ impl Mesh {
         }
     }
 
+    /// Bytes the mesh holds: its elements with their parts, its patches with their regions,
+    /// and the per-position tables, for memory plans.
+    pub(crate) fn heap_bytes(&self) -> u128 {
+        let elements: u128 = (self.elements.iter())
+            .map(|e| (e.parts.capacity() * size_of::<(u32, Polygon)>()) as u128)
+            .sum();
+        let patches: u128 = self.patches.iter().map(|p| p.shape.heap_bytes()).sum();
+        let tables = self.order.capacity() * size_of::<u32>()
+            + self.index.capacity() * size_of::<u32>()
+            + self.weights.capacity() * size_of::<f64>()
+            + self.siblings.capacity();
+        elements
+            + patches
+            + (self.elements.capacity() * size_of::<Element>()
+                + self.patches.capacity() * size_of::<Patch>()
+                + tables) as u128
+    }
+
     /// Number of elements.
     pub fn n(&self) -> usize {
         self.elements.len()

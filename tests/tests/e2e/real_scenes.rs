@@ -47,12 +47,15 @@ const SCRATCH: f64 = THREADS as f64 * SCRATCH_PER_THREAD;
 
 /// The stages of a default bake that plan their buffers (`Progress::estimate`), each of
 /// which the report must give an estimate for.
-const PLANNED: [&str; 11] = [
+const PLANNED: [&str; 14] = [
     "import",
     "visibility",
     "mesh",
+    "first pass enclosure",
     "first pass",
     "first pass solve",
+    "refine",
+    "enclosure",
     "bvh",
     "smooth",
     "lightmap",
