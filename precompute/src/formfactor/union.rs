@@ -109,7 +109,8 @@ fn rounds(e: &Polygon, target: &Region) -> u32 {
 /// `e`: `e` lies strictly in front of the region's plane (no part faces away from it, and
 /// none has `e`'s points in its plane) and every outline vertex is on or above `e`'s plane
 /// (the region is planar, so its lowest point is an outline vertex: nothing is clipped).
-/// For an element lit on its parts (`e_parts`, in `e`'s plane) every part must lie in front.
+/// For an element lit on its parts (`e_parts`) every part must lie in front; they lie in
+/// `e`'s plane or below it (`mesh::dense`), so an outline above `e`'s plane is above theirs.
 fn outline_applies(e: &Polygon, e_parts: &[(u32, Polygon)], o: &Outline) -> bool {
     let eps = 1e-9 * o.scale;
     let front = |p: &Polygon| p.vertices().iter().all(|&v| o.height(v) > eps);

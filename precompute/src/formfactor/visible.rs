@@ -21,13 +21,40 @@ fn behind(p: &Polygon, plane: &Polygon) -> bool {
     p.vertices().iter().all(|v| plane.height(*v) <= eps)
 }
 
-/// [`faces_away`] for an element lit on its parts (`parts`; empty: `e` alone), which lie in
-/// `e`'s plane but not inside `e`: the element lies behind `t`'s plane when every part does.
+/// [`faces_away`] for an element lit on its parts (`parts`; empty: `e` alone): the element
+/// lies behind `t`'s plane when every part does, and `t` behind the element when it lies
+/// behind the plane the element faces from ([`base`]).
 pub(crate) fn faces_away_from(e: &Polygon, parts: &[(u32, Polygon)], t: &Polygon) -> bool {
     if parts.is_empty() {
         return faces_away(e, t);
     }
-    behind(t, e) || parts.iter().all(|(_, p)| behind(p, t))
+    behind(t, base(e, parts)) || parts.iter().all(|(_, p)| behind(p, t))
+}
+
+/// The plane an element lit on its parts faces from: its own where its parts lie in it (the
+/// cells of a face, `mesh::dense`), else its lowest part's. Parallel faces of separate objects
+/// grouped into one element lie at several heights below their proxy, which stands on the
+/// highest: what lies between them is in front of the lower ones, and a test against the
+/// proxy's plane culled it (a hall of boxes 9–16 % too dark, docs/MESHING.md). Parts are
+/// parallel to `e` here (`mesh::dense` lights no other group on its parts), so what lies
+/// behind the lowest part's plane lies behind every part's.
+pub(crate) fn base<'a>(e: &'a Polygon, parts: &'a [(u32, Polygon)]) -> &'a Polygon {
+    let eps = 1e-9 * e.scale;
+    let lowest = (parts.iter().map(|(_, p)| p))
+        .map(|p| {
+            (
+                p,
+                p.vertices()
+                    .iter()
+                    .map(|&v| e.height(v))
+                    .fold(f64::INFINITY, f64::min),
+            )
+        })
+        .reduce(|a, b| if b.1 < a.1 { b } else { a });
+    match lowest {
+        Some((p, h)) if h < -eps => p,
+        _ => e,
+    }
 }
 
 /// Kernel-weighted fraction of unblocked segments between the element's points and
@@ -180,5 +207,36 @@ impl Visibility {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::rectangle;
+
+    /// An element lit on two parallel parts at two heights (the tops of two boxes), its proxy
+    /// on the higher: a face between them, turned to the lower part, exchanges light with it
+    /// and is not culled; a face below both is. Against the proxy's plane alone (the rule
+    /// before) the first was culled.
+    #[test]
+    fn parts_below_the_proxy_see_what_lies_between() {
+        let low = rectangle(0.0, 1.0, 0.0, 1.0, 0.0, false);
+        let high = rectangle(2.0, 3.0, 0.0, 1.0, 1.0, false);
+        let proxy = rectangle(0.5, 2.5, 0.0, 1.0, 1.0, false);
+        let parts = [(0, low), (1, high)];
+        assert!(std::ptr::eq(base(&proxy, &parts), &parts[0].1));
+        let between = rectangle(0.0, 1.0, 0.0, 1.0, 0.5, true);
+        assert!(!faces_away_from(&proxy, &parts, &between));
+        assert!(
+            faces_away(&proxy, &between),
+            "the proxy's own plane culls it"
+        );
+        let below = rectangle(0.0, 1.0, 0.0, 1.0, -0.5, false);
+        assert!(faces_away_from(&proxy, &parts, &below));
+        // Parts in the element's plane: the element's own plane, as before.
+        let flat = [(0, low), (1, rectangle(2.0, 3.0, 0.0, 1.0, 0.0, false))];
+        let flat_proxy = rectangle(0.5, 2.5, 0.0, 1.0, 0.0, false);
+        assert!(std::ptr::eq(base(&flat_proxy, &flat), &flat_proxy));
     }
 }

@@ -26,6 +26,11 @@
 //! points, its patch's shape and its views lie on them), all in the face's plane; its proxy
 //! gives only that plane, its area and the occluder's hints.
 //!
+//! A group of parallel faces that do not lie in one plane (faces of separate objects side by
+//! side: the tops of boxes of several heights, their sides one behind another) is lit on its
+//! parts too: its proxy, standing on the highest, would hide what lies between the others
+//! (`visible::base`; a hall of boxes was 9–16 % too dark, docs/MESHING.md).
+//!
 //! The grouping is what Enlighten calls lighting a detail mesh through a simplified target:
 //! n ≈ area / h² whatever the tessellation. Occlusion still uses the input faces. A lone small
 //! piece keeps its own polygon, so scenes without dense parts mesh exactly as before.
@@ -105,7 +110,9 @@ pub(crate) fn group(
         let (size, area) = (SIDE_FACTOR * element_size, element_size * element_size);
         for g in by_size_within(&units, set, size, area, ELEMENT_CONE_DEGREES) {
             if g.len() >= 2 {
-                take(g, element_size, false);
+                let polygons: Vec<&Polygon> = g.iter().map(|&i| &pieces[i].polygon).collect();
+                let stacked = stacked(&polygons, element_size);
+                take(g, element_size, stacked);
             }
         }
     }
@@ -194,6 +201,25 @@ pub(crate) fn shown_faces<'a>(
     (faces, of, grouped)
 }
 
+/// Whether a group's faces are parallel (normals within 1e-9 of each other) but not in one
+/// plane (a vertex more than 1e-9 `h` off the first face's plane): faces of separate objects
+/// side by side, the tops of boxes of several heights. Such a group is lit on its parts: a
+/// proxy standing on the highest of them is in front of the others, and the light they
+/// exchange with what lies between them was lost (a hall of boxes 9–16 % too dark against
+/// the same hall ungrouped, docs/MESHING.md). A curved surface's faces are not parallel and
+/// keep their proxy; the parallel faces of one plane (a planar region's grid cells) lie in it.
+fn stacked(parts: &[&Polygon], h: f64) -> bool {
+    let first = parts[0];
+    let origin = first.vertices()[0];
+    let parallel = parts
+        .iter()
+        .all(|p| p.normal.dot(first.normal) >= 1.0 - 1e-9);
+    parallel
+        && parts.iter().any(|p| {
+            (p.vertices().iter()).any(|&v| (v - origin).dot(first.normal).abs() > 1e-9 * h)
+        })
+}
+
 /// The planar proxy of a group of faces (module docs): a rectangle of their total area, or
 /// `None` when their normals cancel or the rectangle would be degenerate. Its sides are at
 /// most `max_side` (a group's area is at most its square): the proxy is then one element of
@@ -272,6 +298,64 @@ mod tests {
         };
         let (elements, _, _) = crate::mesh::fine_mesh(&scene, sizes).unwrap();
         (scene, elements)
+    }
+
+    /// Triangles of an axis-aligned box `lo`..`hi`, outward.
+    fn cuboid(lo: DVec3, hi: DVec3) -> Vec<[DVec3; 3]> {
+        let c = |i: usize| {
+            DVec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            )
+        };
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        quads
+            .iter()
+            .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
+            .collect()
+    }
+
+    /// Small boxes of several heights in one surface: their parallel faces are grouped across
+    /// boxes and lit on their parts (no proxy standing in front of the lower ones); a sphere's
+    /// groups keep their proxies.
+    #[test]
+    fn faces_of_separate_boxes_are_lit_on_their_parts() {
+        let mut tris = Vec::new();
+        for i in 0..4 {
+            for j in 0..4 {
+                let lo = DVec3::new(i as f64 * 0.5, j as f64 * 0.5, 0.0);
+                let height = 0.2 + 0.05 * ((i * 4 + j) % 5) as f64;
+                tris.extend(cuboid(lo, lo + DVec3::new(0.2, 0.2, height)));
+            }
+        }
+        let scene = crate::mesh::tests::one_surface("boxes", &tris);
+        let sizes = MeshSizes {
+            element_size: 1.0,
+            patch_size: 2.0,
+        };
+        let (elements, _, _) = crate::mesh::fine_mesh(&scene, sizes).unwrap();
+        let grouped: Vec<&Element> = elements.iter().filter(|e| !e.parts.is_empty()).collect();
+        assert!(grouped.len() >= 6, "{} groups", grouped.len());
+        for e in &grouped {
+            let heights: Vec<f64> = (e.parts.iter())
+                .map(|(_, p)| p.vertices()[0].dot(e.polygon.normal))
+                .collect();
+            let spread = heights.iter().cloned().fold(f64::MIN, f64::max)
+                - heights.iter().cloned().fold(f64::MAX, f64::min);
+            assert_eq!(e.on_parts, spread > 1e-6, "{heights:?}");
+        }
+        assert!(grouped.iter().any(|e| e.on_parts));
+        let (_, sphere) = fine(&sphere(4), 0.35);
+        assert!(sphere.iter().any(|e| !e.parts.is_empty()));
+        assert!(sphere.iter().all(|e| !e.on_parts));
     }
 
     /// The element count follows the area, not the triangles: the same sphere at 16× and
