@@ -7,7 +7,8 @@ use lrr_precompute::scene::description::SceneDescription;
 use lrr_runtime::Operator;
 
 use crate::util::{
-    archive_cornell_obj, bake, cornell, cornell_obj, description_to_obj, lrr_json, root, temp_dir,
+    archive_cornell_obj, bake, cornell, cornell_obj, description_to_obj, lrr_json, probe, root,
+    temp_dir,
 };
 
 #[test]
@@ -75,35 +76,6 @@ fn low_rank_against_exact_on_the_same_fine_mesh() {
     // deterministic, so the error moves only when the code does: held to 2x the printed
     // figure (a missing channel, a wrong weight or core gives > 10%).
     assert!(error < 0.0022, "relative L2 error {error}");
-}
-
-fn probe(file: &std::path::Path, points: &[([f64; 3], [f64; 3])]) -> Vec<[f64; 3]> {
-    let dir = temp_dir("probe");
-    let path = dir.join("points.json");
-    let json: Vec<serde_json::Value> = points
-        .iter()
-        .map(|(p, n)| serde_json::json!({"position": p, "normal": n}))
-        .collect();
-    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
-    let v = lrr_json(&[
-        "probe",
-        file.to_str().unwrap(),
-        "--points",
-        path.to_str().unwrap(),
-        "--json",
-    ]);
-    v.as_array()
-        .unwrap()
-        .iter()
-        .map(|p| {
-            let r = p["radiosity"].as_array().unwrap();
-            [
-                r[0].as_f64().unwrap(),
-                r[1].as_f64().unwrap(),
-                r[2].as_f64().unwrap(),
-            ]
-        })
-        .collect()
 }
 
 #[test]

@@ -14,7 +14,7 @@
 //!   how to remake it (`load_reference` checks it, `reference::assert_fresh`).
 
 use crate::reference::{GOAL, RefPoint, assert_below, errors, l1, load_reference, scene_path, sub};
-use crate::util::{bake, lrr, lrr_json, temp_dir};
+use crate::util::{bake, lrr, lrr_json, probe, temp_dir};
 
 /// Bakes the reference scene `name` with the default flags and probes it at the reference's
 /// points (`lrr probe --json`, smooth by default): the values and the operator's n and k.
@@ -22,28 +22,8 @@ fn bake_and_probe(name: &str, points: &[RefPoint], scene: &std::path::Path) -> V
     let dir = temp_dir(&format!("lights-{name}"));
     let out = dir.join(format!("{name}.lrr"));
     bake(scene, &out, &[]).unwrap();
-    let probe: Vec<serde_json::Value> = points
-        .iter()
-        .map(|p| serde_json::json!({"position": p.position, "normal": p.normal}))
-        .collect();
-    let json = dir.join("points.json");
-    std::fs::write(&json, serde_json::to_string(&probe).unwrap()).unwrap();
-    let result = lrr_json(&[
-        "probe",
-        out.to_str().unwrap(),
-        "--points",
-        json.to_str().unwrap(),
-        "--json",
-    ]);
-    result
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|p| {
-            let b = p["radiosity"].as_array().unwrap();
-            [0, 1, 2].map(|c| b[c].as_f64().unwrap())
-        })
-        .collect()
+    let at: Vec<([f64; 3], [f64; 3])> = points.iter().map(|p| (p.position, p.normal)).collect();
+    probe(&out, &at)
 }
 
 #[test]

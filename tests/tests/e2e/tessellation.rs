@@ -9,7 +9,7 @@
 //! `f` = 1e-3 of the median of the 1× values, points at or below `f` left out.
 
 use crate::reference::{load_reference, quantile};
-use crate::util::{bake, generated_scene, lrr, root, temp_dir};
+use crate::util::{bake, generated_scene, lrr, probe, root, temp_dir};
 
 /// The goal's bound on the median difference from the 1× bake.
 const MEDIAN: f64 = 0.01;
@@ -18,43 +18,23 @@ const ELEMENTS: f64 = 1.5;
 
 /// Bakes `scene` with the default flags (two threads) and probes it at `points` (the smooth
 /// reconstruction, `lrr probe`'s default): n and the radiosity at each point.
-fn bake_and_probe(scene: &std::path::Path, points: &std::path::Path) -> (usize, Vec<[f64; 3]>) {
+fn bake_and_probe(
+    scene: &std::path::Path,
+    points: &[([f64; 3], [f64; 3])],
+) -> (usize, Vec<[f64; 3]>) {
     let out = scene.with_extension("lrr");
     bake(scene, &out, &["--threads", "2"]).unwrap();
     let info = lrr(&["info", out.to_str().unwrap(), "--json"]).unwrap();
     let info: serde_json::Value = serde_json::from_str(&info).unwrap();
     let n = info["n"].as_u64().unwrap() as usize;
-    let probed = lrr(&[
-        "probe",
-        out.to_str().unwrap(),
-        "--points",
-        points.to_str().unwrap(),
-        "--json",
-    ])
-    .unwrap();
-    let probed: serde_json::Value = serde_json::from_str(&probed).unwrap();
-    let values = probed
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|p| {
-            let b = p["radiosity"].as_array().unwrap();
-            [0, 1, 2].map(|c| b[c].as_f64().unwrap())
-        })
-        .collect();
+    let values = probe(&out, points);
     (n, values)
 }
 
-/// The reference `name`'s points (position and normal) written where `lrr probe` reads them.
-fn points_file(name: &str, dir: &std::path::Path) -> std::path::PathBuf {
+/// The reference `name`'s points: position and normal.
+fn reference_points(name: &str) -> Vec<([f64; 3], [f64; 3])> {
     let (_, points) = load_reference(name);
-    let list: Vec<serde_json::Value> = points
-        .iter()
-        .map(|p| serde_json::json!({"position": p.position, "normal": p.normal}))
-        .collect();
-    let path = dir.join(format!("{name}-points.json"));
-    std::fs::write(&path, serde_json::to_string(&list).unwrap()).unwrap();
-    path
+    points.iter().map(|p| (p.position, p.normal)).collect()
 }
 
 /// Median of the per-point relative difference of `values` from `base` (the module's docs).
@@ -78,7 +58,11 @@ fn median_difference(values: &[[f64; 3]], base: &[[f64; 3]]) -> f64 {
 
 /// Bakes each of `scenes` (1× first) and holds n and the median difference from the 1× bake
 /// to the goal.
-fn holds_the_goal(label: &str, scenes: &[(u32, std::path::PathBuf)], points: &std::path::Path) {
+fn holds_the_goal(
+    label: &str,
+    scenes: &[(u32, std::path::PathBuf)],
+    points: &[([f64; 3], [f64; 3])],
+) {
     let (n1, base) = bake_and_probe(&scenes[0].1, points);
     println!("{label} 1×: n = {n1}");
     for (multiple, scene) in &scenes[1..] {
@@ -123,7 +107,7 @@ fn cornell_box_tessellations_bake_alike() {
             (multiple, path)
         })
         .collect();
-    holds_the_goal("Cornell box", &scenes, &points_file("cornell-box", &dir));
+    holds_the_goal("Cornell box", &scenes, &reference_points("cornell-box"));
 }
 
 /// The dense sphere in its room at 320, 5 120 and 81 920 triangles (`--subdivisions 2, 4, 6`),
@@ -141,5 +125,5 @@ fn dense_sphere_tessellations_bake_alike() {
             (multiple, generated_scene(&dir, &name, &args))
         })
         .collect();
-    holds_the_goal("dense sphere", &scenes, &points_file("dense-sphere", &dir));
+    holds_the_goal("dense sphere", &scenes, &reference_points("dense-sphere"));
 }

@@ -212,3 +212,30 @@ pub fn solve_elements(scene: &Path, extra: &[&str]) -> Vec<(String, [f64; 3], [f
         })
         .collect()
 }
+
+/// `lrr probe FILE --points … --json` at `points` (position, normal): the radiosity at each
+/// (the smooth reconstruction, `lrr probe`'s default).
+pub fn probe(file: &Path, points: &[([f64; 3], [f64; 3])]) -> Vec<[f64; 3]> {
+    let dir = temp_dir("probe");
+    let path = dir.join("points.json");
+    let json: Vec<serde_json::Value> = points
+        .iter()
+        .map(|(p, n)| serde_json::json!({"position": p, "normal": n}))
+        .collect();
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+    let v = lrr_json(&[
+        "probe",
+        file.to_str().unwrap(),
+        "--points",
+        path.to_str().unwrap(),
+        "--json",
+    ]);
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|p| {
+            let r = p["radiosity"].as_array().unwrap();
+            [0, 1, 2].map(|c| r[c].as_f64().unwrap())
+        })
+        .collect()
+}
