@@ -201,8 +201,10 @@ pub(crate) fn shown_faces<'a>(
     (faces, of, grouped)
 }
 
-/// Whether a group's faces are parallel (normals within 1e-9 of each other) but not in one
-/// plane (a vertex more than 1e-9 `h` off the first face's plane): faces of separate objects
+/// Whether a group's faces are parallel (normals within 1e-12 of each other, about 1.4e-6
+/// rad) but not in one plane (a vertex more than 1e-4 `h` off the first face's plane, far
+/// more than such a tilt makes across a group, at most 2√2 h wide: a nearly planar
+/// tessellation with float noise in its normals or heights stays on its proxy): faces of separate objects
 /// side by side, the tops of boxes of several heights. Such a group is lit on its parts: a
 /// proxy standing on the highest of them is in front of the others, and the light they
 /// exchange with what lies between them was lost (a hall of boxes 9–16 % too dark against
@@ -213,10 +215,10 @@ fn stacked(parts: &[&Polygon], h: f64) -> bool {
     let origin = first.vertices()[0];
     let parallel = parts
         .iter()
-        .all(|p| p.normal.dot(first.normal) >= 1.0 - 1e-9);
+        .all(|p| p.normal.dot(first.normal) >= 1.0 - 1e-12);
     parallel
         && parts.iter().any(|p| {
-            (p.vertices().iter()).any(|&v| (v - origin).dot(first.normal).abs() > 1e-9 * h)
+            (p.vertices().iter()).any(|&v| (v - origin).dot(first.normal).abs() > 1e-4 * h)
         })
 }
 

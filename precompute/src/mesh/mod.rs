@@ -266,7 +266,7 @@ pub(crate) fn boxes_on_floor_and(more: &[([f64; 2], [f64; 2])]) -> Scene {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::geometry::Polygon;
     use crate::scene::{Face, Material};
