@@ -10,8 +10,11 @@
 //! `--device gpu`: the GPU fill (`lrr_runtime::gpu::GpuLightmap`, into an `rgba16float` texture
 //! from the evaluator's radiosity buffer, no readback) against the frame it follows: frames of
 //! the GPU evaluator alone and frames with the fill, each submitted back to back and waited for
-//! at the end, alternated over rounds; the fill's share of the frame is the difference. On a CPU
-//! adapter (lavapipe) these numbers say nothing about a GPU.
+//! at the end, alternated over rounds; the fill's share of the frame is the difference. A smooth
+//! lightmap that can be filled in tiles (`GpuFill::Tiles`, the default) is also filled in
+//! passes (`GpuFill::Passes`: the smooth-vertex pass, then the texels), the two alternated in
+//! the same rounds, so that their ratio comes from one run. On a CPU adapter (lavapipe) these
+//! numbers say nothing about a GPU.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -57,17 +60,32 @@ pub struct GpuLightmapRow {
     pub samples: usize,
     pub dilated: usize,
     pub adapter: String,
-    /// Seconds of the evaluator's frame alone, and with the lightmap fill after it.
+    /// Seconds of the evaluator's frame alone.
     pub frame_s: f64,
+    /// By timestamp queries (`None` without them): the median GPU seconds of the evaluator's
+    /// frame in a burst of 40 back to back after a warm-up.
+    pub gpu_frame_s: Option<f64>,
+    /// Each way of filling measured: the default first.
+    pub fills: Vec<GpuFillRow>,
+}
+
+/// One way of filling in a [`GpuLightmapRow`].
+#[derive(Debug, Clone, Serialize)]
+pub struct GpuFillRow {
+    /// "tiles" or "passes".
+    pub fill: String,
+    /// Seconds of the evaluator's frame with the lightmap fill after it.
     pub frame_fill_s: f64,
     /// `(frame_fill_s - frame_s) / frame_s`: what the fill adds to the frame.
     pub fill_share: f64,
-    /// By timestamp queries (`None` without them): the median GPU seconds of the evaluator's
-    /// frame and of the fill, each in a burst of 40 back to back after a warm-up, and their
-    /// ratio: what the fill adds to the frame on the GPU itself.
-    pub gpu_frame_s: Option<f64>,
+    /// By timestamp queries: the median GPU seconds of the fill in a burst of 40, and its
+    /// ratio to the frame's: what the fill adds to the frame on the GPU itself.
     pub gpu_fill_s: Option<f64>,
     pub gpu_fill_share: Option<f64>,
+    /// Tiles: workgroups, smooth vertices computed over all tiles, and in the file.
+    pub tiles: Option<u32>,
+    pub tile_vertices: Option<u32>,
+    pub smooth_vertices: Option<u32>,
 }
 
 /// What one run measured (medians over rounds of the per-frame time).
@@ -223,7 +241,7 @@ fn median(v: &mut [f64]) -> f64 {
 
 /// The GPU fill against the frame it follows (see the module docs).
 fn run_gpu(a: &LightmapBench, op: &Operator, map: &Lightmap, out: &mut dyn Write) -> Result<()> {
-    use lrr_runtime::gpu::{Gpu, GpuEvaluator, GpuLightmap, GpuOptions};
+    use lrr_runtime::gpu::{Gpu, GpuEvaluator, GpuFill, GpuLightmap, GpuOptions};
     use lrr_runtime::{Rgb, RgbMut};
     let gpu = match (a.device, Gpu::new(&GpuOptions::default())) {
         (_, Ok(gpu)) => gpu,
@@ -239,14 +257,25 @@ fn run_gpu(a: &LightmapBench, op: &Operator, map: &Lightmap, out: &mut dyn Write
         (_, Err(e)) => return Err(e.into()),
     };
     let mut eval = GpuEvaluator::new(&gpu, op)?;
-    let fill = GpuLightmap::new(&gpu, op.file(), map)?;
+    let mut fills = vec![GpuLightmap::new(&gpu, op.file(), map)?];
+    if fills[0].fill_kind() == GpuFill::Tiles {
+        fills.push(GpuLightmap::with_fill(
+            &gpu,
+            op.file(),
+            map,
+            GpuFill::Passes,
+        )?);
+    }
     let emission = op.baked_emission();
     let mut b = vec![[0.0f32; 3]; op.n()];
     // One frame of each, waited for: pipelines made, pages touched.
     eval.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut b))?;
-    fill.fill(eval.radiosity_buffer())?;
+    for fill in &fills {
+        fill.fill(eval.radiosity_buffer())?;
+    }
     eval.wait()?;
-    let (mut alone, mut with) = (vec![], vec![]);
+    let mut alone = vec![];
+    let mut with = vec![vec![]; fills.len()];
     for _ in 0..a.rounds {
         let t = Instant::now();
         for _ in 0..a.frames {
@@ -254,15 +283,17 @@ fn run_gpu(a: &LightmapBench, op: &Operator, map: &Lightmap, out: &mut dyn Write
         }
         eval.wait()?;
         alone.push(t.elapsed().as_secs_f64() / a.frames as f64);
-        let t = Instant::now();
-        for _ in 0..a.frames {
-            eval.submit(Rgb::triples(&emission))?;
-            fill.fill(eval.radiosity_buffer())?;
+        for (fill, times) in fills.iter().zip(&mut with) {
+            let t = Instant::now();
+            for _ in 0..a.frames {
+                eval.submit(Rgb::triples(&emission))?;
+                fill.fill(eval.radiosity_buffer())?;
+            }
+            eval.wait()?;
+            times.push(t.elapsed().as_secs_f64() / a.frames as f64);
         }
-        eval.wait()?;
-        with.push(t.elapsed().as_secs_f64() / a.frames as f64);
     }
-    let (frame_s, frame_fill_s) = (median(&mut alone), median(&mut with));
+    let frame_s = median(&mut alone);
     let gpu_median = |times: Option<Vec<std::time::Duration>>| {
         times.map(|t| {
             let mut s: Vec<f64> = t.iter().map(|d| d.as_secs_f64()).collect();
@@ -270,8 +301,26 @@ fn run_gpu(a: &LightmapBench, op: &Operator, map: &Lightmap, out: &mut dyn Write
         })
     };
     let gpu_frame_s = gpu_median(eval.burst(Rgb::triples(&emission), 40)?.map(|b| b.frames));
-    let gpu_fill_s = gpu_median(fill.burst(eval.radiosity_buffer(), 40)?);
-    let gpu_fill_share = gpu_frame_s.zip(gpu_fill_s).map(|(f, l)| l / f);
+    let mut rows = Vec::new();
+    for (fill, times) in fills.iter().zip(&mut with) {
+        let frame_fill_s = median(times);
+        let gpu_fill_s = gpu_median(fill.burst(eval.radiosity_buffer(), 40)?);
+        let counts = fill.tile_counts();
+        rows.push(GpuFillRow {
+            fill: match fill.fill_kind() {
+                GpuFill::Tiles => "tiles",
+                _ => "passes",
+            }
+            .into(),
+            frame_fill_s,
+            fill_share: (frame_fill_s - frame_s) / frame_s,
+            gpu_fill_s,
+            gpu_fill_share: gpu_frame_s.zip(gpu_fill_s).map(|(f, l)| l / f),
+            tiles: counts.map(|c| c.tiles),
+            tile_vertices: counts.map(|c| c.vertices),
+            smooth_vertices: counts.map(|c| c.smooth_vertices),
+        });
+    }
     let row = GpuLightmapRow {
         width: map.width(),
         height: map.height(),
@@ -279,11 +328,8 @@ fn run_gpu(a: &LightmapBench, op: &Operator, map: &Lightmap, out: &mut dyn Write
         dilated: map.dilated_count(),
         adapter: gpu.describe(),
         frame_s,
-        frame_fill_s,
-        fill_share: (frame_fill_s - frame_s) / frame_s,
         gpu_frame_s,
-        gpu_fill_s,
-        gpu_fill_share,
+        fills: rows,
     };
     if a.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&row)?)?;
@@ -295,21 +341,37 @@ fn run_gpu(a: &LightmapBench, op: &Operator, map: &Lightmap, out: &mut dyn Write
         row.width, row.height, row.adapter, row.samples, row.dilated
     )?;
     writeln!(out, "frame          {:8.3} ms", 1e3 * row.frame_s)?;
-    writeln!(
-        out,
-        "frame + fill   {:8.3} ms  (the fill adds {:.1}%)",
-        1e3 * row.frame_fill_s,
-        100.0 * row.fill_share
-    )?;
-    if let (Some(f), Some(l), Some(share)) = (row.gpu_frame_s, row.gpu_fill_s, row.gpu_fill_share) {
+    for f in &row.fills {
         writeln!(
             out,
-            "GPU time (timestamps, bursts of 40): frame {:.3} ms, fill {:.3} ms ({:.1}% of the \
-             frame)",
-            1e3 * f,
-            1e3 * l,
-            100.0 * share
+            "frame + fill   {:8.3} ms  (the fill adds {:.1}%; {})",
+            1e3 * f.frame_fill_s,
+            100.0 * f.fill_share,
+            f.fill
         )?;
+    }
+    for f in &row.fills {
+        if let (Some(frame), Some(l), Some(share)) =
+            (row.gpu_frame_s, f.gpu_fill_s, f.gpu_fill_share)
+        {
+            writeln!(
+                out,
+                "GPU time (timestamps, bursts of 40): frame {:.3} ms, fill {:.3} ms ({:.1}% of \
+                 the frame; {})",
+                1e3 * frame,
+                1e3 * l,
+                100.0 * share,
+                f.fill
+            )?;
+        }
+        if let (Some(tiles), Some(v), Some(s)) = (f.tiles, f.tile_vertices, f.smooth_vertices) {
+            writeln!(
+                out,
+                "tiles: {tiles} workgroups computing {v} smooth vertices a fill ({:.2}× the \
+                 file's {s})",
+                f64::from(v) / f64::from(s.max(1))
+            )?;
+        }
     }
     if gpu.is_cpu() {
         writeln!(

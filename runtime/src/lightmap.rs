@@ -71,6 +71,43 @@ pub(crate) struct GpuTable {
     pub ring_weight: Vec<u32>,
 }
 
+/// A smooth [`Lightmap`] in tiles as `lightmap_tiles.wgsl` reads it ([`Lightmap::gpu_tiles`];
+/// pairs and quadruples flattened, the layout is the shader's).
+#[cfg(feature = "gpu")]
+#[derive(Debug, Default)]
+pub(crate) struct TileTable {
+    /// Per tile its first texel item and its first vertex in `tile_vertices`, and one pair
+    /// more that ends the last tile.
+    pub tiles: Vec<u32>,
+    /// Per tile its smooth vertices, each as the range of its weights in `entries` (pairs).
+    pub tile_vertices: Vec<u32>,
+    /// Per weight of SMOOTH's rows: its element's original id and the weight (f32 bits).
+    pub entries: Vec<u32>,
+    /// Per texel item: the texel (with [`TILE_DILATED`] for a dilated texel), and (a sample)
+    /// its corners' indices in its tile's list, a byte each.
+    pub items: Vec<u32>,
+    /// Per texel item four words: a sample's weights times 1/π (f32 bits), or a dilated
+    /// texel's terms' start and end, and two zeros.
+    pub slots: Vec<u32>,
+    /// Per term of a dilated texel: the index in its tile's list and the weight (f32 bits).
+    pub terms: Vec<u32>,
+}
+
+/// Texels a tile holds at most (`TILE_LANES` of `lightmap_tiles.wgsl`).
+#[cfg(feature = "gpu")]
+pub(crate) const TILE_LANES: usize = lrr_shaders::TILE_LANES as usize;
+/// The blocks of texels (across, down) that [`Lightmap::gpu_tiles`] makes tiles of.
+#[cfg(feature = "gpu")]
+pub(crate) const TILE_BLOCK: (usize, usize) = (16, 8);
+/// Smooth vertices a tile reads at most (`TILE_VERTICES` of `lightmap_tiles.wgsl`; a byte
+/// indexes them).
+#[cfg(feature = "gpu")]
+pub(crate) const TILE_VERTICES: usize = lrr_shaders::TILE_VERTICES as usize;
+/// The bit of a [`TileTable`] item's texel that marks a dilated texel (`DILATED` of
+/// `lightmap_tiles.wgsl`).
+#[cfg(feature = "gpu")]
+pub(crate) const TILE_DILATED: u32 = lrr_shaders::TILE_DILATED;
+
 /// One sample of a [`Lightmap`]: a texel whose value comes from a point of a display face.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LightmapSample {
@@ -440,6 +477,156 @@ impl Lightmap {
             table.rings.push(table.ring_source.len() as u32);
         }
         table
+    }
+
+    /// The smooth lightmap as `lightmap_tiles.wgsl` reads it: the texels written (samples and
+    /// dilated texels) in blocks of [`TILE_BLOCK`] texels of the atlas, each block one tile
+    /// unless its texels read over [`TILE_VERTICES`] smooth vertices together (then cut into
+    /// several), each tile's vertices listed and its texels' sources given as indices into
+    /// that list. A block keeps a tile on few faces: the building's charts are narrow, and
+    /// tiles of 64 texels along a row read 12.6 times its smooth vertices in all, 16 × 8
+    /// blocks 2.8 times (on an H200: 28 and 15 µs a fill, the passes 17–18 µs). `None` for a flat lightmap, or when one texel alone reads
+    /// more than [`TILE_VERTICES`] vertices (a dilated texel deep in a wide padding): the fill
+    /// then takes the smooth pass and `lightmap.wgsl`.
+    #[cfg(feature = "gpu")]
+    pub(crate) fn gpu_tiles(&self) -> Option<TileTable> {
+        self.tiles_within(TILE_BLOCK, TILE_VERTICES)
+    }
+
+    /// [`gpu_tiles`](Self::gpu_tiles) with blocks of `block` texels (across, down; at most
+    /// [`TILE_LANES`] in all) and tiles of at most `vertices` smooth vertices (the tests'
+    /// smaller limits cut more tiles).
+    #[cfg(feature = "gpu")]
+    fn tiles_within(&self, block: (usize, usize), vertices: usize) -> Option<TileTable> {
+        debug_assert!(block.0 * block.1 <= TILE_LANES);
+        if self.values != LightmapValues::Smooth || self.width * self.height > 1 << 31 {
+            return None;
+        }
+        let table = self.gpu_table();
+        let samples = self.point.len();
+        // Items (sample i: i; dilated texel d: samples + d) by block, then by texel.
+        let texel_of = |i: usize| -> usize {
+            if i < samples {
+                let run = table.samples[5 * i] as usize;
+                (i as u32).wrapping_add(table.run_base[run]) as usize
+            } else {
+                table.rings[2 * (i - samples)] as usize
+            }
+        };
+        let across = self.width.div_ceil(block.0);
+        let block_of = |texel: usize| {
+            let (x, y) = (texel % self.width, texel / self.width);
+            (y / block.1) * across + x / block.0
+        };
+        let mut order: Vec<(usize, usize, u32)> = (0..samples + self.dilated.len())
+            .map(|i| {
+                let texel = texel_of(i);
+                (block_of(texel), texel, i as u32)
+            })
+            .collect();
+        order.sort_unstable();
+        let mut t = TileTable {
+            entries: (self.vertex_elements.iter().zip(&self.vertex_weights))
+                .flat_map(|(&e, w)| [e, w.to_bits()])
+                .collect(),
+            tiles: vec![0, 0],
+            ..TileTable::default()
+        };
+        // Per smooth vertex its index in the open tile's list (u32::MAX: not in it).
+        let mut local = vec![u32::MAX; self.vertices.len()];
+        // The open tile's first item, first listed vertex and block.
+        let mut open = (0, 0, order.first().map_or(0, |o| o.0));
+        let mut sources = Vec::new();
+        // Every tile's vertices, one tile after another.
+        let mut list: Vec<u32> = Vec::new();
+        let mut k = 0;
+        while k < order.len() {
+            let (at, texel, i) = order[k];
+            let i = i as usize;
+            // Item i's smooth vertices: a sample's corners of non-zero weight, a dilated
+            // texel's terms.
+            sources.clear();
+            let ring_terms = if i < samples {
+                let run = table.samples[5 * i] as usize;
+                for c in 0..4 {
+                    if self.weight[i][c] != 0.0 {
+                        sources.push(table.run_index[4 * run + c]);
+                    }
+                }
+                0..0
+            } else {
+                let j = i - samples;
+                let start = if j == 0 {
+                    0
+                } else {
+                    table.rings[2 * j - 1] as usize
+                };
+                let range = start..table.rings[2 * j + 1] as usize;
+                sources.extend_from_slice(&table.ring_source[range.clone()]);
+                range
+            };
+            let listed = list.len();
+            if at == open.2 {
+                for &v in &sources {
+                    if local[v as usize] == u32::MAX {
+                        local[v as usize] = (list.len() - open.1) as u32;
+                        list.push(v);
+                    }
+                }
+            }
+            if at != open.2 || list.len() - open.1 > vertices {
+                // Item k opens the next tile: what it listed is taken back.
+                for v in list.drain(listed..) {
+                    local[v as usize] = u32::MAX;
+                }
+                if k == open.0 {
+                    return None; // alone over the limit
+                }
+                for &v in &list[open.1..] {
+                    local[v as usize] = u32::MAX;
+                }
+                open = (k, list.len(), at);
+                t.tiles.extend([k as u32, open.1 as u32]);
+                continue;
+            }
+            if i < samples {
+                let run = table.samples[5 * i] as usize;
+                let mut packed = 0;
+                for c in 0..4 {
+                    if self.weight[i][c] != 0.0 {
+                        let v = table.run_index[4 * run + c] as usize;
+                        packed |= local[v] << (8 * c);
+                    }
+                }
+                t.items.extend([texel as u32, packed]);
+                t.slots.extend(self.weight[i].map(f32::to_bits));
+            } else {
+                t.items.extend([texel as u32 | TILE_DILATED, 0]);
+                let start = (t.terms.len() / 2) as u32;
+                for r in ring_terms {
+                    let v = table.ring_source[r] as usize;
+                    t.terms.extend([local[v], table.ring_weight[r]]);
+                }
+                t.slots.extend([start, (t.terms.len() / 2) as u32, 0, 0]);
+            }
+            k += 1;
+        }
+        // The end of the last tile (an empty lightmap has none).
+        if order.is_empty() {
+            t.tiles.clear();
+        }
+        t.tiles.extend([order.len() as u32, list.len() as u32]);
+        let rows = &self.vertex_offsets;
+        t.tile_vertices = (list.iter())
+            .flat_map(|&v| [rows[v as usize], rows[v as usize + 1]])
+            .collect();
+        Some(t)
+    }
+
+    /// Smooth vertices of the lightmap's file (0 for a flat lightmap).
+    #[cfg(feature = "gpu")]
+    pub(crate) fn smooth_vertex_count(&self) -> usize {
+        self.vertices.len()
     }
 
     /// Bytes one [`fill`](Self::fill) must at least move: the sample table it reads (runs,
@@ -1290,6 +1477,151 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The tiles of `lightmap_tiles.wgsl` (`Lightmap::gpu_tiles`), evaluated here as the
+    /// shader does (each tile's vertices from SMOOTH's rows, then its texels), give the CPU's
+    /// fill: at paddings 0, 1 and 3, on the strip and on a dense grid (many vertices under a
+    /// run of texels), with the shader's limits and with smaller ones that cut tiles at the
+    /// vertex limit; each texel once, every written texel covered. A texel over the vertex
+    /// limit on its own gives `None`.
+    #[cfg(feature = "gpu")]
+    #[test]
+    fn the_gpu_tiles_give_the_cpu_fill() {
+        let grid = crate::testkit::faces::lightmapped_grid(900, 9, 64, 48, 3, 7);
+        let grid_b: Vec<[f32; 3]> = (0..900)
+            .map(|e| {
+                [
+                    0.2 + (e % 7) as f32,
+                    1.0 + (e % 5) as f32,
+                    0.5 + (e % 3) as f32,
+                ]
+            })
+            .collect();
+        let mut cut = false;
+        for padding in [0, 1, 3] {
+            let strip = strip(|x, y| [0.1 + x / 2.5, 0.05 + y * 0.7], 97, 61, padding);
+            let mut grid = grid.clone();
+            let atlas = (grid.display.lightmap.as_mut()).and_then(|l| l.atlas.as_mut());
+            atlas.expect("an atlas").padding = padding;
+            for (name, file, b) in [
+                ("strip", &strip, radiosity()),
+                ("grid", &grid, grid_b.clone()),
+            ] {
+                let mut map = Lightmap::new(file, Some(LightmapValues::Smooth)).unwrap();
+                let (w, h) = (map.width, map.height);
+                let mut want = vec![[f32::NAN; 3]; w * h];
+                map.fill(&b, &mut want).unwrap();
+                for (block, limit) in [(TILE_BLOCK, TILE_VERTICES), ((64, 1), 12), ((7, 5), 5)] {
+                    let what = format!("{name}, padding {padding}, tiles of {block:?}/{limit}");
+                    let Some(t) = map.tiles_within(block, limit) else {
+                        // Only a dilated texel reads more than 4 vertices.
+                        assert!(limit < TILE_VERTICES && padding > 0, "{what}: no tiles");
+                        continue;
+                    };
+                    let mut got = evaluate_tiles(&t, &b, w, block, limit);
+                    got.resize(w * h, None);
+                    let blocks: std::collections::HashSet<(usize, usize)> = (got.iter())
+                        .enumerate()
+                        .filter(|(_, g)| g.is_some())
+                        .map(|(i, _)| (i % w / block.0, i / w / block.1))
+                        .collect();
+                    cut |= t.tiles.len() / 2 - 1 > blocks.len();
+                    let mut written = 0;
+                    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+                        match g {
+                            None => assert_eq!(*w, [0.0; 3], "{what}: texel {i} left out"),
+                            Some(g) => {
+                                written += 1;
+                                for c in 0..3 {
+                                    let w = f64::from(w[c]);
+                                    assert!(
+                                        (g[c] - w).abs() <= 1e-5 * w.abs() + 1e-9,
+                                        "{what}: texel {i}: tiles {g:?} against fill {w}"
+                                    );
+                                }
+                            }
+                        }
+                    }
+                    assert_eq!(written, map.sample_count() + map.dilated_count(), "{what}");
+                }
+                assert!(map.tiles_within((8, 8), 3).is_none() || map.dilated_count() == 0);
+            }
+        }
+        assert!(cut, "no tile was cut at the vertex limit");
+    }
+
+    /// `lightmap_tiles.wgsl`'s arithmetic on the host (f32 vertex sums as the shader's, f64
+    /// texels) over an atlas `width` texels across: per texel its value, `None` where no item
+    /// writes. Panics on a texel written twice, a tile over its limits or over two blocks, or
+    /// an index out of its tile.
+    #[cfg(feature = "gpu")]
+    fn evaluate_tiles(
+        t: &TileTable,
+        b: &[[f32; 3]],
+        width: usize,
+        block: (usize, usize),
+        limit: usize,
+    ) -> Vec<Option<[f64; 3]>> {
+        let mut got: Vec<Option<[f64; 3]>> = Vec::new();
+        let f = f32::from_bits;
+        for tile in 0..t.tiles.len() / 2 - 1 {
+            let (i0, i1) = (t.tiles[2 * tile] as usize, t.tiles[2 * tile + 2] as usize);
+            let (v0, v1) = (
+                t.tiles[2 * tile + 1] as usize,
+                t.tiles[2 * tile + 3] as usize,
+            );
+            assert!(
+                i1 > i0 && i1 - i0 <= TILE_LANES && v1 - v0 <= limit,
+                "tile {tile}"
+            );
+            let values: Vec<[f64; 3]> = (v0..v1)
+                .map(|j| {
+                    let row = &t.tile_vertices[2 * j..2 * j + 2];
+                    let mut sum = [0.0f32; 3];
+                    for e in row[0] as usize..row[1] as usize {
+                        let x = b[t.entries[2 * e] as usize];
+                        for c in 0..3 {
+                            sum[c] += f(t.entries[2 * e + 1]) * x[c];
+                        }
+                    }
+                    sum.map(|x| f64::from(x.max(0.0)))
+                })
+                .collect();
+            let block_of = |texel: usize| (texel % width / block.0, texel / width / block.1);
+            let first = block_of((t.items[2 * i0] & !TILE_DILATED) as usize);
+            for i in i0..i1 {
+                let (head, x) = (t.items[2 * i], t.items[2 * i + 1]);
+                let texel = (head & !TILE_DILATED) as usize;
+                assert_eq!(block_of(texel), first, "tile {tile} over two blocks");
+                let mut v = [0.0f64; 3];
+                let mut add = |local: u32, w: f32| {
+                    assert!((local as usize) < v1 - v0, "tile {tile}: vertex {local}");
+                    let value = values[local as usize];
+                    for c in 0..3 {
+                        v[c] += f64::from(w) * value[c];
+                    }
+                };
+                let slot = &t.slots[4 * i..4 * i + 4];
+                if head & TILE_DILATED == 0 {
+                    for k in 0..4 {
+                        // Unused corners index 0 with weight 0.
+                        if slot[k] != 0 {
+                            add((x >> (8 * k)) & 0xff, f(slot[k]));
+                        }
+                    }
+                } else {
+                    for k in slot[0] as usize..slot[1] as usize {
+                        add(t.terms[2 * k], f(t.terms[2 * k + 1]));
+                    }
+                }
+                if got.len() <= texel {
+                    got.resize(texel + 1, None);
+                }
+                assert!(got[texel].replace(v).is_none(), "texel {texel} twice");
+            }
+        }
+        got
     }
 
     #[test]

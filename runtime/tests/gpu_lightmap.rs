@@ -1,4 +1,5 @@
-//! The GPU lightmap fill (`lrr_runtime::gpu::GpuLightmap`, `lightmap.wgsl`) against the CPU's
+//! The GPU lightmap fill (`lrr_runtime::gpu::GpuLightmap`: `lightmap_tiles.wgsl`, or
+//! `smooth.wgsl` then `lightmap.wgsl`) against the CPU's
 //! (`Lightmap::fill`) of the same frame, on whatever adapter wgpu finds (CI: lavapipe, with
 //! `LRR_EXPECT_ADAPTER=llvmpipe`; no adapter is a failure, never a skip).
 //!
@@ -10,8 +11,8 @@
 
 #![cfg(feature = "gpu")]
 
-use lrr_runtime::gpu::{Gpu, GpuEvaluator, GpuLightmap, GpuOptions};
-use lrr_runtime::testkit::faces::lightmapped;
+use lrr_runtime::gpu::{Gpu, GpuEvaluator, GpuFill, GpuLightmap, GpuOptions};
+use lrr_runtime::testkit::faces::{lightmapped, lightmapped_grid};
 use lrr_runtime::{Lightmap, LightmapValues, Operator, Rgb, RgbMut};
 
 const REL: f32 = 1e-3;
@@ -76,15 +77,21 @@ fn the_gpu_fill_is_the_cpu_fill_in_half_floats() {
     };
     let (first, b_first) = frame([[1.0, 0.5, 0.25], [0.0, 0.25, 2.0]]);
     let (second, b_second) = frame([[0.0, 3.0, 0.5], [1.5, 0.0, 0.0]]);
-    for values in [LightmapValues::Smooth, LightmapValues::Flat] {
+    for (values, fill) in [
+        (LightmapValues::Smooth, GpuFill::Tiles),
+        (LightmapValues::Smooth, GpuFill::Passes),
+        (LightmapValues::Flat, GpuFill::Auto),
+    ] {
         let mut cpu = Lightmap::new(&file, Some(values)).unwrap();
         let mut want_first = vec![[f32::NAN; 3]; 97 * 61];
         cpu.fill(&b_first, &mut want_first).unwrap();
         let mut want_second = want_first.clone();
         cpu.fill(&b_second, &mut want_second).unwrap();
         assert_ne!(want_first, want_second);
-        let map = GpuLightmap::new(&gpu, &file, &cpu).unwrap();
+        let map = GpuLightmap::with_fill(&gpu, &file, &cpu, fill).unwrap();
         assert_eq!(map.size(), (97, 61));
+        let kind = map.fill_kind();
+        assert_eq!(kind == GpuFill::Tiles, fill == GpuFill::Tiles);
         for (i, (eval, want)) in [
             (&first, &want_first),
             (&second, &want_second),
@@ -95,10 +102,64 @@ fn the_gpu_fill_is_the_cpu_fill_in_half_floats() {
         {
             map.fill(eval.radiosity_buffer()).unwrap();
             let got = map.read_texels().unwrap();
-            assert_fill(&got, want, &cpu, &format!("{values:?}, fill {i}"));
+            assert_fill(
+                &got,
+                want,
+                &cpu,
+                &format!("{values:?} in {kind:?}, fill {i}"),
+            );
         }
         assert!(cpu.dilated_count() > 0 && cpu.sample_count() > 1000);
     }
+}
+
+/// A dense grid (40 000 elements over a 128² atlas, about 2.4 elements a texel): tiles whose
+/// texels read over 128 smooth vertices (more than a workgroup's 128 lanes, so lanes compute
+/// several), and 16 × 8 blocks cut into several tiles at the 256-vertex limit; both fills
+/// equal the CPU's. A flat lightmap cannot
+/// be filled in tiles: an error that says what to do.
+#[test]
+fn dense_tiles_are_the_cpu_fill() {
+    let gpu = gpu();
+    let file = lightmapped_grid(40_000, 16, 128, 128, 2, 3);
+    let op = Operator::from_file(file.clone()).unwrap();
+    let emission: Vec<[f32; 3]> = (0..op.n())
+        .map(|e| [(e % 7) as f32, (e % 5) as f32 * 0.5, 1.0 + (e % 3) as f32])
+        .collect();
+    let mut eval = GpuEvaluator::new(&gpu, &op).unwrap();
+    let mut b = vec![[0.0f32; 3]; op.n()];
+    eval.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut b))
+        .unwrap();
+    let mut cpu = Lightmap::new(&file, None).unwrap();
+    let mut want = vec![[f32::NAN; 3]; 128 * 128];
+    cpu.fill(&b, &mut want).unwrap();
+    for fill in [GpuFill::Tiles, GpuFill::Passes] {
+        let map = GpuLightmap::with_fill(&gpu, &file, &cpu, fill).unwrap();
+        if let Some(c) = map.tile_counts() {
+            eprintln!("{c:?}");
+            // Blocks of 16 × 8 texels that the lightmap writes.
+            let mut blocks: Vec<usize> = (want.iter().enumerate())
+                .filter(|(_, w)| w.iter().any(|&v| v != 0.0))
+                .map(|(i, _)| (i / 128 / 8) * 8 + i % 128 / 16)
+                .collect();
+            blocks.dedup();
+            blocks.sort_unstable();
+            blocks.dedup();
+            assert!(c.largest > 128 && c.tiles as usize > blocks.len(), "{c:?}");
+        }
+        map.fill(eval.radiosity_buffer()).unwrap();
+        let got = map.read_texels().unwrap();
+        assert_fill(&got, &want, &cpu, &format!("dense grid in {fill:?}"));
+    }
+    let flat = Lightmap::new(&file, Some(LightmapValues::Flat)).unwrap();
+    let e = GpuLightmap::with_fill(&gpu, &file, &flat, GpuFill::Tiles)
+        .err()
+        .expect("a flat lightmap in tiles is refused")
+        .to_string();
+    assert!(
+        e.contains("cannot be filled in tiles") && e.contains("passes"),
+        "{e}"
+    );
 }
 
 #[test]

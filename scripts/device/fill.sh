@@ -7,8 +7,9 @@
 # Prepare on the development machine (x86-64 like the device machine), in the repository root:
 #   for each build NAME: cargo build --release --locked --bin lrr, then
 #     strip a copy and gzip -9 it to .dev/lrr-NAME.gz (the call carries 64 MiB at most);
-#   the runtime's gpu_lightmap test binary of each, stripped, as .dev/gpu-lightmap-tests-NAME
-#     (from `cargo test --release -p lrr-runtime --features gpu --no-run`);
+#   any of the runtime's GPU test binaries of a build, stripped, as .dev/gpu-lightmap-tests-NAME,
+#     .dev/gpu-trace-tests-NAME, .dev/gpu-direct-tests-NAME or .dev/gpu-tests-NAME
+#     (from `cargo test --release -p lrr-runtime --features gpu --no-run`): each is run;
 #   .gl/: the Vulkan loader's Debian packages (scripts/device/gpu.sh says how).
 # The building is baked there with the first build (its file is larger than a call carries).
 # Run there (carry .gl and .dev):  bash scripts/device/fill.sh NAME…  (the first bakes)
@@ -35,10 +36,11 @@ nvidia-smi --query-gpu=timestamp,clocks.sm,clocks.mem,power.draw,utilization.gpu
 logger=$!
 trap 'kill "$logger" 2>/dev/null' EXIT
 for b in "${builds[@]}"; do
-  if [ -e ".dev/gpu-lightmap-tests-$b" ]; then
-    step "tests-$b" 60 env LRR_EXPECT_ADAPTER=NVIDIA ".dev/gpu-lightmap-tests-$b" \
-      --test-threads 1 --nocapture
-  fi
+  for t in .dev/gpu*-tests-"$b"; do
+    [ -e "$t" ] || continue
+    name=$(basename "$t")
+    step "$name" 60 env LRR_EXPECT_ADAPTER=NVIDIA "$t" --test-threads 1 --nocapture
+  done
 done
 step bake 180 "/tmp/lrr-${builds[0]}" bake scenes/building/building.toml -o /tmp/building.lrr
 [ -e /tmp/building.lrr ] || exit 1
@@ -54,6 +56,7 @@ for b in "${builds[@]}"; do
   step "view-$b" 60 "/tmp/lrr-$b" view /tmp/building.lrr --headless --animate --frames 2000 \
     --size 1920x1080 --screenshot "/tmp/view-$b.png"
 done
-grep -E "^== fill|^== view|fill adds|GPU time|frames/s" "$OUT/steps.txt" | cut -c1-200
+grep -E "^== fill|^== view|fill adds|GPU time|^tiles:|frames/s|^test result" "$OUT/steps.txt" \
+  | cut -c1-200
 grep -E "largest relative" "$OUT/steps.err"
 echo "== end $(date -u +%H:%M:%S)"

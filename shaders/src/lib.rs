@@ -132,7 +132,8 @@ pub use direct::{
 };
 pub use lightmap::{
     LIGHTMAP_BINDINGS, LIGHTMAP_ENTRY, LIGHTMAP_FILL, LIGHTMAP_FLAT, LIGHTMAP_LANES,
-    LIGHTMAP_SMOOTH, LightmapParams,
+    LIGHTMAP_SMOOTH, LIGHTMAP_TILES, LightmapParams, TILE_DILATED, TILE_LANES, TILE_VERTICES,
+    TILES_BINDINGS, TILES_ENTRY, TileParams,
 };
 pub use params::{GatherConstants, Params};
 pub use sky::{SKY_BINDINGS, SKY_ENTRY, SKY_LANES, SKY_PASS, SkyParams};

@@ -730,6 +730,25 @@ fn lightmap_pass_compiles_and_matches_the_host() {
     assert_eq!(constant(&module, "MODE_FLAT"), crate::LIGHTMAP_FLAT);
 }
 
+/// `lightmap_tiles.wgsl` against [`crate::TILES_BINDINGS`] and [`crate::TileParams`], and its
+/// tile limit against the host's.
+#[test]
+fn lightmap_tiles_compile_and_match_the_host() {
+    let module = check_self_contained(&SelfContained {
+        file: "lightmap_tiles.wgsl",
+        source: crate::LIGHTMAP_TILES,
+        entry: crate::TILES_ENTRY,
+        lanes_constant: "TILE_LANES",
+        lanes: crate::TILE_LANES,
+        bindings: crate::TILES_BINDINGS,
+        params: "TileParams",
+        fields: crate::TileParams::FIELDS,
+        size: crate::TileParams::SIZE,
+    });
+    assert_eq!(constant(&module, "TILE_VERTICES"), crate::TILE_VERTICES);
+    assert_eq!(constant(&module, "DILATED"), crate::TILE_DILATED);
+}
+
 /// `sky.wgsl` against [`crate::SKY_BINDINGS`] and [`crate::SkyParams`].
 #[test]
 fn sky_pass_compiles_and_matches_the_host() {

@@ -1,23 +1,32 @@
-//! The lightmap fill on the GPU (`lightmap.wgsl` of `lrr-shaders`): the runtime's [`Lightmap`]
+//! The lightmap fill on the GPU (`lightmap_tiles.wgsl` or `lightmap.wgsl` of `lrr-shaders`):
+//! the runtime's [`Lightmap`]
 //! (built once on the CPU: the samples, their weights and the dilation rings) uploaded, then
 //! filled every frame from a radiosity storage buffer (the evaluator's
 //! [`radiosity_buffer`](super::GpuEvaluator::radiosity_buffer)) into an `rgba16float` storage
 //! texture that an application binds for sampling: no readback.
 //!
-//! A frame is one compute pass: smooth lightmaps first compute the smooth-vertex values
-//! (`smooth.wgsl`, as the tracer does), then one dispatch writes every sample and every
-//! dilated texel (each ring texel expanded once, at upload, into the sources its neighbours
-//! read: [`Lightmap::gpu_table`]), its bindings made with the first fill from a radiosity
-//! buffer and kept while fills read that buffer. Each texel written holds `B/π` and alpha 1,
-//! every other texel stays zero (the texture is zeroed once, when made), so alpha is the
-//! lightmap's coverage. Values are those of [`Lightmap::fill`] up to the texture's binary16
+//! A frame is one compute pass, its bindings made with the first fill from a radiosity buffer
+//! and kept while fills read that buffer. Two ways to fill ([`GpuFill`]):
+//! - **Tiles** (smooth lightmaps, the default where it applies): one dispatch,
+//!   `lightmap_tiles.wgsl`. The texels are cut at upload into tiles, the texels of a 16 × 8
+//!   block of the atlas that read at most 256 smooth vertices ([`Lightmap::gpu_tiles`]); each
+//!   tile's workgroup computes its vertices in its own memory, then writes its texels.
+//! - **Passes**: smooth lightmaps first compute every smooth-vertex value (`smooth.wgsl`, as
+//!   the tracer does), then one dispatch of `lightmap.wgsl` writes every sample and every
+//!   dilated texel (each ring texel expanded once, at upload, into the sources its neighbours
+//!   read: [`Lightmap::gpu_table`]). Flat lightmaps take this dispatch alone, and smooth ones
+//!   whose dilated texels read over 256 vertices (a padding far wider than the bake's) take
+//!   both.
+//!
+//! Each texel written holds `B/π` and alpha 1, every other texel stays zero (the texture is
+//! zeroed once, when made), so alpha is the lightmap's coverage. Values are those of [`Lightmap::fill`] up to the texture's binary16
 //! (2⁻¹⁰ relative: Vulkan lets an implementation round toward zero, and lavapipe and the
 //! H200's driver do; up to 65504) and f32 sums where the CPU sums in f64.
 
 use lrr_formats::OperatorFile;
 use lrr_shaders::{
-    LIGHTMAP_ENTRY, LIGHTMAP_FILL, LIGHTMAP_FLAT, LIGHTMAP_LANES, LIGHTMAP_SMOOTH, LightmapParams,
-    workgroups,
+    LIGHTMAP_ENTRY, LIGHTMAP_FILL, LIGHTMAP_FLAT, LIGHTMAP_LANES, LIGHTMAP_SMOOTH, LIGHTMAP_TILES,
+    LightmapParams, TILES_ENTRY, TileParams, workgroups,
 };
 use std::sync::Mutex;
 
@@ -27,10 +36,23 @@ use super::buffers::storage;
 use super::common::{GpuError, bytes_of_mut};
 use super::device::Gpu;
 use super::smooth::SmoothPass;
+use crate::lightmap::TileTable;
 use crate::{Lightmap, LightmapValues};
 
 /// The texture's format: half floats, filterable, a storage format of core WebGPU.
 pub const LIGHTMAP_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// How a [`GpuLightmap`] fills (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GpuFill {
+    /// Tiles where the lightmap allows them, else passes.
+    Auto,
+    /// One dispatch, each tile's smooth vertices in its workgroup's memory (smooth lightmaps
+    /// whose texels each read at most 256 smooth vertices).
+    Tiles,
+    /// The smooth-vertex pass (smooth lightmaps), then the texels' dispatch.
+    Passes,
+}
 
 /// A lightmap filled on the GPU. See the module docs.
 pub struct GpuLightmap {
@@ -39,34 +61,78 @@ pub struct GpuLightmap {
     width: u32,
     height: u32,
     samples: u32,
-    smooth: Option<SmoothPass>,
-    pipeline: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
-    /// Invocations of the fill's dispatch: samples and dilated texels.
-    count: u32,
-    params: wgpu::Buffer,
-    /// `lightmap.wgsl`'s tables ([`GpuTable`](crate::lightmap::GpuTable)): samples, run_base,
-    /// run_index, rings, ring_source, ring_weight.
-    tables: [wgpu::Buffer; 6],
+    how: How,
     texture: wgpu::Texture,
     view: wgpu::TextureView,
-    /// The bindings of the last radiosity buffer filled from: the smooth pass's and the fill's
-    /// (what [`encode`](Self::encode) would otherwise make every frame).
+    /// The bindings of the last radiosity buffer filled from (what
+    /// [`encode`](Self::encode) would otherwise make every frame).
     bindings: Mutex<Option<Bindings>>,
+}
+
+/// A [`GpuLightmap`]'s pipelines and tables, by [`GpuFill`].
+enum How {
+    Passes {
+        smooth: Option<SmoothPass>,
+        pipeline: wgpu::ComputePipeline,
+        layout: wgpu::BindGroupLayout,
+        /// Invocations of the fill's dispatch: samples and dilated texels.
+        count: u32,
+        params: wgpu::Buffer,
+        /// `lightmap.wgsl`'s tables ([`GpuTable`](crate::lightmap::GpuTable)): samples,
+        /// run_base, run_index, rings, ring_source, ring_weight.
+        tables: [wgpu::Buffer; 6],
+    },
+    Tiles {
+        pipeline: wgpu::ComputePipeline,
+        layout: wgpu::BindGroupLayout,
+        tiles: u32,
+        counts: TileCounts,
+        params: wgpu::Buffer,
+        /// `lightmap_tiles.wgsl`'s tables ([`TileTable`](crate::lightmap::TileTable)): tiles,
+        /// tile_vertices, entries, items, slots, terms.
+        tables: [wgpu::Buffer; 6],
+    },
+}
+
+/// What a [`GpuLightmap`] that fills in tiles computes ([`GpuLightmap::tile_counts`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TileCounts {
+    /// Tiles: workgroups of a fill.
+    pub tiles: u32,
+    /// Smooth vertices computed in a fill, over all tiles (a vertex read by several tiles is
+    /// counted in each).
+    pub vertices: u32,
+    /// Smooth vertices in the file.
+    pub smooth_vertices: u32,
+    /// The most vertices one tile computes.
+    pub largest: u32,
 }
 
 /// [`GpuLightmap`]'s bindings for one radiosity buffer.
 struct Bindings {
     radiosity: wgpu::Buffer,
+    /// The smooth pass's (passes, smooth).
     smooth: Option<wgpu::BindGroup>,
     fill: wgpu::BindGroup,
 }
 
 impl GpuLightmap {
     /// Uploads `map`, a lightmap of `file` (made by [`Lightmap::new`] or its kin from the same
-    /// file), and makes its texture. Errors when a table is over the adapter's binding limit or
-    /// the atlas over its texture limit.
+    /// file), and makes its texture; fills in tiles where the lightmap allows them
+    /// ([`GpuFill::Auto`]). Errors when a table is over the adapter's binding limit or the
+    /// atlas over its texture limit.
     pub fn new(gpu: &Gpu, file: &OperatorFile, map: &Lightmap) -> Result<Self, GpuError> {
+        Self::with_fill(gpu, file, map, GpuFill::Auto)
+    }
+
+    /// [`new`](Self::new) with the way to fill chosen: an error for [`GpuFill::Tiles`] when
+    /// the lightmap is flat or a texel reads over 256 smooth vertices.
+    pub fn with_fill(
+        gpu: &Gpu,
+        file: &OperatorFile,
+        map: &Lightmap,
+        fill: GpuFill,
+    ) -> Result<Self, GpuError> {
         let (width, height) = (map.width as u32, map.height as u32);
         let side = gpu.limits.max_texture_dimension_2d;
         if width > side || height > side {
@@ -75,81 +141,31 @@ impl GpuLightmap {
                 gpu.adapter_name()
             )));
         }
-        let table = map.gpu_table();
-        let samples = map.sample_count();
-        let count = samples + map.dilated_count();
-        let limit = gpu.max_binding_bytes();
-        for (name, words) in [
-            ("sample", table.samples.len()),
-            ("run base", table.run_base.len()),
-            ("run source", table.run_index.len()),
-            ("ring", table.rings.len()),
-            ("ring source", table.ring_source.len()),
-            ("ring weight", table.ring_weight.len()),
-        ] {
-            let bytes = 4 * words;
-            if bytes as u64 > limit {
-                return Err(GpuError::Device(format!(
-                    "GPU: the lightmap's {name} table needs {bytes} bytes, over the {limit}-byte \
-                     limit of one storage binding on {}; fill it on the CPU (Lightmap::fill)",
-                    gpu.adapter_name()
+        if map.values == LightmapValues::Smooth {
+            if file.display.smooth.is_none() {
+                return Err(GpuError::Runtime(crate::error::input(
+                    "a smooth lightmap of a file without SMOOTH: make both from one file",
                 )));
             }
+            // The same checks as the CPU's, so that no pass indexes out of range.
+            crate::Reconstruction::new(file)?;
         }
-        let smooth = match map.values {
-            LightmapValues::Smooth => {
-                let s = file.display.smooth.as_ref().ok_or_else(|| {
-                    GpuError::Runtime(crate::error::input(
-                        "a smooth lightmap of a file without SMOOTH: make both from one file",
-                    ))
-                })?;
-                // The same checks as the CPU's, so that the pass indexes nothing out of range.
-                crate::Reconstruction::new(file)?;
-                Some(SmoothPass::new(gpu, s, &file.order))
-            }
-            LightmapValues::Flat => None,
+        let tiles = match fill {
+            GpuFill::Passes => None,
+            GpuFill::Auto | GpuFill::Tiles => map.gpu_tiles(),
         };
-        let none = wgpu::BufferUsages::empty();
-        let device = &gpu.device;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(LIGHTMAP_ENTRY),
-            source: wgpu::ShaderSource::Wgsl(LIGHTMAP_FILL.into()),
-        });
-        let layout = super::common::bind_group_layout(
-            device,
-            LIGHTMAP_ENTRY,
-            lrr_shaders::LIGHTMAP_BINDINGS,
-        );
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some(LIGHTMAP_ENTRY),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(LIGHTMAP_ENTRY),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some(LIGHTMAP_ENTRY),
-            compilation_options: wgpu::PipelineCompilationOptions::default(),
-            cache: None,
-        });
-        let mode = match map.values {
-            LightmapValues::Smooth => LIGHTMAP_SMOOTH,
-            LightmapValues::Flat => LIGHTMAP_FLAT,
-        };
-        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("lightmap params"),
-            contents: &LightmapParams {
-                samples: samples as u32,
-                count: count as u32,
-                width,
-                mode,
-                ..LightmapParams::default()
+        let how = match tiles {
+            Some(t) => Self::tiles(gpu, map, &t)?,
+            None if fill == GpuFill::Tiles => {
+                return Err(GpuError::Runtime(crate::error::input(
+                    "the lightmap cannot be filled in tiles: it is flat, or one of its texels \
+                     reads over 256 smooth vertices (a padding far wider than a bake's); fill \
+                     it in passes (GpuFill::Passes or Auto)",
+                )));
             }
-            .to_bytes(),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            None => Self::passes(gpu, file, map)?,
+        };
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("lightmap"),
             size: wgpu::Extent3d {
                 width,
@@ -171,7 +187,74 @@ impl GpuLightmap {
             n: file.n as usize,
             width,
             height,
-            samples: samples as u32,
+            samples: map.sample_count() as u32,
+            how,
+            texture,
+            view,
+            bindings: Mutex::new(None),
+        })
+    }
+
+    /// How this lightmap fills: [`GpuFill::Tiles`] or [`GpuFill::Passes`].
+    pub fn fill_kind(&self) -> GpuFill {
+        match self.how {
+            How::Passes { .. } => GpuFill::Passes,
+            How::Tiles { .. } => GpuFill::Tiles,
+        }
+    }
+
+    /// What a fill in tiles computes; `None` when filling in passes.
+    pub fn tile_counts(&self) -> Option<TileCounts> {
+        match self.how {
+            How::Passes { .. } => None,
+            How::Tiles { counts, .. } => Some(counts),
+        }
+    }
+
+    /// The smooth pass and `lightmap.wgsl`'s tables.
+    fn passes(gpu: &Gpu, file: &OperatorFile, map: &Lightmap) -> Result<How, GpuError> {
+        let table = map.gpu_table();
+        let samples = map.sample_count();
+        let count = samples + map.dilated_count();
+        check_sizes(
+            gpu,
+            &[
+                ("sample", table.samples.len()),
+                ("run base", table.run_base.len()),
+                ("run source", table.run_index.len()),
+                ("ring", table.rings.len()),
+                ("ring source", table.ring_source.len()),
+                ("ring weight", table.ring_weight.len()),
+            ],
+        )?;
+        let smooth = match (map.values, file.display.smooth.as_ref()) {
+            (LightmapValues::Smooth, Some(s)) => Some(SmoothPass::new(gpu, s, &file.order)),
+            _ => None,
+        };
+        let (pipeline, layout) = pipeline(
+            gpu,
+            LIGHTMAP_ENTRY,
+            LIGHTMAP_FILL,
+            lrr_shaders::LIGHTMAP_BINDINGS,
+        );
+        let mode = match map.values {
+            LightmapValues::Smooth => LIGHTMAP_SMOOTH,
+            LightmapValues::Flat => LIGHTMAP_FLAT,
+        };
+        let params = uniform(
+            gpu,
+            "lightmap params",
+            &LightmapParams {
+                samples: samples as u32,
+                count: count as u32,
+                width: map.width as u32,
+                mode,
+                ..LightmapParams::default()
+            }
+            .to_bytes(),
+        );
+        let none = wgpu::BufferUsages::empty();
+        Ok(How::Passes {
             smooth,
             pipeline,
             layout,
@@ -185,9 +268,63 @@ impl GpuLightmap {
                 storage(gpu, "lightmap ring sources", &table.ring_source, none),
                 storage(gpu, "lightmap ring weights", &table.ring_weight, none),
             ],
-            texture,
-            view,
-            bindings: Mutex::new(None),
+        })
+    }
+
+    /// `lightmap_tiles.wgsl`'s pipeline and tables.
+    fn tiles(gpu: &Gpu, map: &Lightmap, t: &TileTable) -> Result<How, GpuError> {
+        check_sizes(
+            gpu,
+            &[
+                ("tile", t.tiles.len()),
+                ("tile vertex", t.tile_vertices.len()),
+                ("smooth weight", t.entries.len()),
+                ("texel", t.items.len()),
+                ("texel slot", t.slots.len()),
+                ("ring term", t.terms.len()),
+            ],
+        )?;
+        let (pipeline, layout) = pipeline(
+            gpu,
+            TILES_ENTRY,
+            LIGHTMAP_TILES,
+            lrr_shaders::TILES_BINDINGS,
+        );
+        let tiles = (t.tiles.len() / 2 - 1) as u32;
+        let params = uniform(
+            gpu,
+            "lightmap tile params",
+            &TileParams {
+                width: map.width as u32,
+                tiles,
+                ..TileParams::default()
+            }
+            .to_bytes(),
+        );
+        let counts = TileCounts {
+            tiles,
+            vertices: (t.tile_vertices.len() / 2) as u32,
+            smooth_vertices: map.smooth_vertex_count() as u32,
+            largest: (t.tiles.windows(4).step_by(2))
+                .map(|w| w[3] - w[1])
+                .max()
+                .unwrap_or(0),
+        };
+        let none = wgpu::BufferUsages::empty();
+        Ok(How::Tiles {
+            pipeline,
+            layout,
+            tiles,
+            counts,
+            params,
+            tables: [
+                storage(gpu, "lightmap tiles", &t.tiles, none),
+                storage(gpu, "lightmap tile vertices", &t.tile_vertices, none),
+                storage(gpu, "lightmap smooth weights", &t.entries, none),
+                storage(gpu, "lightmap texels", &t.items, none),
+                storage(gpu, "lightmap texel slots", &t.slots, none),
+                storage(gpu, "lightmap ring terms", &t.terms, none),
+            ],
         })
     }
 
@@ -270,39 +407,67 @@ impl GpuLightmap {
             label: Some(LIGHTMAP_ENTRY),
             timestamp_writes: timestamps,
         });
-        if let (Some(smooth), Some(group)) = (&self.smooth, &b.smooth) {
-            smooth.dispatch(&mut pass, group);
-        }
-        if self.count > 0 {
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &b.fill, &[]);
-            let [x, y, z] = workgroups(self.count.div_ceil(LIGHTMAP_LANES));
-            pass.dispatch_workgroups(x, y, z);
+        match &self.how {
+            How::Passes {
+                smooth,
+                pipeline,
+                count,
+                ..
+            } => {
+                if let (Some(smooth), Some(group)) = (smooth, &b.smooth) {
+                    smooth.dispatch(&mut pass, group);
+                }
+                if *count > 0 {
+                    pass.set_pipeline(pipeline);
+                    pass.set_bind_group(0, &b.fill, &[]);
+                    let [x, y, z] = workgroups(count.div_ceil(LIGHTMAP_LANES));
+                    pass.dispatch_workgroups(x, y, z);
+                }
+            }
+            How::Tiles {
+                pipeline, tiles, ..
+            } => {
+                if *tiles > 0 {
+                    pass.set_pipeline(pipeline);
+                    pass.set_bind_group(0, &b.fill, &[]);
+                    let [x, y, z] = workgroups(*tiles);
+                    pass.dispatch_workgroups(x, y, z);
+                }
+            }
         }
         Ok(())
     }
 
-    /// The bindings of the smooth pass and of the fill, reading `radiosity`.
+    /// The bindings of the fill (and of the smooth pass), reading `radiosity`.
     fn bindings(&self, radiosity: &wgpu::Buffer) -> Bindings {
-        let smooth = (self.smooth.as_ref()).map(|pass| pass.bind_group(&self.gpu, radiosity));
-        let table = match &self.smooth {
-            Some(pass) => &pass.values,
-            None => radiosity,
+        let (layout, smooth, buffers) = match &self.how {
+            How::Passes {
+                smooth,
+                layout,
+                params,
+                tables: t,
+                ..
+            } => {
+                let group = smooth
+                    .as_ref()
+                    .map(|pass| pass.bind_group(&self.gpu, radiosity));
+                let table = smooth.as_ref().map_or(radiosity, |pass| &pass.values);
+                let buffers = vec![params, &t[0], &t[1], &t[2], &t[3], &t[4], &t[5], table];
+                (layout, group, buffers)
+            }
+            How::Tiles {
+                layout,
+                params,
+                tables: t,
+                ..
+            } => {
+                let buffers = vec![params, &t[0], &t[1], &t[2], radiosity, &t[3], &t[4], &t[5]];
+                (layout, None, buffers)
+            }
         };
-        let t = &self.tables;
-        let buffers = [
-            &self.params,
-            &t[0],
-            &t[1],
-            &t[2],
-            &t[3],
-            &t[4],
-            &t[5],
-            table,
-        ];
         let mut entries = super::common::buffer_entries(&buffers);
         entries.push(wgpu::BindGroupEntry {
-            binding: 8,
+            binding: buffers.len() as u32,
             resource: wgpu::BindingResource::TextureView(&self.view),
         });
         let fill = self
@@ -310,7 +475,7 @@ impl GpuLightmap {
             .device
             .create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(LIGHTMAP_ENTRY),
-                layout: &self.layout,
+                layout,
                 entries: &entries,
             });
         Bindings {
@@ -393,4 +558,59 @@ impl GpuLightmap {
     pub fn sample_count(&self) -> u32 {
         self.samples
     }
+}
+
+/// An error when a table of `words` u32 words is over one storage binding of `gpu`.
+fn check_sizes(gpu: &Gpu, tables: &[(&str, usize)]) -> Result<(), GpuError> {
+    let limit = gpu.max_binding_bytes();
+    for &(name, words) in tables {
+        let bytes = 4 * words;
+        if bytes as u64 > limit {
+            return Err(GpuError::Device(format!(
+                "GPU: the lightmap's {name} table needs {bytes} bytes, over the {limit}-byte \
+                 limit of one storage binding on {}; fill it on the CPU (Lightmap::fill)",
+                gpu.adapter_name()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// A compute pipeline of a self-contained WGSL pass and its explicit bindings.
+fn pipeline(
+    gpu: &Gpu,
+    entry: &'static str,
+    source: &'static str,
+    bindings: &[lrr_shaders::Binding],
+) -> (wgpu::ComputePipeline, wgpu::BindGroupLayout) {
+    let device = &gpu.device;
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(entry),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let layout = super::common::bind_group_layout(device, entry, bindings);
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(entry),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: Some(&pipeline_layout),
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: wgpu::PipelineCompilationOptions::default(),
+        cache: None,
+    });
+    (pipeline, layout)
+}
+
+/// A uniform buffer holding `bytes`.
+fn uniform(gpu: &Gpu, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+    gpu.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytes,
+            usage: wgpu::BufferUsages::UNIFORM,
+        })
 }

@@ -82,7 +82,7 @@ pub use bench::{GpuBench, bench_operator, bounds_check_cost};
 pub use device::{AdapterSummary, Gpu, GpuOptions, adapters, instance};
 pub use direct::{DEFAULT_CHUNK_RAYS, GpuDirect, GpuDirectReport};
 pub use evaluator::{BurstTiming, FrameTiming, GpuEvaluator};
-pub use lightmap::{GpuLightmap, LIGHTMAP_FORMAT};
+pub use lightmap::{GpuFill, GpuLightmap, LIGHTMAP_FORMAT, TileCounts};
 pub use lrr_shaders::{Reduce, Storage};
 #[cfg(feature = "trace")]
 pub use trace::{DEFAULT_TILE_PIXELS, GpuRenderReport, GpuTracer};

@@ -128,16 +128,7 @@ pub fn lightmapped(
             coords[8 * f + 2 * c..8 * f + 2 * c + 2].copy_from_slice(&uv(x, y));
         }
     }
-    file.display.lightmap = Some(LightmapUv {
-        uv: coords,
-        atlas: Some(LightmapAtlas {
-            width,
-            height,
-            padding,
-            source: LightmapSource::Scene,
-            density: 0.0,
-        }),
-    });
+    file.display.lightmap = Some(scene_atlas(coords, width, height, padding));
     debug_assert!(file.validate().is_ok());
     file
 }
@@ -146,7 +137,7 @@ pub fn lightmapped(
 /// elements (each once, `element(polygon)`) with a corner there. The tests' stand-in for the
 /// bake's weights, on GEOMETRY or on display faces.
 pub fn smooth_by_position(g: &Geometry, element: &dyn Fn(usize) -> u32) -> Smooth {
-    let mut keys: Vec<[i64; 3]> = Vec::new();
+    let mut keys: std::collections::HashMap<[i64; 3], usize> = Default::default();
     let mut members: Vec<Vec<u32>> = Vec::new();
     let mut corners = vec![Smooth::NONE; 4 * g.len()];
     for f in 0..g.len() {
@@ -154,10 +145,9 @@ pub fn smooth_by_position(g: &Geometry, element: &dyn Fn(usize) -> u32) -> Smoot
             let key = g
                 .vertex(f, i)
                 .map(|x| (f64::from(x) * 1024.0).round() as i64);
-            let v = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
-                keys.push(key);
+            let v = *keys.entry(key).or_insert_with(|| {
                 members.push(Vec::new());
-                keys.len() - 1
+                members.len() - 1
             });
             if !members[v].contains(&element(f)) {
                 members[v].push(element(f));
@@ -176,4 +166,66 @@ pub fn smooth_by_position(g: &Geometry, element: &dyn Fn(usize) -> u32) -> Smoot
         s.offsets.push(s.positions.len() as u32);
     }
     s
+}
+
+/// A synthetic file (`synthetic::file(n, k, 3, F32, Factored, seed)`: a grid of unit squares,
+/// one element each) drawn through display faces (each square two triangles), with SMOOTH by
+/// position and lightmap coordinates that spread the grid over a `width × height` atlas
+/// dilated `padding` rings, a texel's margin on each side. Dense grids put many elements under
+/// each texel run: the lightmap fill's test of many smooth vertices per tile.
+pub fn lightmapped_grid(
+    n: usize,
+    k: usize,
+    width: u32,
+    height: u32,
+    padding: u32,
+    seed: u64,
+) -> OperatorFile {
+    let mut file =
+        super::synthetic::file(n, k, 3, Precision::F32, lrr_formats::Layout::Factored, seed)
+            .expect("valid sizes");
+    let g = file.geometry.clone();
+    let cells = (n as f64).sqrt().ceil() as f32;
+    let rows = n.div_ceil(cells as usize) as f32;
+    let mut faces = Faces::default();
+    let mut coords = Vec::new();
+    let margin = padding as f32 + 1.0;
+    let (w, h) = (width as f32, height as f32);
+    for e in 0..n {
+        for t in [[0, 1, 2], [0, 2, 3]] {
+            faces.element.push(e as u32);
+            faces.geometry.vertex_count.push(3);
+            for c in t {
+                let [x, y, z] = g.vertex(e, c);
+                faces.geometry.vertices.extend([x, y, z]);
+                coords.extend([
+                    (margin + x / cells * (w - 2.0 * margin)) / w,
+                    (margin + y / rows * (h - 2.0 * margin)) / h,
+                ]);
+            }
+            faces.geometry.vertices.extend([0.0; 3]);
+            coords.extend([0.0; 2]);
+            faces.geometry.normals.extend([0.0, 0.0, 1.0]);
+        }
+    }
+    file.display.smooth = Some(smooth_by_position(&faces.geometry, &|f| faces.element[f]));
+    file.display.bvh = Some(super::bvh::build(&faces.geometry));
+    file.display.faces = Some(faces);
+    file.display.lightmap = Some(scene_atlas(coords, width, height, padding));
+    file.validate().expect("a valid file");
+    file
+}
+
+/// Lightmap coordinates `uv` (8 per face) over the scene's own `width × height` atlas.
+fn scene_atlas(uv: Vec<f32>, width: u32, height: u32, padding: u32) -> LightmapUv {
+    LightmapUv {
+        uv,
+        atlas: Some(LightmapAtlas {
+            width,
+            height,
+            padding,
+            source: LightmapSource::Scene,
+            density: 0.0,
+        }),
+    }
 }
