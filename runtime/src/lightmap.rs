@@ -96,9 +96,12 @@ pub(crate) struct TileTable {
 /// Texels a tile holds at most (`TILE_LANES` of `lightmap_tiles.wgsl`).
 #[cfg(feature = "gpu")]
 pub(crate) const TILE_LANES: usize = lrr_shaders::TILE_LANES as usize;
-/// The blocks of texels (across, down) that [`Lightmap::gpu_tiles`] makes tiles of.
+/// The blocks of texels (across, down) that [`Lightmap::gpu_tiles`] makes tiles of: at most
+/// a workgroup's lanes.
 #[cfg(feature = "gpu")]
 pub(crate) const TILE_BLOCK: (usize, usize) = (16, 8);
+#[cfg(feature = "gpu")]
+const _: () = assert!(TILE_BLOCK.0 * TILE_BLOCK.1 <= TILE_LANES);
 /// Smooth vertices a tile reads at most (`TILE_VERTICES` of `lightmap_tiles.wgsl`; a byte
 /// indexes them).
 #[cfg(feature = "gpu")]
@@ -498,7 +501,10 @@ impl Lightmap {
     /// smaller limits cut more tiles).
     #[cfg(feature = "gpu")]
     fn tiles_within(&self, block: (usize, usize), vertices: usize) -> Option<TileTable> {
-        debug_assert!(block.0 * block.1 <= TILE_LANES);
+        assert!(
+            block.0 * block.1 <= TILE_LANES,
+            "a block of more texels than lanes"
+        );
         if self.values != LightmapValues::Smooth || self.width * self.height > 1 << 31 {
             return None;
         }

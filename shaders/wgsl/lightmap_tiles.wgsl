@@ -31,6 +31,10 @@
 // - slots: per texel item a sample's four weights times 1/pi (f32 bits), or a dilated
 //   texel's terms' start and end.
 // - terms: per term of a dilated texel, vec2(tile-local vertex index, weight's f32 bits).
+// Workgroup memory is not zeroed first (runtime/src/gpu/lightmap.rs): every tile-local index is
+// below the tile's vertex count, which the first phase writes in full before the barrier (a
+// sample has a corner of non-zero weight, a dilated texel a term, so no tile is empty of
+// vertices).
 
 const TILE_LANES: u32 = 128u;
 const TILE_VERTICES: u32 = 256u;
@@ -122,8 +126,13 @@ fn lightmap_tiles(
     if (head.x & DILATED) == 0u {
         let c = head.y;
         let w = bitcast<vec4<f32>>(slot);
-        v = w.x * values[c & 0xffu] + w.y * values[(c >> 8u) & 0xffu]
-            + w.z * values[(c >> 16u) & 0xffu] + w.w * values[c >> 24u];
+        // A corner of weight 0 (a triangle's fourth) indexes the tile's first vertex: its
+        // product is not added, so that a vertex that overflowed spoils no other sample.
+        let zero = vec3<f32>(0.0);
+        v = select(zero, w.x * values[c & 0xffu], w.x != 0.0)
+            + select(zero, w.y * values[(c >> 8u) & 0xffu], w.y != 0.0)
+            + select(zero, w.z * values[(c >> 16u) & 0xffu], w.z != 0.0)
+            + select(zero, w.w * values[c >> 24u], w.w != 0.0);
     } else {
         let end = slot.y;
         // Four terms a step, their loads in flight together; past the end a term reads the

@@ -155,7 +155,13 @@ impl GpuLightmap {
             GpuFill::Auto | GpuFill::Tiles => map.gpu_tiles(),
         };
         let how = match tiles {
-            Some(t) => Self::tiles(gpu, map, &t)?,
+            Some(t) if fill == GpuFill::Tiles => Self::tiles(gpu, map, &t)?,
+            // A tile table over a binding can still fit as passes (its ring terms take 8
+            // bytes where the passes' take 4 and 4 in two tables).
+            Some(t) => match Self::tiles(gpu, map, &t) {
+                Ok(how) => how,
+                Err(_) => Self::passes(gpu, file, map)?,
+            },
             None if fill == GpuFill::Tiles => {
                 return Err(GpuError::Runtime(crate::error::input(
                     "the lightmap cannot be filled in tiles: it is flat, or one of its texels \
@@ -218,6 +224,7 @@ impl GpuLightmap {
         let count = samples + map.dilated_count();
         check_sizes(
             gpu,
+            "fill it on the CPU (Lightmap::fill)",
             &[
                 ("sample", table.samples.len()),
                 ("run base", table.run_base.len()),
@@ -275,6 +282,7 @@ impl GpuLightmap {
     fn tiles(gpu: &Gpu, map: &Lightmap, t: &TileTable) -> Result<How, GpuError> {
         check_sizes(
             gpu,
+            "fill it in passes (GpuFill::Passes or Auto) or on the CPU (Lightmap::fill)",
             &[
                 ("tile", t.tiles.len()),
                 ("tile vertex", t.tile_vertices.len()),
@@ -560,15 +568,16 @@ impl GpuLightmap {
     }
 }
 
-/// An error when a table of `words` u32 words is over one storage binding of `gpu`.
-fn check_sizes(gpu: &Gpu, tables: &[(&str, usize)]) -> Result<(), GpuError> {
+/// An error, with `advice`, when a table of `words` u32 words is over one storage binding of
+/// `gpu`.
+fn check_sizes(gpu: &Gpu, advice: &str, tables: &[(&str, usize)]) -> Result<(), GpuError> {
     let limit = gpu.max_binding_bytes();
     for &(name, words) in tables {
         let bytes = 4 * words;
         if bytes as u64 > limit {
             return Err(GpuError::Device(format!(
                 "GPU: the lightmap's {name} table needs {bytes} bytes, over the {limit}-byte \
-                 limit of one storage binding on {}; fill it on the CPU (Lightmap::fill)",
+                 limit of one storage binding on {}; {advice}",
                 gpu.adapter_name()
             )));
         }
@@ -599,7 +608,12 @@ fn pipeline(
         layout: Some(&pipeline_layout),
         module: &module,
         entry_point: Some(entry),
-        compilation_options: wgpu::PipelineCompilationOptions::default(),
+        // Workgroup memory is not zeroed before each workgroup (wgpu's default): only
+        // lightmap_tiles.wgsl has any, and it reads no entry it has not written (its header).
+        compilation_options: wgpu::PipelineCompilationOptions {
+            zero_initialize_workgroup_memory: false,
+            ..Default::default()
+        },
         cache: None,
     });
     (pipeline, layout)
