@@ -162,6 +162,64 @@ fn dense_tiles_are_the_cpu_fill() {
     );
 }
 
+/// A tile table over a binding (here a cap of `GpuOptions::max_table_bytes`): `Auto` fills in
+/// passes where they fit, and equals the CPU's fill; `Tiles` is refused with advice that
+/// names the passes; under a cap that neither fits, both are refused, naming the CPU's fill.
+#[test]
+fn tiles_over_a_binding_fall_back_to_passes() {
+    let file = lightmapped_grid(40_000, 16, 128, 128, 2, 3);
+    let op = Operator::from_file(file.clone()).unwrap();
+    let cpu = Lightmap::new(&file, None).unwrap();
+    let gpu_capped = |cap: u64| {
+        let options = GpuOptions {
+            max_table_bytes: Some(cap),
+            ..GpuOptions::default()
+        };
+        Gpu::new(&options).unwrap_or_else(|e| panic!("{e}"))
+    };
+    // The largest cap at which tiles are refused and passes fit: tiles hold SMOOTH's weights
+    // as (element, weight) pairs, 8 bytes where the passes' two tables take 4 each.
+    let mut found = None;
+    let mut cap = 4u64 << 20;
+    while cap > 4096 && found.is_none() {
+        let gpu = gpu_capped(cap);
+        let tiles = GpuLightmap::with_fill(&gpu, &file, &cpu, GpuFill::Tiles);
+        let passes = GpuLightmap::with_fill(&gpu, &file, &cpu, GpuFill::Passes);
+        if let (Err(e), Ok(_)) = (&tiles, &passes) {
+            let e = e.to_string();
+            assert!(e.contains("fill it in passes"), "{e}");
+            found = Some(gpu);
+        }
+        cap = cap * 4 / 5;
+    }
+    let gpu = found.expect("a cap that refuses tiles and fits passes");
+    let map = GpuLightmap::new(&gpu, &file, &cpu).unwrap();
+    assert_eq!(map.fill_kind(), GpuFill::Passes);
+    let emission: Vec<[f32; 3]> = (0..op.n()).map(|e| [1.0, (e % 3) as f32, 0.5]).collect();
+    let mut eval = GpuEvaluator::new(&gpu, &op).unwrap();
+    let mut b = vec![[0.0f32; 3]; op.n()];
+    eval.evaluate(Rgb::triples(&emission), RgbMut::triples(&mut b))
+        .unwrap();
+    let mut want = vec![[f32::NAN; 3]; 128 * 128];
+    let mut cpu = cpu;
+    cpu.fill(&b, &mut want).unwrap();
+    map.fill(eval.radiosity_buffer()).unwrap();
+    assert_fill(
+        &map.read_texels().unwrap(),
+        &want,
+        &cpu,
+        "passes under a cap",
+    );
+    let e = GpuLightmap::new(&gpu_capped(4096), &file, &cpu)
+        .err()
+        .expect("nothing fits 4 KiB")
+        .to_string();
+    assert!(
+        e.contains("over the 4096-byte limit") && e.contains("Lightmap::fill"),
+        "{e}"
+    );
+}
+
 #[test]
 fn a_radiosity_buffer_too_small_is_an_error() {
     let gpu = gpu();

@@ -21,6 +21,9 @@ pub struct GpuOptions {
     /// Cap on a chunk of the stored matrix, below the adapter's limits (tests use it to
     /// chunk small operators).
     pub max_chunk_bytes: Option<u64>,
+    /// Cap on one table of a lightmap fill (`GpuLightmap`), below the adapter's binding limit
+    /// (tests use it to reach the fill's fallbacks on a small lightmap).
+    pub max_table_bytes: Option<u64>,
     /// Lanes per row of the gather (a power of two, 1 to 32; with subgroup row sums a larger
     /// value is lowered to the adapter's smallest subgroup); `None`: about four octets per lane
     /// (`GatherConstants::row_lanes_for`). For tuning (`lrr bench runtime --row-lanes`).

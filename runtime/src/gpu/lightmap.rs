@@ -222,6 +222,13 @@ impl GpuLightmap {
         let table = map.gpu_table();
         let samples = map.sample_count();
         let count = samples + map.dilated_count();
+        let smooth = match (map.values, file.display.smooth.as_ref()) {
+            (LightmapValues::Smooth, Some(s)) => Some(s),
+            _ => None,
+        };
+        let rows = smooth.map_or([0; 3], |s| {
+            [s.offsets.len(), s.positions.len(), 3 * s.vertex_count()]
+        });
         check_sizes(
             gpu,
             "fill it on the CPU (Lightmap::fill)",
@@ -232,12 +239,12 @@ impl GpuLightmap {
                 ("ring", table.rings.len()),
                 ("ring source", table.ring_source.len()),
                 ("ring weight", table.ring_weight.len()),
+                ("smooth row", rows[0]),
+                ("smooth weight", rows[1]),
+                ("smooth vertex value", rows[2]),
             ],
         )?;
-        let smooth = match (map.values, file.display.smooth.as_ref()) {
-            (LightmapValues::Smooth, Some(s)) => Some(SmoothPass::new(gpu, s, &file.order)),
-            _ => None,
-        };
+        let smooth = smooth.map(|s| SmoothPass::new(gpu, s, &file.order));
         let (pipeline, layout) = pipeline(
             gpu,
             LIGHTMAP_ENTRY,
@@ -571,7 +578,9 @@ impl GpuLightmap {
 /// An error, with `advice`, when a table of `words` u32 words is over one storage binding of
 /// `gpu`.
 fn check_sizes(gpu: &Gpu, advice: &str, tables: &[(&str, usize)]) -> Result<(), GpuError> {
-    let limit = gpu.max_binding_bytes();
+    let limit = (gpu.options.max_table_bytes).map_or(gpu.max_binding_bytes(), |cap| {
+        cap.min(gpu.max_binding_bytes())
+    });
     for &(name, words) in tables {
         let bytes = 4 * words;
         if bytes as u64 > limit {
