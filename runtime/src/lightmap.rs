@@ -488,9 +488,10 @@ impl Lightmap {
     /// several), each tile's vertices listed and its texels' sources given as indices into
     /// that list. A block keeps a tile on few faces: the building's charts are narrow, and
     /// tiles of 64 texels along a row read 12.6 times its smooth vertices in all, 16 × 8
-    /// blocks 2.8 times (on an H200: 28 and 15 µs a fill, the passes 17–18 µs). `None` for a flat lightmap, or when one texel alone reads
-    /// more than [`TILE_VERTICES`] vertices (a dilated texel deep in a wide padding): the fill
-    /// then takes the smooth pass and `lightmap.wgsl`.
+    /// blocks 2.8 times (on an H200: 28 and 15 µs a fill, the passes 17–18 µs). `None` for a
+    /// flat lightmap, or when one texel alone reads more than [`TILE_VERTICES`] vertices (a
+    /// dilated texel deep in a wide padding): the fill then takes the smooth pass and
+    /// `lightmap.wgsl`.
     #[cfg(feature = "gpu")]
     pub(crate) fn gpu_tiles(&self) -> Option<TileTable> {
         self.tiles_within(TILE_BLOCK, TILE_VERTICES)
@@ -549,14 +550,17 @@ impl Lightmap {
         while k < order.len() {
             let (at, texel, i) = order[k];
             let i = i as usize;
-            // Item i's smooth vertices: a sample's corners of non-zero weight, a dilated
-            // texel's terms.
+            // Item i's smooth vertices: a sample's corners of non-zero weight (`corners`), a
+            // dilated texel's terms.
             sources.clear();
+            let mut corners = [None; 4];
             let ring_terms = if i < samples {
                 let run = table.samples[5 * i] as usize;
                 for c in 0..4 {
                     if self.weight[i][c] != 0.0 {
-                        sources.push(table.run_index[4 * run + c]);
+                        let v = table.run_index[4 * run + c];
+                        corners[c] = Some(v);
+                        sources.push(v);
                     }
                 }
                 0..0
@@ -596,12 +600,10 @@ impl Lightmap {
                 continue;
             }
             if i < samples {
-                let run = table.samples[5 * i] as usize;
                 let mut packed = 0;
-                for c in 0..4 {
-                    if self.weight[i][c] != 0.0 {
-                        let v = table.run_index[4 * run + c] as usize;
-                        packed |= local[v] << (8 * c);
+                for (c, v) in corners.iter().enumerate() {
+                    if let Some(v) = v {
+                        packed |= local[*v as usize] << (8 * c);
                     }
                 }
                 t.items.extend([texel as u32, packed]);
@@ -617,11 +619,10 @@ impl Lightmap {
             }
             k += 1;
         }
-        // The end of the last tile (an empty lightmap has none).
-        if order.is_empty() {
-            t.tiles.clear();
+        // The end of the last tile (an empty lightmap has none: its pair [0, 0] stays alone).
+        if !order.is_empty() {
+            t.tiles.extend([order.len() as u32, list.len() as u32]);
         }
-        t.tiles.extend([order.len() as u32, list.len() as u32]);
         let rows = &self.vertex_offsets;
         t.tile_vertices = (list.iter())
             .flat_map(|&v| [rows[v as usize], rows[v as usize + 1]])

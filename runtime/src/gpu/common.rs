@@ -138,6 +138,37 @@ pub(super) fn bind_group_layout(
     })
 }
 
+/// The compute pipeline of `module`'s entry point `entry` over the explicit `bindings` (its
+/// `lrr_shaders::*_BINDINGS`, in group 0), and their layout.
+pub(super) fn compute_pipeline(
+    device: &wgpu::Device,
+    entry: &'static str,
+    module: &wgpu::ShaderModule,
+    bindings: &[lrr_shaders::Binding],
+) -> (wgpu::ComputePipeline, wgpu::BindGroupLayout) {
+    let layout = bind_group_layout(device, entry, bindings);
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(entry),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: Some(&pipeline_layout),
+        module,
+        entry_point: Some(entry),
+        // Workgroup memory is not zeroed before each workgroup (wgpu's default): of the passes
+        // built here only lightmap_tiles.wgsl has any, and it reads no entry it has not
+        // written (its header).
+        compilation_options: wgpu::PipelineCompilationOptions {
+            zero_initialize_workgroup_memory: false,
+            ..Default::default()
+        },
+        cache: None,
+    });
+    (pipeline, layout)
+}
+
 /// The module of a pass's WGSL: with naga's bounds checks when `checked`, else without.
 ///
 /// # Safety

@@ -19,9 +19,10 @@
 //!   both.
 //!
 //! Each texel written holds `B/π` and alpha 1, every other texel stays zero (the texture is
-//! zeroed once, when made), so alpha is the lightmap's coverage. Values are those of [`Lightmap::fill`] up to the texture's binary16
-//! (2⁻¹⁰ relative: Vulkan lets an implementation round toward zero, and lavapipe and the
-//! H200's driver do; up to 65504) and f32 sums where the CPU sums in f64.
+//! zeroed once, when made), so alpha is the lightmap's coverage. Values are those of
+//! [`Lightmap::fill`] up to the texture's binary16 (2⁻¹⁰ relative: Vulkan lets an
+//! implementation round toward zero, and lavapipe and the H200's driver do; up to 65504) and
+//! f32 sums where the CPU sums in f64.
 
 use lrr_formats::OperatorFile;
 use lrr_shaders::{
@@ -594,38 +595,21 @@ fn check_sizes(gpu: &Gpu, advice: &str, tables: &[(&str, usize)]) -> Result<(), 
     Ok(())
 }
 
-/// A compute pipeline of a self-contained WGSL pass and its explicit bindings.
+/// A compute pipeline of a self-contained WGSL pass (checked by naga) and its explicit
+/// bindings.
 fn pipeline(
     gpu: &Gpu,
     entry: &'static str,
     source: &'static str,
     bindings: &[lrr_shaders::Binding],
 ) -> (wgpu::ComputePipeline, wgpu::BindGroupLayout) {
-    let device = &gpu.device;
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(entry),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let layout = super::common::bind_group_layout(device, entry, bindings);
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(entry),
-        bind_group_layouts: &[Some(&layout)],
-        immediate_size: 0,
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: Some(&pipeline_layout),
-        module: &module,
-        entry_point: Some(entry),
-        // Workgroup memory is not zeroed before each workgroup (wgpu's default): only
-        // lightmap_tiles.wgsl has any, and it reads no entry it has not written (its header).
-        compilation_options: wgpu::PipelineCompilationOptions {
-            zero_initialize_workgroup_memory: false,
-            ..Default::default()
-        },
-        cache: None,
-    });
-    (pipeline, layout)
+    let module = gpu
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(entry),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+    super::common::compute_pipeline(&gpu.device, entry, &module, bindings)
 }
 
 /// A uniform buffer holding `bytes`.

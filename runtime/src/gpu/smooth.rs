@@ -41,21 +41,12 @@ impl SmoothPass {
             .map(|&p| element_id[p as usize])
             .collect();
         let device = &gpu.device;
-        let module = shader_module(gpu);
-        let layout = bind_group_layout(gpu);
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some(SMOOTH_ENTRY),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(SMOOTH_ENTRY),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some(SMOOTH_ENTRY),
-            compilation_options: wgpu::PipelineCompilationOptions::default(),
-            cache: None,
-        });
+        let (pipeline, layout) = super::common::compute_pipeline(
+            device,
+            SMOOTH_ENTRY,
+            &shader_module(gpu),
+            lrr_shaders::SMOOTH_BINDINGS,
+        );
         let params = SmoothParams {
             vertex_count,
             ..SmoothParams::default()
@@ -135,11 +126,6 @@ impl SmoothPass {
         let [x, y, z] = workgroups(self.vertex_count.div_ceil(SMOOTH_LANES));
         pass.dispatch_workgroups(x, y, z);
     }
-}
-
-/// The bindings of `smooth.wgsl` (`lrr_shaders::SMOOTH_BINDINGS`), explicit.
-fn bind_group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
-    super::common::bind_group_layout(&gpu.device, SMOOTH_ENTRY, lrr_shaders::SMOOTH_BINDINGS)
 }
 
 fn shader_module(gpu: &Gpu) -> wgpu::ShaderModule {
