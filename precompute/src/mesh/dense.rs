@@ -204,11 +204,11 @@ pub(crate) fn shown_faces<'a>(
 /// Whether a group's faces are parallel (normals within 1e-12 of each other, about 1.4e-6
 /// rad) but not in one plane (a vertex more than 1e-4 `h` off the first face's plane, far
 /// more than such a tilt makes across a group, at most 2√2 h wide: a nearly planar
-/// tessellation with float noise in its normals or heights stays on its proxy): faces of separate objects
-/// side by side, the tops of boxes of several heights. Such a group is lit on its parts: a
-/// proxy standing on the highest of them is in front of the others, and the light they
-/// exchange with what lies between them was lost (a hall of boxes 9–16 % too dark against
-/// the same hall ungrouped, docs/MESHING.md). A curved surface's faces are not parallel and
+/// tessellation with float noise in its normals or heights stays on its proxy): faces of
+/// separate objects side by side, the tops of boxes of several heights. Such a group is lit
+/// on its parts: a proxy standing on the highest of them is in front of the others, and the
+/// light they exchange with what lies between them was lost (a hall of boxes 9–16 % too dark
+/// against the same hall ungrouped, docs/MESHING.md). A curved surface's faces are not parallel and
 /// keep their proxy; the parallel faces of one plane (a planar region's grid cells) lie in it.
 fn stacked(parts: &[&Polygon], h: f64) -> bool {
     let first = parts[0];

@@ -11,6 +11,12 @@
 use crate::reference::{load_reference, quantile};
 use crate::util::{bake, generated_scene, lrr, probe, root, temp_dir};
 
+// Both bounds are issue #31's goals as filed ("across 1×…256× tessellations: n … within 1.5×
+// of the 1× bake; radiosity median difference ≤ 1 %"), set before this test ran, not from its
+// output. Measured when it was added (9fcab1b): the Cornell box n 2 539 / 2 364 / 2 059
+// (0.93× and 0.81×), medians 0.25 % and 0.30 %; the sphere from 320 triangles n 567 / 569 /
+// 567, medians 0.34 % and 0.44 %.
+
 /// The goal's bound on the median difference from the 1× bake.
 const MEDIAN: f64 = 0.01;
 /// The goal's bound on n against the 1× bake's.
