@@ -513,7 +513,7 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
         crate::refine::check_budget(budget)?;
     }
     crate::pool::with_threads(settings.threads, || {
-        let prepared = Prepared::with_mesh(
+        let mut prepared = Prepared::with_mesh(
             scene,
             sizes,
             settings.method,
@@ -530,6 +530,8 @@ pub fn bake(scene: &Scene, settings: &BakeSettings, progress: &Progress) -> Resu
             progress,
             settings.max_memory,
         )?;
+        // Its last reader was the display's smooth weights.
+        prepared.mesh.contacts = None;
         crate::storage::check_memory(
             (prepared.mesh.n(), prepared.mesh.k(), prepared.channels()),
             settings.storage,

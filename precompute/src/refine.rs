@@ -95,7 +95,7 @@ pub(crate) fn first_pass(
 /// element's smooth vertices (see the module docs).
 pub(crate) fn indicator(scene: &Scene, mesh: &Mesh, values: &[f64]) -> Vec<f64> {
     let elements: Vec<&Element> = (0..mesh.n()).map(|s| mesh.element_at(s)).collect();
-    let s = smooth::weights(scene, &elements);
+    let s = smooth::weights(scene, &elements, mesh.contacts.as_deref());
     let area: Vec<f64> = elements.iter().map(|e| e.polygon.area()).collect();
     let total: f64 = area.iter().sum();
     let mean = values.iter().zip(&area).map(|(v, a)| v * a).sum::<f64>() / total.max(1e-300);
@@ -189,6 +189,7 @@ pub(crate) fn split_marked(mesh: &Mesh, marked: &[bool]) -> (Mesh, Vec<u32>) {
     let refined = Mesh {
         meshing: mesh.meshing.clone(),
         siblings,
+        contacts: mesh.contacts.clone(),
         ..Mesh::from_parts(elements, mesh.patches.clone())
     };
     (refined, parents)

@@ -59,7 +59,7 @@ pub fn build(
     progress.estimate("smooth", bytes);
     let stage = progress.stage("smooth", 0);
     let refs: Vec<&Element> = shown.faces.iter().collect();
-    let mut smooth = crate::mesh::smooth::weights(scene, &refs);
+    let mut smooth = crate::mesh::smooth::weights(scene, &refs, mesh.contacts.as_deref());
     if shown.grouped {
         smooth = crate::mesh::smooth::per_element(&smooth, &shown.element);
     }

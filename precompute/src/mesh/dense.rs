@@ -400,7 +400,10 @@ mod tests {
         let (faces, of, grouped) = shown_faces(elements.iter());
         assert!(grouped && faces.len() == scene.faces.len());
         let refs: Vec<&Element> = faces.iter().collect();
-        let s = crate::mesh::smooth::per_element(&crate::mesh::smooth::weights(&scene, &refs), &of);
+        let s = crate::mesh::smooth::per_element(
+            &crate::mesh::smooth::weights(&scene, &refs, None),
+            &of,
+        );
         assert_eq!(s.corners.len(), 4 * faces.len());
         for v in 0..s.vertex_count() {
             let r = s.offsets[v] as usize..s.offsets[v + 1] as usize;

@@ -9,6 +9,8 @@
 //! triangulation would give, but no new algorithm to get wrong). Tolerances are relative to
 //! the faces' sizes.
 
+use std::sync::OnceLock;
+
 use glam::DVec3;
 
 use crate::geometry::Polygon;
@@ -21,15 +23,164 @@ const CONTACT_TOLERANCE: f64 = 1e-7;
 const MIN_PIECE_FRACTION: f64 = 1e-9;
 
 /// The faces of a scene indexed for contact searches: their bounding boxes, in the sweep order
-/// (by the low x of the box) that contacts come in, in a hierarchy of grids.
-pub(super) struct Imprinter<'f> {
-    faces: &'f [Face],
+/// (by the low x of the box) that contacts come in, in a hierarchy of grids; and the contacts
+/// meshing found for each face it cut whole, kept for the smooth weights.
+///
+/// A bake searched a face's contacts up to three times, each time over an index of its own:
+/// the fine mesh cuts the face at them, and the smooth weights of the refinement's indicator
+/// and of the display keep their lines. The mesh builds one index and keeps it
+/// (`patches::Mesh`), so the faces are indexed once and searched once (on an 81 920-triangle
+/// sphere the searches and the index's builds were a quarter of a one-thread bake).
+pub(crate) struct ContactIndex {
     /// The faces in sweep order (by the low x of their boxes, then by index): the grid answers
     /// places in it, so sorting its answers puts them in sweep order.
     sweep: Vec<u32>,
     /// The boxes in sweep order.
     boxes: Vec<(DVec3, DVec3)>,
     grid: BoxGrid,
+    /// What meshing found ([`keep`](Self::keep)), set once.
+    kept: OnceLock<Kept>,
+    faces: usize,
+}
+
+/// Contacts found over whole faces' boxes, one table for all (a vector a face, allocated
+/// among meshing's pieces, kept about 40 MB of freed memory from the system on that sphere).
+struct Kept {
+    /// Per face, its range in `found`; `(u32::MAX, 0)` for a face not kept.
+    spans: Vec<(u32, u32)>,
+    found: Vec<ContactLine>,
+}
+
+/// The lines of faces (each searched over its whole box) gathered in order for
+/// [`ContactIndex::keep`], up to the first face that would take them past the allowance.
+pub(super) struct Keeper {
+    kept: Kept,
+    allowance: usize,
+    full: bool,
+}
+
+impl Keeper {
+    /// Face `f`'s lines (what [`ContactLine::of`] made of its contacts over its whole box),
+    /// kept unless they, or a face's given before, are past the allowance.
+    pub(super) fn add(&mut self, f: usize, lines: &[ContactLine]) {
+        let found = &mut self.kept.found;
+        self.full |= found.len() + lines.len() > self.allowance;
+        if !self.full {
+            self.kept.spans[f] = (found.len() as u32, lines.len() as u32);
+            found.extend_from_slice(lines);
+        }
+    }
+}
+
+/// Bytes of contacts [`ContactIndex`] keeps at most, per face of the scene: four or five
+/// contacts a face (a triangle of a tessellated surface has three, the edges it shares), so
+/// that what a mesh keeps stays within what meshing plans
+/// ([`crate::mesh::MESH_BYTES_PER_FACE`]) whatever the scene; past it the faces left are
+/// searched again when asked again.
+pub(crate) const KEPT_BYTES_PER_FACE: usize = 256;
+
+/// A contact line, as [`ContactIndex`] keeps it and the smooth weights ask it: the other
+/// face's index and the segment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct ContactLine {
+    face: u32,
+    segment: (DVec3, DVec3),
+}
+
+impl ContactLine {
+    /// The lines of `contacts`.
+    pub(super) fn of(contacts: &[Contact]) -> Box<[ContactLine]> {
+        (contacts.iter())
+            .map(|c| ContactLine {
+                face: c.face as u32,
+                segment: c.segment,
+            })
+            .collect()
+    }
+
+    /// Index of the other face.
+    pub(super) fn face(&self) -> usize {
+        self.face as usize
+    }
+
+    /// [`Contact::holds`].
+    pub(super) fn holds(&self, mid: DVec3, dir: DVec3, tol: f64) -> bool {
+        holds(self.segment, mid, dir, tol)
+    }
+
+    /// Bounding box of the contact segment.
+    pub(super) fn bounds(&self) -> (DVec3, DVec3) {
+        let (a, b) = self.segment;
+        (a.min(b), a.max(b))
+    }
+}
+
+impl ContactIndex {
+    /// Indexes `faces` (nothing kept yet).
+    pub(crate) fn new(faces: &[Face]) -> Self {
+        let by_face: Vec<(DVec3, DVec3)> = faces.iter().map(|f| bounds(&f.polygon)).collect();
+        let mut sweep: Vec<u32> = (0..faces.len() as u32).collect();
+        sweep.sort_by(|&a, &b| by_face[a as usize].0.x.total_cmp(&by_face[b as usize].0.x));
+        let boxes: Vec<(DVec3, DVec3)> = sweep.iter().map(|&g| by_face[g as usize]).collect();
+        drop(by_face); // not held beside the grid's build
+        let grid = BoxGrid::new(&boxes);
+        Self {
+            sweep,
+            boxes,
+            grid,
+            kept: OnceLock::new(),
+            faces: faces.len(),
+        }
+    }
+
+    /// An empty table for [`keep`](Self::keep), for these faces.
+    pub(super) fn keeper(&self) -> Keeper {
+        let allowance = (self.faces * KEPT_BYTES_PER_FACE / std::mem::size_of::<ContactLine>())
+            .min(u32::MAX as usize);
+        Keeper {
+            // Reserved, not touched: the memory that holds no line is never written.
+            kept: Kept {
+                spans: vec![(u32::MAX, 0); self.faces],
+                found: Vec::with_capacity(allowance),
+            },
+            allowance,
+            full: false,
+        }
+    }
+
+    /// Keeps, once, what `keeper` was given.
+    pub(super) fn keep(&self, keeper: Keeper) {
+        let mut kept = keeper.kept;
+        kept.found.shrink_to_fit();
+        let _ = self.kept.set(kept);
+    }
+
+    /// What [`keep`](Self::keep) kept of face `f`.
+    fn kept(&self, f: usize) -> Option<&[ContactLine]> {
+        let kept = self.kept.get()?;
+        let (start, len) = kept.spans[f];
+        (start != u32::MAX).then(|| &kept.found[start as usize..(start + len) as usize])
+    }
+}
+
+impl std::fmt::Debug for ContactIndex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ContactIndex")
+            .field("faces", &self.faces)
+            .field("kept", &self.kept.get().map_or(0, |k| k.found.len()))
+            .finish()
+    }
+}
+
+/// The faces of a scene with their contact index: their own, or one a mesh keeps.
+pub(super) struct Imprinter<'f> {
+    faces: &'f [Face],
+    index: Held<'f>,
+}
+
+enum Held<'f> {
+    Own(Box<ContactIndex>),
+    Shared(&'f ContactIndex),
 }
 
 /// A line where another face stands on (or cuts through) a polygon: cut by `plane`'s plane
@@ -45,18 +196,27 @@ pub(super) struct Contact {
 }
 
 impl<'f> Imprinter<'f> {
+    /// `faces` with an index of their own.
     pub(super) fn new(faces: &'f [Face]) -> Self {
-        let by_face: Vec<(DVec3, DVec3)> = faces.iter().map(|f| bounds(&f.polygon)).collect();
-        let mut sweep: Vec<u32> = (0..faces.len() as u32).collect();
-        sweep.sort_by(|&a, &b| by_face[a as usize].0.x.total_cmp(&by_face[b as usize].0.x));
-        let boxes: Vec<(DVec3, DVec3)> = sweep.iter().map(|&g| by_face[g as usize]).collect();
-        drop(by_face); // not held beside the grid's build
-        let grid = BoxGrid::new(&boxes);
         Self {
             faces,
-            sweep,
-            boxes,
-            grid,
+            index: Held::Own(Box::new(ContactIndex::new(faces))),
+        }
+    }
+
+    /// `faces` with the index built for them (`ContactIndex::new(faces)`).
+    pub(super) fn with(faces: &'f [Face], index: &'f ContactIndex) -> Self {
+        debug_assert_eq!(index.faces, faces.len());
+        Self {
+            faces,
+            index: Held::Shared(index),
+        }
+    }
+
+    fn index(&self) -> &ContactIndex {
+        match &self.index {
+            Held::Own(i) => i,
+            Held::Shared(i) => i,
         }
     }
 
@@ -72,13 +232,17 @@ impl<'f> Imprinter<'f> {
         let (lo, hi) = (lo - grow, hi + grow);
         // Every face whose box meets the query's, in sweep order (the order a scan of every
         // face by low x would meet them in: the same contacts in the same order).
-        let mut near = self.grid.candidates((lo, hi));
+        let index = self.index();
+        // The boxes are tested before the places are sorted: a grid's answer repeats a box
+        // for each cell it shares with the query, and most answers are not near enough.
+        let mut near = index.grid.candidates((lo, hi));
+        near.retain(|&r| overlaps((lo, hi), index.boxes[r as usize]));
         near.sort_unstable();
         near.dedup();
         let mut out = Vec::new();
         for r in near {
-            let g = self.sweep[r as usize] as usize;
-            if Some(g) == skip || !overlaps((lo, hi), self.boxes[r as usize]) {
+            let g = index.sweep[r as usize] as usize;
+            if Some(g) == skip {
                 continue;
             }
             let other = &self.faces[g].polygon;
@@ -92,6 +256,27 @@ impl<'f> Imprinter<'f> {
             }
         }
         out
+    }
+
+    /// The contact lines on face `f`'s plane of every other face whose box meets `(lo, hi)`
+    /// grown by the tolerance, in sweep order: [`contacts`](Self::contacts) of the face
+    /// without their planes. Where meshing kept the face's contacts over its whole box and
+    /// `(lo, hi)` lies within that box, they are taken from what was kept (the same contacts
+    /// in the same order: a contact does not depend on the box it was found in), else
+    /// searched.
+    pub(super) fn face_lines(&self, f: usize, (lo, hi): (DVec3, DVec3)) -> Vec<ContactLine> {
+        let plane = &self.faces[f].polygon;
+        let whole = bounds(plane);
+        let within = whole.0.cmple(lo).all() && hi.cmple(whole.1).all();
+        let Some(found) = self.index().kept(f).filter(|_| within) else {
+            return ContactLine::of(&self.contacts(plane, (lo, hi), Some(f))).into_vec();
+        };
+        let grow = DVec3::splat(CONTACT_TOLERANCE * plane.scale.max(1e-300));
+        let (lo, hi) = (lo - grow, hi + grow);
+        (found.iter())
+            .filter(|c| overlaps((lo, hi), bounds(&self.faces[c.face()].polygon)))
+            .copied()
+            .collect()
     }
 
     /// Face `f`'s `polygon` (the face itself or a merged region) cut at its contact lines;
@@ -275,14 +460,7 @@ impl Contact {
     /// contact line (parallel to it, `mid` within `tol` of the contact segment): an edge the
     /// light may differ across (`smooth`).
     pub(super) fn holds(&self, mid: DVec3, dir: DVec3, tol: f64) -> bool {
-        let (a, b) = self.segment;
-        let ab = b - a;
-        let len = ab.length();
-        if len <= tol || dir.dot(ab).abs() < (1.0 - 1e-6) * len {
-            return false;
-        }
-        let t = ((mid - a).dot(ab) / (len * len)).clamp(0.0, 1.0);
-        (a + ab * t).distance(mid) <= tol
+        holds(self.segment, mid, dir, tol)
     }
 
     /// Distance from `x` (on the cut face, whose unit normal is `normal`) to the contact
@@ -315,6 +493,17 @@ impl Contact {
         let (a, b) = self.segment;
         (a.min(b), a.max(b))
     }
+}
+
+/// [`Contact::holds`] of a contact segment `(a, b)`.
+fn holds((a, b): (DVec3, DVec3), mid: DVec3, dir: DVec3, tol: f64) -> bool {
+    let ab = b - a;
+    let len = ab.length();
+    if len <= tol || dir.dot(ab).abs() < (1.0 - 1e-6) * len {
+        return false;
+    }
+    let t = ((mid - a).dot(ab) / (len * len)).clamp(0.0, 1.0);
+    (a + ab * t).distance(mid) <= tol
 }
 
 /// Lower and upper corners of a polygon's bounding box.
@@ -687,5 +876,66 @@ mod tests {
             .build("t", Path::new("."))
             .unwrap();
         assert_eq!(split_at_contacts(&scene.faces).len(), 6);
+    }
+
+    /// The lines the index kept for a face are those a search finds, for a box within the
+    /// face's and past it, and for faces not kept (here every third, and the faces past the
+    /// allowance): 400 boxes on a floor (1 600 contacts on it) and a block through the floor.
+    #[test]
+    fn kept_lines_are_the_lines_searched() {
+        let mut scene = crate::mesh::boxes_on_floor_and(&[([1.0, 1.0], [1.2, 1.2])]);
+        let through = scene.faces.len();
+        // A tilted quad through the floor (an interpenetration: `through` contacts).
+        let v = [
+            [2.0, 2.0, -0.1],
+            [2.3, 2.0, 0.2],
+            [2.3, 2.2, 0.2],
+            [2.0, 2.2, -0.1],
+        ]
+        .map(|[x, y, z]| DVec3::new(x, y, z));
+        scene.faces.push(Face {
+            polygon: Polygon::new(&v).unwrap(),
+            ..scene.faces[0].clone()
+        });
+        let floor = scene.surfaces.iter().position(|s| s == "cube.-z").unwrap();
+        let floor = scene.faces.iter().position(|x| x.surface == floor).unwrap();
+        let index = ContactIndex::new(&scene.faces);
+        let imprinter = Imprinter::with(&scene.faces, &index);
+        let lines: Vec<(usize, Box<[ContactLine]>)> = (0..scene.faces.len())
+            .filter(|&f| f == floor || f % 3 != 1)
+            .map(|f| {
+                let p = &scene.faces[f].polygon;
+                (
+                    f,
+                    ContactLine::of(&imprinter.contacts(p, bounds(p), Some(f))),
+                )
+            })
+            .collect();
+        let under = lines.iter().find(|(f, _)| *f == floor).unwrap().1.len();
+        assert!(under >= 1_600, "{under}");
+        let mut keeper = index.keeper();
+        for (f, l) in &lines {
+            keeper.add(*f, l);
+        }
+        index.keep(keeper);
+        let kept = (0..scene.faces.len())
+            .filter(|&f| index.kept(f).is_some())
+            .count();
+        println!("{kept} of {} faces kept", scene.faces.len());
+        assert!(kept > scene.faces.len() / 2, "{kept}");
+        let fresh = Imprinter::new(&scene.faces);
+        let mut passing = 0;
+        for (f, face) in scene.faces.iter().enumerate() {
+            let (lo, hi) = bounds(&face.polygon);
+            let boxes = [(lo, hi), (lo, 0.5 * (lo + hi)), (lo - (hi - lo) * 0.1, hi)];
+            for b in boxes {
+                let found = imprinter.face_lines(f, b);
+                assert_eq!(found, fresh.face_lines(f, b), "face {f}, box {b:?}");
+                passing += found.len();
+            }
+        }
+        assert!(passing > 3 * 1_600, "{passing}");
+        let on_floor = imprinter.face_lines(floor, bounds(&scene.faces[floor].polygon));
+        assert!(on_floor.iter().any(|l| l.face() == through));
     }
 }

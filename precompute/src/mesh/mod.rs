@@ -31,17 +31,20 @@ pub(crate) use element::within;
 pub use element::{
     DEFAULT_ELEMENT_FRACTION, DEFAULT_PATCH_FRACTION, Element, MAX_ELEMENTS, MeshSizes,
 };
+pub(crate) use imprint::ContactIndex;
 pub use region::PlanCounts;
 pub(crate) use region::occluder_faces;
 pub use subdivide::Grouped;
 pub use subdivide::{MeshReport, estimate_elements};
 
 /// Bytes meshing holds per input face while its pieces are cut: its root (a polygon and an
-/// index, 160) and the contact search's box, place and grid entries (up to 8: about 90; while
-/// the grid is built, its (cell, box) pairs, up to 8 × 32 = 256). The planar groups (about
-/// 100 a face) are gone by then. The pieces cut from it count apart
-/// ([`MESH_BYTES_PER_PIECE`]).
-pub(crate) const MESH_BYTES_PER_FACE: u128 = 512;
+/// index, 160) and the contact index's box, place and grid entries (up to 8: about 90; while
+/// the grid is built, its (cell, box) pairs, up to 8 × 32 = 256), and the contact lines the
+/// index keeps for the smooth weights (at most [`imprint::KEPT_BYTES_PER_FACE`], 256). A
+/// face's own lines, before the index takes them, are held for a chunk of faces at a time
+/// (`subdivide::fine`), as its search's contacts were. The planar groups (about 100 a face)
+/// are gone by then. The pieces cut from it count apart ([`MESH_BYTES_PER_PIECE`]).
+pub(crate) const MESH_BYTES_PER_FACE: u128 = 800;
 
 /// Bytes meshing holds per estimated piece (the subdivision's leaves, before small pieces are
 /// grouped): the piece (a polygon and indices, 160) and its element (176; a grouped piece is
@@ -62,18 +65,24 @@ pub(crate) fn fine_mesh(
     scene: &Scene,
     sizes: MeshSizes,
 ) -> Result<(Vec<Element>, Vec<subdivide::Piece>, MeshReport)> {
-    fine_mesh_within(scene, sizes, None)
+    fine_mesh_within(scene, sizes, None).map(|(e, p, r, _)| (e, p, r))
 }
 
 /// The fine mesh (independent of the patch method), refused when it would be too large, and
 /// what meshing found. Its buffers are planned before they exist: refused over `max_memory`
 /// (or 80% of what is available) with advice; `MeshReport::planned_bytes` says what was
-/// planned.
+/// planned. Also the faces' contact index, with the contacts meshing searched, for the smooth
+/// weights to search no face again.
 pub(crate) fn fine_mesh_within(
     scene: &Scene,
     sizes: MeshSizes,
     max_memory: Option<u64>,
-) -> Result<(Vec<Element>, Vec<subdivide::Piece>, MeshReport)> {
+) -> Result<(
+    Vec<Element>,
+    Vec<subdivide::Piece>,
+    MeshReport,
+    ContactIndex,
+)> {
     let t = Instant::now();
     let h = sizes.element_size;
     let faces = scene.faces.len();
@@ -118,7 +127,8 @@ pub(crate) fn fine_mesh_within(
         },
     )?;
     report.planned_bytes = planned;
-    let (elements, pieces) = subdivide::fine(scene, roots, sizes.element_size, &mut report);
+    let index = ContactIndex::new(&scene.faces);
+    let (elements, pieces) = subdivide::fine(scene, roots, sizes.element_size, &index, &mut report);
     let t = Instant::now();
     let (elements, pieces, grouped) = dense::group(scene, elements, pieces, sizes.element_size);
     if grouped.elements > 0 {
@@ -129,7 +139,7 @@ pub(crate) fn fine_mesh_within(
     }
     report.grouped = grouped;
     report.stages.push(("group", t.elapsed().as_secs_f64()));
-    Ok((elements, pieces, report))
+    Ok((elements, pieces, report, index))
 }
 
 /// Bytes meshing plans for `faces` input faces cut into about `pieces` pieces.
@@ -693,7 +703,7 @@ pub(crate) mod tests {
                 mesh.validate()
                     .unwrap_or_else(|e| panic!("case {case}: {e}"));
                 let refs: Vec<&Element> = (0..mesh.n()).map(|i| mesh.element_at(i)).collect();
-                let w = smooth::weights(&scene, &refs);
+                let w = smooth::weights(&scene, &refs, None);
                 for v in 0..w.vertex_count() {
                     let r = w.offsets[v] as usize..w.offsets[v + 1] as usize;
                     let sum: f64 = w.weights[r.clone()].iter().map(|&x| f64::from(x)).sum();

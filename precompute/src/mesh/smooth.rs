@@ -42,7 +42,7 @@ use lrr_formats::Smooth;
 use rayon::prelude::*;
 
 use super::element::Element;
-use super::imprint::{Contact, Imprinter, polygon_bounds};
+use super::imprint::{ContactIndex, ContactLine, Imprinter, polygon_bounds};
 use crate::geometry::boxes::BoxGrid;
 use crate::scene::Scene;
 
@@ -82,11 +82,15 @@ pub(crate) fn build_bytes(faces: usize) -> u128 {
 }
 
 /// The smooth reconstruction weights of the fine mesh `elements` (file order) of `scene`.
-pub fn weights(scene: &Scene, elements: &[&Element]) -> Smooth {
+pub(crate) fn weights(
+    scene: &Scene,
+    elements: &[&Element],
+    index: Option<&ContactIndex>,
+) -> Smooth {
     let tol = POSITION_TOLERANCE * scene.extent().max(f64::MIN_POSITIVE);
     let (corner_pos, positions) = positions(elements, tol);
     let incidence = Incidence::new(elements, &positions, &corner_pos, tol);
-    let contacts = contacts_per_face(scene, elements);
+    let contacts = contacts_per_face(scene, elements, index);
     let cos_crease = CREASE_DEGREES.to_radians().cos();
     // Per smooth vertex: its position when it lies on its surface's boundary.
     let mut boundary: Vec<Option<DVec3>> = Vec::new();
@@ -455,24 +459,24 @@ impl Incident {
 /// (the smooth stage ran for minutes).
 #[derive(Default)]
 struct FaceContacts {
-    list: Vec<Contact>,
+    list: Vec<ContactLine>,
     index: Option<BoxGrid>,
 }
 
 impl FaceContacts {
-    fn new(list: Vec<Contact>) -> Self {
+    fn new(list: Vec<ContactLine>) -> Self {
         let index = (list.len() > super::imprint::INDEXED_CONTACTS).then(|| {
-            let boxes: Vec<(DVec3, DVec3)> = list.iter().map(Contact::bounds).collect();
+            let boxes: Vec<(DVec3, DVec3)> = list.iter().map(ContactLine::bounds).collect();
             BoxGrid::new(&boxes)
         });
         Self { list, index }
     }
 
     /// Whether a segment along `d` with midpoint `mid` lies on a contact line of a face
-    /// other than `faces` (within `tol`: [`Contact::holds`]), the index narrowing the
+    /// other than `faces` (within `tol`: [`ContactLine::holds`]), the index narrowing the
     /// search to the contacts whose boxes come within `tol` of `mid`.
     fn on_edge(&self, mid: DVec3, d: DVec3, faces: [u32; 2], tol: f64) -> bool {
-        let holds = |c: &Contact| !faces.contains(&(c.face as u32)) && c.holds(mid, d, tol);
+        let holds = |c: &ContactLine| !faces.contains(&(c.face() as u32)) && c.holds(mid, d, tol);
         match &self.index {
             None => self.list.iter().any(holds),
             Some(index) => {
@@ -599,20 +603,28 @@ fn components<T>(items: &[T], joined: impl Fn(&T, &T) -> bool) -> Vec<Vec<usize>
 }
 
 /// The contact lines (`imprint`) in the plane of each face that has elements, by face index
-/// (none for the others); the faces are searched in parallel.
-fn contacts_per_face(scene: &Scene, elements: &[&Element]) -> Vec<FaceContacts> {
+/// (none for the others); the faces are searched in parallel, those `index` (the mesh's)
+/// holds already are not searched again.
+fn contacts_per_face(
+    scene: &Scene,
+    elements: &[&Element],
+    index: Option<&ContactIndex>,
+) -> Vec<FaceContacts> {
     let mut bounds: Vec<Option<(DVec3, DVec3)>> = vec![None; scene.faces.len()];
     for e in elements {
         let (lo, hi) = polygon_bounds(&e.polygon);
         let b = &mut bounds[e.face as usize];
         *b = Some(b.map_or((lo, hi), |(l, h)| (l.min(lo), h.max(hi))));
     }
-    let imprinter = Imprinter::new(&scene.faces);
+    let imprinter = match index {
+        Some(index) => Imprinter::with(&scene.faces, index),
+        None => Imprinter::new(&scene.faces),
+    };
     bounds
         .par_iter()
         .enumerate()
         .map(|(f, b)| match b {
-            Some(b) => FaceContacts::new(imprinter.contacts(&scene.faces[f].polygon, *b, Some(f))),
+            Some(b) => FaceContacts::new(imprinter.face_lines(f, *b)),
             None => FaceContacts::default(),
         })
         .collect()
@@ -637,7 +649,7 @@ mod tests {
         let (elements, _, _) = fine_mesh(scene, sizes).unwrap();
         let (faces, _, _) = crate::mesh::shown_faces(elements.iter());
         let refs: Vec<&Element> = faces.iter().collect();
-        let smooth = weights(scene, &refs);
+        let smooth = weights(scene, &refs, None);
         (faces, smooth)
     }
 
@@ -976,6 +988,33 @@ mod tests {
                 .unwrap();
             for h in [scene.extent() / 20.0, scene.extent() / 200.0] {
                 weights_hold(&scene, h);
+            }
+        }
+    }
+
+    /// The weights with the mesh's contact index (the lines meshing kept) are those with
+    /// none (every face searched), for the elements (the refinement's indicator) and for the
+    /// display faces, on a tessellated sphere (grouped faces) and boxes standing on a floor.
+    #[test]
+    fn the_mesh_contact_index_gives_the_same_weights() {
+        let sphere = procedural::dense_sphere(3)
+            .build("t", Path::new("."))
+            .unwrap();
+        let boxes = crate::mesh::boxes_on_floor_and(&[]);
+        for scene in [sphere, boxes] {
+            let h = scene.extent() / 20.0;
+            let sizes = MeshSizes {
+                element_size: h,
+                patch_size: 4.0 * h,
+            };
+            let mesh = crate::patches::Mesh::two_fixed(&scene, sizes).unwrap();
+            let index = mesh.contacts.as_deref();
+            assert!(index.is_some());
+            let elements: Vec<&Element> = mesh.elements.iter().collect();
+            let (faces, _, _) = crate::mesh::shown_faces(mesh.elements.iter());
+            let shown: Vec<&Element> = faces.iter().collect();
+            for refs in [elements, shown] {
+                assert_eq!(weights(&scene, &refs, index), weights(&scene, &refs, None));
             }
         }
     }

@@ -7,7 +7,8 @@ use std::time::Instant;
 
 use super::element::{Element, MeshSizes, face_estimate, within};
 use super::imprint::{
-    Contact, INDEXED_CONTACTS, Imprinter, boxes_meet, cut_all, polygon_bounds, through,
+    Contact, ContactIndex, ContactLine, INDEXED_CONTACTS, Imprinter, boxes_meet, cut_all,
+    polygon_bounds, through,
 };
 use super::region::{self, PlanCounts, Root};
 use crate::geometry::Polygon;
@@ -185,23 +186,41 @@ pub(crate) fn fine(
     scene: &Scene,
     roots: Vec<Root>,
     element_size: f64,
+    index: &ContactIndex,
     report: &mut MeshReport,
 ) -> (Vec<Element>, Vec<Piece>) {
     let mut elements = Vec::new();
     let mut pieces = Vec::new();
-    let imprinter = Imprinter::new(&scene.faces);
+    let imprinter = Imprinter::with(&scene.faces, index);
     let (mut t_grid, mut t_imprint, mut t_subdivide) = (0.0, 0.0, 0.0);
     report.min_angle = 180.0;
     report.grid_min_angle = 180.0;
     // Each face root is cut at its contacts on its own: in parallel, kept in root order.
     let t = Instant::now();
-    let splits: Vec<Option<FaceCut>> = roots
-        .par_iter()
-        .map(|root| match root {
-            Root::Face(polygon, f) => Some(face_cut(scene, &imprinter, *polygon, *f, element_size)),
-            Root::Grid(_) => None,
-        })
-        .collect();
+    // The faces' contact lines are handed to the index a chunk of roots at a time, so that
+    // no more than a chunk's are held beside its table.
+    let mut splits: Vec<Option<FaceCut>> = Vec::with_capacity(roots.len());
+    let mut keeper = index.keeper();
+    for chunk in roots.chunks(ROOTS_A_CHUNK) {
+        let mut cuts: Vec<Option<FaceCut>> = chunk
+            .par_iter()
+            .map(|root| match root {
+                Root::Face(polygon, f) => {
+                    Some(face_cut(scene, &imprinter, *polygon, *f, element_size))
+                }
+                Root::Grid(_) => None,
+            })
+            .collect();
+        for (root, cut) in chunk.iter().zip(&mut cuts) {
+            if let (Root::Face(_, f), Some(cut)) = (root, cut)
+                && let Some(lines) = cut.kept.take()
+            {
+                keeper.add(*f, &lines);
+            }
+        }
+        splits.extend(cuts);
+    }
+    index.keep(keeper);
     t_imprint += t.elapsed().as_secs_f64();
     for (root, split) in roots.into_iter().zip(splits) {
         match root {
@@ -279,6 +298,9 @@ pub(crate) fn fine(
     (elements, pieces)
 }
 
+/// Face roots cut at a time (their contact lines held until the index takes them).
+const ROOTS_A_CHUNK: usize = 1 << 14;
+
 /// A face root cut at its contacts: the pieces to subdivide, or (`grid`) the elements of its
 /// grid.
 struct FaceCut {
@@ -289,6 +311,8 @@ struct FaceCut {
     grid: bool,
     /// Area of grid pieces too small to be elements.
     dropped: f64,
+    /// The contacts when `polygon` is the whole face, for the mesh's contact index to keep.
+    kept: Option<Box<[ContactLine]>>,
 }
 
 /// Face `f`'s root `polygon` cut at its contact lines. A contact cuts the whole piece its
@@ -314,12 +338,14 @@ fn face_cut(
     element_size: f64,
 ) -> FaceCut {
     let (pieces, contacts, used) = imprinter.split(polygon, f);
+    let kept = (polygon == scene.faces[f].polygon).then(|| ContactLine::of(&contacts));
     let subdivided = FaceCut {
         through: through(&contacts, &used),
         pieces,
         cells: Vec::new(),
         grid: false,
         dropped: 0.0,
+        kept,
     };
     let h = element_size;
     // What the face makes uncut, two pieces along each element-size length of the cuts and
@@ -364,6 +390,7 @@ fn face_cut(
         cells: tags,
         grid: true,
         dropped,
+        kept: subdivided.kept,
     }
 }
 

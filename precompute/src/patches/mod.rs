@@ -22,10 +22,11 @@ use crate::error::{Error, Result};
 use crate::geometry::cluster;
 use crate::geometry::{Polygon, Region};
 use crate::mesh::subdivide;
-use crate::mesh::{Element, MeshReport, MeshSizes, fine_mesh_within};
+use crate::mesh::{ContactIndex, Element, MeshReport, MeshSizes, fine_mesh_within};
 use crate::scene::Scene;
 use crate::visibility::Occluder;
 use rustc_hash::FxHashMap;
+use std::sync::Arc;
 
 /// The fine mesh (elements) and the coarse mesh (patches) of a bake, with the file order.
 #[derive(Debug, Clone)]
@@ -46,6 +47,10 @@ pub struct Mesh {
     /// light changes (`crate::refine`): its row takes that share of the samples per pair, so
     /// the samples per unit area stay the unrefined mesh's. Empty: nothing split (1 each).
     pub(crate) siblings: Vec<u8>,
+    /// The scene's faces indexed for contact searches, with the contacts meshing found
+    /// (`mesh::ContactIndex`), for the smooth weights; `None` for a mesh read from a plan
+    /// (the weights then index the faces themselves).
+    pub(crate) contacts: Option<Arc<ContactIndex>>,
 }
 
 /// Checks the 2MSC parameters and fills in the default `A_min` of the split rule: `(2h)²`
@@ -360,10 +365,11 @@ impl Mesh {
     /// Builds both meshes by 2MF: uniform subdivision and a uniform cut; small pieces (dense
     /// meshes) are clustered to the patch size. Meshing is planned against `max_memory`.
     fn two_fixed_within(scene: &Scene, sizes: MeshSizes, max_memory: Option<u64>) -> Result<Self> {
-        let (mut elements, pieces, meshing) = fine_mesh_within(scene, sizes, max_memory)?;
+        let (mut elements, pieces, meshing, contacts) = fine_mesh_within(scene, sizes, max_memory)?;
         let patches = two_fixed_patches(&pieces, sizes, &mut elements);
         Ok(Self {
             meshing,
+            contacts: Some(Arc::new(contacts)),
             ..Self::from_parts(elements, patches)
         })
     }
@@ -377,7 +383,8 @@ impl Mesh {
         occluder: Option<&dyn Occluder>,
         max_memory: Option<u64>,
     ) -> Result<Self> {
-        let (mut elements, pieces, mut meshing) = fine_mesh_within(scene, sizes, max_memory)?;
+        let (mut elements, pieces, mut meshing, contacts) =
+            fine_mesh_within(scene, sizes, max_memory)?;
         let (probes, materials, probes_planned) = msc_inputs(
             scene,
             sizes,
@@ -404,6 +411,7 @@ impl Mesh {
         };
         Ok(Self {
             meshing,
+            contacts: Some(Arc::new(contacts)),
             ..Self::from_parts(elements, patches)
         })
     }
@@ -441,6 +449,7 @@ impl Mesh {
             weights,
             meshing: MeshReport::default(),
             siblings: Vec::new(),
+            contacts: None,
         }
     }
 

@@ -169,6 +169,8 @@ pub fn bake_shard(
             progress,
             settings.max_memory,
         )?;
+        // Its last reader was the display's smooth weights.
+        prepared.mesh.contacts = None;
         let stage = progress.stage("cut", 0);
         let costs = cost::row_costs(&prepared.mesh, prepared.occluder.is_some());
         let cut = cost::boundaries(&costs, shard.count);

@@ -233,6 +233,7 @@ fn mesh(d: &mut Dec) -> Decoded<Mesh> {
         // but for the elements refinement split (the file's metadata).
         meshing: crate::mesh::MeshReport::default(),
         siblings: Vec::new(),
+        contacts: None,
     };
     mesh.meshing.refined = d.usize()?;
     mesh.siblings = d.bytes()?;
