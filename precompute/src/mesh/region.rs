@@ -19,9 +19,7 @@
 //!   at most `A / (c_u c_v)` full cells plus the cells the boundary crosses (about `P / c` for a
 //!   perimeter `P`), whatever the input faces' shapes.
 
-use std::hash::BuildHasher;
-
-use rustc_hash::{FxBuildHasher, FxHashMap};
+use rustc_hash::FxHashMap;
 
 use glam::{DVec2, DVec3};
 
@@ -150,23 +148,31 @@ pub(crate) fn plan(
 /// triangles each traces against its quads (`None`: nothing merged, use the scene's faces).
 pub(crate) fn occluder_faces(scene: &Scene) -> Option<Vec<Face>> {
     let tolerance = PLANE_TOLERANCE * scene.extent().max(f64::MIN_POSITIVE);
-    let mut out = Vec::with_capacity(scene.faces.len());
-    let mut merged_any = false;
-    for group in plane_groups(&scene.faces, tolerance) {
-        if group.len() > 1 {
+    let groups = plane_groups(&scene.faces, tolerance);
+    // The groups that merge, with their polygons; the faces are copied only when one does (a
+    // tessellated sphere has none, and copying its faces cost as much as the merging).
+    let merged: Vec<(usize, Polygon)> = (groups.iter().enumerate())
+        .filter(|(_, group)| group.len() > 1)
+        .filter_map(|(g, group)| {
             let polygons: Vec<Polygon> = group.iter().map(|&f| scene.faces[f].polygon).collect();
-            if let Some(polygon) = merge_convex(&polygons, tolerance) {
-                out.push(Face {
-                    polygon,
-                    ..scene.faces[group[0]].clone()
-                });
-                merged_any = true;
-                continue;
-            }
-        }
-        out.extend(group.iter().map(|&f| scene.faces[f].clone()));
+            merge_convex(&polygons, tolerance).map(|p| (g, p))
+        })
+        .collect();
+    if merged.is_empty() {
+        return None;
     }
-    merged_any.then_some(out)
+    let mut out = Vec::with_capacity(scene.faces.len());
+    let mut next = merged.into_iter().peekable();
+    for (g, group) in groups.iter().enumerate() {
+        match next.next_if(|(m, _)| *m == g) {
+            Some((_, polygon)) => out.push(Face {
+                polygon,
+                ..scene.faces[group[0]].clone()
+            }),
+            None => out.extend(group.iter().map(|&f| scene.faces[f].clone())),
+        }
+    }
+    Some(out)
 }
 
 /// Faces grouped by (surface, material, plane), groups in order of their first face.
@@ -191,41 +197,77 @@ fn plane_groups(faces: &[Face], tolerance: f64) -> Vec<Vec<usize>> {
     // Which keys may have a bucket: one bit per key's hash, never a false negative. Most of a
     // face's 81 neighbouring keys have none (on a tessellated sphere nearly all), and the map
     // holds about 70 bytes a face where these bits are 4 to 8: a look-up whose bit is clear is
-    // skipped, and the groups are the same.
+    // skipped, and the groups are the same. The bit's hash is linear in the key's numbers
+    // before a multiplicative mix, so a face's 81 neighbours are its own sum plus one of 81
+    // offsets (hashing each neighbouring key whole was half of this function's time on an
+    // 81 920-triangle sphere).
     let bits = (faces.len() * 32).next_power_of_two().max(64);
+    let shift = 64 - bits.trailing_zeros();
     let mut occupied = vec![0u64; bits / 64];
-    let bit = |k: &Key| (FxBuildHasher.hash_one(k) >> 7) as usize & (bits - 1);
+    const P: [u64; 6] = [
+        0x9e37_79b9_7f4a_7c15,
+        0xc2b2_ae3d_27d4_eb4f,
+        0x1656_67b1_9e37_79f9,
+        0x85eb_ca77_c2b2_ae63,
+        0x27d4_eb2f_1656_67c5,
+        0xd6e8_feb8_6659_fd93,
+    ];
+    let sum = |(s, m, q): &Key| -> u64 {
+        let terms = [s, m]
+            .map(|&x| x as u64)
+            .into_iter()
+            .chain(q.map(|x| x as u64));
+        terms
+            .zip(P)
+            .fold(0u64, |h, (x, p)| h.wrapping_add(x.wrapping_mul(p)))
+    };
+    let bit = |sum: u64| (sum.wrapping_mul(0x2545_f491_4f6c_dd1d) >> shift) as usize;
+    // The probes' offsets, in the order the keys are searched.
+    let mut offsets = [0u64; 81];
+    let mut d = [[0i64; 4]; 81];
+    let mut i = 0;
+    for dx in -1i64..=1 {
+        for dy in -1i64..=1 {
+            for dz in -1i64..=1 {
+                for dd in -1i64..=1 {
+                    d[i] = [dx, dy, dz, dd];
+                    offsets[i] = [dx, dy, dz, dd]
+                        .iter()
+                        .zip(&P[2..])
+                        .fold(0u64, |h, (&x, &p)| {
+                            h.wrapping_add((x as u64).wrapping_mul(p))
+                        });
+                    i += 1;
+                }
+            }
+        }
+    }
     let mut groups: Vec<Vec<usize>> = Vec::new();
     for (i, f) in faces.iter().enumerate() {
-        let (s, m, q) = key(f);
+        let key = key(f);
+        let own = sum(&key);
+        let (s, m, q) = key;
         let mut found = None;
-        'search: for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    for dd in -1..=1 {
-                        let k = (s, m, [q[0] + dx, q[1] + dy, q[2] + dz, q[3] + dd]);
-                        let b = bit(&k);
-                        if occupied[b / 64] & (1 << (b % 64)) == 0 {
-                            continue;
-                        }
-                        for &g in buckets.get(&k).into_iter().flatten() {
-                            let first = &faces[groups[g][0]].polygon;
-                            if coplanar(first, &f.polygon, tolerance) {
-                                found = Some(g);
-                                break 'search;
-                            }
-                        }
-                    }
+        'search: for (offset, d) in offsets.iter().zip(&d) {
+            let b = bit(own.wrapping_add(*offset));
+            if occupied[b / 64] & (1 << (b % 64)) == 0 {
+                continue;
+            }
+            let k = (s, m, [q[0] + d[0], q[1] + d[1], q[2] + d[2], q[3] + d[3]]);
+            for &g in buckets.get(&k).into_iter().flatten() {
+                let first = &faces[groups[g][0]].polygon;
+                if coplanar(first, &f.polygon, tolerance) {
+                    found = Some(g);
+                    break 'search;
                 }
             }
         }
         match found {
             Some(g) => groups[g].push(i),
             None => {
-                let k = (s, m, q);
-                let b = bit(&k);
+                let b = bit(own);
                 occupied[b / 64] |= 1 << (b % 64);
-                buckets.entry(k).or_default().push(groups.len());
+                buckets.entry(key).or_default().push(groups.len());
                 groups.push(vec![i]);
             }
         }
