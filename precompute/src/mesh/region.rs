@@ -212,36 +212,21 @@ fn plane_groups(faces: &[Face], tolerance: f64) -> Vec<Vec<usize>> {
         0x27d4_eb2f_1656_67c5,
         0xd6e8_feb8_6659_fd93,
     ];
-    let sum = |(s, m, q): &Key| -> u64 {
-        let terms = [s, m]
-            .map(|&x| x as u64)
-            .into_iter()
-            .chain(q.map(|x| x as u64));
-        terms
-            .zip(P)
-            .fold(0u64, |h, (x, p)| h.wrapping_add(x.wrapping_mul(p)))
+    let linear = |x: [i64; 6]| {
+        (x.iter().zip(P)).fold(0u64, |h, (&x, p)| {
+            h.wrapping_add((x as u64).wrapping_mul(p))
+        })
     };
+    let sum = |&(s, m, q): &Key| linear([s as i64, m as i64, q[0], q[1], q[2], q[3]]);
     let bit = |sum: u64| (sum.wrapping_mul(0x2545_f491_4f6c_dd1d) >> shift) as usize;
-    // The probes' offsets, in the order the keys are searched.
-    let mut offsets = [0u64; 81];
-    let mut d = [[0i64; 4]; 81];
-    let mut i = 0;
-    for dx in -1i64..=1 {
-        for dy in -1i64..=1 {
-            for dz in -1i64..=1 {
-                for dd in -1i64..=1 {
-                    d[i] = [dx, dy, dz, dd];
-                    offsets[i] = [dx, dy, dz, dd]
-                        .iter()
-                        .zip(&P[2..])
-                        .fold(0u64, |h, (&x, &p)| {
-                            h.wrapping_add((x as u64).wrapping_mul(p))
-                        });
-                    i += 1;
-                }
-            }
-        }
-    }
+    // The 81 neighbouring keys' steps and offsets, in the order they are searched (the first
+    // number's step slowest).
+    let d: [[i64; 4]; 81] = std::array::from_fn(|i| {
+        let i = i as i64;
+        [i / 27 - 1, i / 9 % 3 - 1, i / 3 % 3 - 1, i % 3 - 1]
+    });
+    let offsets: [u64; 81] =
+        std::array::from_fn(|i| linear([0, 0, d[i][0], d[i][1], d[i][2], d[i][3]]));
     let mut groups: Vec<Vec<usize>> = Vec::new();
     for (i, f) in faces.iter().enumerate() {
         let key = key(f);
