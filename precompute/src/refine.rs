@@ -12,15 +12,26 @@
 //!    a sharded bake (or `lrr plan`, once) repeats it and gets the same mesh.
 //! 2. *Indicator.* The smooth reconstruction's vertices ([`crate::mesh::smooth`]) say which
 //!    elements have a corner at a point of one smooth surface (not across creases or contact
-//!    lines). At
+//!    lines); an element that groups small faces (`mesh::dense`) has the corners of the faces
+//!    it shows, as its proxy shares none with its neighbours. At
 //!    each vertex the relative jump `(max B − min B) / (max B + B_floor)` of its elements is
 //!    taken, `B_floor` = [`FLOOR`] × the area-weighted mean radiosity (so the noise of dark
 //!    corners does not count); an element's indicator is the largest jump at its corners.
 //! 3. *Split.* Elements are taken by decreasing indicator (ties by id) while the indicator is
 //!    at least [`MIN_JUMP`] and the elements added stay within the budget; each is split once
 //!    in the subdivision hierarchy (quads 2×2 or 1×2, triangles 4-way: `subdivide::split`), so
-//!    `--element-size` stays the upper bound and every child stays inside its patch.
-//! 4. *Ids and samples.* The patches are unchanged; a split element's first child takes the
+//!    `--element-size` stays the upper bound and every child stays inside its patch. An
+//!    element that groups small faces shares them among up to four children
+//!    (`mesh::split_group`: its faces bisected twice by their centroids, each child a proxy of
+//!    its own faces or a lone face, lit on its faces when the parent was). A child's proxy
+//!    does not lie inside the parent's, so the patch's shape (a cluster's or a merged
+//!    patch's: the union of its elements' polygons) takes the children's polygons in place of
+//!    the parent's proxy, of the same area; a group whose proxy is not one of its patch's
+//!    polygons is not split. What is drawn does not change. Before this (refinement revision 3) such elements were never split,
+//!    so a tessellated sphere's shading kept its proxies' steps: the dense sphere's points on
+//!    the sphere, p90 16.9 % → 4.2 % against the path tracer (docs/ACCURACY.md).
+//! 4. *Ids and samples.* The patches are the same (`k` and their areas; only a split
+//!    group's patch's shape is redrawn, as above); a split element's first child takes the
 //!    parent's id and the other children are appended after `n0` (ids seed the sampling of a
 //!    row). A child's row takes half the bake's samples per pair (`Mesh::siblings`,
 //!    `formfactor::MAX_SAMPLE_SHARE`: 8 of 16), so the four children of a 2×2 split cost
@@ -35,15 +46,17 @@
 //! the same mesh quality (Cornell box p90 4.7% against 4.5% now) at about the same total cost,
 //! but the first pass needed every row of `F_k`, which a shard of a sharded bake does not have.
 
+use std::collections::BTreeMap;
+
 use rayon::prelude::*;
 
 use crate::checkpoint::{self, Checkpoint, CheckpointSettings};
 use crate::cores::{OperatorInputs, build_cores};
 use crate::error::{Error, Result};
 use crate::formfactor::FormFactors;
-use crate::geometry::Polygon;
+use crate::geometry::{Polygon, Region};
 use crate::memory;
-use crate::mesh::{Element, MAX_ELEMENTS, smooth, subdivide};
+use crate::mesh::{Element, MAX_ELEMENTS, smooth, split_group, split_group_count, subdivide};
 use crate::patches::Mesh;
 use crate::progress::Progress;
 use crate::scene::Scene;
@@ -95,18 +108,34 @@ pub(crate) fn first_pass(
 /// element's smooth vertices (see the module docs).
 pub(crate) fn indicator(scene: &Scene, mesh: &Mesh, values: &[f64]) -> Vec<f64> {
     let elements: Vec<&Element> = (0..mesh.n()).map(|s| mesh.element_at(s)).collect();
-    let s = smooth::weights(scene, &elements, mesh.contacts.as_deref());
+    // What is drawn: the elements, or the faces an element of a dense mesh groups (its
+    // proxy shares no corner with its neighbours), each with the element it shows.
+    let grouped = elements.iter().any(|e| !e.parts.is_empty());
+    let (faces, of) = if grouped {
+        let (faces, of, _) = crate::mesh::shown_faces(elements.iter().copied());
+        (faces, of)
+    } else {
+        (Vec::new(), (0..elements.len() as u32).collect())
+    };
+    let shown: Vec<&Element> = if grouped {
+        faces.iter().collect()
+    } else {
+        elements.clone()
+    };
+    let s = smooth::weights(scene, &shown, mesh.contacts.as_deref());
     let area: Vec<f64> = elements.iter().map(|e| e.polygon.area()).collect();
     let total: f64 = area.iter().sum();
     let mean = values.iter().zip(&area).map(|(v, a)| v * a).sum::<f64>() / total.max(1e-300);
     let floor = FLOOR * mean.max(0.0) + f64::MIN_POSITIVE;
-    // The elements with a corner at each vertex. Not the vertex's weights: a boundary
-    // vertex extrapolates from a ring two elements wide, which marked elements far from the
-    // jump (tried: splits in a penumbra's umbra along the floor's edges).
+    // The elements with a corner of a face they show at each vertex. Not the vertex's
+    // weights: a boundary vertex extrapolates from a ring two elements wide, which marked
+    // elements far from the jump (tried: splits in a penumbra's umbra along the floor's
+    // edges).
     let mut at: Vec<Vec<usize>> = vec![Vec::new(); s.offsets.len() - 1];
-    for (e, element) in elements.iter().enumerate() {
-        for &v in &s.corners[4 * e..4 * e + element.polygon.count] {
-            if v != lrr_formats::Smooth::NONE {
+    for (f, face) in shown.iter().enumerate() {
+        let e = of[f] as usize;
+        for &v in &s.corners[4 * f..4 * f + face.polygon.count] {
+            if v != lrr_formats::Smooth::NONE && at[v as usize].last() != Some(&e) {
                 at[v as usize].push(e);
             }
         }
@@ -142,11 +171,8 @@ pub(crate) fn select(mesh: &Mesh, indicator: &[f64], budget: f64) -> Vec<bool> {
     let mut added = 0;
     for s in ranked {
         let id = mesh.order[s] as usize;
-        if !mesh.elements[id].parts.is_empty() {
-            continue; // a dense mesh's element stands for its faces: its proxy is not split
-        }
-        let Some(kids) = children(&mesh.elements[id].polygon) else {
-            continue; // a sliver whose halves have no area in floating point
+        let Some(kids) = children(mesh, &mesh.elements[id]) else {
+            continue; // a sliver whose halves have no area, or a group not in its patch
         };
         let extra = kids - 1;
         if added + extra > allowed {
@@ -158,9 +184,41 @@ pub(crate) fn select(mesh: &Mesh, indicator: &[f64], budget: f64) -> Vec<bool> {
     marked
 }
 
-/// Children of one split of `p` (`subdivide::split`), `None` when it cannot be split.
-fn children(p: &Polygon) -> Option<usize> {
-    subdivide::try_split(p).map(|k| k.len())
+/// Children of one split of `e` ([`split`]), `None` when it cannot be split: a sliver, or a
+/// group whose proxy is not one of its patch's parts (see [`split_marked`]).
+fn children(mesh: &Mesh, e: &Element) -> Option<usize> {
+    if e.parts.is_empty() {
+        subdivide::try_split(&e.polygon).map(|k| k.len())
+    } else if e.on_parts || proxy_in_patch(mesh, e) {
+        split_group_count(e)
+    } else {
+        None
+    }
+}
+
+/// Whether grouped element `e`'s proxy is one of the parts of its patch's shape (a cluster's
+/// or a merged patch's shape is the union of its elements' polygons).
+fn proxy_in_patch(mesh: &Mesh, e: &Element) -> bool {
+    (mesh.patches.get(e.patch as usize)).is_some_and(|p| p.shape.parts().contains(&e.polygon))
+}
+
+/// One split of `e`: its polygon's in the subdivision hierarchy (`subdivide::split`), or, for
+/// an element grouping small faces, its parts shared among up to four groups
+/// (`mesh::split_group`). `None` when it cannot be split.
+fn split(e: &Element) -> Option<Vec<Element>> {
+    if e.parts.is_empty() {
+        let kids = subdivide::try_split(&e.polygon)?;
+        Some(
+            kids.into_iter()
+                .map(|polygon| Element {
+                    polygon,
+                    ..e.clone()
+                })
+                .collect(),
+        )
+    } else {
+        split_group(e)
+    }
 }
 
 /// The mesh with the `marked` elements (by id) split once: a split element's first child
@@ -170,27 +228,58 @@ pub(crate) fn split_marked(mesh: &Mesh, marked: &[bool]) -> (Mesh, Vec<u32>) {
     let mut elements = mesh.elements.clone();
     let mut parents: Vec<u32> = (0..mesh.n() as u32).collect();
     let mut siblings = vec![1u8; mesh.n()];
+    // Per patch, the proxies of its split groups lit on them, with what their children are
+    // lit on.
+    let mut reshaped: BTreeMap<u32, Vec<(Polygon, Vec<Polygon>)>> = BTreeMap::new();
     for (id, _) in marked.iter().enumerate().filter(|(_, m)| **m) {
-        let parent = mesh.elements[id].clone();
-        let kids = subdivide::try_split(&parent.polygon).expect("select checked the split");
+        let parent = &mesh.elements[id];
+        let kids = split(parent).expect("select checked the split");
+        if !parent.parts.is_empty() && !parent.on_parts {
+            let lit = kids.iter().flat_map(|k| k.lit().copied()).collect();
+            reshaped
+                .entry(parent.patch)
+                .or_default()
+                .push((parent.polygon, lit));
+        }
         let count = u8::try_from(kids.len()).unwrap_or(u8::MAX);
         let mut kids = kids.into_iter();
-        elements[id].polygon = kids.next().expect("a split has children");
+        elements[id] = kids.next().expect("a split has children");
         siblings[id] = count;
-        for polygon in kids {
-            elements.push(Element {
-                polygon,
-                ..parent.clone()
-            });
+        for kid in kids {
+            elements.push(kid);
             parents.push(id as u32);
             siblings.push(count);
         }
+    }
+    // A split group's proxy is a part of its patch's shape (`proxy_in_patch`): what its
+    // children are lit on takes its place, so that the patch is still the union of what its
+    // elements are lit on (of the same area). A group lit on its parts has them in the shape
+    // already, as its children do.
+    let mut patches = mesh.patches.clone();
+    for (p, groups) in reshaped {
+        let patch = &mut patches[p as usize];
+        let mut parts = Vec::with_capacity(patch.shape.parts().len() + 3 * groups.len());
+        // Each split group's proxy replaced once: two groups of one patch with the same
+        // proxy (bit for bit) take one part each.
+        let mut done = vec![false; groups.len()];
+        for q in patch.shape.parts() {
+            let found =
+                (groups.iter().zip(&mut done)).find(|((proxy, _), done)| !**done && proxy == q);
+            match found {
+                Some(((_, lit), done)) => {
+                    *done = true;
+                    parts.extend_from_slice(lit);
+                }
+                None => parts.push(*q),
+            }
+        }
+        patch.shape = Region::new(parts);
     }
     let refined = Mesh {
         meshing: mesh.meshing.clone(),
         siblings,
         contacts: mesh.contacts.clone(),
-        ..Mesh::from_parts(elements, mesh.patches.clone())
+        ..Mesh::from_parts(elements, patches)
     };
     (refined, parents)
 }
@@ -208,10 +297,11 @@ pub const DEFAULT_BUDGET: f64 = 0.2;
 pub const FIRST_PASS_SAMPLES: u32 = 2;
 
 /// Revision of the refinement rules, part of the checkpoint key (`checkpoint::key`) and of a
-/// sharded bake's settings: 3 is the first pass at [`FIRST_PASS_SAMPLES`] inside the mesh
-/// stage with enclosed rows summing to one, children sampled at their share of the samples
-/// (2: without either; 1 reused the full first pass's rows, unsharded only).
-pub const REVISION: u32 = 3;
+/// sharded bake's settings: 4 also splits the elements that group small faces, ranked by the
+/// jumps at the corners of the faces drawn (3: the first pass at [`FIRST_PASS_SAMPLES`]
+/// inside the mesh stage with enclosed rows summing to one, children sampled at their share
+/// of the samples; 2: without either; 1 reused the full first pass's rows, unsharded only).
+pub const REVISION: u32 = 4;
 
 /// What the first pass integrates with.
 pub(crate) struct FirstPass<'a> {
@@ -348,26 +438,41 @@ pub(crate) fn refine_mesh(
     Ok((refined, saved))
 }
 
-/// Bytes [`indicator`] holds per element besides the smooth weights: the element
+/// Bytes [`indicator`] holds per face drawn (an element, or each face an element of a dense
+/// mesh groups) besides the smooth weights and the faces' copies: the element or face
 /// references, areas and indicator values (24), and the elements at each smooth vertex (a
-/// list of 24 bytes at each of up to four vertices an element and 8 bytes a member, twice
+/// list of 24 bytes at each of up to four vertices a face and 8 bytes a member, twice
 /// over for the lists' growth: 160).
 const INDICATOR_BYTES_PER_ELEMENT: u128 = 184;
 
 /// Bytes the refine stage ([`refine_by`]) may hold at once beside `mesh`, planned before it
-/// starts: the larger of the indicator's (smooth weights over the n elements,
-/// `smooth::build_bytes`, and [`INDICATOR_BYTES_PER_ELEMENT`]) and the split's (the refined
+/// starts: the larger of the indicator's (smooth weights over the faces drawn,
+/// `smooth::build_bytes`, [`INDICATOR_BYTES_PER_ELEMENT`] and, where elements group faces,
+/// a copy of each face) and the split's (the refined
 /// mesh, a copy of this one with up to `budget · n` more elements, and the ranking, marks and
 /// parents: 17 bytes an element).
 pub(crate) fn refine_bytes(mesh: &Mesh, budget: f64) -> u128 {
-    let indicator = smooth::build_bytes(mesh.n()) + INDICATOR_BYTES_PER_ELEMENT * mesh.n() as u128;
+    let shown: usize = (mesh.elements.iter()).map(|e| e.parts.len().max(1)).sum();
+    let faces = if shown > mesh.n() {
+        // The faces drawn, each a copy (an element without parts), and whom each shows.
+        shown as u128 * (size_of::<Element>() + size_of::<u32>() + size_of::<usize>()) as u128
+    } else {
+        0
+    };
+    let indicator =
+        smooth::build_bytes(shown) + INDICATOR_BYTES_PER_ELEMENT * shown as u128 + faces;
     indicator.max(split_bytes(mesh, budget))
 }
 
 /// The split's share of [`refine_bytes`].
 fn split_bytes(mesh: &Mesh, budget: f64) -> u128 {
     let added = (budget.max(0.0) * mesh.n() as f64).floor() as u128;
-    let per_added = (size_of::<Element>() + size_of::<u32>() * 2 + size_of::<f64>() + 1) as u128;
+    // Per element added: the element, its parent and split count, its weight and mark; and,
+    // where a group is split, a polygon and a cumulative area more in its patch's shape,
+    // held twice while the shape is redrawn.
+    let reshaped = 2 * (size_of::<Polygon>() + size_of::<f64>());
+    let per_added =
+        (size_of::<Element>() + size_of::<u32>() * 2 + size_of::<f64>() + 1 + reshaped) as u128;
     mesh.heap_bytes() + added * per_added + 17 * mesh.n() as u128
 }
 
@@ -409,6 +514,7 @@ mod tests {
     use super::*;
     use crate::mesh::MeshSizes;
     use crate::scene::procedural;
+    use glam::DVec3;
     use std::path::Path;
 
     /// A step of the radiosity across the middle of a box splits the elements at the step
@@ -447,6 +553,64 @@ mod tests {
             );
         }
     }
+    /// Elements that group small faces (the tessellated sphere's) are split too where the
+    /// light steps: only those beside the step, their parts shared among their children, so
+    /// every face is drawn once as before, by the element that now holds it.
+    #[test]
+    fn a_step_across_grouped_faces_splits_the_groups_beside_it() {
+        let scene = procedural::dense_sphere(3)
+            .build("s", Path::new("."))
+            .unwrap();
+        let sizes = MeshSizes::resolve(&scene, None, None).unwrap();
+        let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
+        let sphere = scene.surfaces.iter().position(|s| s == "sphere").unwrap() as u32;
+        let on_sphere = |e: &Element| e.surface == sphere;
+        assert!((mesh.elements.iter()).all(|e| !on_sphere(e) || !e.parts.is_empty()));
+        let centre = {
+            let faces = scene.faces.iter().filter(|f| f.surface == sphere as usize);
+            let (sum, count) = faces.fold((glam::DVec3::ZERO, 0.0), |(s, c), f| {
+                (s + f.polygon.centroid(), c + 1.0)
+            });
+            sum / count
+        };
+        // Bright on the sphere's +x half, dark on its -x half, the room uniform.
+        let values: Vec<f64> = (0..mesh.n())
+            .map(|s| {
+                let e = mesh.element_at(s);
+                match (on_sphere(e), e.polygon.centroid().x > centre.x) {
+                    (false, _) => 0.5,
+                    (true, true) => 1.0,
+                    (true, false) => 0.1,
+                }
+            })
+            .collect();
+        let budget = 1.0;
+        let (refined, split) = refine_by(&scene, &mesh, &values, budget).unwrap();
+        assert!(split > 0);
+        assert!(refined.n() - mesh.n() <= (budget * mesh.n() as f64) as usize);
+        assert_eq!(refined.k(), mesh.k());
+        refined.validate().unwrap();
+        // A split group has a face at a jump, and a group's vertex box has sides of at most
+        // 2h: its faces lie within 2h of the vertex, which lies within 2h of the step (in the
+        // box of the group across it, whose centroid is on the other side).
+        let h = sizes.element_size;
+        for e in &refined.elements[mesh.n()..] {
+            assert!(on_sphere(e));
+            for (_, p) in e.shown() {
+                let x = p.centroid().x;
+                assert!((x - centre.x).abs() <= 4.0 * h, "a child's face at x = {x}");
+            }
+        }
+        let shown = |m: &Mesh| {
+            let mut faces: Vec<(u32, [u64; 3])> = (m.elements.iter())
+                .flat_map(|e| e.shown().map(|(f, p)| (f, p.centroid().to_array())))
+                .map(|(f, c)| (f, c.map(f64::to_bits)))
+                .collect();
+            faces.sort_unstable();
+            faces
+        };
+        assert_eq!(shown(&refined), shown(&mesh), "the faces drawn changed");
+    }
 
     /// The refine stage's plan for its split covers the mesh it makes: a dense sphere's
     /// grouped elements (their parts copied) beside its room's walls, split as far as the
@@ -471,6 +635,71 @@ mod tests {
     }
 
     /// The refined mesh is the same whatever the thread count, and a budget of 0 is the mesh.
+    /// Groups lit on their parts (box tops of several heights) and groups of a proxy, in
+    /// 2MSC's merged patches, split into a mesh that passes every check a plan file's mesh
+    /// must (`Mesh::validate`: each element inside its patch, areas and weights).
+    #[test]
+    fn groups_split_in_merged_patches_stay_inside_them() {
+        // 64 boxes of several heights on a floor (their tops grouped across boxes, lit on
+        // their parts) and a tessellated sphere (groups of a proxy), one surface.
+        let floor = [(-0.5, -0.5), (6.5, -0.5), (6.5, 6.5), (-0.5, 6.5)]
+            .map(|(x, y)| DVec3::new(x, y, 0.0));
+        let mut triangles = vec![
+            [floor[0], floor[1], floor[2]],
+            [floor[0], floor[2], floor[3]],
+        ];
+        for b in 0..64 {
+            let lo = DVec3::new((b % 8) as f64 * 0.8, (b / 8) as f64 * 0.8, 0.0);
+            let hi = lo + DVec3::new(0.3, 0.3, 0.2 + 0.05 * (b % 5) as f64);
+            triangles.extend(crate::mesh::tests::cuboid(lo, hi));
+        }
+        for t in procedural::icosphere(4, [3.0, 3.0, 3.0], 1.0) {
+            triangles.push([0, 1, 2].map(|i| DVec3::from_array(t[i])));
+        }
+        let scene = crate::mesh::tests::one_surface("boxes and a sphere", &triangles);
+        let sizes = MeshSizes {
+            element_size: 1.0,
+            patch_size: 2.0,
+        };
+        let rule = crate::patches::refinement(
+            sizes,
+            crate::patches::coherence::merge::DEFAULT_THRESHOLD,
+            None,
+            crate::patches::CoherenceRule::Merge,
+        )
+        .unwrap();
+        let mesh = Mesh::two_msc(&scene, sizes, rule, None, None).unwrap();
+        // Per kind of group (lit on its parts or not), its faces, and how many elements of
+        // a mesh show them.
+        let faces = |lit: bool| -> std::collections::BTreeSet<u32> {
+            (mesh.elements.iter())
+                .filter(|e| e.parts.len() >= 2 && e.on_parts == lit)
+                .flat_map(|e| e.parts.iter().map(|(f, _)| *f))
+                .collect()
+        };
+        let showing = |m: &Mesh, lit: bool| {
+            let faces = faces(lit);
+            (m.elements.iter())
+                .filter(|e| e.shown().any(|(f, _)| faces.contains(&f)))
+                .count()
+        };
+        assert!(showing(&mesh, true) > 0 && showing(&mesh, false) > 0);
+        // Every group split (the box tops' groups have no neighbour on their smooth surface,
+        // so no indicator would mark them).
+        let marked: Vec<bool> = (mesh.elements.iter())
+            .map(|e| e.parts.len() >= 2 && children(&mesh, e).is_some())
+            .collect();
+        let (refined, _) = split_marked(&mesh, &marked);
+        assert_eq!(refined.k(), mesh.k());
+        refined.validate().unwrap();
+        for lit in [true, false] {
+            assert!(
+                showing(&refined, lit) > showing(&mesh, lit),
+                "no group lit on its parts = {lit} was split"
+            );
+        }
+    }
+
     #[test]
     fn refinement_is_deterministic() {
         let scene = procedural::dense_sphere(1)

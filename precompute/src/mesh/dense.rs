@@ -34,13 +34,16 @@
 //! The grouping is what Enlighten calls lighting a detail mesh through a simplified target:
 //! n ≈ area / h² whatever the tessellation. Occlusion still uses the input faces. A lone small
 //! piece keeps its own polygon, so scenes without dense parts mesh exactly as before.
+//!
+//! The refinement where light changes (`crate::refine`) splits a group as it splits a quad 2×2:
+//! [`split_group`] shares its faces among up to four groups, each with its own proxy.
 
 use glam::DVec3;
 
 use super::element::{Element, within};
 use super::subdivide::{Grouped, Piece, PieceKind};
 use crate::geometry::Polygon;
-use crate::geometry::cluster::{Unit, by_size_within};
+use crate::geometry::cluster::{Unit, bisect, by_size_within};
 use crate::scene::Scene;
 
 /// Largest angle between a grouped face's normal and its group's mean normal. Narrower than
@@ -174,6 +177,70 @@ pub(crate) fn group(
     (out_elements, out_pieces, grouped)
 }
 
+/// The part sets of one refinement split of a grouped element (`parts`, two or more): the
+/// parts bisected at the median of their centroids along the widest axis
+/// (`cluster::bisect`, decided on a grid relative to their extent, so a scaled scene splits
+/// alike), and each half of two or more parts bisected again: up to four sets, as a quad's
+/// 2×2 split, each sorted by part. `None` for an element with fewer than two parts.
+fn split_sets(e: &Element) -> Option<Vec<Vec<usize>>> {
+    if e.parts.len() < 2 {
+        return None;
+    }
+    let units: Vec<Unit> = e.parts.iter().map(|(_, p)| Unit::of(p)).collect();
+    let all: Vec<usize> = (0..units.len()).collect();
+    let mut sets = Vec::with_capacity(4);
+    for half in bisect(&units, &all) {
+        if half.len() >= 2 {
+            sets.extend(bisect(&units, &half));
+        } else {
+            sets.push(half);
+        }
+    }
+    Some(sets)
+}
+
+/// The children of one refinement split of grouped element `e` ([`split_sets`]), in order:
+/// a set of one part is an element of that part's own polygon (as a lone small piece is);
+/// a set of more is a group again, with its own proxy (sides at most the parent's longest,
+/// which holds its area), lit on its parts when the parent was (the parent's decision, so
+/// that a split never turns a proxy's light into its parts'). Every part goes to exactly one
+/// child, so what is drawn does not change, only which element shows it. `None` when `e`
+/// has fewer than two parts or a child's proxy would be degenerate.
+pub(crate) fn split_group(e: &Element) -> Option<Vec<Element>> {
+    let h = e.polygon.max_edge();
+    split_sets(e)?
+        .into_iter()
+        .map(|set| {
+            let (face, first) = e.parts[set[0]];
+            if set.len() == 1 {
+                return Some(Element {
+                    polygon: first,
+                    face,
+                    surface: e.surface,
+                    patch: e.patch,
+                    parts: Vec::new(),
+                    on_parts: false,
+                });
+            }
+            let polygons: Vec<&Polygon> = set.iter().map(|&i| &e.parts[i].1).collect();
+            Some(Element {
+                polygon: proxy(&polygons, h)?,
+                face,
+                surface: e.surface,
+                patch: e.patch,
+                parts: set.iter().map(|&i| e.parts[i]).collect(),
+                on_parts: e.on_parts,
+            })
+        })
+        .collect()
+}
+
+/// How many children [`split_group`] makes of `e`, without making them (`None` when it
+/// cannot split it).
+pub(crate) fn split_group_count(e: &Element) -> Option<usize> {
+    split_group(e).map(|kids| kids.len())
+}
+
 /// What is drawn of `elements` (in their order): one element per polygon drawn
 /// ([`Element::shown`]: the element itself, or each face of a dense mesh's element, `parts`
 /// empty), the index into `elements` each shows, and whether any element is drawn as other
@@ -283,6 +350,7 @@ pub(crate) fn proxy(parts: &[&Polygon], max_side: f64) -> Option<Polygon> {
 mod tests {
     use super::*;
     use crate::mesh::MeshSizes;
+    use crate::mesh::tests::cuboid;
 
     /// A unit icosphere of `subdivisions` (20·4^s triangles), as triangles.
     fn sphere(subdivisions: u32) -> Vec<[DVec3; 3]> {
@@ -290,6 +358,19 @@ mod tests {
             .iter()
             .map(|t| [0, 1, 2].map(|i| DVec3::from_array(t[i])))
             .collect()
+    }
+
+    /// A 4 × 4 grid of small boxes of five heights, as triangles.
+    fn boxes_of_five_heights() -> Vec<[DVec3; 3]> {
+        let mut tris = Vec::new();
+        for i in 0..4 {
+            for j in 0..4 {
+                let lo = DVec3::new(i as f64 * 0.5, j as f64 * 0.5, 0.0);
+                let height = 0.2 + 0.05 * ((i * 4 + j) % 5) as f64;
+                tris.extend(cuboid(lo, lo + DVec3::new(0.2, 0.2, height)));
+            }
+        }
+        tris
     }
 
     fn fine(triangles: &[[DVec3; 3]], h: f64) -> (Scene, Vec<Element>) {
@@ -302,42 +383,12 @@ mod tests {
         (scene, elements)
     }
 
-    /// Triangles of an axis-aligned box `lo`..`hi`, outward.
-    fn cuboid(lo: DVec3, hi: DVec3) -> Vec<[DVec3; 3]> {
-        let c = |i: usize| {
-            DVec3::new(
-                if i & 1 == 0 { lo.x } else { hi.x },
-                if i & 2 == 0 { lo.y } else { hi.y },
-                if i & 4 == 0 { lo.z } else { hi.z },
-            )
-        };
-        let quads = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        quads
-            .iter()
-            .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
-            .collect()
-    }
-
     /// Small boxes of several heights in one surface: their parallel faces are grouped across
     /// boxes and lit on their parts (no proxy standing in front of the lower ones); a sphere's
     /// groups keep their proxies.
     #[test]
     fn faces_of_separate_boxes_are_lit_on_their_parts() {
-        let mut tris = Vec::new();
-        for i in 0..4 {
-            for j in 0..4 {
-                let lo = DVec3::new(i as f64 * 0.5, j as f64 * 0.5, 0.0);
-                let height = 0.2 + 0.05 * ((i * 4 + j) % 5) as f64;
-                tris.extend(cuboid(lo, lo + DVec3::new(0.2, 0.2, height)));
-            }
-        }
+        let tris = boxes_of_five_heights();
         let scene = crate::mesh::tests::one_surface("boxes", &tris);
         let sizes = MeshSizes {
             element_size: 1.0,
@@ -420,6 +471,69 @@ mod tests {
                 assert!((s.corners[4 * f + c] as usize) < s.vertex_count());
             }
         }
+    }
+
+    /// A refinement split of a group shares its parts among up to four children, each part
+    /// in exactly one, in the parent's surface and patch; each child is a proxy of its parts'
+    /// area (sides no longer than the parent's), or a lone part as its own polygon; a group
+    /// of parts lit on its parts (or not) has children lit on theirs (or not); the split does
+    /// not depend on the scale.
+    #[test]
+    fn a_split_group_shares_its_parts_among_its_children() {
+        let boxes = boxes_of_five_heights();
+        let mut on_parts = 0;
+        for (tris, h) in [(sphere(5), 0.35), (sphere(3), 0.35), (boxes, 1.0)] {
+            let (_, elements) = fine(&tris, h);
+            let groups: Vec<&Element> = elements.iter().filter(|e| !e.parts.is_empty()).collect();
+            assert!(groups.len() > 4);
+            for e in groups {
+                on_parts += usize::from(e.on_parts);
+                let kids = split_group(e).expect("a group of two or more parts splits");
+                assert!((2..=4).contains(&kids.len()), "{} children", kids.len());
+                let mut parts: Vec<(u32, Polygon)> = Vec::new();
+                let mut area = 0.0;
+                for k in &kids {
+                    assert_eq!((k.surface, k.patch), (e.surface, e.patch));
+                    area += k.polygon.area();
+                    if k.parts.is_empty() {
+                        assert!(!k.on_parts);
+                        parts.push((k.face, k.polygon));
+                        continue;
+                    }
+                    assert!(k.parts.len() >= 2 && k.on_parts == e.on_parts);
+                    assert_eq!(k.face, k.parts[0].0);
+                    assert!(k.polygon.max_edge() <= e.polygon.max_edge() * (1.0 + 1e-9));
+                    let own: f64 = k.parts.iter().map(|(_, p)| p.area()).sum();
+                    assert!((k.polygon.area() / own - 1.0).abs() < 1e-9);
+                    parts.extend(k.parts.iter().copied());
+                }
+                let whole = e.polygon.area();
+                assert!((area / whole - 1.0).abs() < 1e-9, "{area} of {whole}");
+                let key = |(f, p): &(u32, Polygon)| (*f, p.centroid().to_array().map(f64::to_bits));
+                let mut a: Vec<_> = parts.iter().map(key).collect();
+                let mut b: Vec<_> = e.parts.iter().map(key).collect();
+                a.sort_unstable();
+                b.sort_unstable();
+                assert_eq!(a, b, "every part in exactly one child");
+                // The same group scaled by 1e4 splits into the same sets of parts.
+                let scaled = Element {
+                    parts: (e.parts.iter())
+                        .map(|(f, p)| {
+                            let v: Vec<DVec3> = p.vertices().iter().map(|v| *v * 1e4).collect();
+                            (*f, Polygon::new(&v).unwrap())
+                        })
+                        .collect(),
+                    ..e.clone()
+                };
+                assert_eq!(split_sets(&scaled), split_sets(e));
+                let lone = Element {
+                    parts: e.parts[..1].to_vec(),
+                    ..e.clone()
+                };
+                assert!(split_group(&lone).is_none());
+            }
+        }
+        assert!(on_parts > 0, "no group lit on its parts was split");
     }
 
     /// A proxy lies on or in front of every vertex of its faces, has their area, and faces

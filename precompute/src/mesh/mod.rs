@@ -26,7 +26,7 @@ use std::time::Instant;
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 
-pub(crate) use dense::shown_faces;
+pub(crate) use dense::{shown_faces, split_group, split_group_count};
 pub(crate) use element::within;
 pub use element::{
     DEFAULT_ELEMENT_FRACTION, DEFAULT_PATCH_FRACTION, Element, MAX_ELEMENTS, MeshSizes,
@@ -281,6 +281,29 @@ pub(crate) mod tests {
     use crate::geometry::Polygon;
     use crate::scene::{Face, Material};
     use glam::DVec3;
+
+    /// Triangles of an axis-aligned box `lo`..`hi`, outward.
+    pub(crate) fn cuboid(lo: DVec3, hi: DVec3) -> Vec<[DVec3; 3]> {
+        let c = |i: usize| {
+            DVec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            )
+        };
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        quads
+            .iter()
+            .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
+            .collect()
+    }
 
     /// A scene named `name` of one surface of that name and one grey material, made of the
     /// triangles (those with no area left out), as the tests of meshing and of the smooth
