@@ -56,7 +56,7 @@ use crate::error::{Error, Result};
 use crate::formfactor::FormFactors;
 use crate::geometry::{Polygon, Region};
 use crate::memory;
-use crate::mesh::{Element, MAX_ELEMENTS, smooth, split_group, split_group_count, subdivide};
+use crate::mesh::{Element, MAX_ELEMENTS, smooth, split_group, subdivide};
 use crate::patches::Mesh;
 use crate::progress::Progress;
 use crate::scene::Scene;
@@ -111,11 +111,10 @@ pub(crate) fn indicator(scene: &Scene, mesh: &Mesh, values: &[f64]) -> Vec<f64> 
     // What is drawn: the elements, or the faces an element of a dense mesh groups (its
     // proxy shares no corner with its neighbours), each with the element it shows.
     let grouped = elements.iter().any(|e| !e.parts.is_empty());
-    let (faces, of) = if grouped {
-        let (faces, of, _) = crate::mesh::shown_faces(elements.iter().copied());
-        (faces, of)
+    let (faces, of, _) = if grouped {
+        crate::mesh::shown_faces(elements.iter().copied())
     } else {
-        (Vec::new(), (0..elements.len() as u32).collect())
+        (Vec::new(), (0..elements.len() as u32).collect(), false)
     };
     let shown: Vec<&Element> = if grouped {
         faces.iter().collect()
@@ -187,13 +186,10 @@ pub(crate) fn select(mesh: &Mesh, indicator: &[f64], budget: f64) -> Vec<bool> {
 /// Children of one split of `e` ([`split`]), `None` when it cannot be split: a sliver, or a
 /// group whose proxy is not one of its patch's parts (see [`split_marked`]).
 fn children(mesh: &Mesh, e: &Element) -> Option<usize> {
-    if e.parts.is_empty() {
-        subdivide::try_split(&e.polygon).map(|k| k.len())
-    } else if e.on_parts || proxy_in_patch(mesh, e) {
-        split_group_count(e)
-    } else {
-        None
+    if !e.parts.is_empty() && !e.on_parts && !proxy_in_patch(mesh, e) {
+        return None;
     }
+    split(e).map(|kids| kids.len())
 }
 
 /// Whether grouped element `e`'s proxy is one of the parts of its patch's shape (a cluster's
@@ -540,11 +536,7 @@ mod tests {
             .map(|&x| if x > mid { 1.0 } else { 0.1 })
             .collect();
         let budget = 0.25;
-        let (refined, split) = refine_by(&scene, &mesh, &values, budget).unwrap();
-        assert!(split > 0);
-        assert!(refined.n() - mesh.n() <= (budget * mesh.n() as f64) as usize);
-        assert_eq!(refined.k(), mesh.k());
-        refined.validate().unwrap();
+        let refined = refined_within(&scene, &mesh, &values, budget);
         for e in &refined.elements[mesh.n()..] {
             let x = e.polygon.centroid().x;
             assert!(
@@ -553,16 +545,33 @@ mod tests {
             );
         }
     }
-    /// Elements that group small faces (the tessellated sphere's) are split too where the
-    /// light steps: only those beside the step, their parts shared among their children, so
-    /// every face is drawn once as before, by the element that now holds it.
-    #[test]
-    fn a_step_across_grouped_faces_splits_the_groups_beside_it() {
+    /// `mesh` refined by `values` within `budget`: something split, no more added than the
+    /// budget allows, the patches kept, every check of a plan's mesh passed.
+    fn refined_within(scene: &Scene, mesh: &Mesh, values: &[f64], budget: f64) -> Mesh {
+        let (refined, split) = refine_by(scene, mesh, values, budget).unwrap();
+        assert!(split > 0);
+        assert!(refined.n() - mesh.n() <= (budget * mesh.n() as f64) as usize);
+        assert_eq!(refined.k(), mesh.k());
+        refined.validate().unwrap();
+        refined
+    }
+
+    /// The dense sphere's scene (1 280 sphere faces, grouped) at its own sizes, meshed by 2MF.
+    fn dense_sphere_mesh() -> (Scene, MeshSizes, Mesh) {
         let scene = procedural::dense_sphere(3)
             .build("s", Path::new("."))
             .unwrap();
         let sizes = MeshSizes::resolve(&scene, None, None).unwrap();
         let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
+        (scene, sizes, mesh)
+    }
+
+    /// Elements that group small faces (the tessellated sphere's) are split too where the
+    /// light steps: only those beside the step, their parts shared among their children, so
+    /// every face is drawn once as before, by the element that now holds it.
+    #[test]
+    fn a_step_across_grouped_faces_splits_the_groups_beside_it() {
+        let (scene, sizes, mesh) = dense_sphere_mesh();
         let sphere = scene.surfaces.iter().position(|s| s == "sphere").unwrap() as u32;
         let on_sphere = |e: &Element| e.surface == sphere;
         assert!((mesh.elements.iter()).all(|e| !on_sphere(e) || !e.parts.is_empty()));
@@ -585,11 +594,7 @@ mod tests {
             })
             .collect();
         let budget = 1.0;
-        let (refined, split) = refine_by(&scene, &mesh, &values, budget).unwrap();
-        assert!(split > 0);
-        assert!(refined.n() - mesh.n() <= (budget * mesh.n() as f64) as usize);
-        assert_eq!(refined.k(), mesh.k());
-        refined.validate().unwrap();
+        let refined = refined_within(&scene, &mesh, &values, budget);
         // A split group has a face at a jump, and a group's vertex box has sides of at most
         // 2h: its faces lie within 2h of the vertex, which lies within 2h of the step (in the
         // box of the group across it, whose centroid is on the other side).
@@ -617,11 +622,7 @@ mod tests {
     /// budget lets.
     #[test]
     fn the_plan_covers_the_refined_mesh() {
-        let scene = procedural::dense_sphere(3)
-            .build("s", Path::new("."))
-            .unwrap();
-        let sizes = MeshSizes::resolve(&scene, None, None).unwrap();
-        let mesh = Mesh::two_fixed(&scene, sizes).unwrap();
+        let (scene, _, mesh) = dense_sphere_mesh();
         assert!(mesh.elements.iter().any(|e| !e.parts.is_empty()));
         // Every other element lit: every element has a jump at a corner.
         let values: Vec<f64> = (0..mesh.n()).map(|s| (s % 2) as f64).collect();

@@ -235,12 +235,6 @@ pub(crate) fn split_group(e: &Element) -> Option<Vec<Element>> {
         .collect()
 }
 
-/// How many children [`split_group`] makes of `e`, without making them (`None` when it
-/// cannot split it).
-pub(crate) fn split_group_count(e: &Element) -> Option<usize> {
-    split_group(e).map(|kids| kids.len())
-}
-
 /// What is drawn of `elements` (in their order): one element per polygon drawn
 /// ([`Element::shown`]: the element itself, or each face of a dense mesh's element, `parts`
 /// empty), the index into `elements` each shows, and whether any element is drawn as other

@@ -26,7 +26,7 @@ use std::time::Instant;
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 
-pub(crate) use dense::{shown_faces, split_group, split_group_count};
+pub(crate) use dense::{shown_faces, split_group};
 pub(crate) use element::within;
 pub use element::{
     DEFAULT_ELEMENT_FRACTION, DEFAULT_PATCH_FRACTION, Element, MAX_ELEMENTS, MeshSizes,
