@@ -107,11 +107,11 @@ fn a_rendered_frame_is_lrr_render_of_the_same_lighting_pixel_for_pixel() {
     )
     .unwrap();
     let frames = d.join("frames");
-    // One thread, as `lrr render` evaluates (`Operator::evaluate`, on its thread): at 2
-    // threads `lrr relight`'s frame 1 of the test below differed from its own one-thread
-    // frame in one float (one pixel's B channel, 1 ulp; an Intel Xeon host, 2026-11-30; the
-    // render is the same at 1, 2 and 4 threads). Which step depends on the threads is not
-    // yet found. The frames are compared with the render bit for bit.
+    // Two threads, where `lrr render` evaluates on one (`Operator::evaluate`): a frame is the
+    // same bits at any thread count (`runtime/tests/evaluator.rs`). Until 2026-12-01 frame 1
+    // of the test below differed here by 1 ulp in one pixel at 2 threads: the segment sums
+    // summed a patch in pieces where a chunk of rows began. The frames are compared with the
+    // render bit for bit.
     let text = lrr(&[
         "relight",
         s(&file),
@@ -127,7 +127,7 @@ fn a_rendered_frame_is_lrr_render_of_the_same_lighting_pixel_for_pixel() {
         "--samples",
         "float",
         "--threads",
-        "1",
+        "2",
     ])
     .unwrap();
     assert!(text.contains("camera 'corner'"), "{text}");
@@ -212,7 +212,7 @@ fn a_moving_point_light_is_lrr_render_with_that_light_pixel_for_pixel() {
     )
     .unwrap();
     let frames = d.join("frames");
-    // One thread, as `lrr render` evaluates (see the test above).
+    // Two threads, against a render's one (see the test above).
     lrr(&[
         "relight",
         s(&file),
@@ -228,7 +228,7 @@ fn a_moving_point_light_is_lrr_render_with_that_light_pixel_for_pixel() {
         "--samples",
         "float",
         "--threads",
-        "1",
+        "2",
     ])
     .unwrap();
     let out = d.join("t05.exr");

@@ -37,6 +37,11 @@ struct Run {
 #[derive(Debug, Clone)]
 pub(crate) struct Runs {
     runs: Vec<Run>,
+    /// The same permutation in maximal runs (split only where a patch ends), in id order: the
+    /// segment sums walk these, so that `X` is summed in the same order whatever the chunks.
+    /// Summed over `runs`, a run that a chunk boundary cut in two was summed in two pieces, and
+    /// a frame differed in the last bit between thread counts.
+    sums: Vec<Run>,
     /// The runs of chunk `c` are `runs[starts[c]..starts[c + 1]]`.
     starts: Vec<usize>,
     n: usize,
@@ -59,20 +64,28 @@ impl Runs {
         for (t, range) in bounds.windows(2).enumerate() {
             block_of[range[0]..range[1]].fill(t as u32);
         }
-        let mut runs: Vec<Run> = Vec::new();
-        for (id, &s) in pos.iter().enumerate() {
-            let patch = patch_of[s as usize];
-            let same_block = |r: &Run| block_of[r.pos as usize] == block_of[s as usize];
-            match runs.last_mut() {
-                Some(r) if r.pos + r.len == s && r.patch == patch && same_block(r) => r.len += 1,
-                _ => runs.push(Run {
-                    id: id as u32,
-                    pos: s,
-                    len: 1,
-                    patch,
-                }),
+        let runs_within = |block_of: &[u32]| {
+            let mut runs: Vec<Run> = Vec::new();
+            for (id, &s) in pos.iter().enumerate() {
+                let patch = patch_of[s as usize];
+                let same_block = |r: &Run| block_of[r.pos as usize] == block_of[s as usize];
+                match runs.last_mut() {
+                    Some(r) if r.pos + r.len == s && r.patch == patch && same_block(r) => {
+                        r.len += 1
+                    }
+                    _ => runs.push(Run {
+                        id: id as u32,
+                        pos: s,
+                        len: 1,
+                        patch,
+                    }),
+                }
             }
-        }
+            runs
+        };
+        let mut sums = runs_within(&vec![0; n]);
+        sums.shrink_to_fit();
+        let mut runs = runs_within(&block_of);
         // Group by chunk (stable: id order within a chunk).
         runs.sort_by_key(|r| block_of[r.pos as usize]);
         let chunks = bounds.len().saturating_sub(1);
@@ -84,12 +97,17 @@ impl Runs {
             starts[c + 1] += starts[c];
         }
         runs.shrink_to_fit();
-        Runs { runs, starts, n }
+        Runs {
+            runs,
+            sums,
+            starts,
+            n,
+        }
     }
 
     /// Bytes held.
     pub(crate) fn bytes(&self) -> usize {
-        self.runs.len() * std::mem::size_of::<Run>() + 8 * self.starts.len()
+        (self.runs.len() + self.sums.len()) * std::mem::size_of::<Run>() + 8 * self.starts.len()
     }
 
     /// `n * 3` values in file order, permuted to id order.
@@ -113,7 +131,7 @@ impl Runs {
     ) -> Result<(), RuntimeError> {
         x.fill([0.0; 3]);
         let mut valid = true;
-        for r in &self.runs {
+        for r in &self.sums {
             let (id, s, len) = (r.id as usize, r.pos as usize, r.len as usize);
             let w = &weights[s..s + len];
             let (sum, ok) = match *e {
@@ -235,6 +253,8 @@ mod tests {
         let split = Runs::new(&file, &[0, 15, 40]);
         assert_eq!(split.runs.len(), 5);
         assert_eq!(split.starts, [0, 2, 5]);
+        // The segment sums' runs are not split by chunks.
+        assert_eq!(split.sums, runs.runs);
         assert!(split.runs[..2].iter().all(|r| r.pos < 15));
         // Reversing the file order breaks every run into single elements.
         file.order.reverse();
