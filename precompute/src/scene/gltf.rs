@@ -35,16 +35,18 @@ use glam::{DMat4, DQuat, DVec3};
 use gltf::json;
 
 use super::model::{Camera, DirectLight, Material, Optics, PointLight, Scene, clamp_reflectance};
-use super::texture::{self, Budget, Texture, TextureBinding, UvMap, Wrap};
+use super::texture::{self, Budget, Texture, TextureBinding, UvMap, UvTransform, Wrap};
 use crate::error::{Error, Result};
 
 /// The extensions this importer reads (everything else is refused when required, warned about
 /// when used).
-pub const UNDERSTOOD: [&str; 4] = [
+pub const UNDERSTOOD: [&str; 6] = [
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_transmission",
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
 ];
 
 /// Largest diffuse reflectance kept as is; above it a material is clamped (with a warning),
@@ -101,10 +103,14 @@ fn import_within(
     } else {
         (bytes, None)
     };
-    let root: json::Root = json::deserialize::from_slice(json_bytes)
+    let mut root: json::Root = json::deserialize::from_slice(json_bytes)
         .map_err(|e| err(format!("cannot parse the glTF JSON: {e}")))?;
     let mut scene = Scene::new(name);
     check_extensions(&root, origin, &mut scene.warnings)?;
+    // Honoured here (the attribute readers take its integer types), unknown to the gltf
+    // crate's validation, which refuses a required extension it does not know.
+    root.extensions_required
+        .retain(|e| e != "KHR_mesh_quantization");
     check_position_references(&root, origin)?;
     let doc = gltf::Document::from_json(root)
         .map_err(|e| err(format!("the glTF does not validate: {e}")))?;
@@ -215,7 +221,6 @@ fn check_extensions(root: &json::Root, origin: &str, warnings: &mut Vec<String>)
     for ext in &root.extensions_required {
         if !UNDERSTOOD.contains(&ext.as_str()) {
             let what = match ext.as_str() {
-                "KHR_mesh_quantization" => " (quantised vertex attributes)",
                 "KHR_draco_mesh_compression" => " (Draco-compressed meshes)",
                 "EXT_meshopt_compression" => " (meshoptimizer-compressed buffers)",
                 "KHR_texture_basisu" => " (Basis Universal textures)",
@@ -738,10 +743,26 @@ impl<'a> Importer<'a> {
         let mut c = factor;
         let mut base_texture = None;
         if let Some(info) = pbr.base_color_texture() {
-            let set = info.tex_coord() as usize;
+            // KHR_texture_transform: an affine map of the coordinates, and maybe another set.
+            let moved = info.texture_transform();
+            let set = moved
+                .as_ref()
+                .and_then(|t| t.tex_coord())
+                .unwrap_or(info.tex_coord()) as usize;
+            let transform = moved.map_or(UvTransform::IDENTITY, |t| {
+                let f = |v: [f32; 2]| v.map(f64::from);
+                UvTransform::khr(f(t.offset()), f64::from(t.rotation()), f(t.scale()))
+            });
+            if transform.0.iter().flatten().any(|x| !x.is_finite()) {
+                return Err(self.err(format!(
+                    "{what}: its baseColor texture's KHR_texture_transform is not finite \
+                     ({:?})",
+                    transform.0
+                )));
+            }
             let avg = if set < 2 {
                 self.texture(&info.texture(), &what).map(|texture| {
-                    base_texture = Some((texture, set));
+                    base_texture = Some((texture, set, transform));
                     self.scene.textures[texture].average()
                 })
             } else {
@@ -790,10 +811,11 @@ impl<'a> Importer<'a> {
             &format!("{}: {what}", self.origin),
             &mut self.scene.warnings,
         );
-        let texture = base_texture.map(|(texture, set)| TextureBinding {
+        let texture = base_texture.map(|(texture, set, transform)| TextureBinding {
             texture,
             set,
             scale: factor.map(|f| f * diffuse_share),
+            transform,
         });
         let strength = m.emissive_strength().map(f64::from).unwrap_or(1.0);
         let mut radiance = m.emissive_factor().map(|e| f64::from(e) * strength);
@@ -1015,23 +1037,22 @@ impl<'a> Importer<'a> {
             "{primitive}: POSITION {}",
             named("accessor", a.index(), a.name())
         );
-        if a.dimensions() != gltf::accessor::Dimensions::Vec3
-            || a.data_type() != gltf::accessor::DataType::F32
-        {
-            return Err(self.err(format!(
-                "{what} is {:?} of {:?}; positions must be VEC3 of FLOAT (quantised positions \
-                 need KHR_mesh_quantization, which lrr does not support)",
-                a.dimensions(),
-                a.data_type()
-            )));
-        }
-        let raw = self.elements(a, &what, 12)?;
-        raw.chunks_exact(12)
+        let size = match (a.dimensions(), component_size(a.data_type())) {
+            (gltf::accessor::Dimensions::Vec3, Some(size)) => size,
+            (d, _) => {
+                return Err(self.err(format!(
+                    "{what} is {d:?} of {:?}; positions must be VEC3 of FLOAT, or of BYTE, \
+                     UNSIGNED_BYTE, SHORT or UNSIGNED_SHORT (KHR_mesh_quantization)",
+                    a.data_type()
+                )));
+            }
+        };
+        let (ty, normalized) = (a.data_type(), a.normalized());
+        let raw = self.elements(a, &what, 3 * size)?;
+        raw.chunks_exact(3 * size)
             .enumerate()
             .map(|(i, e)| {
-                let f = |k: usize| {
-                    f64::from(f32::from_le_bytes(e[4 * k..4 * k + 4].try_into().unwrap()))
-                };
+                let f = |k: usize| component(&e[k * size..(k + 1) * size], ty, normalized);
                 let p = DVec3::new(f(0), f(1), f(2));
                 if p.is_finite() {
                     Ok(p)
@@ -1042,8 +1063,9 @@ impl<'a> Importer<'a> {
             .collect()
     }
 
-    /// A `TEXCOORD_n` accessor: VEC2 of FLOAT, or normalised UNSIGNED_BYTE / UNSIGNED_SHORT,
-    /// one per vertex, finite.
+    /// A `TEXCOORD_n` accessor: VEC2 of FLOAT, or of (normalized or not) BYTE, UNSIGNED_BYTE,
+    /// SHORT or UNSIGNED_SHORT (core glTF allows the normalized unsigned ones,
+    /// `KHR_mesh_quantization` the others), one per vertex, finite.
     fn read_texcoords(
         &self,
         a: &gltf::Accessor,
@@ -1051,20 +1073,17 @@ impl<'a> Importer<'a> {
         set: usize,
         vertices: usize,
     ) -> Result<Vec<[f64; 2]>> {
-        use gltf::accessor::DataType;
         let what = format!(
             "{primitive}: TEXCOORD_{set} {}",
             named("accessor", a.index(), a.name())
         );
-        let size = match (a.dimensions(), a.data_type(), a.normalized()) {
-            (gltf::accessor::Dimensions::Vec2, DataType::F32, _) => 4,
-            (gltf::accessor::Dimensions::Vec2, DataType::U16, true) => 2,
-            (gltf::accessor::Dimensions::Vec2, DataType::U8, true) => 1,
-            (d, t, n) => {
+        let size = match (a.dimensions(), component_size(a.data_type())) {
+            (gltf::accessor::Dimensions::Vec2, Some(size)) => size,
+            (d, _) => {
                 return Err(self.err(format!(
-                    "{what} is {d:?} of {t:?}{}; texture coordinates must be VEC2 of FLOAT or of \
-                     normalized UNSIGNED_BYTE or UNSIGNED_SHORT",
-                    if n { " (normalized)" } else { "" }
+                    "{what} is {d:?} of {:?}; texture coordinates must be VEC2 of FLOAT, or of \
+                     BYTE, UNSIGNED_BYTE, SHORT or UNSIGNED_SHORT",
+                    a.data_type()
                 )));
             }
         };
@@ -1075,15 +1094,12 @@ impl<'a> Importer<'a> {
                 a.count()
             )));
         }
+        let (ty, normalized) = (a.data_type(), a.normalized());
         let raw = self.elements(a, &what, 2 * size)?;
         raw.chunks_exact(2 * size)
             .enumerate()
             .map(|(i, e)| {
-                let f = |k: usize| match size {
-                    4 => f64::from(f32::from_le_bytes(e[4 * k..4 * k + 4].try_into().unwrap())),
-                    2 => f64::from(u16::from_le_bytes([e[2 * k], e[2 * k + 1]])) / 65535.0,
-                    _ => f64::from(e[k]) / 255.0,
-                };
+                let f = |k: usize| component(&e[k * size..(k + 1) * size], ty, normalized);
                 let uv = [f(0), f(1)];
                 if uv.iter().all(|x| x.is_finite()) {
                     Ok(uv)
@@ -1136,6 +1152,41 @@ impl<'a> Importer<'a> {
 }
 
 /// The triangles of a primitive's index list, counter-clockwise as glTF defines them.
+/// Bytes of one component of a vertex attribute lrr reads (FLOAT, and the integer types of
+/// `KHR_mesh_quantization`); None for UNSIGNED_INT, which no attribute may use.
+fn component_size(ty: gltf::accessor::DataType) -> Option<usize> {
+    use gltf::accessor::DataType;
+    match ty {
+        DataType::F32 => Some(4),
+        DataType::I16 | DataType::U16 => Some(2),
+        DataType::I8 | DataType::U8 => Some(1),
+        DataType::U32 => None,
+    }
+}
+
+/// One component (little-endian `bytes`, [`component_size`] long): a FLOAT as it is; an
+/// integer as its value, or normalized as glTF defines it (unsigned `c / (2ᵇ − 1)`, signed
+/// `max(c / (2ᵇ⁻¹ − 1), −1)`).
+fn component(bytes: &[u8], ty: gltf::accessor::DataType, normalized: bool) -> f64 {
+    use gltf::accessor::DataType;
+    let (value, scale) = match ty {
+        DataType::F32 => return f64::from(f32::from_le_bytes(bytes.try_into().unwrap())),
+        DataType::I8 => (f64::from(bytes[0] as i8), 127.0),
+        DataType::U8 => (f64::from(bytes[0]), 255.0),
+        DataType::I16 => (f64::from(i16::from_le_bytes([bytes[0], bytes[1]])), 32767.0),
+        DataType::U16 => (f64::from(u16::from_le_bytes([bytes[0], bytes[1]])), 65535.0),
+        DataType::U32 => (
+            f64::from(u32::from_le_bytes(bytes.try_into().unwrap())),
+            1.0,
+        ),
+    };
+    if normalized {
+        (value / scale).max(-1.0)
+    } else {
+        value
+    }
+}
+
 fn triangles(mode: gltf::mesh::Mode, idx: &[u32]) -> Vec<[u32; 3]> {
     use gltf::mesh::Mode;
     match mode {

@@ -6,7 +6,7 @@ use rustc_hash::FxHashMap;
 use glam::DVec3;
 
 use super::polygon;
-use super::texture::{self, Texture, TextureBinding, UvMap};
+use super::texture::{self, Texture, TextureBinding, UvMap, UvTransform};
 use crate::error::{Error, Result};
 use crate::geometry::Polygon;
 
@@ -498,6 +498,13 @@ impl Scene {
         let m = &self.materials[f.material];
         let Some((t, map)) = self.texture_of(f) else {
             return m.reflectance;
+        };
+        let moved;
+        let map = if t.transform == UvTransform::IDENTITY {
+            map
+        } else {
+            moved = map.then(&t.transform);
+            &moved
         };
         let mean = texture::element_average(&self.textures[t.texture], lut, map, polygon);
         [0, 1, 2].map(|c| (t.scale[c] * mean[c]).min(MAX_TEXTURED_REFLECTANCE))

@@ -31,7 +31,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::model::{Material, Optics, Scene, clamp_reflectance};
-use super::texture::{self, Budget, TextureBinding, UvMap, Wrap};
+use super::texture::{self, Budget, TextureBinding, UvMap, UvTransform, Wrap};
 use crate::error::{Error, Result};
 
 /// Reflectance used for faces without a material (with a warning).
@@ -201,6 +201,7 @@ pub(crate) fn load_within(path: &Path, mut budget: Budget) -> Result<(Scene, u12
                         texture: id,
                         set: 0,
                         scale: factor,
+                        transform: UvTransform::IDENTITY,
                     });
                 }
                 // Too large for the memory: refused, not left out (other colours than the

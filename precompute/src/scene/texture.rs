@@ -262,6 +262,36 @@ impl UvMap {
             offset: self.offset,
         }
     }
+
+    /// This map followed by `t`.
+    pub fn then(&self, t: &UvTransform) -> Self {
+        let m = &t.0;
+        Self {
+            gradient: [0, 1].map(|k| m[k][0] * self.gradient[0] + m[k][1] * self.gradient[1]),
+            offset: [0, 1].map(|k| m[k][0] * self.offset[0] + m[k][1] * self.offset[1] + m[k][2]),
+        }
+    }
+}
+
+/// An affine map of texture coordinates, `uv' = m · (u, v, 1)` (glTF's
+/// `KHR_texture_transform` on a base colour texture).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UvTransform(pub [[f64; 3]; 2]);
+
+impl UvTransform {
+    /// `uv' = uv`.
+    pub const IDENTITY: Self = Self([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+
+    /// `KHR_texture_transform`'s `T · R · S`: scale, then rotate by `rotation` radians
+    /// (`u' = u cos + v sin`, `v' = −u sin + v cos`: counter-clockwise in the image, whose `v`
+    /// points down), then offset.
+    pub fn khr(offset: [f64; 2], rotation: f64, scale: [f64; 2]) -> Self {
+        let (s, c) = rotation.sin_cos();
+        Self([
+            [c * scale[0], s * scale[1], offset[0]],
+            [-s * scale[0], c * scale[1], offset[1]],
+        ])
+    }
 }
 
 /// What ties a material to a base colour texture: its reflectance at a point is
@@ -274,6 +304,9 @@ pub struct TextureBinding {
     pub set: usize,
     /// Per channel factor (glTF: baseColorFactor × the diffuse share of metal and transmission).
     pub scale: [f64; 3],
+    /// Applied to the set's coordinates before the texture is read (glTF's
+    /// `KHR_texture_transform`; the identity elsewhere).
+    pub transform: UvTransform,
 }
 
 /// The mean linear RGB of `texture` over `polygon`, texture coordinates from `map`.

@@ -451,3 +451,78 @@ fn an_image_too_large_for_the_memory_is_refused_before_it_is_decoded() {
     bake(&path, &out, &FLOOR_BAKE).unwrap();
     assert!(out.exists());
 }
+
+/// The textured floor as `gltfpack` writes it (`KHR_mesh_quantization`): positions as
+/// UNSIGNED_SHORT integers (padded to 8 bytes a vertex) scaled back by the node, texture
+/// coordinates as UNSIGNED_SHORT integers scaled back by the texture's `KHR_texture_transform`;
+/// `rotated` stores `(1 − v, u)` instead, turned back by a quarter turn and an offset.
+fn quantised_floor(rotated: bool) -> Builder {
+    let mut b = textured_floor(5126);
+    let q = 1024.0; // a power of two: the scales are exact
+    let corners = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
+    let mut bytes = Vec::new();
+    for [x, y] in corners {
+        for c in [x * q, y * q, 0.0, 0.0] {
+            bytes.extend_from_slice(&(c as u16).to_le_bytes());
+        }
+    }
+    let view = b.view(&bytes, Some(8));
+    let pos = b.accessor(
+        json!({"bufferView": view, "componentType": 5123, "count": 4,
+        "type": "VEC3", "min": [0, 0, 0], "max": [2.0 * q, 2.0 * q, 0]}),
+    );
+    let uv = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+    let stored = uv.map(|[u, v]| if rotated { [1.0 - v, u] } else { [u, v] });
+    let bytes: Vec<u8> = (stored.iter().flatten())
+        .flat_map(|t| ((t * q) as u16).to_le_bytes())
+        .collect();
+    let view = b.view(&bytes, None);
+    let uv = b.accessor(
+        json!({"bufferView": view, "componentType": 5123, "count": 4,
+        "type": "VEC2"}),
+    );
+    let transform = if rotated {
+        json!({"offset": [0.0, 1.0], "rotation": std::f64::consts::FRAC_PI_2,
+            "scale": [1.0 / q, 1.0 / q]})
+    } else {
+        json!({"scale": [1.0 / q, 1.0 / q]})
+    };
+    let doc = &mut b.doc;
+    doc["meshes"][0]["primitives"][0]["attributes"] = json!({"POSITION": pos, "TEXCOORD_0": uv});
+    doc["nodes"][0]["scale"] = json!([1.0 / q, 1.0 / q, 1.0 / q]);
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] =
+        json!({"KHR_texture_transform": transform});
+    let used = json!(["KHR_mesh_quantization", "KHR_texture_transform"]);
+    doc.insert("extensionsUsed".into(), used.clone());
+    doc.insert("extensionsRequired".into(), used);
+    b
+}
+
+#[test]
+fn a_quantised_floor_with_a_texture_transform_bakes_as_the_float_one() {
+    let dir = temp_dir("gltf-quantised");
+    let float = lrr_precompute::scene::load(&{
+        let path = dir.join("float.glb");
+        std::fs::write(&path, textured_floor(5126).glb()).unwrap();
+        path
+    })
+    .unwrap();
+    for rotated in [false, true] {
+        let path = dir.join(format!("quantised-{rotated}.glb"));
+        std::fs::write(&path, quantised_floor(rotated).glb()).unwrap();
+        let scene = lrr_precompute::scene::load(&path).unwrap();
+        assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+        // The same floor, corner for corner.
+        for (f, g) in scene.faces.iter().zip(&float.faces) {
+            for (p, q) in f.polygon.vertices().iter().zip(g.polygon.vertices()) {
+                assert!((*p - *q).length() < 1e-12, "{p} against {q}");
+            }
+        }
+        // Each element the mean of its texels: the texture read where the float file reads it
+        // (a quarter turn the wrong way, or none, would put other blocks under the elements).
+        let out = dir.join(format!("quantised-{rotated}.lrr"));
+        bake(&path, &out, &FLOOR_BAKE).unwrap();
+        let material = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
+        check_blocks(&out, material.reflectance);
+    }
+}
