@@ -13,6 +13,6 @@ pub mod sampling;
 
 #[cfg(test)]
 pub(crate) use polygon::rectangle;
-pub(crate) use polygon::within;
 pub use polygon::{Polygon, area_vector};
+pub(crate) use polygon::{at_least, within};
 pub use region::{Outline, Region};

@@ -134,3 +134,9 @@ const SIZE_SLACK: f64 = 1e-9;
 pub(crate) fn within(size: f64, limit: f64) -> bool {
     size <= limit * (1.0 + SIZE_SLACK)
 }
+
+/// Whether `long` is at least `ratio` times `short` up to rounding ([`SIZE_SLACK`]): a
+/// rectangle of exactly two to one stays two to one when its scene is scaled by 0.01.
+pub(crate) fn at_least(long: f64, ratio: f64, short: f64) -> bool {
+    long >= ratio * short * (1.0 - SIZE_SLACK)
+}
