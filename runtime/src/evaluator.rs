@@ -91,7 +91,7 @@ impl Evaluator {
 
     /// Bytes allocated by [`new`](Self::new) and reused by every frame: `W` (`3n` f32 over all
     /// chunks), `z` per thread, `X`, the permutation between ids and file order (16 bytes per
-    /// run of consecutive ids) and the evaluator's copy of the albedo (`3n` f32 + the cores).
+    /// run of consecutive ids, twice: cut by the chunks and whole) and the evaluator's copy of the albedo (`3n` f32 + the cores).
     pub fn scratch_bytes(&self) -> usize {
         self.pool.bytes() + 4 * self.z.len() + 24 * self.x.len() + self.frame.bytes()
     }

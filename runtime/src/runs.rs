@@ -22,8 +22,8 @@ use crate::error::{RuntimeError, input};
 use crate::kernel::{self, SimdLevel};
 use crate::rgb::{Rgb, RgbMut};
 
-/// Ids `id..id + len` are file positions `pos..pos + len`, all in `patch` and in the rows of
-/// one thread.
+/// Ids `id..id + len` are file positions `pos..pos + len`, all in `patch` (and, in
+/// `Runs::runs`, in one chunk of rows).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Run {
     id: u32,

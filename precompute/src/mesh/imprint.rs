@@ -708,7 +708,8 @@ mod tests {
             a.sort_by(f64::total_cmp);
             a
         };
-        // In front a triangle of 1/4, behind a pentagon of 3/4 (as a quad and a triangle).
+        // In front a triangle of 1/4, behind a quad of 3/4; the clip repeats the corner on the
+        // plane, so the back comes as a quad and a triangle (a zero-length edge between them).
         let exact = areas(DVec3::X);
         assert_eq!(exact.len(), 3);
         assert!((exact.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{exact:?}");

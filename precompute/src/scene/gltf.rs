@@ -552,6 +552,18 @@ impl<'a> Importer<'a> {
                 continue;
             }
             if let Some(a) = primitive.get(&gltf::Semantic::TexCoords(set as u32)) {
+                // Unnormalised integers (KHR_mesh_quantization) are scaled back by a texture's
+                // transform; nothing scales lightmap coordinates back, so a set 1 of them that
+                // no texture reads is left out (the bake then generates the charts).
+                let integers = a.data_type() != gltf::accessor::DataType::F32 && !a.normalized();
+                if set == 1 && integers && texture_set != Some(1) {
+                    self.scene.warnings.push(format!(
+                        "{}: {what}: TEXCOORD_1 holds unnormalised integers, which nothing \
+                         scales back to lightmap coordinates; left out",
+                        self.origin
+                    ));
+                    continue;
+                }
                 *slot = Some(self.read_texcoords(&a, what, set, vertices)?);
             }
         }
@@ -1151,7 +1163,6 @@ impl<'a> Importer<'a> {
     }
 }
 
-/// The triangles of a primitive's index list, counter-clockwise as glTF defines them.
 /// Bytes of one component of a vertex attribute lrr reads (FLOAT, and the integer types of
 /// `KHR_mesh_quantization`); None for UNSIGNED_INT, which no attribute may use.
 fn component_size(ty: gltf::accessor::DataType) -> Option<usize> {
@@ -1187,6 +1198,7 @@ fn component(bytes: &[u8], ty: gltf::accessor::DataType, normalized: bool) -> f6
     }
 }
 
+/// The triangles of a primitive's index list, counter-clockwise as glTF defines them.
 fn triangles(mode: gltf::mesh::Mode, idx: &[u32]) -> Vec<[u32; 3]> {
     use gltf::mesh::Mode;
     match mode {
