@@ -64,28 +64,37 @@ impl Runs {
         for (t, range) in bounds.windows(2).enumerate() {
             block_of[range[0]..range[1]].fill(t as u32);
         }
-        let runs_within = |block_of: &[u32]| {
-            let mut runs: Vec<Run> = Vec::new();
-            for (id, &s) in pos.iter().enumerate() {
-                let patch = patch_of[s as usize];
-                let same_block = |r: &Run| block_of[r.pos as usize] == block_of[s as usize];
-                match runs.last_mut() {
-                    Some(r) if r.pos + r.len == s && r.patch == patch && same_block(r) => {
-                        r.len += 1
-                    }
-                    _ => runs.push(Run {
-                        id: id as u32,
-                        pos: s,
-                        len: 1,
-                        patch,
-                    }),
+        // Maximal runs first (the segment sums'), then the same cut where a chunk begins.
+        let mut sums: Vec<Run> = Vec::new();
+        for (id, &s) in pos.iter().enumerate() {
+            let patch = patch_of[s as usize];
+            match sums.last_mut() {
+                Some(r) if r.pos + r.len == s && r.patch == patch => r.len += 1,
+                _ => sums.push(Run {
+                    id: id as u32,
+                    pos: s,
+                    len: 1,
+                    patch,
+                }),
+            }
+        }
+        sums.shrink_to_fit();
+        let mut runs: Vec<Run> = Vec::with_capacity(sums.len() + bounds.len());
+        for r in &sums {
+            let mut from = 0;
+            for k in 1..=r.len {
+                let (a, b) = ((r.pos + k - 1) as usize, (r.pos + k) as usize);
+                if k == r.len || block_of[a] != block_of[b] {
+                    runs.push(Run {
+                        id: r.id + from,
+                        pos: r.pos + from,
+                        len: k - from,
+                        patch: r.patch,
+                    });
+                    from = k;
                 }
             }
-            runs
-        };
-        let mut sums = runs_within(&vec![0; n]);
-        sums.shrink_to_fit();
-        let mut runs = runs_within(&block_of);
+        }
         // Group by chunk (stable: id order within a chunk).
         runs.sort_by_key(|r| block_of[r.pos as usize]);
         let chunks = bounds.len().saturating_sub(1);

@@ -1049,23 +1049,10 @@ impl<'a> Importer<'a> {
             "{primitive}: POSITION {}",
             named("accessor", a.index(), a.name())
         );
-        let size = match (a.dimensions(), component_size(a.data_type())) {
-            (gltf::accessor::Dimensions::Vec3, Some(size)) => size,
-            (d, _) => {
-                return Err(self.err(format!(
-                    "{what} is {d:?} of {:?}; positions must be VEC3 of FLOAT, or of BYTE, \
-                     UNSIGNED_BYTE, SHORT or UNSIGNED_SHORT (KHR_mesh_quantization)",
-                    a.data_type()
-                )));
-            }
-        };
-        let (ty, normalized) = (a.data_type(), a.normalized());
-        let raw = self.elements(a, &what, 3 * size)?;
-        raw.chunks_exact(3 * size)
-            .enumerate()
-            .map(|(i, e)| {
-                let f = |k: usize| component(&e[k * size..(k + 1) * size], ty, normalized);
-                let p = DVec3::new(f(0), f(1), f(2));
+        let values: Vec<[f64; 3]> = self.vectors(a, &what, "positions", None)?;
+        (values.into_iter().enumerate())
+            .map(|(i, v)| {
+                let p = DVec3::from_array(v);
                 if p.is_finite() {
                     Ok(p)
                 } else {
@@ -1089,30 +1076,10 @@ impl<'a> Importer<'a> {
             "{primitive}: TEXCOORD_{set} {}",
             named("accessor", a.index(), a.name())
         );
-        let size = match (a.dimensions(), component_size(a.data_type())) {
-            (gltf::accessor::Dimensions::Vec2, Some(size)) => size,
-            (d, _) => {
-                return Err(self.err(format!(
-                    "{what} is {d:?} of {:?}; texture coordinates must be VEC2 of FLOAT, or of \
-                     BYTE, UNSIGNED_BYTE, SHORT or UNSIGNED_SHORT",
-                    a.data_type()
-                )));
-            }
-        };
-        if a.count() != vertices {
-            return Err(self.err(format!(
-                "{what} has {} elements for {vertices} positions; every attribute needs one per \
-                 vertex",
-                a.count()
-            )));
-        }
-        let (ty, normalized) = (a.data_type(), a.normalized());
-        let raw = self.elements(a, &what, 2 * size)?;
-        raw.chunks_exact(2 * size)
-            .enumerate()
-            .map(|(i, e)| {
-                let f = |k: usize| component(&e[k * size..(k + 1) * size], ty, normalized);
-                let uv = [f(0), f(1)];
+        let values: Vec<[f64; 2]> =
+            self.vectors(a, &what, "texture coordinates", Some(vertices))?;
+        (values.into_iter().enumerate())
+            .map(|(i, uv)| {
                 if uv.iter().all(|x| x.is_finite()) {
                     Ok(uv)
                 } else {
@@ -1120,6 +1087,43 @@ impl<'a> Importer<'a> {
                 }
             })
             .collect()
+    }
+
+    /// The `N`-vectors of a vertex attribute (`kind` names it in errors): VEC`N` of FLOAT or of
+    /// an 8- or 16-bit integer ([`component`]), `count` of them when given.
+    fn vectors<const N: usize>(
+        &self,
+        a: &gltf::Accessor,
+        what: &str,
+        kind: &str,
+        count: Option<usize>,
+    ) -> Result<Vec<[f64; N]>> {
+        let size = match (a.dimensions().multiplicity(), component_size(a.data_type())) {
+            (m, Some(size)) if m == N => size,
+            _ => {
+                return Err(self.err(format!(
+                    "{what} is {:?} of {:?}; {kind} must be VEC{N} of FLOAT, or of BYTE, \
+                     UNSIGNED_BYTE, SHORT or UNSIGNED_SHORT (KHR_mesh_quantization)",
+                    a.dimensions(),
+                    a.data_type()
+                )));
+            }
+        };
+        if let Some(vertices) = count.filter(|&c| c != a.count()) {
+            return Err(self.err(format!(
+                "{what} has {} elements for {vertices} positions; every attribute needs one per \
+                 vertex",
+                a.count()
+            )));
+        }
+        let (ty, normalized) = (a.data_type(), a.normalized());
+        let raw = self.elements(a, what, N * size)?;
+        Ok(raw
+            .chunks_exact(N * size)
+            .map(|e| {
+                std::array::from_fn(|k| component(&e[k * size..(k + 1) * size], ty, normalized))
+            })
+            .collect())
     }
 
     fn read_indices(
